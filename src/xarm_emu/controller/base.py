@@ -1,0 +1,85 @@
+"""Shared pieces of the controller: the control period, command outcomes and
+the interface controller components (IO, gripper, ...) plug in through.
+
+A component contributes register handlers. A handler gets the request values
+decoded by the register table and returns the reply values (or ``None`` for an
+empty reply). It signals a refusal by raising :class:`CommandWarning` (the
+manual's warning codes, section 3.2.2) or :class:`CommandError` (a control box
+error code, section 3.2.1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any, Protocol
+
+#: Control period in seconds: the controller advances in steps of 4 ms (250 Hz,
+#: the real control box's planning rate).
+PERIOD = 0.004
+
+# Warning codes, manual section 3.2.2.
+WARN_BUFFER_OVERFLOW = 11
+WARN_PARAMETER = 12
+WARN_UNKNOWN_COMMAND = 13
+WARN_NO_SOLUTION = 14
+
+Values = Mapping[str, Any]
+Handler = Callable[[Values], "dict[str, Any] | None"]
+
+
+class CommandWarning(Exception):
+    """Refuse a command and raise the given warning (0x20 in the reply)."""
+
+    def __init__(self, code: int = WARN_PARAMETER, message: str = "") -> None:
+        super().__init__(message or f"warning {code}")
+        self.code = code
+
+
+class ParameterError(CommandWarning):
+    """Parameter abnormal: warning 12."""
+
+    def __init__(self, message: str = "") -> None:
+        super().__init__(WARN_PARAMETER, message)
+
+
+class CommandError(Exception):
+    """Raise a control box error (0x40 in the reply, state 4)."""
+
+    def __init__(self, code: int, message: str = "") -> None:
+        super().__init__(message or f"error C{code}")
+        self.code = code
+
+
+class ControllerView(Protocol):
+    """What a component may read of the controller while it steps."""
+
+    @property
+    def time(self) -> float: ...  # controller time, s
+
+    @property
+    def state(self) -> int: ...  # motion state 1..5 (register 13)
+
+    @property
+    def mode(self) -> int: ...
+
+    @property
+    def error_code(self) -> int: ...
+
+    @property
+    def warning_code(self) -> int: ...
+
+    @property
+    def tcp_position(self) -> tuple[float, float, float]: ...  # mm, base frame (user offset applied)
+
+    @property
+    def is_moving(self) -> bool: ...
+
+    def raise_error(self, code: int) -> None: ...  # a component raises a control box error
+
+
+class Component(Protocol):
+    """A controller part with its own registers and its own state."""
+
+    def handlers(self) -> dict[int, Handler]: ...
+
+    def step(self, dt: float, ctl: ControllerView) -> None: ...
