@@ -1,0 +1,367 @@
+"""Automatic report frames of ports 30003, 30001 and 30002 (manual section 2.1.6).
+
+Three reports, each a prefix of the next:
+
+- ``REPORT_TCP_DEVELOP`` (port 30003, 100 Hz): 87 bytes, motion state and joints/pose/torques.
+- ``REPORT_TCP_NORMAL`` (port 30001, 5 Hz): 145 bytes, adds brakes, error, TCP offset, load,
+  sensitivities and gravity direction.
+- ``REPORT_TCP_RICH`` (port 30002, 5 Hz): 433 bytes, adds robot identity, limits, servo codes,
+  temperatures, speeds, offsets, collision model, voltages, currents and the control box GPIO.
+
+Every frame starts with its total length as u32 big-endian. Following section 2.1.2
+("automatic reporting data analysis"), fp32 are little-endian and multi-byte integers big-endian.
+The manual numbers bytes from 1; the offsets below are 0-based (manual byte N is offset N-1).
+
+Where the manual is unclear, the official SDK's reading decides (research note section 2.3):
+byte 89 is the enable bits (the manual repeats "brake"), bytes 150..151 are reserved
+(motor tid/fid), temperatures are signed bytes, joint voltages are V x 100, analog values are
+12-bit counts of 0..10 V.
+
+Encoding uses precompiled :class:`struct.Struct` objects written into one buffer; it runs for
+every client at 100 Hz.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+DEVELOP_SIZE = 87
+NORMAL_SIZE = 145
+RICH_SIZE = 433
+
+DEVELOP_PORT = 30003
+NORMAL_PORT = 30001
+RICH_PORT = 30002
+
+DEVELOP_RATE = 100.0  # Hz, section 2.1.6
+NORMAL_RATE = 5.0
+RICH_RATE = 5.0
+
+MASTER_ID = 0xAA  # rich byte 148, "0xAA fixed"
+SLAVE_ID = 0x55  # rich byte 149, "0x55 fixed"
+VERSION_SIZE = 30  # rich bytes 152..181
+
+ANALOG_FULL_SCALE = 10.0  # V for 4095 counts (SDK reading of rich bytes 394..401)
+ANALOG_COUNTS = 4095
+VOLTAGE_SCALE = 100.0  # joint voltages are sent as V x 100 (rich bytes 342..355)
+
+_Z7 = (0.0,) * 7
+_Z6 = (0.0,) * 6
+
+
+@dataclass(slots=True)
+class ReportSnapshot:
+    """Everything the three reports carry, in project units (mm, rad, kg, s, V, A, degC).
+
+    Per-joint vectors have 7 entries on the wire; shorter ones are padded with zeros.
+    The defaults describe a powered xArm6 that is not enabled, so ``ReportSnapshot()`` encodes
+    into frames the SDK accepts.
+    """
+
+    # --- REPORT_TCP_DEVELOP, bytes 1..87 ---
+    state: int = 4  # motion state (register 13), low nibble of byte 5
+    mode: int = 0  # motion mode (register 19), high nibble of byte 5
+    cmdnum: int = 0  # commands in the cache, bytes 6..7
+    joints: Sequence[float] = _Z7  # rad, bytes 8..35
+    pose: Sequence[float] = _Z6  # x, y, z mm, roll, pitch, yaw rad, bytes 36..59
+    torques: Sequence[float] = _Z7  # joint torques N*m, bytes 60..87
+
+    # --- REPORT_TCP_NORMAL, bytes 88..145 ---
+    brake_bits: int = 0  # bit i: brake of joint i+1 released
+    enable_bits: int = 0  # bit i: joint i+1 enabled
+    error: int = 0  # control box error code (section 3.2.1)
+    warning: int = 0  # warning code (section 3.2.2)
+    tcp_offset: Sequence[float] = _Z6  # mm, rad
+    tcp_load: Sequence[float] = (0.0, 0.0, 0.0, 0.0)  # mass kg, centre of mass x, y, z mm
+    collision_sensitivity: int = 3  # 0..5
+    teach_sensitivity: int = 1  # 1..5
+    gravity_direction: Sequence[float] = (0.0, 0.0, -1.0)  # unit vector in the base frame
+
+    # --- REPORT_TCP_RICH, bytes 146..433 ---
+    robot_type: int = 6
+    axis: int = 6
+    master_id: int = MASTER_ID
+    slave_id: int = SLAVE_ID
+    motor_tid: int = 0  # byte 150, reserved in the manual
+    motor_fid: int = 0  # byte 151, reserved in the manual
+    version: str = "6,6,XI1304,AC1303,v1.6.0"  # 30 bytes, NUL padded, truncated if longer
+    # Limits default to the ranges of manual table 1.2 (1000 mm/s, 50000 mm/s^2, 10000 mm/s^3,
+    # 180 deg/s, 1145 deg/s^2, 28647 deg/s^3).
+    tcp_jerk: float = 10000.0  # mm/s^3
+    tcp_min_acc: float = 1.0  # mm/s^2
+    tcp_max_acc: float = 50000.0
+    tcp_min_speed: float = 0.1  # mm/s
+    tcp_max_speed: float = 1000.0
+    joint_jerk: float = 500.0  # rad/s^3
+    joint_min_acc: float = 0.01  # rad/s^2
+    joint_max_acc: float = 20.0
+    joint_min_speed: float = 0.0001  # rad/s
+    joint_max_speed: float = math.pi
+    rot_jerk: float = 2.3  # rad/s^3, not user settable
+    max_rot_acc: float = 2.7  # rad/s^2, not user settable
+    servo_codes: Sequence[tuple[int, int]] = ((0, 0),) * 7  # (error type, error code) per joint
+    tgpio_code: tuple[int, int] = (0, 0)  # end IO (error type, error code)
+    temperatures: Sequence[int] = (0,) * 7  # degC, signed byte per joint
+    tcp_speed: float = 0.0  # planned TCP speed, mm/s
+    joint_speeds: Sequence[float] = _Z7  # planned joint speeds, rad/s
+    counter: int = 0  # the current commands counter (u32 BE, bytes 285..288)
+    world_offset: Sequence[float] = _Z6  # user coordinate offset, mm, rad
+    cgpio_reset_on_stop: bool = False  # byte 313
+    tgpio_reset_on_stop: bool = False  # byte 314
+    simulation: bool = False  # byte 315, virtual robot
+    self_collision: bool = False  # byte 316, self-collision detection on
+    collision_tool_type: int = 0  # byte 317
+    collision_tool_params: Sequence[float] = _Z6  # mm, bytes 318..341
+    joint_voltages: Sequence[float] = _Z7  # V
+    joint_currents: Sequence[float] = _Z7  # A
+    cgpio_state: int = 0  # GPIO module status: 0 normal, 3 gripper error, 6 communication failed
+    cgpio_error: int = 0  # GPIO module error code
+    cgpio_input_function: int = 0x0000  # u16 digital input function IO status
+    cgpio_input_config: int = 0xFFFF  # u16 digital input configuration IO status (inputs idle high)
+    cgpio_output_function: int = 0x0000  # u16 digital output function IO status
+    cgpio_output_config: int = 0x0000  # u16 digital output configuration IO status
+    analog_inputs: Sequence[float] = (0.0, 0.0)  # V
+    analog_outputs: Sequence[float] = (0.0, 0.0)  # V
+    input_functions: Sequence[int] = (0,) * 16  # function number of digital inputs IO0..IO15
+    output_functions: Sequence[int] = (0,) * 16  # function number of digital outputs IO0..IO15
+
+    @property
+    def state_byte(self) -> int:
+        """Byte 5 of every report: state in bits 0..3, mode in bits 4..7."""
+        return _state_byte(self.state, self.mode)
+
+
+# --- wire layout (0-based offsets) ---------------------------------------------------------------
+
+_LENGTH = struct.Struct(">I")
+_HEAD = struct.Struct(">IBH")  # 0: length, state/mode, cmdnum
+_MOTION = struct.Struct("<7f6f7f")  # 7: joints, pose, torques
+_NORMAL = struct.Struct("<4B6f4f2B3f")  # 87: brake, enable, error, warning, offset, load, sens, gravity
+_RICH_A = struct.Struct(f"<6B{VERSION_SIZE}s5f5f2f16B7b8f")  # 145: identity .. speeds
+_RICH_COUNTER = struct.Struct(">I")  # 284
+_RICH_B = struct.Struct("<6f5B6f")  # 288: world offset, switches, collision tool
+_RICH_VOLTS = struct.Struct(">7H")  # 341
+_RICH_C = struct.Struct("<7f2B")  # 355: currents, GPIO module state, error
+_RICH_IO = struct.Struct(">8H")  # 385: IO words, analog in/out
+_RICH_FUNCS = struct.Struct("32B")  # 401: input functions 0..7, output 0..7, input 8..15, output 8..15
+
+OFF_MOTION = 7
+OFF_NORMAL = 87
+OFF_RICH_A = 145
+OFF_COUNTER = 284
+OFF_RICH_B = 288
+OFF_VOLTS = 341
+OFF_RICH_C = 355
+OFF_IO = 385
+OFF_FUNCS = 401
+
+assert _HEAD.size == OFF_MOTION and OFF_MOTION + _MOTION.size == DEVELOP_SIZE
+assert OFF_NORMAL + _NORMAL.size == NORMAL_SIZE
+assert OFF_RICH_A + _RICH_A.size == OFF_COUNTER and OFF_COUNTER + 4 == OFF_RICH_B
+assert OFF_RICH_B + _RICH_B.size == OFF_VOLTS and OFF_VOLTS + _RICH_VOLTS.size == OFF_RICH_C
+assert OFF_RICH_C + _RICH_C.size == OFF_IO and OFF_IO + _RICH_IO.size == OFF_FUNCS
+assert OFF_FUNCS + _RICH_FUNCS.size == RICH_SIZE
+
+
+class ReportError(ValueError):
+    """Bytes that are not a report frame of the expected kind."""
+
+
+def _state_byte(state: int, mode: int) -> int:
+    if not (0 <= state <= 15 and 0 <= mode <= 15):
+        raise ValueError(f"state {state} / mode {mode} do not fit a nibble")
+    return (mode << 4) | state
+
+
+def _n(seq: Sequence, n: int, fill: float | int = 0.0) -> Sequence:
+    """``seq`` padded with ``fill`` (or cut) to exactly ``n`` items."""
+    if len(seq) == n:
+        return seq
+    items = list(seq)[:n]
+    return items + [fill] * (n - len(items))
+
+
+def _u16(x: float) -> int:
+    """Round and clamp to 0..65535."""
+    return min(max(int(x + 0.5), 0), 0xFFFF) if math.isfinite(x) else 0
+
+
+def volts_to_counts(v: float) -> int:
+    """Analog value in volts to the 12-bit count the report carries (4095 = 10 V)."""
+    return _u16(v * (ANALOG_COUNTS / ANALOG_FULL_SCALE))
+
+
+def counts_to_volts(c: int) -> float:
+    return c * (ANALOG_FULL_SCALE / ANALOG_COUNTS)
+
+
+def _pack_develop(buf: bytearray, s: ReportSnapshot, size: int) -> None:
+    _HEAD.pack_into(buf, 0, size, _state_byte(s.state, s.mode), s.cmdnum)
+    _MOTION.pack_into(buf, OFF_MOTION, *_n(s.joints, 7), *s.pose, *_n(s.torques, 7))
+
+
+def _pack_normal(buf: bytearray, s: ReportSnapshot) -> None:
+    _NORMAL.pack_into(buf, OFF_NORMAL, s.brake_bits, s.enable_bits, s.error, s.warning,
+                      *s.tcp_offset, *s.tcp_load, s.collision_sensitivity, s.teach_sensitivity,
+                      *s.gravity_direction)
+
+
+def _pack_rich(buf: bytearray, s: ReportSnapshot) -> None:
+    codes = [c for pair in _n(s.servo_codes, 7, (0, 0)) for c in pair]
+    _RICH_A.pack_into(
+        buf, OFF_RICH_A,
+        s.robot_type, s.axis, s.master_id, s.slave_id, s.motor_tid, s.motor_fid,
+        s.version.encode("ascii", "replace"),
+        s.tcp_jerk, s.tcp_min_acc, s.tcp_max_acc, s.tcp_min_speed, s.tcp_max_speed,
+        s.joint_jerk, s.joint_min_acc, s.joint_max_acc, s.joint_min_speed, s.joint_max_speed,
+        s.rot_jerk, s.max_rot_acc,
+        *codes, *s.tgpio_code,
+        *_n(s.temperatures, 7, 0),
+        s.tcp_speed, *_n(s.joint_speeds, 7),
+    )
+    _RICH_COUNTER.pack_into(buf, OFF_COUNTER, s.counter & 0xFFFFFFFF)
+    _RICH_B.pack_into(buf, OFF_RICH_B, *s.world_offset,
+                      s.cgpio_reset_on_stop, s.tgpio_reset_on_stop, s.simulation, s.self_collision,
+                      s.collision_tool_type, *s.collision_tool_params)
+    try:  # fast path; out-of-range values are clamped below
+        volts = [int(v * VOLTAGE_SCALE + 0.5) for v in _n(s.joint_voltages, 7)]
+        _RICH_VOLTS.pack_into(buf, OFF_VOLTS, *volts)
+    except struct.error:
+        _RICH_VOLTS.pack_into(buf, OFF_VOLTS, *[_u16(v * VOLTAGE_SCALE) for v in _n(s.joint_voltages, 7)])
+    _RICH_C.pack_into(buf, OFF_RICH_C, *_n(s.joint_currents, 7), s.cgpio_state, s.cgpio_error)
+    k = ANALOG_COUNTS / ANALOG_FULL_SCALE
+    analog = [*s.analog_inputs, *s.analog_outputs]
+    words = (s.cgpio_input_function, s.cgpio_input_config, s.cgpio_output_function, s.cgpio_output_config)
+    try:
+        _RICH_IO.pack_into(buf, OFF_IO, *words, *[int(v * k + 0.5) for v in analog])
+    except struct.error:
+        _RICH_IO.pack_into(buf, OFF_IO, *words, *[_u16(v * k) for v in analog])
+    fi, fo = _n(s.input_functions, 16, 0), _n(s.output_functions, 16, 0)
+    _RICH_FUNCS.pack_into(buf, OFF_FUNCS, *fi[:8], *fo[:8], *fi[8:], *fo[8:])
+
+
+def encode_develop(s: ReportSnapshot) -> bytes:
+    """REPORT_TCP_DEVELOP frame, 87 bytes (section 2.1.6, port 30003)."""
+    buf = bytearray(DEVELOP_SIZE)
+    _pack_develop(buf, s, DEVELOP_SIZE)
+    return bytes(buf)
+
+
+def encode_normal(s: ReportSnapshot) -> bytes:
+    """REPORT_TCP_NORMAL frame, 145 bytes (section 2.1.6, port 30001)."""
+    buf = bytearray(NORMAL_SIZE)
+    _pack_develop(buf, s, NORMAL_SIZE)
+    _pack_normal(buf, s)
+    return bytes(buf)
+
+
+def encode_rich(s: ReportSnapshot) -> bytes:
+    """REPORT_TCP_RICH frame, 433 bytes (section 2.1.6, port 30002)."""
+    buf = bytearray(RICH_SIZE)
+    _pack_develop(buf, s, RICH_SIZE)
+    _pack_normal(buf, s)
+    _pack_rich(buf, s)
+    return bytes(buf)
+
+
+# --- decoding ------------------------------------------------------------------------------------
+
+
+def _check(data: bytes, size: int, name: str) -> None:
+    if len(data) < size:
+        raise ReportError(f"{name} report needs {size} bytes, got {len(data)}")
+    (length,) = _LENGTH.unpack_from(data, 0)
+    if length != len(data):
+        raise ReportError(f"{name} report length field {length} != {len(data)} bytes received")
+
+
+def _unpack_develop(data: bytes, s: ReportSnapshot) -> None:
+    _, sm, s.cmdnum = _HEAD.unpack_from(data, 0)
+    s.state, s.mode = sm & 0x0F, sm >> 4
+    v = _MOTION.unpack_from(data, OFF_MOTION)
+    s.joints, s.pose, s.torques = v[0:7], v[7:13], v[13:20]
+
+
+def _unpack_normal(data: bytes, s: ReportSnapshot) -> None:
+    v = _NORMAL.unpack_from(data, OFF_NORMAL)
+    s.brake_bits, s.enable_bits, s.error, s.warning = v[0:4]
+    s.tcp_offset, s.tcp_load = v[4:10], v[10:14]
+    s.collision_sensitivity, s.teach_sensitivity = v[14:16]
+    s.gravity_direction = v[16:19]
+
+
+def _unpack_rich(data: bytes, s: ReportSnapshot) -> None:
+    v = _RICH_A.unpack_from(data, OFF_RICH_A)
+    s.robot_type, s.axis, s.master_id, s.slave_id, s.motor_tid, s.motor_fid = v[0:6]
+    s.version = v[6].split(b"\0", 1)[0].decode("ascii", "replace")
+    (s.tcp_jerk, s.tcp_min_acc, s.tcp_max_acc, s.tcp_min_speed, s.tcp_max_speed,
+     s.joint_jerk, s.joint_min_acc, s.joint_max_acc, s.joint_min_speed, s.joint_max_speed,
+     s.rot_jerk, s.max_rot_acc) = v[7:19]
+    codes = v[19:35]
+    s.servo_codes = tuple((codes[2 * i], codes[2 * i + 1]) for i in range(7))
+    s.tgpio_code = (codes[14], codes[15])
+    s.temperatures = v[35:42]
+    s.tcp_speed, s.joint_speeds = v[42], v[43:50]
+    (s.counter,) = _RICH_COUNTER.unpack_from(data, OFF_COUNTER)
+    v = _RICH_B.unpack_from(data, OFF_RICH_B)
+    s.world_offset = v[0:6]
+    s.cgpio_reset_on_stop, s.tgpio_reset_on_stop, s.simulation, s.self_collision = map(bool, v[6:10])
+    s.collision_tool_type, s.collision_tool_params = v[10], v[11:17]
+    s.joint_voltages = tuple(x / VOLTAGE_SCALE for x in _RICH_VOLTS.unpack_from(data, OFF_VOLTS))
+    v = _RICH_C.unpack_from(data, OFF_RICH_C)
+    s.joint_currents, s.cgpio_state, s.cgpio_error = v[0:7], v[7], v[8]
+    v = _RICH_IO.unpack_from(data, OFF_IO)
+    s.cgpio_input_function, s.cgpio_input_config, s.cgpio_output_function, s.cgpio_output_config = v[0:4]
+    s.analog_inputs = (counts_to_volts(v[4]), counts_to_volts(v[5]))
+    s.analog_outputs = (counts_to_volts(v[6]), counts_to_volts(v[7]))
+    f = _RICH_FUNCS.unpack_from(data, OFF_FUNCS)
+    s.input_functions = f[0:8] + f[16:24]
+    s.output_functions = f[8:16] + f[24:32]
+
+
+def decode_develop(data: bytes) -> ReportSnapshot:
+    """Read a REPORT_TCP_DEVELOP frame (or the develop prefix of a longer frame whose
+    length field matches its size). Fields the frame lacks keep their defaults."""
+    _check(data, DEVELOP_SIZE, "develop")
+    s = ReportSnapshot()
+    _unpack_develop(data, s)
+    return s
+
+
+def decode_normal(data: bytes) -> ReportSnapshot:
+    """Read a REPORT_TCP_NORMAL frame (section 2.1.6)."""
+    _check(data, NORMAL_SIZE, "normal")
+    s = ReportSnapshot()
+    _unpack_develop(data, s)
+    _unpack_normal(data, s)
+    return s
+
+
+def decode_rich(data: bytes) -> ReportSnapshot:
+    """Read a REPORT_TCP_RICH frame of at least 433 bytes (section 2.1.6); bytes beyond are ignored."""
+    _check(data, RICH_SIZE, "rich")
+    s = ReportSnapshot()
+    _unpack_develop(data, s)
+    _unpack_normal(data, s)
+    _unpack_rich(data, s)
+    return s
+
+
+#: Report port -> encoder, for the server.
+ENCODERS: dict[int, Callable[[ReportSnapshot], bytes]] = {
+    DEVELOP_PORT: encode_develop,
+    NORMAL_PORT: encode_normal,
+    RICH_PORT: encode_rich,
+}
+
+#: Report port -> default frequency in Hz (section 2.1.6).
+RATES: dict[int, float] = {DEVELOP_PORT: DEVELOP_RATE, NORMAL_PORT: NORMAL_RATE, RICH_PORT: RICH_RATE}
+
+DECODERS: dict[int, Callable[[bytes], ReportSnapshot]] = {
+    DEVELOP_PORT: decode_develop,
+    NORMAL_PORT: decode_normal,
+    RICH_PORT: decode_rich,
+}
