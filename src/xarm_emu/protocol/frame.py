@@ -46,7 +46,7 @@ class Request:
     params: bytes
 
     def encode(self) -> bytes:
-        return HEADER.pack(self.tid, self.protocol, 1 + len(self.params)) + bytes((self.register,)) + self.params
+        return encode_request(self.tid, self.register, self.params, self.protocol)
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,7 +80,8 @@ def encode_request(tid: int, register: int, params: bytes = b"", protocol: int =
 
 
 def encode_reply(tid: int, protocol: int, register: int, state: int, params: bytes = b"") -> bytes:
-    return HEADER.pack(tid & 0xFFFF, protocol, 2 + len(params)) + bytes((register & 0xFF, state & 0xFF)) + params
+    head = HEADER.pack(tid & 0xFFFF, protocol, 2 + len(params))
+    return head + bytes((register & 0xFF, state & 0xFF)) + params
 
 
 def encode_modbus_exception(tid: int, unit: int, function: int, code: int = 1) -> bytes:

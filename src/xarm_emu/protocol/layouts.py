@@ -155,6 +155,76 @@ class Layout:
         return " ".join(items) if items else "(none)"
 
 
+@dataclass(frozen=True)
+class OneOf(Layout):
+    """Alternative layouts of one register, told apart by their byte count.
+
+    Used where the manual and the SDK send different shapes to the same register
+    (for example register 134's one-word and two-word forms, or register 78's
+    0..6 tool parameters before the tool type). The sizes of the options must
+    not overlap. ``fields`` are the first option's fields.
+    """
+
+    options: tuple[Layout, ...] = ()
+
+    def __post_init__(self) -> None:
+        seen: set[int] = set()
+        for opt in self.options:
+            if opt.rest is not None:
+                raise ValueError("OneOf options cannot have a raw tail")
+            sizes = set(opt.sizes())
+            if sizes & seen:
+                raise ValueError(f"OneOf options overlap in size: {sorted(sizes & seen)}")
+            seen |= sizes
+        if self.options and not self.fields:
+            object.__setattr__(self, "fields", self.options[0].fields)
+
+    @property
+    def n_required(self) -> int:
+        return self.options[0].n_required if self.options else 0
+
+    @property
+    def size(self) -> int:
+        return max((o.size for o in self.options), default=0)
+
+    @property
+    def min_size(self) -> int:
+        return min((o.min_size for o in self.options), default=0)
+
+    def sizes(self) -> list[int]:
+        return sorted({n for o in self.options for n in o.sizes()})
+
+    def accepts(self, n: int) -> bool:
+        return any(o.accepts(n) for o in self.options)
+
+    def option_for(self, n: int) -> Layout:
+        for o in self.options:
+            if o.accepts(n):
+                return o
+        raise LayoutError(f"{n} parameter bytes; expected one of {self.sizes()}")
+
+    def decode(self, data: bytes) -> dict[str, Any]:
+        return self.option_for(len(data)).decode(data)
+
+    def encode(self, values: Mapping[str, Any] | None = None, /, **kw: Any) -> bytes:
+        """Encode with the first option that names every given value and has its required ones."""
+        vals: dict[str, Any] = dict(values or {})
+        vals.update(kw)
+        keys = set(vals)
+        for o in self.options:
+            names = [f.name for f in o.fields]
+            if keys <= set(names) and all(n in keys for n in names[: o.n_required]):
+                return o.encode(vals)
+        raise LayoutError(f"no alternative layout takes the values {sorted(keys)}")
+
+    def describe(self) -> str:
+        return " || ".join(o.describe() for o in self.options)
+
+
+def one_of(*options: Layout) -> OneOf:
+    return OneOf(options=tuple(options))
+
+
 def _decode_field(f: Field, data: bytes, off: int) -> Any:
     if f.kind == "bytes":
         return bytes(data[off : off + f.count])
@@ -179,6 +249,8 @@ def _encode_field(f: Field, value: Any) -> bytes:
             raise LayoutError(f"field {f.name!r} longer than {f.count} bytes")
         return raw.ljust(f.count, b"\0")
     t = TYPES[f.kind]
+    if f.count == 1 and isinstance(value, (tuple, list)) and len(value) == 1:
+        value = value[0]
     seq = (value,) if f.count == 1 else tuple(value)
     if len(seq) != f.count:
         raise LayoutError(f"field {f.name!r} needs {f.count} values, got {len(seq)}")
