@@ -1,1 +1,25 @@
-"""xarm-emu."""
+"""Trajectory generation for the motion engine (manual 1.3, 2.1.3.2): jerk-limited
+profiles, joint moves (ruckig), Cartesian paths (line, arc blend, circle) and
+servo tracking. Pure math: no controller state, no kinematics."""
+
+from .cartesian import CartesianMove, MoveChain, plan_blended, plan_line
+from .joint import JointTrajectory, PlanningError, plan_joint_move, plan_joint_stop
+from .paths import (
+    ROT_MM_PER_RAD,
+    BlendArc,
+    CirclePath,
+    CollinearError,
+    CompositePath,
+    LinePath,
+    Path,
+    blend_runs,
+)
+from .profile import JerkProfile, SCurve, resume_profile, stop_profile
+from .servo import ServoTracker
+
+__all__ = [
+    "ROT_MM_PER_RAD", "BlendArc", "CartesianMove", "CirclePath", "CollinearError", "CompositePath",
+    "JerkProfile", "JointTrajectory", "LinePath", "MoveChain", "Path", "PlanningError", "SCurve",
+    "ServoTracker", "blend_runs", "plan_blended", "plan_joint_move", "plan_joint_stop", "plan_line",
+    "resume_profile", "stop_profile",
+]

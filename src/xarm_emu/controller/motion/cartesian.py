@@ -1,0 +1,112 @@
+"""Timed Cartesian moves: a path (:mod:`.paths`) travelled with a jerk-limited
+profile along its length (manual 1.3, Table 1.2; registers 21, 22, 27, 28, 92).
+
+Every move offers the same small interface the controller samples every
+control period: ``duration``, ``at(t) -> (T 4x4, TCP speed mm/s)``,
+``stop(t)`` (a jerk-limited stop along the same path from the state at ``t``,
+for suspend and stop, register 12 states 3 and 4) and, on a stopped move,
+``resume()`` (from rest to the original end, through the same path).
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_right
+from collections.abc import Sequence
+
+import numpy as np
+
+from .paths import Path, blend_runs
+from .profile import JerkProfile, SCurve, stop_profile
+
+
+class CartesianMove:
+    """``path`` travelled from ``s0`` with ``profile`` (default: an S-curve to the end).
+
+    ``speed``, ``acc`` and ``jerk`` are in mm/s, mm/s2, mm/s3 of path
+    coordinate (see :mod:`.paths` for how rotation counts).
+    """
+
+    __slots__ = ("path", "speed", "acc", "jerk", "s0", "profile", "duration", "rest")
+
+    def __init__(self, path: Path, speed: float, acc: float, jerk: float, *, s0: float = 0.0,
+                 profile: JerkProfile | None = None, rest: Sequence[CartesianMove] = ()) -> None:
+        self.path, self.speed, self.acc, self.jerk, self.s0 = path, speed, acc, jerk, s0
+        self.profile = profile if profile is not None else SCurve(path.length - s0, speed, acc, jerk)
+        self.duration = self.profile.duration
+        #: Moves that follow this one once it is resumed (the rest of a blended chain).
+        self.rest = tuple(rest)
+
+    def state(self, t: float) -> tuple[float, float, float]:
+        """Path coordinate, path speed and path acceleration at ``t``."""
+        s, v, a = self.profile.sample(t)
+        return min(max(self.s0 + s, 0.0), self.path.length), v, a
+
+    def at(self, t: float) -> tuple[np.ndarray, float]:
+        """Pose (4x4, mm) and TCP linear speed (mm/s) at ``t``."""
+        s, v, _ = self.state(t)
+        return self.path.pose(s), abs(v) * self.path.linear_ratio(s)
+
+    @property
+    def end_s(self) -> float:
+        return min(max(self.s0 + self.profile.distance, 0.0), self.path.length)
+
+    def stop(self, t: float) -> CartesianMove:
+        """Jerk-limited stop along the path from the state at ``t`` (the fastest the limits allow)."""
+        s, v, a = self.state(t)
+        prof = stop_profile(v, a, self.acc, self.jerk)
+        return CartesianMove(self.path, self.speed, self.acc, self.jerk, s0=s, profile=prof, rest=self.rest)
+
+    def resume(self) -> CartesianMove | MoveChain:
+        """From rest at the end of this move to the end of the path (and the rest of the chain)."""
+        first = CartesianMove(self.path, self.speed, self.acc, self.jerk, s0=self.end_s)
+        return MoveChain([first, *self.rest]) if self.rest else first
+
+
+class MoveChain:
+    """Moves played one after the other (runs of a blended chain split at unblended corners)."""
+
+    __slots__ = ("moves", "duration", "_starts")
+
+    def __init__(self, moves: Sequence[CartesianMove]) -> None:
+        self.moves = list(moves)
+        self._starts: list[float] = []
+        t = 0.0
+        for m in self.moves:
+            self._starts.append(t)
+            t += m.duration
+        self.duration = t
+
+    def _find(self, t: float) -> int:
+        return min(max(bisect_right(self._starts, t) - 1, 0), len(self.moves) - 1)
+
+    def at(self, t: float) -> tuple[np.ndarray, float]:
+        if t >= self.duration:
+            return self.moves[-1].at(self.moves[-1].duration)
+        i = self._find(t)
+        return self.moves[i].at(t - self._starts[i])
+
+    def stop(self, t: float) -> CartesianMove:
+        i = self._find(t)
+        m = self.moves[i]
+        stopped = m.stop(t - self._starts[i])
+        stopped.rest = tuple(self.moves[i + 1:]) + m.rest
+        return stopped
+
+
+def plan_line(path: Path, speed: float, acc: float, jerk: float) -> CartesianMove:
+    """A single move along ``path`` from rest to rest."""
+    return CartesianMove(path, speed, acc, jerk)
+
+
+def plan_blended(poses: Sequence[np.ndarray], radii: Sequence[float | None], speed: float, acc: float,
+                 jerk: float) -> CartesianMove | MoveChain:
+    """One continuous move through queued linear moves with arc blending (register 22).
+
+    ``poses[0]`` is the current pose, move ``k`` ends at ``poses[k + 1]`` with
+    blend radius ``radii[k]`` (see :func:`.paths.blend_runs`). The TCP does not
+    stop at blended corners: each run between unblended corners is one
+    S-curve over its whole length, so the path speed stays at the cruise speed
+    through the arcs.
+    """
+    moves = [CartesianMove(run, speed, acc, jerk) for run in blend_runs(poses, radii)]
+    return moves[0] if len(moves) == 1 else MoveChain(moves)

@@ -1,0 +1,140 @@
+"""Joint-space point-to-point motion (registers 23, 24, 25; manual 2.1.3.2) with
+ruckig's offline, time-optimal, jerk-limited planner: all joints arrive together.
+
+Only ``Ruckig(dof).calculate(input, trajectory)`` is used (no control cycle,
+no cloud features). Speeds in rad/s, accelerations rad/s2, jerks rad/s3
+(manual 1.4, Table 1.3); a scalar limit applies to every joint.
+
+Synchronisation is ruckig's *phase* synchronisation where possible (a move
+from rest is then a straight line in joint space, so a suspended move resumes
+on the same path) and *time* synchronisation otherwise; both give the same,
+minimum duration from rest.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from ruckig import ControlInterface, InputParameter, Result, Ruckig, Synchronization, Trajectory
+
+Limit = float | Sequence[float] | np.ndarray
+
+
+class PlanningError(RuntimeError):
+    """ruckig found no trajectory (the controller raises C25)."""
+
+
+def _limits(x: Limit, dof: int, name: str) -> list[float]:
+    arr = np.broadcast_to(np.asarray(x, dtype=float), (dof,))
+    if not np.all(np.isfinite(arr)) or np.any(arr <= 0.0):
+        raise ValueError(f"{name} must be positive and finite")
+    return [float(v) for v in arr]
+
+
+class JointTrajectory:
+    """A planned joint motion: ``duration`` and ``at(t) -> (q, qd, qdd)``.
+
+    Outside ``[0, duration]`` the start and the exact end state are returned.
+    ``target`` is where the move (or the move it stops) is going.
+    """
+
+    __slots__ = ("dof", "duration", "target", "limits", "_traj", "_start", "_end")
+
+    def __init__(self, traj: Trajectory | None, start: tuple[np.ndarray, np.ndarray, np.ndarray],
+                 end: tuple[np.ndarray, np.ndarray, np.ndarray], target: np.ndarray,
+                 limits: tuple[list[float], list[float], list[float]]) -> None:
+        self._traj = traj
+        self.dof = len(target)
+        self.duration = float(traj.duration) if traj is not None else 0.0
+        self._start, self._end = start, end
+        self.target = target
+        self.limits = limits
+
+    def at(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if t >= self.duration or self._traj is None:
+            q, qd, qdd = self._end
+            return q.copy(), qd.copy(), qdd.copy()
+        if t <= 0.0:
+            q, qd, qdd = self._start
+            return q.copy(), qd.copy(), qdd.copy()
+        q, qd, qdd = self._traj.at_time(t)
+        return np.array(q), np.array(qd), np.array(qdd)
+
+    def stop(self, t: float) -> JointTrajectory:
+        """Jerk-limited stop from the state at ``t`` (suspend / stop); ``resume()`` goes on to the target."""
+        q, qd, qdd = self.at(t)
+        vmax, amax, jmax = self.limits
+        stopped = plan_joint_stop(q, qd, qdd, amax, jmax, vmax=vmax)
+        stopped.target = self.target
+        return stopped
+
+    def resume(self) -> JointTrajectory:
+        """From rest at the end of this (stopped) move to its target."""
+        vmax, amax, jmax = self.limits
+        return plan_joint_move(self._end[0], self.target, vmax, amax, jmax)
+
+
+def _run(inp: InputParameter, dof: int) -> Trajectory:
+    traj = Trajectory(dof)
+    result = Ruckig(dof).calculate(inp, traj)
+    if result not in (Result.Working, Result.Finished):
+        raise PlanningError(f"ruckig: {result}")
+    return traj
+
+
+def plan_joint_move(q0: Sequence[float] | np.ndarray, q1: Sequence[float] | np.ndarray, vmax: Limit,
+                    amax: Limit, jmax: Limit, qd0: Sequence[float] | np.ndarray | None = None,
+                    qdd0: Sequence[float] | np.ndarray | None = None) -> JointTrajectory:
+    """Time-optimal jerk-limited move from ``q0`` (with ``qd0``, ``qdd0``, default rest) to rest at ``q1``."""
+    start_q = np.array(q0, dtype=float)
+    target = np.array(q1, dtype=float)
+    dof = len(start_q)
+    if target.shape != (dof,) or not (np.all(np.isfinite(start_q)) and np.all(np.isfinite(target))):
+        raise ValueError("q0 and q1 must be finite and of the same length")
+    zero = np.zeros(dof)
+    v0 = zero.copy() if qd0 is None else np.array(qd0, dtype=float)
+    a0 = zero.copy() if qdd0 is None else np.array(qdd0, dtype=float)
+    limits = (_limits(vmax, dof, "vmax"), _limits(amax, dof, "amax"), _limits(jmax, dof, "jmax"))
+    start = (start_q, v0, a0)
+    end = (target, zero, zero.copy())
+    if np.array_equal(start_q, target) and not v0.any() and not a0.any():
+        return JointTrajectory(None, start, end, target, limits)
+    inp = InputParameter(dof)
+    inp.current_position = start_q.tolist()
+    inp.current_velocity = v0.tolist()
+    inp.current_acceleration = a0.tolist()
+    inp.target_position = target.tolist()
+    inp.max_velocity, inp.max_acceleration, inp.max_jerk = limits
+    inp.synchronization = Synchronization.Phase
+    return JointTrajectory(_run(inp, dof), start, end, target, limits)
+
+
+def plan_joint_stop(q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray,
+                    qdd: Sequence[float] | np.ndarray, amax: Limit, jmax: Limit,
+                    vmax: Limit = 1e3) -> JointTrajectory:
+    """Bring the joints to rest, jerk-limited, as fast as the limits allow (all joints stop together).
+
+    ``target`` of the result is where the joints come to rest.
+    """
+    q = np.array(q, dtype=float)
+    dof = len(q)
+    v0, a0 = np.array(qd, dtype=float), np.array(qdd, dtype=float)
+    limits = (_limits(vmax, dof, "vmax"), _limits(amax, dof, "amax"), _limits(jmax, dof, "jmax"))
+    zero = np.zeros(dof)
+    if not v0.any() and not a0.any():
+        return JointTrajectory(None, (q, v0, a0), (q, zero, zero.copy()), q, limits)
+    inp = InputParameter(dof)
+    inp.control_interface = ControlInterface.Velocity
+    inp.current_position = q.tolist()
+    inp.current_velocity = v0.tolist()
+    inp.current_acceleration = a0.tolist()
+    inp.target_velocity = [0.0] * dof
+    inp.target_acceleration = [0.0] * dof
+    # Velocity limits only bound the stop if the state already exceeds them; keep them out of the way.
+    inp.max_velocity = [max(v, abs(x) + 1.0) for v, x in zip(limits[0], v0, strict=True)]
+    inp.max_acceleration, inp.max_jerk = limits[1], limits[2]
+    inp.synchronization = Synchronization.Phase
+    traj = _run(inp, dof)
+    rest_q = np.array(traj.at_time(traj.duration)[0])
+    return JointTrajectory(traj, (q, v0, a0), (rest_q, zero, zero.copy()), rest_q, limits)

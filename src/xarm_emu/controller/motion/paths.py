@@ -1,0 +1,309 @@
+"""Cartesian paths in pose space (4x4 matrices, mm): linear moves (registers 21,
+28, 92), arc-blended linear moves (register 22) and circles (register 27),
+manual 2.1.3.2.
+
+A path maps a path coordinate ``s`` in ``[0, length]`` to a pose. ``s`` is an
+*equivalent length* in mm so that one speed, acceleration and jerk (manual 1.3,
+Table 1.2) time the whole move:
+
+- position changes: ``s`` is the TCP distance travelled (note 1 of 1.3: the
+  speed is the linear speed);
+- orientation changes: the rotation counts ``ROT_MM_PER_RAD`` mm per rad, so a
+  speed of 1000 is 180 deg/s (note 2 of 1.3), and likewise for acceleration
+  and jerk;
+- a line that changes both is timed by whichever is longer: the linear speed
+  is the given speed unless the rotation would then exceed the matching
+  rotation speed, in which case the rotation sets the pace and the TCP goes
+  slower. ``linear_ratio(s)`` (mm of TCP travel per unit ``s``) gives the TCP
+  speed from the path speed.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_right
+from collections.abc import Sequence
+
+import numpy as np
+
+from ._rot import Quat, Slerp, pose_matrix, quat_from_matrix
+
+#: Equivalent mm per rad of orientation change: speed 1000 <-> 180 deg/s (manual 1.3, note 2).
+ROT_MM_PER_RAD = 1000.0 / math.pi
+
+Vec = tuple[float, float, float]
+
+
+class CollinearError(ValueError):
+    """The three circle points are collinear or coincide (the controller raises C32)."""
+
+
+def _vec(t: np.ndarray) -> Vec:
+    return (float(t[0, 3]), float(t[1, 3]), float(t[2, 3]))
+
+
+def _sub(a: Vec, b: Vec) -> Vec:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _dot(a: Vec, b: Vec) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: Vec, b: Vec) -> Vec:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _norm(a: Vec) -> float:
+    return math.sqrt(_dot(a, a))
+
+
+def _scale(a: Vec, k: float) -> Vec:
+    return (a[0] * k, a[1] * k, a[2] * k)
+
+
+class Path:
+    """Base of all paths: ``length`` (equivalent mm) and ``pose(s)``."""
+
+    length: float
+
+    def pose(self, s: float) -> np.ndarray:
+        raise NotImplementedError
+
+    def linear_ratio(self, s: float) -> float:
+        """TCP mm travelled per unit of ``s`` at ``s`` (1 unless the rotation sets the pace)."""
+        raise NotImplementedError
+
+
+class LinePath(Path):
+    """Straight TCP line from ``T0`` to ``T1``; orientation by slerp on the shortest rotation.
+
+    ``length = max(distance, ROT_MM_PER_RAD * angle)`` (see the module notes).
+    """
+
+    def __init__(self, t0: np.ndarray, t1: np.ndarray) -> None:
+        self.p0, self.p1 = _vec(t0), _vec(t1)
+        self.delta = _sub(self.p1, self.p0)
+        self.distance = _norm(self.delta)
+        self.slerp = Slerp(quat_from_matrix(t0[:3, :3]), quat_from_matrix(t1[:3, :3]))
+        self.angle = self.slerp.angle
+        self.length = max(self.distance, ROT_MM_PER_RAD * self.angle)
+        self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
+
+    def point_u(self, u: float) -> Vec:
+        p, d = self.p0, self.delta
+        return (p[0] + u * d[0], p[1] + u * d[1], p[2] + u * d[2])
+
+    def pose_u(self, u: float) -> np.ndarray:
+        """Pose at fraction ``u`` of the line (0..1)."""
+        return pose_matrix(self.point_u(u), self.slerp.at(u))
+
+    def pose(self, s: float) -> np.ndarray:
+        if self.length <= 0.0:
+            return self.pose_u(1.0)
+        return self.pose_u(min(max(s / self.length, 0.0), 1.0))
+
+    def linear_ratio(self, s: float) -> float:
+        return self._ratio
+
+
+class CirclePath(Path):
+    """Circle through the current point ``T0``, ``P1`` and ``P2`` (register 27).
+
+    The TCP starts at ``T0``, passes ``P1`` then ``P2`` and travels ``percent``
+    of the circumference (more than 100 goes round again). ``s`` is the arc
+    length in mm. Orientation is a periodic function of the angle travelled:
+    slerp from the orientation of ``T0`` to ``P1`` between those points, ``P1``
+    to ``P2`` between them, and back from ``P2`` to ``T0`` on the rest of the
+    circle, so a full turn returns to the start pose. The TCP speed is the
+    given speed (the orientation is not allowed to set the pace on a circle).
+    Collinear or coincident points raise :class:`CollinearError`.
+    """
+
+    #: Sine of the smallest angle between the chords that still defines a circle.
+    MIN_SINE = 1e-6
+
+    def __init__(self, t0: np.ndarray, p1: np.ndarray, p2: np.ndarray, percent: float) -> None:
+        a0, a1, a2 = _vec(t0), _vec(p1), _vec(p2)
+        a, b = _sub(a1, a0), _sub(a2, a0)
+        n = _cross(a, b)
+        la, lb, ln = _norm(a), _norm(b), _norm(n)
+        if la < 1e-6 or lb < 1e-6 or _norm(_sub(a2, a1)) < 1e-6 or ln <= self.MIN_SINE * la * lb:
+            raise CollinearError("circle points are collinear or coincide")
+        if not math.isfinite(percent) or percent < 0.0:
+            raise ValueError(f"percent must be finite and >= 0, got {percent!r}")
+        w = _sub(_scale(b, la * la), _scale(a, lb * lb))
+        off = _scale(_cross(w, n), 1.0 / (2.0 * ln * ln))
+        self.center: Vec = (a0[0] + off[0], a0[1] + off[1], a0[2] + off[2])
+        self.radius = _norm(off)
+        self.normal: Vec = _scale(n, 1.0 / ln)
+        self.e1: Vec = _scale(off, -1.0 / self.radius)  # center -> start point
+        self.e2: Vec = _cross(self.normal, self.e1)
+        self.percent = percent
+        self.sweep = 2.0 * math.pi * percent / 100.0
+        self.length = self.radius * self.sweep
+        self.phi1 = self._angle_of(a1)
+        self.phi2 = self._angle_of(a2)
+        q0, q1, q2 = (quat_from_matrix(t[:3, :3]) for t in (t0, p1, p2))
+        self._bounds = (0.0, self.phi1, self.phi2, 2.0 * math.pi)
+        self._slerps = (Slerp(q0, q1), Slerp(q1, q2), Slerp(q2, q0))
+
+    def _angle_of(self, p: Vec) -> float:
+        d = _sub(p, self.center)
+        phi = math.atan2(_dot(d, self.e2), _dot(d, self.e1))
+        return phi if phi > 0.0 else phi + 2.0 * math.pi
+
+    def point_at_angle(self, phi: float) -> Vec:
+        c, s, r = math.cos(phi) * self.radius, math.sin(phi) * self.radius, self.center
+        e1, e2 = self.e1, self.e2
+        return (r[0] + c * e1[0] + s * e2[0], r[1] + c * e1[1] + s * e2[1], r[2] + c * e1[2] + s * e2[2])
+
+    def orientation_at_angle(self, phi: float) -> Quat:
+        turns = math.floor(phi / (2.0 * math.pi))
+        f = phi - turns * 2.0 * math.pi
+        b = self._bounds
+        i = 0 if f < b[1] else (1 if f < b[2] else 2)
+        return self._slerps[i].at((f - b[i]) / (b[i + 1] - b[i]))
+
+    def pose(self, s: float) -> np.ndarray:
+        phi = min(max(s, 0.0), self.length) / self.radius
+        return pose_matrix(self.point_at_angle(phi), self.orientation_at_angle(phi))
+
+    def linear_ratio(self, s: float) -> float:
+        return 1.0
+
+
+class _LinePiece(Path):
+    """The part ``[u0, u1]`` of a :class:`LinePath`."""
+
+    def __init__(self, line: LinePath, u0: float, u1: float) -> None:
+        self.line, self.u0, self.du = line, u0, u1 - u0
+        self.length = line.length * self.du
+
+    def pose(self, s: float) -> np.ndarray:
+        return self.line.pose_u(self.u0 + self.du * (s / self.length if self.length > 0.0 else 1.0))
+
+    def linear_ratio(self, s: float) -> float:
+        return self.line.linear_ratio(s)
+
+
+class BlendArc(Path):
+    """Arc rounding the corner ``pc`` between two lines (register 22).
+
+    ``radius`` is the blend-zone radius: the TCP leaves the incoming line
+    ``radius`` mm before the corner and joins the outgoing one ``radius`` mm
+    after it, on a circular arc tangent to both lines. The arc's own radius is
+    ``radius / tan(turn / 2)``; every point of it lies within ``radius`` of the
+    corner. Orientation: slerp between the poses where the arc meets the lines.
+    """
+
+    def __init__(self, pc: Vec, d_in: Vec, d_out: Vec, radius: float, q_in: Quat, q_out: Quat) -> None:
+        cosa = min(max(_dot(d_in, d_out), -1.0), 1.0)
+        self.turn = math.acos(cosa)
+        self.arc_radius = radius / math.tan(0.5 * self.turn)
+        perp = _sub(d_out, _scale(d_in, cosa))
+        m = _scale(perp, 1.0 / _norm(perp))
+        self.start: Vec = _sub(pc, _scale(d_in, radius))
+        self.center: Vec = (self.start[0] + self.arc_radius * m[0], self.start[1] + self.arc_radius * m[1],
+                            self.start[2] + self.arc_radius * m[2])
+        self._m, self._d = m, d_in
+        self.distance = self.arc_radius * self.turn
+        self.slerp = Slerp(q_in, q_out)
+        self.length = max(self.distance, ROT_MM_PER_RAD * self.slerp.angle)
+        self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
+
+    def point_at_angle(self, psi: float) -> Vec:
+        c, s, r = -math.cos(psi) * self.arc_radius, math.sin(psi) * self.arc_radius, self.center
+        m, d = self._m, self._d
+        return (r[0] + c * m[0] + s * d[0], r[1] + c * m[1] + s * d[1], r[2] + c * m[2] + s * d[2])
+
+    def pose(self, s: float) -> np.ndarray:
+        u = min(max(s / self.length, 0.0), 1.0) if self.length > 0.0 else 1.0
+        return pose_matrix(self.point_at_angle(u * self.turn), self.slerp.at(u))
+
+    def linear_ratio(self, s: float) -> float:
+        return self._ratio
+
+
+class CompositePath(Path):
+    """Pieces joined end to end (a run of blended lines)."""
+
+    def __init__(self, pieces: Sequence[Path]) -> None:
+        self.pieces = [p for p in pieces if p.length > 0.0] or list(pieces[-1:])
+        self._starts: list[float] = []
+        total = 0.0
+        for p in self.pieces:
+            self._starts.append(total)
+            total += p.length
+        self.length = total
+
+    def _find(self, s: float) -> int:
+        return max(bisect_right(self._starts, s) - 1, 0)
+
+    def pose(self, s: float) -> np.ndarray:
+        if s >= self.length:
+            return self.pieces[-1].pose(self.pieces[-1].length)
+        i = self._find(s)
+        return self.pieces[i].pose(s - self._starts[i])
+
+    def linear_ratio(self, s: float) -> float:
+        i = self._find(min(s, self.length))
+        return self.pieces[i].linear_ratio(s - self._starts[i])
+
+
+#: Turns below this (rad) are travelled as a straight line through the blend zone.
+MIN_BLEND_TURN = 1e-6
+#: Turns sharper than this (rad from a full reversal) are not blended: the TCP stops at the corner.
+MAX_BLEND_TURN = math.pi - 1e-3
+
+
+def blend_runs(poses: Sequence[np.ndarray], radii: Sequence[float | None]) -> list[CompositePath]:
+    """Split a chain of linear moves into runs that are travelled without stopping.
+
+    ``poses[0]`` is the start; move ``k`` goes to ``poses[k + 1]`` with blend
+    radius ``radii[k]`` at its end (``None`` or <= 0: stop there; the last
+    move's radius is ignored, there is nothing to blend into). A radius larger
+    than half of either adjacent line is shrunk to that half, so neighbouring
+    blends never overlap. A corner where either line has no TCP travel (pure
+    rotation) or that reverses the direction is not blended.
+    """
+    if len(poses) < 2:
+        raise ValueError("need at least two poses")
+    every = [LinePath(poses[k], poses[k + 1]) for k in range(len(poses) - 1)]
+    keep = [k for k, ln in enumerate(every) if ln.length > 0.0] or [len(every) - 1]
+    lines = [every[k] for k in keep]  # null moves are dropped; radii follow the surviving lines
+    radii = [radii[k] if k < len(radii) else None for k in keep]
+    # Blend radius at the end of each line (the corner into the next line).
+    corner: list[float] = []
+    for k in range(len(lines) - 1):
+        a, b = lines[k], lines[k + 1]
+        r = radii[k] if k < len(radii) and radii[k] is not None else 0.0
+        r = min(float(r), a.distance / 2.0, b.distance / 2.0) if r > 0.0 else 0.0
+        if r > 0.0:
+            cosa = _dot(a.delta, b.delta) / (a.distance * b.distance)
+            if math.acos(min(max(cosa, -1.0), 1.0)) > MAX_BLEND_TURN:
+                r = 0.0
+        corner.append(r)
+    corner.append(0.0)
+    runs: list[CompositePath] = []
+    pieces: list[Path] = []
+    r_prev = 0.0
+    for k, ln in enumerate(lines):
+        u0 = r_prev / ln.distance if r_prev > 0.0 else 0.0
+        r = corner[k]
+        u1 = 1.0 - r / ln.distance if r > 0.0 else 1.0
+        pieces.append(_LinePiece(ln, u0, u1))
+        if r > 0.0:
+            nxt = lines[k + 1]
+            d_in = _scale(ln.delta, 1.0 / ln.distance)
+            d_out = _scale(nxt.delta, 1.0 / nxt.distance)
+            q_in, q_out = ln.slerp.at(u1), nxt.slerp.at(r / nxt.distance)
+            if _dot(d_in, d_out) < math.cos(MIN_BLEND_TURN):
+                pieces.append(BlendArc(ln.p1, d_in, d_out, r, q_in, q_out))
+            else:  # (nearly) straight on: the blend zone is a line
+                pieces.append(LinePath(ln.pose_u(u1), nxt.pose_u(r / nxt.distance)))
+        else:
+            runs.append(CompositePath(pieces))
+            pieces = []
+        r_prev = r
+    return runs

@@ -1,0 +1,172 @@
+"""Jerk-limited one-dimensional motion profiles (manual 1.3, Table 1.2: speed,
+acceleration and jerk limits of TCP and joint motion).
+
+A profile is a chain of constant-jerk segments. :class:`SCurve` is the
+time-optimal 7-segment rest-to-rest profile over a distance; :func:`stop_profile`
+brings a moving state (v0, a0) to rest as fast as the limits allow (used by
+suspend, state 3, and stop, state 4, manual 2.1.3 register 12); a suspended move
+resumes with a fresh :class:`SCurve` over the remaining distance
+(:func:`resume_profile`).
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_right
+from collections.abc import Sequence
+
+_EPS = 1e-12
+
+
+class JerkProfile:
+    """Piecewise constant-jerk motion from ``(s=0, v0, a0)``.
+
+    ``segments`` are ``(duration, jerk)`` pairs. ``sample(t)`` returns
+    ``(s, v, a)``; before 0 it returns the start state (position 0), after the
+    end the final position with ``v`` and ``a`` of the final state.
+    """
+
+    __slots__ = ("duration", "distance", "_t", "_s", "_v", "_a", "_j", "_end")
+
+    def __init__(self, segments: Sequence[tuple[float, float]], v0: float = 0.0, a0: float = 0.0,
+                 end: tuple[float, float, float] | None = None) -> None:
+        t = s = 0.0
+        v, a = v0, a0
+        self._t: list[float] = []
+        self._s: list[float] = []
+        self._v: list[float] = []
+        self._a: list[float] = []
+        self._j: list[float] = []
+        for dt, j in segments:
+            if dt <= 0.0:
+                continue
+            self._t.append(t)
+            self._s.append(s)
+            self._v.append(v)
+            self._a.append(a)
+            self._j.append(j)
+            s += dt * (v + dt * (a / 2.0 + dt * j / 6.0))
+            v += dt * (a + dt * j / 2.0)
+            a += dt * j
+            t += dt
+        self.duration = t
+        #: Final state; an exact ``end`` replaces the integrated one (no round-off at arrival).
+        self._end = end if end is not None else (s, v, a)
+        self.distance = self._end[0]
+        if not self._t:
+            self._t.append(0.0)
+            self._s.append(0.0)
+            self._v.append(v0)
+            self._a.append(a0)
+            self._j.append(0.0)
+
+    @property
+    def start(self) -> tuple[float, float]:
+        """Initial ``(v, a)``."""
+        return self._v[0], self._a[0]
+
+    def sample(self, t: float) -> tuple[float, float, float]:
+        """``(s, v, a)`` at time ``t`` (clamped to ``[0, duration]``)."""
+        if t >= self.duration:
+            return self._end
+        if t <= 0.0:
+            return 0.0, self._v[0], self._a[0]
+        i = bisect_right(self._t, t) - 1
+        dt = t - self._t[i]
+        v, a, j = self._v[i], self._a[i], self._j[i]
+        return (self._s[i] + dt * (v + dt * (a / 2.0 + dt * j / 6.0)),
+                v + dt * (a + dt * j / 2.0),
+                a + dt * j)
+
+
+def _accel_phase(v: float, amax: float, jmax: float) -> tuple[float, float]:
+    """Time at the jerk limit and total time to go from rest to speed ``v``."""
+    if v * jmax >= amax * amax:
+        tj = amax / jmax
+        return tj, v / amax + tj
+    tj = math.sqrt(v / jmax)
+    return tj, 2.0 * tj
+
+
+def _check_limits(vmax: float, amax: float, jmax: float) -> None:
+    for name, x in (("vmax", vmax), ("amax", amax), ("jmax", jmax)):
+        if not (x > 0.0 and math.isfinite(x)):
+            raise ValueError(f"{name} must be positive and finite, got {x!r}")
+
+
+class SCurve(JerkProfile):
+    """Time-optimal rest-to-rest 7-segment S-curve over ``distance``.
+
+    Segments: jerk up, constant acceleration, jerk down, cruise, and the mirror
+    image. When ``distance`` is too short to reach ``vmax`` the peak speed is
+    lowered (and when it is too short to reach ``amax``, the constant
+    acceleration phases vanish), which is the minimum-time profile for the
+    given limits. A negative distance runs backwards (``s`` goes from 0 to
+    ``distance``). For a long move ``duration = d/v + v/a + a/j``.
+    """
+
+    __slots__ = ("vpeak", "apeak", "vmax", "amax", "jmax")
+
+    def __init__(self, distance: float, vmax: float, amax: float, jmax: float) -> None:
+        _check_limits(vmax, amax, jmax)
+        if not math.isfinite(distance):
+            raise ValueError(f"distance must be finite, got {distance!r}")
+        self.vmax, self.amax, self.jmax = vmax, amax, jmax
+        sign = 1.0 if distance >= 0.0 else -1.0
+        d = abs(distance)
+        if d <= _EPS:
+            self.vpeak = self.apeak = 0.0
+            super().__init__([], end=(distance, 0.0, 0.0))
+            return
+        tj, ta = _accel_phase(vmax, amax, jmax)
+        if d >= vmax * ta:  # vmax is reached: cruise for the rest
+            vp, tv = vmax, (d - vmax * ta) / vmax
+        else:
+            tv = 0.0
+            # Peak speed with amax reached: vp^2/a + vp*a/j = d.
+            vp = 0.5 * (-amax * amax / jmax + math.sqrt((amax * amax / jmax) ** 2 + 4.0 * amax * d))
+            if vp * jmax < amax * amax:  # amax not reached either: d = 2 vp^1.5 / sqrt(j)
+                vp = (0.5 * d * math.sqrt(jmax)) ** (2.0 / 3.0)
+            tj, ta = _accel_phase(vp, amax, jmax)
+        self.vpeak = vp
+        self.apeak = tj * jmax
+        tc = ta - 2.0 * tj
+        j = sign * jmax
+        segs = [(tj, j), (tc, 0.0), (tj, -j), (tv, 0.0), (tj, -j), (tc, 0.0), (tj, j)]
+        super().__init__(segs, end=(distance, 0.0, 0.0))
+
+
+def stop_profile(v0: float, a0: float, amax: float, jmax: float) -> JerkProfile:
+    """Fastest jerk-limited stop from speed ``v0`` and acceleration ``a0``.
+
+    The result starts at ``s=0`` and ends at rest (``v=0, a=0``) after
+    ``.duration`` seconds, having travelled ``.distance``. The acceleration is
+    first driven to the braking level (``amax``, or less when the stop is short),
+    held, then released so that speed and acceleration reach zero together. If
+    the current deceleration is already too strong to release without
+    reversing, the speed crosses zero briefly (the only jerk-limited way).
+    """
+    _check_limits(1.0, amax, jmax)
+    if abs(v0) <= _EPS and abs(a0) <= _EPS:
+        return JerkProfile([], end=(0.0, 0.0, 0.0))
+    # Mirror so that the speed is positive (or zero with positive acceleration).
+    sign = 1.0 if (v0 > 0.0 or (v0 == 0.0 and a0 > 0.0)) else -1.0
+    v, a, j = sign * v0, sign * a0, jmax
+    if a < 0.0 and a * a / (2.0 * j) >= v:
+        # Releasing the deceleration now already overshoots: a -> +ap -> 0.
+        ap = math.sqrt(max(a * a / 2.0 - j * v, 0.0))
+        segs = [((ap - a) / j, sign * j), (ap / j, -sign * j)]
+    else:
+        ap = amax
+        tc = (v + a * a / (2.0 * j) - ap * ap / j) / ap
+        if tc < 0.0:
+            ap = math.sqrt(j * v + a * a / 2.0)
+            tc = 0.0
+        segs = [((a + ap) / j, -sign * j), (tc, 0.0), (ap / j, sign * j)]
+    raw = JerkProfile(segs, v0, a0)  # integrate once, then pin the end exactly at rest
+    return JerkProfile(segs, v0, a0, end=(raw.distance, 0.0, 0.0))
+
+
+def resume_profile(remaining: float, vmax: float, amax: float, jmax: float) -> SCurve:
+    """Profile that resumes a suspended move from rest over the ``remaining`` distance."""
+    return SCurve(remaining, vmax, amax, jmax)
