@@ -1,0 +1,468 @@
+"""Tool IO, control box GPIO and the special IO commands (manual section 2.1.4, registers 127-147).
+
+Tool IO (registers 127 write, 128 read; ``[host][address][value]``, host 9):
+
+- 0x0A14 digital inputs, bit n = TI n; 0x0A16 / 0x0A17 analog inputs, 0-4095 for 0-3.3 V;
+- 0x0A15 digital outputs: a mask word sent as fp32, high byte = outputs to change,
+  low byte = their values (256.0 "close 0", 257.0 "open 0", 512.0 "close 1", 514.0 "open 1");
+  0x0A18 reads the output word back (bit 0 TO0, bit 1 TO1);
+- 0x0A0B reads the RS-485 baud-rate index, 0x1A0B writes it (index 11 = 2,000,000 bps, the
+  gripper's); 0x0607 soft-reboots the tool board (outputs drop to 0); 0x0801-0x0803 board version.
+
+Control box GPIO (registers 131-139): ``n_digital`` (16 for a control box SN >= 1300, as the SDK
+expects; else 8) digital inputs and outputs, two analog inputs and outputs (0-4095 for 0-10 V).
+Inputs idle high (the manual's 0xFFFD example is "GPIO1 low"). Function numbers of register 138
+are the manual's: 0 "system in STOP state" (state 4), 1 "system error" (error code != 0), 2 "xArm
+is operating" (arm moving); the SDK's 11 (has error) and 12 (has warning) are also driven. 255 is a
+general-purpose IO (the power-on default); any other number holds the output off. In register 139
+the "configuration IO status" words are the IO levels and the "function IO status" words the
+levels of IOs that have a function.
+
+Special IO (registers 142-147): delayed outputs fire in the first control period at or after
+their time; position-triggered outputs fire once, in the control period in which the TCP path
+(the segment between two consecutive samples) enters the tolerance sphere. A zero radius only
+fires when a sample lies on the point (within :data:`ZERO_RADIUS_EPS`): as the manual warns,
+passing the point at speed misses it. At most 36 commands may be pending (C36 beyond). On
+entering STOP (state 4) pending commands are dropped and, when register 146 says so, the
+general digital outputs of the control box / tool are cleared.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from .base import CommandError, ControllerView, Handler, ParameterError
+
+TOOL_HOST = 9
+CONTROL_BOX_HOST = 11
+
+# Tool board addresses (registers 127/128).
+ADDR_TOOL_DI = 0x0A14
+ADDR_TOOL_DO = 0x0A15
+ADDR_TOOL_AI = (0x0A16, 0x0A17)
+ADDR_TOOL_DO_READ = 0x0A18
+ADDR_BAUD_READ = 0x0A0B
+ADDR_BAUD_WRITE = 0x1A0B
+ADDR_SOFT_REBOOT = 0x0607
+ADDR_VERSION = 0x0801
+
+BAUD_RATES = (4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600,
+              1_000_000, 1_500_000, 2_000_000, 2_500_000)
+DEFAULT_BAUD_INDEX = 11  # 2,000,000 bps, what the SDK checks before gripper commands
+
+TOOL_DIGITAL = 2  # TO0/TO1, TI0/TI1 of the xArm 5/6/7 tool connector
+TOOL_AI_FULL_SCALE = 3.3  # V at 4095
+CGPIO_AI_FULL_SCALE = 10.0  # V at 4095
+ANALOG_MAX = 4095
+
+FUN_GENERAL = 255
+FUN_STOP = 0
+FUN_ERROR = 1
+FUN_MOVING = 2
+FUN_HAS_ERROR = 11  # SDK documentation
+FUN_HAS_WARNING = 12  # SDK documentation
+
+STATE_STOP = 4
+MAX_PENDING = 36
+ERR_TOO_MANY_PENDING = 36  # C36, manual section 3.2.1
+ZERO_RADIUS_EPS = 1e-3  # mm: a zero radius means "the TCP sample is on the point"
+
+
+def _volts_to_raw(volts: float, full_scale: float) -> int:
+    if not math.isfinite(volts):
+        raise ValueError("analog value must be finite")
+    return max(0, min(ANALOG_MAX, int(round(volts / full_scale * ANALOG_MAX))))
+
+
+@dataclass
+class PendingIO:
+    """A delayed (``due`` set) or position-triggered (``center`` set) output command."""
+
+    target: str  # "cgpio", "tgpio" or "analog"
+    index: int
+    value: int
+    due: float | None = None
+    center: tuple[float, float, float] | None = None
+    radius: float = 0.0
+
+
+class ToolIO:
+    """The tool (end-effector) IO board on host 9, and the control box RS-485 baud on host 11."""
+
+    def __init__(self, version: tuple[int, int, int] = (1, 0, 0)) -> None:
+        self.version = version
+        self.digital_inputs = 0  # bit n = TI n
+        self.digital_outputs = 0  # bit n = TO n
+        self.analog_inputs = [0, 0]  # raw 0..4095
+        self.baud_index = {TOOL_HOST: DEFAULT_BAUD_INDEX, CONTROL_BOX_HOST: DEFAULT_BAUD_INDEX}
+
+    def output(self, index: int) -> int:
+        return (self.digital_outputs >> index) & 1
+
+    def set_output(self, index: int, on: int) -> None:
+        self.apply_mask(((1 << index) << 8) | ((1 if on else 0) << index))
+
+    def apply_mask(self, word: int) -> None:
+        """Apply a 0x0A15 word: high byte selects outputs, low byte gives their values."""
+        mask = (word >> 8) & 0xFF
+        self.digital_outputs = (self.digital_outputs & ~mask) | (word & mask)
+
+    def write(self, host: int, addr: int, value: float) -> None:
+        """Register 127."""
+        if host not in self.baud_index:
+            raise ParameterError(f"host id {host}")
+        if not math.isfinite(value) or value != int(value) or not 0 <= value <= 0xFFFF:
+            raise ParameterError(f"value {value} is not a 16-bit integer")
+        v = int(value)
+        if addr == ADDR_BAUD_WRITE:
+            if v >= len(BAUD_RATES):
+                raise ParameterError(f"baud index {v}")
+            self.baud_index[host] = v
+        elif host != TOOL_HOST:
+            raise ParameterError(f"address {addr:#06x} on host {host}")
+        elif addr == ADDR_TOOL_DO:
+            self.apply_mask(v)
+        elif addr == ADDR_SOFT_REBOOT:
+            if v == 1:
+                self.digital_outputs = 0
+        else:
+            raise ParameterError(f"tool address {addr:#06x} is not writable")
+
+    def read(self, host: int, addr: int) -> int:
+        """Register 128."""
+        if host not in self.baud_index:
+            raise ParameterError(f"host id {host}")
+        if addr == ADDR_BAUD_READ:
+            return self.baud_index[host]
+        if host != TOOL_HOST:
+            raise ParameterError(f"address {addr:#06x} on host {host}")
+        if addr == ADDR_TOOL_DI:
+            return self.digital_inputs
+        if addr in (ADDR_TOOL_DO, ADDR_TOOL_DO_READ):
+            return self.digital_outputs
+        if addr in ADDR_TOOL_AI:
+            return self.analog_inputs[ADDR_TOOL_AI.index(addr)]
+        if ADDR_VERSION <= addr < ADDR_VERSION + 3:
+            return self.version[addr - ADDR_VERSION]
+        raise ParameterError(f"tool address {addr:#06x} is not readable")
+
+
+class ControlBoxGpio:
+    """Control box digital and analog IO with output functions (registers 131-139)."""
+
+    def __init__(self, n_digital: int = 16) -> None:
+        if n_digital not in (8, 16):
+            raise ValueError("a control box has 8 or 16 digital IO")
+        self.n_digital = n_digital
+        self.digital_inputs = 0xFFFF  # idle high
+        self.general_outputs = 0x0000  # values set by register 134 / special IO
+        self.function_outputs = 0x0000  # outputs driven on by their function
+        self.analog_inputs = [0, 0]  # raw 0..4095
+        self.analog_outputs = [0, 0]
+        self.input_functions = [FUN_GENERAL] * 16
+        self.output_functions = [FUN_GENERAL] * 16
+        self.module_state = 0
+        self.module_error = 0
+
+    def _check_index(self, index: int) -> None:
+        if not 0 <= index < self.n_digital:
+            raise ParameterError(f"control box IO {index} (0-{self.n_digital - 1})")
+
+    @property
+    def general_mask(self) -> int:
+        return sum(1 << i for i, f in enumerate(self.output_functions) if f == FUN_GENERAL)
+
+    @property
+    def digital_outputs(self) -> int:
+        """Output levels: general outputs as set, function outputs as driven."""
+        m = self.general_mask
+        return (self.general_outputs & m) | (self.function_outputs & ~m & 0xFFFF)
+
+    @property
+    def input_function_word(self) -> int:
+        m = sum(1 << i for i, f in enumerate(self.input_functions) if f != FUN_GENERAL)
+        return self.digital_inputs & m
+
+    def output(self, index: int) -> int:
+        return (self.digital_outputs >> index) & 1
+
+    def set_output(self, index: int, on: int) -> None:
+        self._check_index(index)
+        bit = 1 << index
+        self.general_outputs = (self.general_outputs | bit) if on else (self.general_outputs & ~bit)
+
+    def apply_word(self, word: int, high: bool) -> None:
+        """A register 134 word: enable bits in the high byte, values in the low byte."""
+        shift = 8 if high else 0
+        mask = ((word >> 8) & 0xFF) << shift
+        if mask >> self.n_digital:
+            raise ParameterError(f"IO beyond {self.n_digital - 1}")
+        self.general_outputs = (self.general_outputs & ~mask) | (((word & 0xFF) << shift) & mask)
+
+    def set_analog_output(self, index: int, raw: int) -> None:
+        if not 0 <= raw <= ANALOG_MAX:
+            raise ParameterError(f"analog output {raw} (0-4095)")
+        self.analog_outputs[index] = raw
+
+    def set_function(self, output: bool, index: int, fun: int) -> None:
+        self._check_index(index)
+        (self.output_functions if output else self.input_functions)[index] = fun
+
+    def update_functions(self, ctl: ControllerView) -> None:
+        active = {
+            FUN_STOP: ctl.state == STATE_STOP,
+            FUN_ERROR: ctl.error_code != 0,
+            FUN_MOVING: bool(ctl.is_moving),
+            FUN_HAS_ERROR: ctl.error_code != 0,
+            FUN_HAS_WARNING: ctl.warning_code != 0,
+        }
+        word = 0
+        for i, f in enumerate(self.output_functions):
+            if f != FUN_GENERAL and active.get(f, False):
+                word |= 1 << i
+        self.function_outputs = word
+
+    def state_values(self) -> dict[str, Any]:
+        """Register 139 reply values (34 bytes for 8 IO, 50 for 16)."""
+        m = self.general_mask
+        out: dict[str, Any] = {
+            "module_state": self.module_state,
+            "module_error": self.module_error,
+            "di_function": self.input_function_word,
+            "di_config": self.digital_inputs,
+            "do_function": self.function_outputs & ~m & 0xFFFF,
+            "do_config": self.digital_outputs,
+            "ai1": self.analog_inputs[0],
+            "ai2": self.analog_inputs[1],
+            "ao1": self.analog_outputs[0],
+            "ao2": self.analog_outputs[1],
+            "di_fun": tuple(self.input_functions[:8]),
+            "do_fun": tuple(self.output_functions[:8]),
+        }
+        if self.n_digital == 16:
+            out["fun_hi"] = tuple(self.input_functions[8:]) + tuple(self.output_functions[8:])
+        return out
+
+
+class IOModule:
+    """Controller component: tool IO, control box GPIO and special IO (registers 127-147)."""
+
+    def __init__(self, n_digital: int = 16, tool_version: tuple[int, int, int] = (1, 0, 0)) -> None:
+        self.tool = ToolIO(tool_version)
+        self.cgpio = ControlBoxGpio(n_digital)
+        self.pending: list[PendingIO] = []
+        self.cgpio_reset_on_stop = False
+        self.tgpio_reset_on_stop = False
+        self.now = 0.0
+        self._last_tcp: tuple[float, float, float] | None = None
+        self._last_state: int | None = None
+
+    # --- inputs from outside (tests, admin channel) ------------------------------------------------
+
+    def set_input(self, kind: str, index: int, value: float) -> None:
+        """Play a sensor: ``cgpio`` / ``tgpio`` digital (0/1), ``analog`` (control box, V) or
+        ``tool-analog`` (V)."""
+        if kind == "cgpio":
+            self.cgpio._check_index(index)
+            bit = 1 << index
+            self.cgpio.digital_inputs = (self.cgpio.digital_inputs | bit) if value else (
+                self.cgpio.digital_inputs & ~bit)
+        elif kind == "tgpio":
+            if not 0 <= index < 4:
+                raise ParameterError(f"tool input {index}")
+            bit = 1 << index
+            self.tool.digital_inputs = (self.tool.digital_inputs | bit) if value else (
+                self.tool.digital_inputs & ~bit)
+        elif kind == "analog":
+            self._analog_index(index)
+            self.cgpio.analog_inputs[index] = _volts_to_raw(value, CGPIO_AI_FULL_SCALE)
+        elif kind in ("tool-analog", "tool_analog", "tanalog"):
+            self._analog_index(index)
+            self.tool.analog_inputs[index] = _volts_to_raw(value, TOOL_AI_FULL_SCALE)
+        else:
+            raise ValueError(f"unknown input kind {kind!r} (cgpio, tgpio, analog, tool-analog)")
+
+    @staticmethod
+    def _analog_index(index: int) -> None:
+        if index not in (0, 1):
+            raise ParameterError(f"analog IO {index} (0/1)")
+
+    # --- report -----------------------------------------------------------------------------------
+
+    @property
+    def analog_input_volts(self) -> tuple[float, float]:
+        return tuple(r * CGPIO_AI_FULL_SCALE / ANALOG_MAX for r in self.cgpio.analog_inputs)  # type: ignore
+
+    @property
+    def analog_output_volts(self) -> tuple[float, float]:
+        return tuple(r * CGPIO_AI_FULL_SCALE / ANALOG_MAX for r in self.cgpio.analog_outputs)  # type: ignore
+
+    def snapshot_fields(self) -> dict[str, Any]:
+        """The :class:`~xarm_emu.protocol.reports.ReportSnapshot` fields this component owns."""
+        st = self.cgpio.state_values()
+        return {
+            "cgpio_reset_on_stop": self.cgpio_reset_on_stop,
+            "tgpio_reset_on_stop": self.tgpio_reset_on_stop,
+            "cgpio_state": st["module_state"],
+            "cgpio_error": st["module_error"],
+            "cgpio_input_function": st["di_function"],
+            "cgpio_input_config": st["di_config"],
+            "cgpio_output_function": st["do_function"],
+            "cgpio_output_config": st["do_config"],
+            "analog_inputs": self.analog_input_volts,
+            "analog_outputs": self.analog_output_volts,
+            "input_functions": tuple(self.cgpio.input_functions),
+            "output_functions": tuple(self.cgpio.output_functions),
+        }
+
+    # --- special IO (142-147) ---------------------------------------------------------------------
+
+    def _add_pending(self, p: PendingIO) -> None:
+        if len(self.pending) >= MAX_PENDING:
+            raise CommandError(ERR_TOO_MANY_PENDING, "more than 36 delayed / position IO commands")
+        self.pending.append(p)
+
+    def _check_target(self, target: str, index: int, value: int) -> None:
+        if target == "cgpio":
+            self.cgpio._check_index(index)
+        elif target == "tgpio":
+            if not 0 <= index < TOOL_DIGITAL:
+                raise ParameterError(f"tool output {index} (0/1)")
+        else:
+            self._analog_index(index)
+            if not 0 <= value <= ANALOG_MAX:
+                raise ParameterError(f"analog value {value}")
+            return
+        if value not in (0, 1):
+            raise ParameterError(f"switch value {value}")
+
+    def delayed_digital(self, target: str, index: int, on: int, delay: float) -> None:
+        """Registers 142 (``cgpio``) and 143 (``tgpio``)."""
+        self._check_target(target, index, on)
+        if not math.isfinite(delay) or delay < 0:
+            raise ParameterError(f"delay {delay}")
+        self._add_pending(PendingIO(target, index, on, due=self.now + delay))
+
+    def position_output(self, target: str, index: int, value: int,
+                        xyz: Sequence[float], radius: float) -> None:
+        """Registers 144 (``cgpio``), 145 (``tgpio``) and 147 (``analog``, raw 0-4095)."""
+        self._check_target(target, index, value)
+        if len(xyz) != 3 or not all(math.isfinite(c) for c in xyz) or not math.isfinite(radius) or radius < 0:
+            raise ParameterError("trigger point or tolerance radius")
+        self._add_pending(PendingIO(target, index, value, center=(xyz[0], xyz[1], xyz[2]), radius=radius))
+
+    def set_reset_on_stop(self, io_type: int, on: int) -> None:
+        """Register 146: io_type 0 control box, 1 tool."""
+        if io_type not in (0, 1) or on not in (0, 1):
+            raise ParameterError("io_type 0/1, on 0/1")
+        if io_type == 0:
+            self.cgpio_reset_on_stop = bool(on)
+        else:
+            self.tgpio_reset_on_stop = bool(on)
+
+    def _fire(self, p: PendingIO) -> None:
+        if p.target == "cgpio":
+            self.cgpio.set_output(p.index, p.value)
+        elif p.target == "tgpio":
+            self.tool.set_output(p.index, p.value)
+        else:
+            self.cgpio.set_analog_output(p.index, p.value)
+
+    @staticmethod
+    def _reached(p: PendingIO, a: tuple[float, float, float] | None, b: tuple[float, float, float]) -> bool:
+        c = p.center
+        assert c is not None
+        if p.radius <= 0:
+            return math.dist(b, c) <= ZERO_RADIUS_EPS
+        if a is None or a == b:
+            return math.dist(b, c) <= p.radius
+        # Closest point of segment a-b to the centre.
+        ab = [b[i] - a[i] for i in range(3)]
+        ac = [c[i] - a[i] for i in range(3)]
+        t = max(0.0, min(1.0, sum(x * y for x, y in zip(ab, ac, strict=True)) / sum(x * x for x in ab)))
+        closest = [a[i] + t * ab[i] for i in range(3)]
+        return math.dist(closest, c) <= p.radius
+
+    def step(self, dt: float, ctl: ControllerView) -> None:
+        self.now = ctl.time
+        state = ctl.state
+        if state == STATE_STOP and self._last_state not in (None, STATE_STOP):
+            self.pending.clear()
+            if self.cgpio_reset_on_stop:
+                self.cgpio.general_outputs = 0
+            if self.tgpio_reset_on_stop:
+                self.tool.digital_outputs = 0
+        self._last_state = state
+        tcp = tuple(float(v) for v in ctl.tcp_position)
+        tcp3: tuple[float, float, float] = (tcp[0], tcp[1], tcp[2])
+        if self.pending:
+            keep: list[PendingIO] = []
+            for p in self.pending:
+                if p.due is not None:
+                    hit = self.now >= p.due - 1e-9
+                else:
+                    hit = self._reached(p, self._last_tcp, tcp3)
+                if hit:
+                    self._fire(p)
+                else:
+                    keep.append(p)
+            self.pending = keep
+        self._last_tcp = tcp3
+        self.cgpio.update_functions(ctl)
+
+    # --- register table adapter -------------------------------------------------------------------
+
+    def handlers(self) -> dict[int, Handler]:
+        c = self.cgpio
+
+        def r127(v: Any) -> None:
+            self.tool.write(int(v["host"]), int(v["addr"]), float(v["value"]))
+
+        def r128(v: Any) -> dict[str, Any]:
+            return {"value": self.tool.read(int(v["host"]), int(v["addr"]))}
+
+        def r134(v: Any) -> None:
+            words = [int(v["digital"])]
+            if "digital_hi" in v:
+                words.append(int(v["digital_hi"]))
+            self.cgpio_set_digital(words)
+
+        def analog_out(i: int) -> Handler:
+            def h(v: Any) -> None:
+                c.set_analog_output(i, int(v["analog"]))
+            return h
+
+        def r146(v: Any) -> dict[str, Any]:
+            self.set_reset_on_stop(int(v["io_type"]), int(v["on"]))
+            return {"cmdnum": int(v["on"])}  # the manual's reply echoes the switch (0x0001 for on)
+
+        return {
+            127: r127,
+            128: r128,
+            131: lambda v: {"digital": c.digital_inputs},
+            132: lambda v: {"analog": c.analog_inputs[0]},
+            133: lambda v: {"analog": c.analog_inputs[1]},
+            134: r134,
+            135: analog_out(0),
+            136: analog_out(1),
+            137: lambda v: c.set_function(False, int(v["ionum"]), int(v["fun"])),
+            138: lambda v: c.set_function(True, int(v["ionum"]), int(v["fun"])),
+            139: lambda v: c.state_values(),
+            142: lambda v: self.delayed_digital("cgpio", int(v["ionum"]), int(v["on"]), float(v["delay"])),
+            143: lambda v: self.delayed_digital("tgpio", int(v["ionum"]), int(v["on"]), float(v["delay"])),
+            144: lambda v: self.position_output("cgpio", int(v["ionum"]), int(v["on"]), v["xyz"],
+                                                float(v["tol_r"])),
+            145: lambda v: self.position_output("tgpio", int(v["ionum"]), int(v["on"]), v["xyz"],
+                                                float(v["tol_r"])),
+            146: r146,
+            147: lambda v: self.position_output("analog", int(v["ionum"]), int(v["value"]), v["xyz"],
+                                                float(v["tol_r"])),
+        }
+
+    def cgpio_set_digital(self, words: Sequence[int]) -> None:
+        """Register 134: one word for IO 0-7, or ``[word 0-7, word 8-15]``."""
+        for i, w in enumerate(words[:2]):
+            self.cgpio.apply_word(w, high=bool(i))
