@@ -176,7 +176,7 @@ def _state_byte(state: int, mode: int) -> int:
     return (mode << 4) | state
 
 
-def _n(seq: Sequence, n: int, fill: float | int = 0.0) -> Sequence:
+def _n(seq: Sequence, n: int, fill: object = 0.0) -> Sequence:
     """``seq`` padded with ``fill`` (or cut) to exactly ``n`` items."""
     if len(seq) == n:
         return seq
@@ -229,7 +229,7 @@ def _pack_rich(buf: bytearray, s: ReportSnapshot) -> None:
     try:  # fast path; out-of-range values are clamped below
         volts = [int(v * VOLTAGE_SCALE + 0.5) for v in _n(s.joint_voltages, 7)]
         _RICH_VOLTS.pack_into(buf, OFF_VOLTS, *volts)
-    except struct.error:
+    except (struct.error, ValueError, OverflowError):  # out of range, NaN, inf
         _RICH_VOLTS.pack_into(buf, OFF_VOLTS, *[_u16(v * VOLTAGE_SCALE) for v in _n(s.joint_voltages, 7)])
     _RICH_C.pack_into(buf, OFF_RICH_C, *_n(s.joint_currents, 7), s.cgpio_state, s.cgpio_error)
     k = ANALOG_COUNTS / ANALOG_FULL_SCALE
@@ -237,7 +237,7 @@ def _pack_rich(buf: bytearray, s: ReportSnapshot) -> None:
     words = (s.cgpio_input_function, s.cgpio_input_config, s.cgpio_output_function, s.cgpio_output_config)
     try:
         _RICH_IO.pack_into(buf, OFF_IO, *words, *[int(v * k + 0.5) for v in analog])
-    except struct.error:
+    except (struct.error, ValueError, OverflowError):
         _RICH_IO.pack_into(buf, OFF_IO, *words, *[_u16(v * k) for v in analog])
     fi, fo = _n(s.input_functions, 16, 0), _n(s.output_functions, 16, 0)
     _RICH_FUNCS.pack_into(buf, OFF_FUNCS, *fi[:8], *fo[:8], *fi[8:], *fo[8:])
