@@ -214,7 +214,10 @@ class OneOf(Layout):
         for o in self.options:
             names = [f.name for f in o.fields]
             if keys <= set(names) and all(n in keys for n in names[: o.n_required]):
-                return o.encode(vals)
+                try:
+                    return o.encode(vals)
+                except LayoutError:
+                    continue  # e.g. a value count that fits another option
         raise LayoutError(f"no alternative layout takes the values {sorted(keys)}")
 
     def describe(self) -> str:
@@ -249,9 +252,14 @@ def _encode_field(f: Field, value: Any) -> bytes:
             raise LayoutError(f"field {f.name!r} longer than {f.count} bytes")
         return raw.ljust(f.count, b"\0")
     t = TYPES[f.kind]
-    if f.count == 1 and isinstance(value, (tuple, list)) and len(value) == 1:
+    if f.count == 1 and isinstance(value, (tuple, list)):
+        if len(value) != 1:
+            raise LayoutError(f"field {f.name!r} needs 1 value, got {len(value)}")
         value = value[0]
-    seq = (value,) if f.count == 1 else tuple(value)
+    try:
+        seq = (value,) if f.count == 1 else tuple(value)
+    except TypeError as exc:
+        raise LayoutError(f"field {f.name!r} needs {f.count} values") from exc
     if len(seq) != f.count:
         raise LayoutError(f"field {f.name!r} needs {f.count} values, got {len(seq)}")
     order = t.fmt[0] if t.fmt[0] in "<>" else "<"
@@ -260,7 +268,7 @@ def _encode_field(f: Field, value: Any) -> bytes:
         if t.is_float:
             return struct.pack(order + code * f.count, *(float(v) for v in seq))
         return struct.pack(order + code * f.count, *(int(v) for v in seq))
-    except struct.error as exc:
+    except (struct.error, TypeError, ValueError) as exc:
         raise LayoutError(f"field {f.name!r}: {exc}") from exc
 
 
