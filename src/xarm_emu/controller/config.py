@@ -1,0 +1,215 @@
+"""Saved configuration of the control box: one JSON file per robot serial number.
+
+Register 40 (0x28, "Save the current system configuration parameters") writes the current settings through
+:meth:`ConfigStore.save`; register 39 (0x27, "Delete the current system configuration parameters") removes
+them with :meth:`ConfigStore.delete`; at start the controller restores them with :meth:`ConfigStore.load`.
+The store does not interpret the values: any dict of JSON values (tuples come back as lists).
+
+Crash safety: a save writes a temporary file in the same directory, flushes and fsyncs it, renames it over
+the target with ``os.replace`` (atomic on POSIX and Windows) and fsyncs the directory, so after a crash
+(SIGKILL, power loss) the file is either the old complete one or the new complete one. The file carries a
+format name, a format version and a SHA-256 checksum of its content, so a torn or hand-edited file is
+detected at load. A file that cannot be read or checked is renamed aside to
+``<name>.corrupt-<UTC timestamp>`` with one message in :attr:`ConfigStore.last_error`, and ``load`` returns
+``None`` (the emulator then starts with defaults).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import logging
+import os
+import re
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger(__name__)
+
+FORMAT_NAME = "xarm-emu-config"
+FORMAT_VERSION = 1
+APP_DIR_NAME = "xarm-emu"
+
+_SAFE_SN = re.compile(r"[^A-Za-z0-9_.-]")
+
+
+def default_config_dir() -> Path:
+    """Per-user configuration directory: ``$XDG_CONFIG_HOME/xarm-emu``, else ``~/.config/xarm-emu``
+    (``%APPDATA%\\xarm-emu`` on Windows)."""
+    if os.name == "nt" and os.environ.get("APPDATA"):
+        return Path(os.environ["APPDATA"]) / APP_DIR_NAME
+    xdg = os.environ.get("XDG_CONFIG_HOME", "")
+    if xdg and os.path.isabs(xdg):
+        return Path(xdg) / APP_DIR_NAME
+    return Path.home() / ".config" / APP_DIR_NAME
+
+
+def file_name_for(robot_sn: str) -> str:
+    """File name of a serial number's configuration; characters outside [A-Za-z0-9_.-] are replaced and a
+    short hash of the real SN is added then, so two serial numbers never share a file."""
+    sn = str(robot_sn)
+    safe = _SAFE_SN.sub("_", sn).strip(".") or "unknown"
+    if safe != sn:
+        safe = f"{safe}-{hashlib.sha256(sn.encode('utf-8')).hexdigest()[:8]}"
+    return f"config-{safe}.json"
+
+
+def _canonical(robot_sn: str, values: dict[str, Any]) -> bytes:
+    body = {"format": FORMAT_NAME, "version": FORMAT_VERSION, "robot_sn": robot_sn, "values": values}
+    return json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=True,
+                      allow_nan=False).encode("ascii")
+
+
+def _fsync_dir(directory: Path) -> None:
+    if os.name == "nt":  # directories cannot be opened for fsync on Windows; os.replace is durable there
+        return
+    fd = os.open(directory, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True
+    return True
+
+
+class ConfigStore:
+    """The saved configuration of one robot (by serial number) in ``directory``."""
+
+    def __init__(self, directory: Path | str, robot_sn: str) -> None:
+        self.directory = Path(directory)
+        self.robot_sn = str(robot_sn)
+        self.path = self.directory / file_name_for(self.robot_sn)
+        #: One human-readable message about the last ``load`` that found an unusable file, else ``None``.
+        self.last_error: str | None = None
+
+    # -- reading ---------------------------------------------------------------------------------------
+
+    def load(self) -> dict[str, Any] | None:
+        """Saved values, or ``None`` when nothing is saved or the file is unusable (see ``last_error``)."""
+        self.last_error = None
+        self._remove_stale_temps()
+        try:
+            raw = self.path.read_bytes()
+        except FileNotFoundError:
+            return None
+        except OSError as exc:
+            self._set_aside(f"cannot read it ({exc.strerror or exc})")
+            return None
+        try:
+            return self._decode(raw)
+        except ValueError as exc:
+            self._set_aside(str(exc))
+            return None
+
+    def _decode(self, raw: bytes) -> dict[str, Any]:
+        try:
+            doc = json.loads(raw.decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ValueError(f"not valid JSON ({exc})") from None
+        if not isinstance(doc, dict) or doc.get("format") != FORMAT_NAME:
+            raise ValueError("not an xarm-emu configuration file")
+        if doc.get("version") != FORMAT_VERSION:
+            raise ValueError(f"format version {doc.get('version')!r} is not supported "
+                             f"(expected {FORMAT_VERSION})")
+        values = doc.get("values")
+        if not isinstance(values, dict):
+            raise ValueError("no values in the file")
+        if doc.get("robot_sn") != self.robot_sn:
+            raise ValueError(f"it belongs to serial number {doc.get('robot_sn')!r}, not {self.robot_sn!r}")
+        try:
+            digest = hashlib.sha256(_canonical(self.robot_sn, values)).hexdigest()
+        except ValueError as exc:
+            raise ValueError(f"values cannot be checked ({exc})") from None
+        if doc.get("sha256") != digest:
+            raise ValueError("checksum mismatch (torn or edited file)")
+        return values
+
+    def _set_aside(self, reason: str) -> None:
+        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+        aside = self.path.with_name(f"{self.path.name}.corrupt-{stamp}")
+        n = 1
+        while aside.exists():
+            aside = self.path.with_name(f"{self.path.name}.corrupt-{stamp}-{n}")
+            n += 1
+        try:
+            os.replace(self.path, aside)
+            with contextlib.suppress(OSError):
+                _fsync_dir(self.directory)
+            where = f"moved it to {aside}"
+        except OSError as exc:
+            where = f"could not move it aside ({exc.strerror or exc})"
+        self.last_error = (f"saved configuration {self.path} is unusable: {reason}; {where}; "
+                           f"starting with default settings")
+        log.warning("%s", self.last_error)
+
+    def _temp_prefix(self) -> str:
+        return f".{self.path.name}.tmp-"
+
+    def _remove_stale_temps(self) -> None:
+        """Delete temporary files left by a writer that died mid-save (its pid is in the name)."""
+        prefix = self._temp_prefix()
+        try:
+            entries = list(self.directory.iterdir())
+        except OSError:
+            return
+        for entry in entries:
+            if not entry.name.startswith(prefix):
+                continue
+            pid_text = entry.name[len(prefix):].split("-", 1)[0]
+            if pid_text.isdigit() and _pid_alive(int(pid_text)):
+                continue
+            with contextlib.suppress(OSError):
+                entry.unlink()
+
+    # -- writing ---------------------------------------------------------------------------------------
+
+    def save(self, values: dict[str, Any]) -> None:
+        """Write ``values`` atomically. Raises ``TypeError``/``ValueError`` for values JSON cannot hold
+        exactly (e.g. NaN) and ``OSError`` when the directory is not writable; the old file then stays."""
+        if not isinstance(values, dict):
+            raise TypeError("configuration values must be a dict")
+        body = _canonical(self.robot_sn, values)
+        doc = {
+            "format": FORMAT_NAME,
+            "version": FORMAT_VERSION,
+            "robot_sn": self.robot_sn,
+            "saved_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "sha256": hashlib.sha256(body).hexdigest(),
+            "values": values,
+        }
+        data = json.dumps(doc, indent=1, sort_keys=True, allow_nan=False).encode("utf-8") + b"\n"
+        self.directory.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f"{self._temp_prefix()}{os.getpid()}-", dir=self.directory)
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(data)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, self.path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        _fsync_dir(self.directory)
+
+    def delete(self) -> bool:
+        """Remove the saved configuration; ``True`` if there was one."""
+        try:
+            self.path.unlink()
+        except FileNotFoundError:
+            return False
+        _fsync_dir(self.directory)
+        return True
