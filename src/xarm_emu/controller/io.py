@@ -59,6 +59,7 @@ CGPIO_AI_FULL_SCALE = 10.0  # V at 4095
 ANALOG_MAX = 4095
 
 FUN_GENERAL = 255
+GENERAL_INPUT = frozenset({0, FUN_GENERAL})  # SDK: input function 0 is "general input"
 FUN_STOP = 0
 FUN_ERROR = 1
 FUN_MOVING = 2
@@ -157,7 +158,7 @@ class ControlBoxGpio:
         if n_digital not in (8, 16):
             raise ValueError("a control box has 8 or 16 digital IO")
         self.n_digital = n_digital
-        self.digital_inputs = 0xFFFF  # idle high
+        self._inputs = 0xFFFF  # idle high
         self.general_outputs = 0x0000  # values set by register 134 / special IO
         self.function_outputs = 0x0000  # outputs driven on by their function
         self.analog_inputs = [0, 0]  # raw 0..4095
@@ -173,17 +174,32 @@ class ControlBoxGpio:
 
     @property
     def general_mask(self) -> int:
-        return sum(1 << i for i, f in enumerate(self.output_functions) if f == FUN_GENERAL)
+        return sum(1 << i for i, f in enumerate(self.output_functions[: self.n_digital]) if f == FUN_GENERAL)
+
+    @property
+    def _absent(self) -> int:
+        """Bits of IO 8-15 on an 8-IO box: they read high, as in the manual's 139 example."""
+        return 0xFF00 if self.n_digital == 8 else 0
+
+    @property
+    def digital_inputs(self) -> int:
+        return self._inputs | self._absent
+
+    @digital_inputs.setter
+    def digital_inputs(self, word: int) -> None:
+        self._inputs = word & 0xFFFF
 
     @property
     def digital_outputs(self) -> int:
         """Output levels: general outputs as set, function outputs as driven."""
         m = self.general_mask
-        return (self.general_outputs & m) | (self.function_outputs & ~m & 0xFFFF)
+        return (self.general_outputs & m) | (self.function_outputs & ~m & 0xFFFF) | self._absent
 
     @property
     def input_function_word(self) -> int:
-        m = sum(1 << i for i, f in enumerate(self.input_functions) if f != FUN_GENERAL)
+        """Levels of the inputs that have a function (0 and 255 are general inputs)."""
+        funs = self.input_functions[: self.n_digital]
+        m = sum(1 << i for i, f in enumerate(funs) if f not in GENERAL_INPUT)
         return self.digital_inputs & m
 
     def output(self, index: int) -> int:
@@ -220,7 +236,7 @@ class ControlBoxGpio:
             FUN_HAS_WARNING: ctl.warning_code != 0,
         }
         word = 0
-        for i, f in enumerate(self.output_functions):
+        for i, f in enumerate(self.output_functions[: self.n_digital]):
             if f != FUN_GENERAL and active.get(f, False):
                 word |= 1 << i
         self.function_outputs = word
@@ -233,7 +249,7 @@ class ControlBoxGpio:
             "module_error": self.module_error,
             "di_function": self.input_function_word,
             "di_config": self.digital_inputs,
-            "do_function": self.function_outputs & ~m & 0xFFFF,
+            "do_function": self.function_outputs & ~m & ((1 << self.n_digital) - 1),
             "do_config": self.digital_outputs,
             "ai1": self.analog_inputs[0],
             "ai2": self.analog_inputs[1],
