@@ -1,0 +1,472 @@
+"""Forward and inverse kinematics, Jacobian, joint limits, TCP offset and user coordinate offset.
+
+Frames (research note kinematics.md sections 2.3 and 3): each joint is ``Trans(xyz) . R(rpy) . Rz(q)`` on
+its parent, the flange (default TCP) is the frame after the last joint, lengths in mm, angles in rad.
+
+Speed: the joint chain of each model is unrolled at import time into straight-line scalar Python code, with
+zero offsets and the exact +/-pi/2 origin rotations folded away (``_generate``). ``joint_frames`` keeps a
+plain numpy 4x4 chain, which the tests use as an independent check of the unrolled code.
+
+Inverse kinematics (manual register 43; research note section 5):
+- xArm6/xArm7: Levenberg-Marquardt from the seed (the current joints or the SDK's ``ref_angles``), so
+  the posture follows the seed; xArm7 takes the minimum-norm step, keeping the elbow near the seed.
+  Converged means |dp| <= 1e-6 mm and |d theta| <= 1e-7 rad; otherwise there is no solution (None).
+- xArm5: closed form; only targets with the flange level (roll = +/-pi, pitch = 0) are reachable.
+- ``limited`` (the SDK's flag, default on): each joint is wrapped into [-pi, pi] when its limits allow,
+  else shifted by 2 pi into its limits; any joint outside its limits gives None.
+
+TCP offset (manual 1.5 "TCP Offset", register 35): ``T_tcp = T_flange . Trans(x, y, z) . Rz Ry Rx``.
+User coordinate offset (register 73): the six values are the pose of the user coordinate system in the
+base coordinate system, so a pose seen in the user frame is ``inv(T_user) . T_tcp``. This is the reading of
+the xArm user manual's worked example ("express the position and orientation of user coordinate system {C}
+in coordinate system {A}": offset (1000, 0, 0, 0, 0, 180 deg) turns (207, 0, 112, 180, 0, 0) into
+(793, 0, 112, 180, 0, 180)); the developer manual's one-line description of register 73 is ambiguous.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from .robots import RobotModel
+from .rotations import invert_transform, matrix_to_axis_angle, pose_to_matrix
+
+POS_TOL = 1e-6  # mm
+ROT_TOL = 1e-7  # rad
+MAX_ITER = 60
+XARM5_LEVEL_TOL = 1e-6  # allowed tilt of the xArm5 tool axis from vertical (rad, ~float32 noise)
+_POS_SCALE = 1e-3  # IK weights position error in metres against rotation in rad
+LM_MU = 0.1
+MAX_STEP = 0.5  # rad
+
+# --------------------------------------------------------------------------------------------------------
+# Code generation of the unrolled chain
+
+
+def _snap(v: float) -> float:
+    if abs(v) < 1e-15:
+        return 0.0
+    if abs(abs(v) - 1.0) < 1e-15:
+        return math.copysign(1.0, v)
+    return v
+
+
+class _Gen:
+    """Tiny symbolic emitter: entries are float constants or variable names (optionally negated)."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self.n = 0
+
+    def assign(self, expr: float | str) -> float | str:
+        if isinstance(expr, float):
+            return expr
+        bare = expr[1:] if expr.startswith("-") else expr
+        if bare.isidentifier():
+            return expr
+        self.n += 1
+        name = f"t{self.n}"
+        self.lines.append(f"    {name} = {expr}")
+        return name
+
+    @staticmethod
+    def scale(e: float | str, k: float | str) -> float | str:
+        """Product of a symbolic entry and a constant or a variable name."""
+        if isinstance(e, float) and isinstance(k, float):
+            return e * k
+        if isinstance(k, float):
+            e, k = k, e
+        assert isinstance(k, str)
+        if isinstance(e, float):
+            if e == 0.0:
+                return 0.0
+            if e == 1.0:
+                return k
+            if e == -1.0:
+                return k[1:] if k.startswith("-") else "-" + k
+            return f"{e!r}*{k}"
+        return f"{e}*{k}"
+
+    @staticmethod
+    def add(*terms: float | str) -> float | str:
+        const = sum(t for t in terms if isinstance(t, float))
+        syms = [t for t in terms if isinstance(t, str)]
+        if not syms:
+            return float(const)
+        parts = syms + ([repr(const)] if const != 0.0 else [])
+        out = parts[0]
+        for p in parts[1:]:
+            out += f" - {p[1:]}" if p.startswith("-") else f" + {p}"
+        return out
+
+
+    def raw(self, expr: str) -> str:
+        """Assign any expression (e.g. a function call) to a fresh variable."""
+        self.n += 1
+        name = f"t{self.n}"
+        self.lines.append(f"    {name} = {expr}")
+        return name
+
+    def dot(self, xs: Sequence[float | str], ys: Sequence[float | str]) -> float | str:
+        return self.add(*(self.scale(x, y) for x, y in zip(xs, ys, strict=True)))
+
+    def neg(self, e: float | str) -> float | str:
+        return self.scale(e, -1.0)
+
+
+Sym = float | str
+
+
+def _chain_code(
+    g: _Gen, model: RobotModel, unit: float
+) -> tuple[list[list[Sym]], list[Sym], list[list[Sym]]]:
+    """Emit the chain; returns flange R (3x3), p (3) and the geometric Jacobian rows (6 x dof)."""
+    R: list[list[Sym]] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    p: list[Sym] = [0.0, 0.0, 0.0]
+    axes: list[tuple[list[Sym], list[Sym]]] = []
+    for i, j in enumerate(model.joints):
+        g.lines.append(f"    c{i} = cos(q{i}); s{i} = sin(q{i})")
+        po = [float(v) * unit for v in j.origin_xyz]
+        p = [g.assign(g.add(p[k], g.dot(R[k], po))) for k in range(3)]
+        Ro = pose_to_matrix((0.0, 0.0, 0.0, *j.origin_rpy))[:3, :3]
+        Rc = [[_snap(float(Ro[a][b])) for a in range(3)] for b in range(3)]  # columns of Ro
+        R = [[g.assign(g.dot(R[k], Rc[b])) for b in range(3)] for k in range(3)]
+        axes.append(([R[k][2] for k in range(3)], list(p)))
+        c, s = f"c{i}", f"s{i}"
+        new0 = [g.assign(g.add(g.scale(R[k][0], c), g.scale(R[k][1], s))) for k in range(3)]
+        new1 = [g.assign(g.add(g.scale(R[k][1], c), g.scale(g.neg(R[k][0]), s))) for k in range(3)]
+        R = [[new0[k], new1[k], R[k][2]] for k in range(3)]
+    rows: list[list[Sym]] = [[] for _ in range(6)]
+    return R, p, _jac_rows(g, axes, p, rows)
+
+
+def _jac_rows(g: _Gen, axes: list[tuple[list[Sym], list[Sym]]], p: list[Sym], rows: list[list[Sym]]
+              ) -> list[list[Sym]]:
+    for z, o in axes:
+        d = [g.assign(g.add(p[k], g.neg(o[k]))) for k in range(3)]
+        cross = [
+            g.add(g.scale(z[1], d[2]), g.scale(g.neg(z[2]), d[1])),
+            g.add(g.scale(z[2], d[0]), g.scale(g.neg(z[0]), d[2])),
+            g.add(g.scale(z[0], d[1]), g.scale(g.neg(z[1]), d[0])),
+        ]
+        for k in range(3):
+            rows[k].append(g.assign(cross[k]))
+            rows[3 + k].append(z[k])
+    return rows
+
+
+def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], J: list[list[Sym]], n: int) -> list[Sym]:
+    """Emit one damped least-squares step (error, J J^T + lambda I, unrolled Cholesky, J^T x)."""
+    E = [[g.assign(g.dot([f"T{3 * a + k}" for k in range(3)], R[b])) for b in range(3)] for a in range(3)]
+    entries = ", ".join(str(E[a][b]) for a in range(3) for b in range(3))
+    g.lines.append(f"    wx, wy, wz = _rotvec({entries})")
+    g.lines.append(f"    px = tx - {p[0]}; py = ty - {p[1]}; pz = tz - {p[2]}")
+    g.lines.append("    pe = px*px + py*py + pz*pz; re = wx*wx + wy*wy + wz*wz")
+    g.lines.append("    if pe <= PTOL2 and re <= RTOL2: return (pe, re)")
+    g.lines.append("    lam = mu*(pe + re) + 1e-12")
+    e = ["px", "py", "pz", "wx", "wy", "wz"]
+    A = [[g.assign(g.add(g.dot(J[a], J[b]), *(["lam"] if a == b else []))) for b in range(a + 1)]
+         for a in range(6)]
+    L: list[list[Sym]] = [[0.0] * 6 for _ in range(6)]
+    dinv: list[str] = []
+    for i in range(6):
+        for j in range(i):
+            s = g.add(A[i][j], *(g.neg(g.scale(L[i][k], L[j][k])) for k in range(j)))
+            L[i][j] = g.assign(g.scale(g.assign(s), dinv[j]))
+        s = g.assign(g.add(A[i][i], *(g.neg(g.scale(L[i][k], L[i][k])) for k in range(i))))
+        L[i][i] = g.raw(f"sqrt({s})")
+        dinv.append(g.raw(f"1.0/{L[i][i]}"))
+    y: list[Sym] = []
+    for i in range(6):
+        s = g.assign(g.add(e[i], *(g.neg(g.scale(L[i][k], y[k])) for k in range(i))))
+        y.append(g.assign(g.scale(s, dinv[i])))
+    x: list[Sym] = [0.0] * 6
+    for i in range(5, -1, -1):
+        s = g.assign(g.add(y[i], *(g.neg(g.scale(L[k][i], x[k])) for k in range(i + 1, 6))))
+        x[i] = g.assign(g.scale(s, dinv[i]))
+    return [g.assign(g.dot([J[a][k] for a in range(6)], x)) for k in range(n)]
+
+
+def _generate(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
+    """Unrolled code of ``model`` as a Python function; mode is "fk", "jac" or "lm".
+
+    fk: (R row-major 9, p 3) in mm.  jac: the same plus the 6 x dof Jacobian row-major.
+    lm: args (q..., T0..T8, tx, ty, tz, mu) in metres; returns (|dp|^2, |dtheta|^2) when converged,
+    else (|dp|^2, |dtheta|^2, dq...).
+    """
+    g = _Gen()
+    args = [f"q{i}" for i in range(model.dof)]
+    unit = 1e-3 if mode == "lm" else 1.0
+    R, p, J = _chain_code(g, model, unit)
+    out: list[Sym] = [R[a][b] for a in range(3) for b in range(3)] + p
+    if mode == "jac":
+        out += [e for row in J for e in row]
+    elif mode == "lm":
+        args += [f"T{k}" for k in range(9)] + ["tx", "ty", "tz", "mu"]
+        out = ["pe", "re", *_lm_code(g, R, p, J, model.dof)]
+    src = f"def _chain({', '.join(args)}):\n" + "\n".join(g.lines)
+    src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
+    namespace: dict[str, object] = {
+        "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "_rotvec": _rotvec,
+        "PTOL2": (POS_TOL * 1e-3) ** 2, "RTOL2": ROT_TOL ** 2,
+    }
+    exec(compile(src, f"<kinematics {model.name} {mode}>", "exec"), namespace)  # noqa: S102
+    fn = namespace["_chain"]
+    fn.__doc__ = src  # type: ignore[union-attr]
+    return fn  # type: ignore[return-value]
+
+
+_CACHE: dict[int, tuple[RobotModel, dict[str, Callable[..., tuple[float, ...]]]]] = {}
+
+
+def _chain_fn(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
+    entry = _CACHE.get(id(model))
+    if entry is None or entry[0] is not model:
+        entry = _CACHE[id(model)] = (model, {m: _generate(model, m) for m in ("fk", "jac", "lm")})
+    return entry[1][mode]
+
+
+def _rotvec(e00: float, e01: float, e02: float, e10: float, e11: float, e12: float,
+            e20: float, e21: float, e22: float) -> tuple[float, float, float]:
+    """Rotation vector of a rotation matrix given entry by entry (the IK orientation error)."""
+    vx, vy, vz = e21 - e12, e02 - e20, e10 - e01
+    c = (e00 + e11 + e22 - 1.0) / 2.0
+    if c < -0.99:  # near pi: the skew part loses the axis
+        w = matrix_to_axis_angle(np.array(((e00, e01, e02), (e10, e11, e12), (e20, e21, e22))))
+        return float(w[0]), float(w[1]), float(w[2])
+    s2 = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if s2 < 1e-300:
+        return 0.0, 0.0, 0.0
+    k = math.atan2(s2 / 2.0, c) / s2
+    return vx * k, vy * k, vz * k
+
+
+def _joints(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
+    qs = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
+    if len(qs) < model.dof:
+        raise ValueError(f"{model.name} needs {model.dof} joint values, got {len(qs)}")
+    qs = qs[: model.dof]
+    for v in qs:
+        if not math.isfinite(v):
+            raise ValueError(f"non-finite joint value {v!r}")
+    return qs
+
+
+# --------------------------------------------------------------------------------------------------------
+# Forward kinematics, frames, Jacobian
+
+
+def fk(model: RobotModel, q: Sequence[float] | np.ndarray) -> np.ndarray:
+    """4x4 flange pose in the base frame (mm). Extra joint values (wire J7 on xArm6) are ignored."""
+    r = _chain_fn(model, "fk")(*_joints(model, q))
+    return np.array(
+        ((r[0], r[1], r[2], r[9]), (r[3], r[4], r[5], r[10]), (r[6], r[7], r[8], r[11]), (0.0, 0.0, 0.0, 1.0))
+    )
+
+
+def joint_frames(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[np.ndarray]:
+    """4x4 frame of each joint (after its rotation, i.e. the URDF link frame) in the base frame.
+
+    The last one is the flange. Plain numpy chain, independent of the unrolled ``fk``.
+    """
+    qs = _joints(model, q)
+    T = np.eye(4)
+    frames = []
+    for j, qi in zip(model.joints, qs, strict=True):
+        T = T @ pose_to_matrix((*j.origin_xyz, *j.origin_rpy)) @ pose_to_matrix((0, 0, 0, 0, 0, qi))
+        frames.append(T)
+    return frames
+
+
+def jacobian(model: RobotModel, q: Sequence[float] | np.ndarray) -> np.ndarray:
+    """Geometric Jacobian (6 x dof) of the flange in the base frame: rows vx, vy, vz (mm/rad), wx, wy, wz."""
+    r = _chain_fn(model, "jac")(*_joints(model, q))
+    return np.array(r[12:]).reshape(6, model.dof)
+
+
+def within_limits(model: RobotModel, q: Sequence[float] | np.ndarray) -> bool:
+    """True when every joint is finite and inside its limits (manual 1.3; register 45)."""
+    try:
+        qs = _joints(model, q)
+    except (ValueError, TypeError):
+        return False
+    return all(j.lower <= v <= j.upper for j, v in zip(model.joints, qs, strict=True))
+
+
+# --------------------------------------------------------------------------------------------------------
+# Inverse kinematics
+
+
+def _lm(model: RobotModel, target: np.ndarray, seed: list[float]) -> list[float] | None:
+    """Levenberg-Marquardt on the flange pose, minimum-norm step dq = J^T (J J^T + lambda I)^-1 e.
+
+    The error is weighted (position in metres, rotation in rad); lambda = mu |e|^2 + 1e-12 with mu raised
+    tenfold whenever the error grows; a step is capped at MAX_STEP rad on any joint and every iterate is
+    clamped into the joint limits (a limit-violating solution would be rejected anyway).
+    """
+    step_fn = _chain_fn(model, "lm")
+    t = target[:3, :3].ravel().tolist()
+    tp = [float(v) * 1e-3 for v in target[:3, 3]]
+    lo = [j.lower for j in model.joints]
+    hi = [j.upper for j in model.joints]
+    q = [min(max(v, a), b) for v, a, b in zip(seed, lo, hi, strict=True)]
+    mu = LM_MU
+    prev = math.inf
+    for _ in range(MAX_ITER):
+        try:
+            r = step_fn(*q, *t, *tp, mu)
+        except ValueError:  # Cholesky of a matrix that is not positive definite (degenerate input)
+            return None
+        if len(r) == 2:
+            return q
+        err2 = r[0] + r[1]
+        if err2 > prev:  # diverging: damp harder
+            mu *= 10.0
+        prev = err2
+        step = r[2:]
+        big = max(map(abs, step))
+        if big > MAX_STEP:
+            k = MAX_STEP / big
+            step = [v * k for v in step]
+        # projected step: iterates stay inside the joint limits, which steers xArm7's null space too
+        q = [min(max(a + b, c), d) for a, b, c, d in zip(q, step, lo, hi, strict=True)]
+    return None
+
+
+def _fit_limits(model: RobotModel, q: list[float], limited: bool) -> np.ndarray | None:
+    """Wrap into [-pi, pi] where the limits allow (limited), else shift by 2 pi into the limits."""
+    out = []
+    for j, v in zip(model.joints, q, strict=True):
+        if limited:
+            w = math.remainder(v, 2.0 * math.pi)  # [-pi, pi]
+            cands = (w, w - 2.0 * math.pi, w + 2.0 * math.pi)
+        else:
+            cands = (v, v - 2.0 * math.pi, v + 2.0 * math.pi)
+        for c in cands:
+            if j.lower <= c <= j.upper:
+                out.append(c)
+                break
+        else:
+            return None
+    return np.array(out)
+
+
+def _ik_xarm5(model: RobotModel, target: np.ndarray, seed: list[float], limited: bool) -> np.ndarray | None:
+    """Closed form for a 5-axis arm whose tool stays vertical (research note section 5)."""
+    R = target[:3, :3]
+    tol = XARM5_LEVEL_TOL
+    if not (R[2, 2] < 0.0 and abs(R[0, 2]) < tol and abs(R[1, 2]) < tol and abs(R[2, 0]) < tol
+            and abs(R[2, 1]) < tol):
+        return None
+    yaw = math.atan2(R[1, 0], R[0, 0])
+    x, y, z = (float(v) for v in target[:3, 3])
+    j = model.joints
+    base_z = j[0].origin_xyz[2]
+    u1 = (j[2].origin_xyz[0], -j[2].origin_xyz[1])  # upper arm in the arm plane (forward, up)
+    u2 = (j[3].origin_xyz[0], -j[3].origin_xyz[1])  # forearm
+    u3 = (j[4].origin_xyz[0], -j[4].origin_xyz[1])  # wrist to flange
+    l1, l2 = math.hypot(*u1), math.hypot(*u2)
+    a1, a2 = math.atan2(u1[1], u1[0]), math.atan2(u2[1], u2[0])
+    best: tuple[float, np.ndarray] | None = None
+    radial = math.hypot(x, y)
+    heading = math.atan2(y, x) if radial > 1e-9 else seed[0]
+    for q1, r in ((heading, radial), (heading + math.pi, -radial)):
+        dx, dz = r - u3[0], z - u3[1] - base_z
+        c = (dx * dx + dz * dz - l1 * l1 - l2 * l2) / (2.0 * l1 * l2)
+        if c > 1.0 + 1e-12 or c < -1.0 - 1e-12:
+            continue
+        c = max(-1.0, min(1.0, c))
+        for delta in (-math.acos(c), math.acos(c)):
+            phi1 = math.atan2(dz, dx) - math.atan2(l2 * math.sin(delta), l1 + l2 * math.cos(delta))
+            q2 = a1 - phi1
+            q3 = a2 - a1 - delta
+            q = [q1, math.remainder(q2, 2 * math.pi), math.remainder(q3, 2 * math.pi), 0.0, 0.0]
+            q[3] = -(q[1] + q[2])
+            q[4] = q1 - yaw
+            # nearest 2 pi multiples of J1/J5 to the seed before limits are applied
+            for k in (0, 4):
+                q[k] = seed[k] + math.remainder(q[k] - seed[k], 2.0 * math.pi)
+            q[3] = math.remainder(q[3], 2.0 * math.pi)
+            sol = _fit_limits(model, q, limited)
+            if sol is None:
+                continue
+            dist = float(np.sum((sol - np.array(seed)) ** 2))
+            if best is None or dist < best[0]:
+                best = (dist, sol)
+    return None if best is None else best[1]
+
+
+def _residual_ok(model: RobotModel, q: np.ndarray, target: np.ndarray) -> bool:
+    T = fk(model, q)
+    perr = float(np.linalg.norm(T[:3, 3] - target[:3, 3]))
+    rerr = float(np.linalg.norm(matrix_to_axis_angle(target[:3, :3] @ T[:3, :3].T)))
+    return perr <= 10 * POS_TOL and rerr <= 10 * ROT_TOL
+
+
+def ik(
+    model: RobotModel,
+    T_target: np.ndarray,
+    seed: Sequence[float] | np.ndarray | None = None,
+    limited: bool = True,
+) -> np.ndarray | None:
+    """Joints (length dof) that put the flange at ``T_target`` (4x4, base frame, mm), or None.
+
+    ``seed`` defaults to zero joints. Never raises on bad numbers: NaN/inf input gives None.
+    For path following pass ``limited=False`` so that joints stay continuous with the seed.
+    """
+    try:
+        target = np.asarray(T_target, dtype=float)
+        if target.shape != (4, 4) or not np.all(np.isfinite(target)):
+            return None
+        qs = [0.0] * model.dof if seed is None else _joints(model, seed)
+    except (ValueError, TypeError):
+        return None
+    if model.fixed_roll_pitch:
+        sol = _ik_xarm5(model, target, qs, limited)
+        if sol is not None and not _residual_ok(model, sol, target):
+            return None
+        return sol
+    raw = _lm(model, target, qs)  # converged to POS_TOL / ROT_TOL, or None
+    return None if raw is None else _fit_limits(model, raw, limited)
+
+
+# --------------------------------------------------------------------------------------------------------
+# TCP offset (register 35) and user coordinate offset (register 73)
+
+
+def tcp_pose(
+    model: RobotModel,
+    q: Sequence[float] | np.ndarray,
+    tcp_offset: Sequence[float] = (0.0,) * 6,
+    user_offset: Sequence[float] = (0.0,) * 6,
+) -> np.ndarray:
+    """4x4 pose of the TCP in the user frame: inv(T_user) . T_flange(q) . T_tcp (module docstring)."""
+    T = fk(model, q) @ pose_to_matrix(tcp_offset)
+    if any(user_offset):
+        T = invert_transform(pose_to_matrix(user_offset)) @ T
+    return T
+
+
+def flange_target(
+    T_tcp_in_user: np.ndarray,
+    tcp_offset: Sequence[float] = (0.0,) * 6,
+    user_offset: Sequence[float] = (0.0,) * 6,
+) -> np.ndarray:
+    """4x4 flange pose in the base frame that puts the TCP at ``T_tcp_in_user`` (inverse of tcp_pose)."""
+    T = np.asarray(T_tcp_in_user, dtype=float)
+    if any(user_offset):
+        T = pose_to_matrix(user_offset) @ T
+    if any(tcp_offset):
+        T = T @ invert_transform(pose_to_matrix(tcp_offset))
+    return T
+
+
+def pose_offset(T1: np.ndarray, T2: np.ndarray) -> np.ndarray:
+    """4x4 offset from pose 1 to pose 2 as register 76 reports it: translation p2 - p1 in the base frame,
+    rotation R2 . R1^T (manual register 76 example: z 200 -> 100 gives z = -100)."""
+    D = np.eye(4)
+    D[:3, :3] = T2[:3, :3] @ T1[:3, :3].T
+    D[:3, 3] = T2[:3, 3] - T1[:3, 3]
+    return D
