@@ -137,6 +137,16 @@ def test_corrupt_file_is_kept_aside_with_one_message(tmp_path: Path, case: str):
 
 
 def test_unreadable_file_is_reported(tmp_path: Path):
+    # A directory where the file should be cannot be read (works for any user, root included).
+    store = ConfigStore(tmp_path, SN)
+    store.path.mkdir()
+    assert store.load() is None
+    assert store.last_error is not None and "cannot read" in store.last_error
+    assert not store.path.exists()
+    assert any(p.name.startswith(store.path.name + ".corrupt-") for p in tmp_path.iterdir())
+
+
+def test_file_without_read_permission_is_reported(tmp_path: Path):
     if os.name != "posix" or os.geteuid() == 0:
         pytest.skip("needs a non-root POSIX user for permission bits")
     store = ConfigStore(tmp_path, SN)

@@ -274,3 +274,39 @@ def test_currents_use_torque_constants_and_speed():
         inverse_dynamics(XARM7, np.full(7, 0.3), np.ones(7), np.ones(7), DOWN, 1.0, (0, 0, 50))
     per_call = (time.perf_counter() - t0) / 200
     assert per_call < 0.002  # comfortably inside the 4 ms control period
+
+
+# --- joint temperatures (controller.thermal), driven by the currents of the dynamics model --------------
+
+
+def test_thermal_model_heats_with_current_squared_and_settles():
+    from xarm_emu.controller.thermal import AMBIENT_C, THERMAL_BY_SIZE, ThermalModel
+
+    amps = np.abs(torques_to_currents(XARM6, gravity_torques(XARM6, np.zeros(6), payload_mass=1.0)))
+    model = ThermalModel(6)
+    assert np.allclose(model.temperatures, AMBIENT_C)
+    # after one time constant of a joint, 1 - 1/e of the way to its steady state (exact update)
+    tau_l = THERMAL_BY_SIZE["L"].time_constant  # J1 is a large joint
+    settle = model.steady_state(amps)
+    t = model.step(tau_l, amps)
+    assert t[0] == pytest.approx(AMBIENT_C + (settle[0] - AMBIENT_C) * (1 - math.exp(-1)), rel=1e-12)
+    # many small steps (the 4 ms period) agree with one big step
+    small = ThermalModel(6)
+    for _ in range(2500):
+        small.step(0.004, amps)
+    big = ThermalModel(6)
+    big.step(10.0, amps)
+    assert np.allclose(small.temperatures, big.temperatures, atol=1e-9)
+    # hours later: settled, plausible, and the more loaded joint runs hotter; rise grows with I^2
+    model.step(5 * 3600.0, amps)
+    temps = model.temperatures
+    assert np.allclose(temps, settle)
+    assert np.all((temps > AMBIENT_C) & (temps < 60.0))
+    assert temps[1] > temps[0] + 3.0  # J2 holds the arm, J1 carries nothing
+    rise_1 = ThermalModel(6).steady_state(np.full(6, 1.0)) - ThermalModel(6).steady_state(np.zeros(6))
+    rise_2 = ThermalModel(6).steady_state(np.full(6, 2.0)) - ThermalModel(6).steady_state(np.zeros(6))
+    assert np.allclose(rise_2, 4 * rise_1)
+    assert model.celsius_u8() == [round(x) for x in temps]
+    # no current: cools back towards ambient + idle rise
+    model.step(5 * 3600.0, np.zeros(6))
+    assert np.allclose(model.temperatures, model.steady_state(np.zeros(6)))
