@@ -310,3 +310,29 @@ def test_thermal_model_heats_with_current_squared_and_settles():
     # no current: cools back towards ambient + idle rise
     model.step(5 * 3600.0, np.zeros(6))
     assert np.allclose(model.temperatures, model.steady_state(np.zeros(6)))
+
+
+def test_payload_torque_is_flange_jacobian_transpose_of_its_weight():
+    # Cross-check against model.kinematics: a point payload at the flange adds -J_v^T (m g).
+    from xarm_emu.model.kinematics import jacobian
+
+    rng = np.random.default_rng(2)
+    for model in (XARM5, XARM6, XARM7):
+        for _ in range(5):
+            q = rng.uniform(model.lower, model.upper)
+            delta = gravity_torques(model, q, payload_mass=2.0) - gravity_torques(model, q)
+            j_v = jacobian(model, q)[:3] / 1000.0  # m/rad
+            assert np.allclose(delta, -j_v.T @ (2.0 * DOWN), atol=1e-9)
+
+
+def test_manual_register55_example_under_the_research_hypothesis():
+    # Manual register 55 example bytes (J2, J3, J5). Research note section 6 explains them, unconfirmed, as an
+    # xArm6 with forearm and tool vertical (J2 = -J3 = 9.8 deg) carrying 1.2 kg at cx = -4 mm (HT_BR2 fit).
+    import struct
+
+    raw = [bytes([0x2A, 0xC5, 0x5B, 0xC1]), bytes([0x79, 0xA4, 0xC5, 0xC0]), bytes([0x87, 0xA3, 0xE9, 0xBF])]
+    j2, j3, j5 = (struct.unpack("<f", b)[0] for b in raw)
+    a = math.radians(9.8)
+    tau = gravity_torques(XARM6, [0, a, -a, 0, 0, 0], payload_mass=1.2, payload_com=(-4.0, 0.0, 0.0))
+    assert np.allclose(tau[[1, 2, 4]], [j2, j3, j5], atol=0.05)
+    assert np.all(np.abs(tau[[0, 3, 5]]) < 1e-9)
