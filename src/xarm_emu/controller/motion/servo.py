@@ -1,10 +1,10 @@
 """Servo-mode target tracking (mode 1; registers 29 servoj, 30 and 93 servo
 Cartesian; manual 2.1.3.2 and register 19).
 
-In servo mode every command replaces the target. A joint follows the target at
-once when it can reach it within one control period at the joint speed limit
-(so targets streamed at 250 Hz are followed with no lag); otherwise it heads
-for it at no more than the speed limit,
+In servo mode every command replaces the target. A joint follows a new target
+at once when it can reach it within one control period at the joint speed
+limit (so targets streamed at 250 Hz are followed with no lag); otherwise it
+heads for it at no more than the speed limit,
 changing speed by at most ``amax * dt`` per period and braking so as to arrive
 without overshoot. Jerk is not limited in servo mode (the manual says speed
 and acceleration of servoj are not planned: rich report bytes 257-284 note).
@@ -35,6 +35,7 @@ class ServoTracker:
         self.qd = np.zeros(dof) if qd is None else np.array(qd, dtype=float)
         self.qdd = np.zeros(dof)
         self.target = self.q.copy()
+        self._new = False  # a target arrived since the last step
         self.set_limits(vmax, amax)
 
     def set_limits(self, vmax: Limit, amax: Limit) -> None:
@@ -50,6 +51,7 @@ class ServoTracker:
         if t.shape != self.q.shape or not np.all(np.isfinite(t)):
             raise ValueError("servo target must be finite, one value per joint")
         self.target = t
+        self._new = True
 
     @property
     def at_target(self) -> bool:
@@ -58,8 +60,9 @@ class ServoTracker:
     def step(self, dt: float = DEFAULT_DT) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Advance one period toward the target; returns ``(q, qd, qdd)``."""
         err = self.target - self.q
-        reach = self.vmax * dt
-        direct = np.abs(err) <= reach
+        # A new target within one period's reach is taken at once; so is a target already reached.
+        direct = (np.abs(err) <= self.vmax * dt) if self._new else (err == 0.0)
+        self._new = False
         # Joints that cannot reach: speed toward the target, capped by the braking speed and vmax.
         brake = np.sqrt(2.0 * self.amax * np.abs(err))
         v_des = np.sign(err) * np.minimum(self.vmax, brake)
@@ -76,5 +79,6 @@ class ServoTracker:
     def hold(self) -> None:
         """Stop tracking: the current position becomes the target, speed zero."""
         self.target = self.q.copy()
+        self._new = False
         self.qd = np.zeros_like(self.q)
         self.qdd = np.zeros_like(self.q)

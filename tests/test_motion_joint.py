@@ -1,0 +1,128 @@
+"""Joint-space point-to-point moves (register 23, manual 2.1.3.2) and joint stops."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from ruckig import InputParameter, Ruckig, Trajectory
+
+from xarm_emu.controller.motion.joint import plan_joint_move, plan_joint_stop
+
+
+def _ruckig_duration(q0, q1, v, a, j):
+    dof = len(q0)
+    inp = InputParameter(dof)
+    inp.current_position, inp.target_position = list(q0), list(q1)
+    inp.max_velocity = list(np.broadcast_to(v, (dof,)))
+    inp.max_acceleration = list(np.broadcast_to(a, (dof,)))
+    inp.max_jerk = list(np.broadcast_to(j, (dof,)))
+    tr = Trajectory(dof)
+    Ruckig(dof).calculate(inp, tr)  # default (time) synchronisation
+    return tr.duration
+
+
+def _sample(tr, n=801):
+    ts = np.linspace(0.0, tr.duration, n)
+    q, qd, qdd = (np.array(x) for x in zip(*(tr.at(t) for t in ts), strict=True))
+    return ts, q, qd, qdd
+
+
+def _check_limits(tr, v, a, j):
+    ts, q, qd, qdd = _sample(tr)
+    dt = ts[1] - ts[0]
+    v, a, j = (np.broadcast_to(x, (q.shape[1],)) for x in (v, a, j))
+    assert np.all(np.abs(qd) <= v * (1 + 1e-9) + 1e-12)
+    assert np.all(np.abs(qdd) <= a * (1 + 1e-9) + 1e-12)
+    assert np.all(np.abs(np.diff(qdd, axis=0)) / dt <= j * (1 + 1e-6))
+    np.testing.assert_allclose(np.diff(q, axis=0) / dt, 0.5 * (qd[1:] + qd[:-1]), atol=np.max(j) * dt * dt)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_joint_move_arrives_together_exactly_with_ruckig_duration(seed):
+    rng = np.random.default_rng(seed)
+    dof = 5 + seed % 3
+    q0, q1 = rng.uniform(-3, 3, dof), rng.uniform(-3, 3, dof)
+    v, a, j = 0.8, 4.0, 60.0
+    tr = plan_joint_move(q0, q1, v, a, j)
+    assert tr.duration == pytest.approx(_ruckig_duration(q0, q1, v, a, j), abs=1e-9)
+    q, qd, qdd = tr.at(tr.duration)
+    assert np.max(np.abs(q - q1)) <= 1e-9 and not qd.any() and not qdd.any()
+    np.testing.assert_array_equal(tr.at(tr.duration + 3.0)[0], q1)
+    np.testing.assert_array_equal(tr.at(-1.0)[0], q0)
+    # Together: no joint is already at its target shortly before the end, every one still moves.
+    q_before, qd_before, _ = tr.at(tr.duration - 0.02)
+    assert np.all(np.abs(q_before - q1) > 1e-7)
+    assert np.all(np.abs(qd_before) > 0.0)
+    # And they move on one straight line in joint space (phase synchronisation).
+    ts, qs, _, _ = _sample(tr, 101)
+    frac = (qs - q0) / (q1 - q0)
+    assert np.max(np.ptp(frac, axis=1)) < 1e-9
+    _check_limits(tr, v, a, j)
+
+
+def test_per_joint_limits():
+    q0 = np.zeros(6)
+    q1 = np.array([1.0, -1.0, 0.5, 2.0, -0.2, 0.0])
+    v = np.array([1.0, 2.0, 0.5, 3.0, 1.0, 1.0])
+    a = np.array([5.0, 5.0, 2.0, 10.0, 5.0, 5.0])
+    tr = plan_joint_move(q0, q1, v, a, 100.0)
+    assert tr.duration == pytest.approx(_ruckig_duration(q0, q1, v, a, 100.0), abs=1e-9)
+    assert np.max(np.abs(tr.at(tr.duration)[0] - q1)) <= 1e-9
+    _check_limits(tr, v, a, 100.0)
+
+
+def test_zero_move_and_bad_limits():
+    q = np.array([0.1, 0.2, 0.3])
+    tr = plan_joint_move(q, q, 1.0, 1.0, 1.0)
+    assert tr.duration == 0.0
+    np.testing.assert_array_equal(tr.at(0.5)[0], q)
+    with pytest.raises(ValueError):
+        plan_joint_move(q, q + 1, float("nan"), 1.0, 1.0)
+    with pytest.raises(ValueError):
+        plan_joint_move(q, q + 1, 1.0, -1.0, 1.0)
+    with pytest.raises(ValueError):
+        plan_joint_move(q, np.zeros(4), 1.0, 1.0, 1.0)
+
+
+def test_stop_comes_to_rest_within_limits_then_resume_reaches_target():
+    q0, q1 = np.zeros(6), np.array([2.0, -1.0, 1.5, 0.3, -2.0, 1.0])
+    v, a, j = 1.0, 3.0, 30.0
+    tr = plan_joint_move(q0, q1, v, a, j)
+    t = 0.4 * tr.duration
+    qs, qds, qdds = tr.at(t)
+    stop = tr.stop(t)
+    np.testing.assert_allclose(stop.at(0.0)[1], qds, atol=1e-12)
+    q_end, qd_end, qdd_end = stop.at(stop.duration)
+    assert not qd_end.any() and not qdd_end.any()
+    np.testing.assert_allclose(stop.at(stop.duration * (1 - 1e-9))[1], 0.0, atol=1e-6)
+    # The stop stays on the joint-space line toward the target, short of it.
+    frac = (q_end - q0) / (q1 - q0)
+    assert np.ptp(frac) < 1e-9 and 0.4 < frac[0] < 1.0
+    _check_limits(stop, v, a, j)
+    resumed = stop.resume()
+    assert np.max(np.abs(resumed.at(resumed.duration)[0] - q1)) <= 1e-9
+    _check_limits(resumed, v, a, j)
+
+
+def test_plan_joint_stop_from_arbitrary_state():
+    q = np.array([0.0, 1.0, -1.0])
+    qd = np.array([1.0, -0.5, 0.2])
+    qdd = np.array([2.0, 1.0, -1.0])
+    stop = plan_joint_stop(q, qd, qdd, 5.0, 50.0)
+    assert stop.duration > 0
+    q_end, qd_end, _ = stop.at(stop.duration)
+    assert not qd_end.any()
+    np.testing.assert_array_equal(stop.target, q_end)
+    ts, qs, qds, qdds = _sample(stop)
+    assert np.all(np.abs(qdds) <= 5.0 * (1 + 1e-9))
+    assert np.all(np.abs(np.diff(qdds, axis=0)) / (ts[1] - ts[0]) <= 50.0 * (1 + 1e-6))
+
+
+def test_at_is_cheap():
+    tr = plan_joint_move(np.zeros(7), np.ones(7), 1.0, 5.0, 50.0)
+    t0 = time.perf_counter()
+    for i in range(5000):
+        tr.at(i * 1e-4)
+    assert (time.perf_counter() - t0) / 5000 < 50e-6
