@@ -192,9 +192,13 @@ EXAMPLES: list[Example] = [
     Example("93", 93, "0001 0002 0026 5D" + P_300 + "00004843 0000FA44" + Z + "00",
             {"pose": V_300, "speed": 200.0, "acc": 2000.0, "coord": 0.0, "relative": 0},
             "0001 0002 0002 5D 00"),
-    # The reply table omits the State row; the length 0x0013 = register + state + 17 counts it.
-    Example("106", 106, "0001 0002 0001 6A", {}, "0001 0002 0013 6A 00" + "00" * 17,
-            {"status": 0, "servos": (0,) * 16}),
+    # Register 106's reply table has no State row; its first row, "commands execution state"
+    # (0 normal, 1 servo error, 3 communication failure), is the reply's state byte, then come 16
+    # bytes of (servo state, servo error code) for joints 1-7 and the gripper. The printed length
+    # 0x0013 counts one byte more than those rows. The SDK reads exactly 16 parameter bytes as
+    # (state, code) pairs (get_servo_debug_msg), so the test trusts the rows and the SDK: 0x0012.
+    Example("106", 106, "0001 0002 0001 6A", {}, "0001 0002 0012 6A 00" + "00" * 16,
+            {"servos": (0,) * 16}),
     # ---- 2.1.4: peripherals ---------------------------------------------------------------------
     # Register 124's reply tables in the manual have no State byte, and their lengths do not count
     # one (e.g. 0x0008 = register + 7 RTU bytes). Every other reply of the manual carries a state

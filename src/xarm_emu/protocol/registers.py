@@ -235,8 +235,11 @@ _TABLE: list[Register] = [
              doc="The manual types the frame selector as fp32; the SDK sends int32 LE there. Both put 0 "
                  "for the base frame; any other bit pattern means the tool frame."),
     Register(106, "SERVO_DBMSG", "Get the state of the current robotic arm servo",
-             reply=_r(u8("status", "0 normal, 1 servo error, 3 communication failure"),
-                      Field("servos", "u8", 16, "state, error code for joints 1-7 then the gripper"))),
+             reply=_r(Field("servos", "u8", 16, "(state, error code) for joints 1-7, then the gripper")),
+             doc="The manual's table starts with a 'commands execution state' byte (0 normal, 1 servo "
+                 "error, 3 communication failure) and prints length 0x13, but it has no separate State "
+                 "row: that first byte is the reply's state byte. The SDK reads exactly 16 parameter "
+                 "bytes as (state, code) pairs, so the table has 16 and the manual's length is off by one."),
     # ---- 2.1.4 peripherals --------------------------------------------------------------------
     Register(124, "RS485_RTU", "Gripper module / end RS-485 Modbus-RTU",
              request=Layout((u8("host", "9: end-effector RS-485"),), rest="rtu", rest_min=1),
