@@ -217,3 +217,39 @@ def test_at_is_cheap():
     for i in range(5000):
         mv.at(i * 1e-3)
     assert (time.perf_counter() - t0) / 5000 < 50e-6
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_random_blended_chains_stay_near_corners_and_end_exactly(seed):
+    rng = np.random.default_rng(seed)
+    pts = [rng.uniform(-300, 300, 3) for _ in range(5)]
+    radii = list(rng.uniform(0.0, 80.0, 4))
+    poses = [pose(*p, math.pi, 0.0, rng.uniform(-0.3, 0.3)) for p in pts]
+    mv = plan_blended(poses, radii, 200.0, 3000.0, 30000.0)
+    ts, T, v = run(mv)
+    xyz = T[:, :3, 3]
+    np.testing.assert_allclose(T[-1], poses[-1], atol=1e-9)
+    off = np.min([_dist_to_segment(xyz, pts[k], pts[k + 1]) for k in range(4)], axis=0)
+    near = np.zeros(len(xyz), dtype=bool)
+    for k in range(1, 4):  # effective radius: at most half of either adjacent line
+        half_in, half_out = np.linalg.norm(pts[k] - pts[k - 1]) / 2, np.linalg.norm(pts[k + 1] - pts[k]) / 2
+        r = min(radii[k - 1], half_in, half_out)
+        near |= np.linalg.norm(xyz - pts[k], axis=1) <= r + 1e-9
+    assert np.all((off < 1e-6) | near)
+    # One run (all corners blended): the TCP only rests at both ends.
+    assert isinstance(mv, CartesianMove)
+    assert np.all(np.linalg.norm(np.diff(xyz, axis=0), axis=1)[1:-1] > 0.0)
+
+
+def test_stop_in_first_run_of_chain_resumes_through_the_rest():
+    poses = [pose(0, 0, 0), pose(100, 0, 0), pose(100, 100, 0), pose(0, 100, 0)]
+    mv = plan_blended(poses, [None, 20.0], 100.0, 1000.0, 10000.0)
+    assert isinstance(mv, MoveChain) and len(mv.moves) == 2
+    stopped = mv.stop(0.5 * mv.moves[0].duration)
+    assert stopped.at(stopped.duration)[1] == 0.0
+    resumed = stopped.resume()
+    assert isinstance(resumed, MoveChain) and len(resumed.moves) == 2
+    np.testing.assert_allclose(resumed.at(resumed.moves[0].duration)[0], poses[1], atol=1e-9)
+    np.testing.assert_allclose(resumed.at(resumed.duration)[0], poses[-1], atol=1e-9)
+    # Stopped chain is shorter than the rest of the original by the time already travelled.
+    assert resumed.duration < mv.duration
