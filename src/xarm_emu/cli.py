@@ -1,5 +1,154 @@
-"""Command line interface (placeholder until the server lands)."""
+"""``xarm-emu``: run the emulator and talk to a control box from the shell."""
+
+from __future__ import annotations
+
+import asyncio
+import errno
+import json
+import logging
+import math
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from . import __version__
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="Emulator of the UFACTORY xArm 5/6/7 control box (Developer Manual V1.6.0).")
+console = Console()
+err_console = Console(stderr=True)
+
+_STATES = {1: "in motion", 2: "sleep (ready)", 3: "suspend", 4: "stop", 5: "system reset"}
+_MODES = {0: "position", 1: "servo", 2: "joint teaching", 3: "cartesian teaching"}
+
+
+def _default_config_dir() -> Path:
+    from .controller.config import default_config_dir
+
+    return default_config_dir()
+
+
+@app.command()
+def serve(
+    model: Annotated[int, typer.Option(help="Arm model: 5, 6 or 7 axes.", min=5, max=7)] = 6,
+    host: Annotated[str, typer.Option(help="Address to bind (loopback by default).")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="Command port.")] = 502,
+    normal_port: Annotated[int, typer.Option(help="Normal report port (5 Hz).")] = 30001,
+    rich_port: Annotated[int, typer.Option(help="Rich report port (5 Hz).")] = 30002,
+    develop_port: Annotated[int, typer.Option(help="Develop report port (100 Hz).")] = 30003,
+    config_dir: Annotated[Path | None, typer.Option(help="Directory of saved configurations "
+                                                         "(default: per-user config directory).")] = None,
+    speed: Annotated[float, typer.Option(help="Time scale: 10 runs ten times faster than real time.")] = 1.0,
+    log_level: Annotated[str, typer.Option(help="Logging level.")] = "INFO",
+) -> None:
+    """Run the emulator with its command port and report ports."""
+    from .controller.emulator import Emulator
+    from .server.app import EmulatorServer, ServerConfig
+
+    logging.basicConfig(level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if not (math.isfinite(speed) and speed > 0):
+        err_console.print("--speed must be a positive number")
+        raise typer.Exit(2)
+    cdir = config_dir if config_dir is not None else _default_config_dir()
+    emu = Emulator(model, config_dir=cdir)
+    if emu.config_message:
+        err_console.print(f"[yellow]{emu.config_message}[/yellow]")
+    cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
+                       develop_port=develop_port, speed=speed)
+    server = EmulatorServer(emu, cfg)
+
+    async def main() -> None:
+        await server.start()
+        console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
+                      f"on {host}: command {server.ports['command']}, normal {server.ports['normal']}, "
+                      f"rich {server.ports['rich']}, develop {server.ports['develop']}; "
+                      f"speed x{speed:g}; config {cdir}")
+        await server.serve_forever()
+
+    try:
+        _run(main())
+    except PermissionError:
+        err_console.print(f"cannot bind port {port} on {host}: ports below 1024 need privileges this process "
+                          "lacks; run with --port 5020 (and point the SDK there by setting "
+                          "xarm.core.config.x_config.XCONF.SocketConf.TCP_CONTROL_PORT = 5020 before "
+                          "XArmAPI(...)), or grant the capability: sudo setcap "
+                          "'cap_net_bind_service=+ep' $(readlink -f $(which python3))")
+        raise typer.Exit(1) from None
+    except OSError as exc:
+        if exc.errno == errno.EADDRINUSE:
+            err_console.print(f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
+                              "choose other ports with --port/--normal-port/--rich-port/--develop-port")
+            raise typer.Exit(1) from None
+        raise
+    except KeyboardInterrupt:
+        pass
+
+
+def _run(coro: Any) -> None:
+    try:
+        import uvloop  # type: ignore[import-not-found]
+
+        uvloop.run(coro)
+    except ImportError:
+        asyncio.run(coro)
+
+
+@app.command()
+def status(
+    host: Annotated[str, typer.Option(help="Control box address.")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="Command port.")] = 502,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    report_port: Annotated[int, typer.Option(help="Develop report port, read for the mode.")] = 30003,
+) -> None:
+    """Print version, state, mode, error, warning, joints and pose of a control box."""
+    from .client import Client, ClientError, subscribe
+
+    try:
+        with Client(host, port, timeout=3.0) as c:
+            version = c.get_version()
+            state = c.get_state()
+            error, warning = c.get_err_warn()
+            joints = c.get_joints()
+            pose = c.get_position()
+    except (OSError, ClientError) as exc:
+        err_console.print(f"cannot reach the control box at {host}:{port}: {exc}")
+        raise typer.Exit(1) from None
+    mode: int | None = None
+    try:  # no register reads the mode (manual 2.1.3): the report's state byte carries it
+        mode = next(iter(subscribe("develop", host, report_port, timeout=2.0))).mode
+    except (OSError, ClientError, StopIteration):
+        mode = None
+    axis = int(version.split(",")[0]) if version[:1].isdigit() else 7
+    data = {"version": version, "state": state, "mode": mode, "error": error, "warning": warning,
+            "joints": list(joints[:axis]), "pose": list(pose)}
+    if as_json:
+        print(json.dumps(data))
+        return
+    t = Table(show_header=False)
+    t.add_row("version", version)
+    t.add_row("state", f"{state} ({_STATES.get(state, '?')})")
+    t.add_row("mode", "unknown (no report)" if mode is None else f"{mode} ({_MODES.get(mode, '?')})")
+    t.add_row("error", f"C{error}" if error else "none")
+    t.add_row("warning", str(warning) if warning else "none")
+    t.add_row("joints (deg)", ", ".join(f"{math.degrees(j):.3f}" for j in joints[:axis]))
+    t.add_row("pose (mm, deg)", ", ".join([f"{p:.3f}" for p in pose[:3]] +
+                                          [f"{math.degrees(p):.3f}" for p in pose[3:]]))
+    console.print(t)
+
+
+@app.command()
+def version() -> None:
+    """Print the xarm-emu version."""
+    console.print(__version__)
 
 
 def main() -> None:
-    raise SystemExit("not yet")
+    app()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -272,13 +272,13 @@ def blend_runs(poses: Sequence[np.ndarray], radii: Sequence[float | None]) -> li
     every = [LinePath(poses[k], poses[k + 1]) for k in range(len(poses) - 1)]
     keep = [k for k, ln in enumerate(every) if ln.length > 0.0] or [len(every) - 1]
     lines = [every[k] for k in keep]  # null moves are dropped; radii follow the surviving lines
-    radii = [radii[k] if k < len(radii) else None for k in keep]
-    # Blend radius at the end of each line (the corner into the next line).
+    asked = [float(radii[k] or 0.0) if k < len(radii) else 0.0 for k in keep]
+    # Blend radius at the end of each line (the corner into the next line); NaN and <= 0: none.
     corner: list[float] = []
     for k in range(len(lines) - 1):
         a, b = lines[k], lines[k + 1]
-        r = radii[k] if k < len(radii) and radii[k] is not None else 0.0
-        r = min(float(r), a.distance / 2.0, b.distance / 2.0) if r > 0.0 else 0.0
+        r = asked[k]
+        r = min(r, a.distance / 2.0, b.distance / 2.0) if r > 0.0 else 0.0
         if r > 0.0:
             cosa = _dot(a.delta, b.delta) / (a.distance * b.distance)
             if math.acos(min(max(cosa, -1.0), 1.0)) > MAX_BLEND_TURN:

@@ -1,0 +1,128 @@
+"""The in-process emulator: a :class:`Controller` with its peripherals, its
+saved configuration and the report snapshot, driven by ``step()``.
+
+This is the object the server runs and the object tests drive directly with a
+stepped clock (``emu.advance(2.0)`` runs two seconds of controller time as fast
+as the CPU allows, deterministically).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..model.robots import RobotModel, get_model
+from ..protocol.reports import ReportSnapshot
+from .base import PERIOD
+from .controller import Controller
+
+log = logging.getLogger("xarm_emu.emulator")
+
+
+def _bits(flags: list[bool]) -> int:
+    out = 0
+    for i, f in enumerate(flags):
+        if f:
+            out |= 1 << i
+    return out
+
+
+class Emulator:
+    """One emulated xArm control box (controller, peripherals, configuration)."""
+
+    def __init__(self, model: int | RobotModel = 6, *, robot_sn: str | None = None, box_sn: str = "AC1300",
+                 config_dir: Path | None = None, load_config: bool = True) -> None:
+        self.model = get_model(model) if isinstance(model, int) else model
+        sn = robot_sn or {5: "XF1300", 6: "XI1300", 7: "XS1300"}.get(self.model.dof, "XI1300")
+        self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD)
+        self.config_dir = config_dir
+        self.config_message: str | None = None
+        self._store: Any = None
+        if config_dir is not None:
+            self._attach_store(Path(config_dir), load_config)
+
+    # -- configuration (register 39/40) -------------------------------------------------------
+    def _attach_store(self, directory: Path, load: bool) -> None:
+        from .config import ConfigStore
+
+        self._store = ConfigStore(directory, self.controller.robot_sn)
+        ctl = self.controller
+        ctl.on_save = self._store.save
+        ctl.on_clean_conf = self._store.delete
+        if load:
+            data = self._store.load()
+            if data is not None:
+                ctl.load_config(data)
+            msg = getattr(self._store, "last_error", None)
+            if msg:
+                self.config_message = str(msg)
+                log.warning("%s", msg)
+
+    # -- protocol ------------------------------------------------------------------------------
+    def handle(self, code: int, params: bytes) -> tuple[int, bytes]:
+        return self.controller.handle(code, params)
+
+    def step(self, n: int = 1) -> None:
+        for _ in range(n):
+            self.controller.step()
+
+    def advance(self, seconds: float) -> None:
+        """Run ``seconds`` of controller time now (stepped clock)."""
+        self.controller.advance(seconds)
+
+    @property
+    def time(self) -> float:
+        return self.controller.time
+
+    # -- reports -------------------------------------------------------------------------------
+    def snapshot(self) -> ReportSnapshot:
+        """The live state as the reports show it (manual section 2.1.6)."""
+        c = self.controller
+        s = c.settings
+        m = self.model
+        joints = c.joints7()
+        speeds = tuple(float(x) for x in c.qd) + (0.0,) * (7 - c.dof)
+        servo = tuple((1 if e else 0, e) for e in c.servo_errors) + ((0, 0),) * (7 - c.dof)
+        return ReportSnapshot(
+            state=c.state,
+            mode=c.mode,
+            cmdnum=c.executor.cmdnum,
+            joints=joints,
+            pose=tuple(float(x) for x in c.tcp_pose()),
+            torques=c.joint_torques7(),
+            brake_bits=_bits(c.brakes),
+            enable_bits=_bits(c.enabled),
+            error=c.error_code,
+            warning=c.warning_code,
+            tcp_offset=tuple(s.tcp_offset),
+            tcp_load=tuple(s.tcp_load),
+            collision_sensitivity=s.collision_sensitivity,
+            teach_sensitivity=s.teach_sensitivity,
+            gravity_direction=tuple(s.gravity_direction),
+            robot_type=m.robot_type,
+            axis=m.axis,
+            version=c.version_string(),
+            tcp_jerk=s.tcp_jerk,
+            tcp_max_acc=s.tcp_maxacc,
+            tcp_max_speed=m.max_tcp_speed,
+            joint_jerk=s.joint_jerk,
+            joint_max_acc=s.joint_maxacc,
+            joint_max_speed=m.max_joint_speed,
+            servo_codes=servo,
+            tcp_speed=float(c.executor.tcp_speed),
+            joint_speeds=speeds,
+            counter=c.counter,
+            world_offset=tuple(s.world_offset),
+            simulation=c.simulation_robot,
+            self_collision=s.self_collision_on,
+            collision_tool_type=int(s.collision_tool[0]),
+            collision_tool_params=tuple(s.collision_tool[1:7]),
+        )
+
+    # -- in-process API ------------------------------------------------------------------------
+    @property
+    def joints(self) -> np.ndarray:
+        return self.controller.q.copy()

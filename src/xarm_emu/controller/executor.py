@@ -1,0 +1,222 @@
+"""Motion execution: takes commands from the buffer, plans them from the
+current state and samples the plan every control period.
+
+Suspend (state 3) and stop (state 4) slow the *path time* down with a smooth
+ramp, so the arm stays on the planned path and a resumed move continues the
+same path (issue 4, manual register 12).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import kinematics as kin
+from ..model import rotations as rot
+from ..model.robots import RobotModel
+from . import motion
+from .base import CommandError
+from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
+
+#: Time to ramp the path rate between full speed and rest for suspend/stop (s).
+RAMP_TIME = 0.2
+
+# Control box error codes raised here (manual section 3.2.1).
+C_KINEMATIC = 21
+C_JOINT_LIMIT = 23
+C_CIRCLE = 32
+
+
+@dataclass
+class Limits:
+    """Jerk and maximum-acceleration settings that moves use (registers 31-34)."""
+
+    tcp_jerk: float
+    tcp_maxacc: float
+    joint_jerk: float
+    joint_maxacc: float
+
+
+class _Plan:
+    """One planned command: a duration and joint positions at a path time."""
+
+    duration: float = 0.0
+    tcp_speed: float = 0.0
+
+    def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
+        raise NotImplementedError
+
+
+class _JointPlan(_Plan):
+    def __init__(self, traj: motion.JointTrajectory) -> None:
+        self.traj = traj
+        self.duration = traj.duration
+
+    def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
+        return self.traj.at(t)[0]
+
+
+class _DwellPlan(_Plan):
+    def __init__(self, q: np.ndarray, seconds: float) -> None:
+        self.q = q.copy()
+        self.duration = seconds
+
+    def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
+        return self.q
+
+
+class _CartesianPlan(_Plan):
+    def __init__(self, move: motion.CartesianMove, to_flange: Callable[[np.ndarray], np.ndarray],
+                 model: RobotModel) -> None:
+        self.move = move
+        self.duration = move.duration
+        self.to_flange = to_flange
+        self.model = model
+
+    def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
+        pose, speed = self.move.at(t)
+        self.tcp_speed = speed
+        return kin.ik(self.model, self.to_flange(pose), seed, limited=False)
+
+
+class Executor:
+    """The command buffer and the motion that runs from it."""
+
+    def __init__(self, model: RobotModel) -> None:
+        self.model = model
+        self.buffer: deque[QueuedCommand] = deque()
+        self.plan: _Plan | None = None
+        self.current: QueuedCommand | None = None
+        self.t = 0.0  # path time within the current plan
+        self.rate = 1.0  # path time per control time, 0..1
+        self._ramp_from = 1.0
+        self._ramp_to = 1.0
+        self._ramp_u = 1.0  # progress of the current ramp, 0..1
+        self.stopping = False  # a stop ramp is running; the plan ends when it reaches rest
+        self.tcp_speed = 0.0
+
+    # -- buffer ------------------------------------------------------------------------------
+    @property
+    def cmdnum(self) -> int:
+        return len(self.buffer) + (1 if self.current is not None else 0)
+
+    @property
+    def active(self) -> bool:
+        return self.current is not None or bool(self.buffer)
+
+    def clear(self) -> None:
+        """Discard the buffer and the running motion at once."""
+        self.buffer.clear()
+        self.plan = None
+        self.current = None
+        self.t = 0.0
+        self.rate = self._ramp_from = self._ramp_to = 1.0
+        self._ramp_u = 1.0
+        self.stopping = False
+        self.tcp_speed = 0.0
+
+    # -- rate ramps (suspend, resume, stop) --------------------------------------------------
+    def ramp_to(self, target: float) -> None:
+        if target == self._ramp_to and self._ramp_u >= 1.0:
+            return
+        self._ramp_from = self.rate
+        self._ramp_to = target
+        self._ramp_u = 0.0
+
+    def _advance_rate(self, dt: float) -> None:
+        if self._ramp_u < 1.0:
+            self._ramp_u = min(1.0, self._ramp_u + dt / RAMP_TIME)
+            u = self._ramp_u
+            s = u * u * (3.0 - 2.0 * u)  # smoothstep: bounded acceleration of the path rate
+            self.rate = self._ramp_from + (self._ramp_to - self._ramp_from) * s
+
+    @property
+    def at_rest(self) -> bool:
+        return self.rate == 0.0 and self._ramp_u >= 1.0
+
+    # -- stepping ----------------------------------------------------------------------------
+    def step(self, dt: float, q: np.ndarray, limits: Limits,
+             to_flange: Callable[[np.ndarray], np.ndarray],
+             tcp_pose: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+        """Advance one period from joints ``q``; returns the new joints.
+
+        Raises :class:`CommandError` for errors found while planning or moving.
+        """
+        self._advance_rate(dt)
+        if self.stopping and self.at_rest:
+            self.clear()
+            return q
+        if self.plan is None:
+            if not self.buffer or self.rate == 0.0:
+                self.tcp_speed = 0.0
+                return q
+            self.current = self.buffer.popleft()
+            self.t = 0.0
+            self.plan = self._plan(self.current, q, limits, to_flange, tcp_pose)
+        self.t += dt * self.rate
+        plan = self.plan
+        t = min(self.t, plan.duration)
+        new_q = plan.joints(t, q)
+        if new_q is None:
+            self.clear()
+            raise CommandError(C_KINEMATIC, "no inverse kinematics solution along the path")
+        if not kin.within_limits(self.model, new_q):
+            self.clear()
+            raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
+        self.tcp_speed = plan.tcp_speed * self.rate
+        if self.t >= plan.duration:
+            self.plan = None
+            self.current = None
+        return np.asarray(new_q, dtype=float)
+
+    # -- planning ----------------------------------------------------------------------------
+    def _plan(self, cmd: QueuedCommand, q: np.ndarray, limits: Limits,
+              to_flange: Callable[[np.ndarray], np.ndarray],
+              tcp_pose: Callable[[np.ndarray], np.ndarray]) -> _Plan:
+        if isinstance(cmd, Dwell):
+            return _DwellPlan(q, cmd.seconds)
+        if isinstance(cmd, JointMove):
+            acc = min(cmd.acc, limits.joint_maxacc)
+            traj = motion.plan_joint_move(q, cmd.target, cmd.speed, acc, limits.joint_jerk)
+            return _JointPlan(traj)
+        start = tcp_pose(q)
+        acc = min(cmd.acc, limits.tcp_maxacc)
+        if isinstance(cmd, LineMove):
+            target = resolve_line_target(cmd, start)
+            path: motion.Path = motion.LinePath(start, target)
+            end_check = target
+        else:
+            assert isinstance(cmd, CircleMove)
+            try:
+                path = motion.CirclePath(start, rot.pose_to_matrix(cmd.pose1), rot.pose_to_matrix(cmd.pose2),
+                                         cmd.percent)
+            except motion.CollinearError as exc:
+                raise CommandError(C_CIRCLE, str(exc)) from exc
+            end_check = path.pose(path.length)
+        if kin.ik(self.model, to_flange(end_check), q, limited=False) is None:
+            raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
+        move = motion.CartesianMove(path, cmd.speed, acc, limits.tcp_jerk)
+        return _CartesianPlan(move, to_flange, self.model)
+
+
+def resolve_line_target(cmd: LineMove, start: np.ndarray) -> np.ndarray:
+    """The absolute target (4x4, user frame) of a linear move from ``start``.
+
+    - base frame, absolute: the pose as given;
+    - base frame, relative (register 92): position added, rotation applied in the base frame;
+    - tool frame (registers 28, 92 with coordinate 1): the pose is a motion of the tool frame,
+      T_target = T_start * T_pose.
+    """
+    to_matrix = rot.pose_aa_to_matrix if cmd.axis_angle else rot.pose_to_matrix
+    delta = to_matrix(np.asarray(cmd.pose, dtype=float))
+    if cmd.tool_frame:
+        return start @ delta
+    if cmd.relative:
+        out = np.eye(4)
+        out[:3, :3] = delta[:3, :3] @ start[:3, :3]
+        out[:3, 3] = start[:3, 3] + delta[:3, 3]
+        return out
+    return delta

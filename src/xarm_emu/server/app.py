@@ -1,0 +1,303 @@
+"""The asyncio emulator: command port, report ports and the control loop.
+
+- Command port (502): frames of section 2.1.2; each reply is one write on a
+  TCP_NODELAY socket (research note section 0.5). Protocol 1 (SDK heartbeat)
+  gets no reply; protocol 0 (standard Modbus TCP) gets the exception
+  "illegal function"; a frame that cannot be framed closes that connection only.
+- Report ports (30001 normal 5 Hz, 30002 rich 5 Hz, 30003 develop 100 Hz), section
+  2.1.6: each tick encodes one frame and writes it to every client whose socket is
+  keeping up; a slow reader skips frames instead of slowing anyone down.
+- The control loop steps the controller on its period in real or scaled time.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import socket
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from ..controller.base import PERIOD
+from ..controller.emulator import Emulator
+from ..protocol import reports
+from ..protocol.frame import (
+    PRIVATE_PROTOCOLS,
+    PROTOCOL_HEARTBEAT,
+    PROTOCOL_STANDARD,
+    FrameDecoder,
+    FrameError,
+    encode_modbus_exception,
+    encode_reply,
+)
+from .clock import ScaledClock
+
+log = logging.getLogger("xarm_emu.server")
+
+#: A report client whose unsent data exceeds this many bytes skips frames.
+SLOW_READER_BYTES = 64 * 1024
+
+
+@dataclass
+class ServerConfig:
+    host: str = "127.0.0.1"
+    port: int = 502
+    normal_port: int = reports.NORMAL_PORT
+    rich_port: int = reports.RICH_PORT
+    develop_port: int = reports.DEVELOP_PORT
+    speed: float = 1.0  # controller seconds per wall second
+    report_rates: dict[str, float] = field(default_factory=lambda: {
+        "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE})
+
+
+_ENCODERS: dict[str, Callable[[reports.ReportSnapshot], bytes]] = {
+    "develop": reports.encode_develop,
+    "normal": reports.encode_normal,
+    "rich": reports.encode_rich,
+}
+
+
+def _nodelay(writer: asyncio.StreamWriter) -> None:
+    sock = writer.get_extra_info("socket")
+    if sock is not None:
+        with contextlib.suppress(OSError):
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+
+
+class _CommandProtocol(asyncio.Protocol):
+    """One command-port connection; sans-IO decoding, controller calls in the loop thread."""
+
+    def __init__(self, server: EmulatorServer) -> None:
+        self.server = server
+        self.decoder = FrameDecoder()
+        self.transport: asyncio.Transport | None = None
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self.transport = transport
+        sock = transport.get_extra_info("socket")
+        if sock is not None:
+            with contextlib.suppress(OSError):
+                sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.server.command_clients.add(self)
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self.server.command_clients.discard(self)
+
+    def data_received(self, data: bytes) -> None:
+        transport = self.transport
+        if transport is None or transport.is_closing():
+            return
+        try:
+            frames = self.decoder.feed(data)
+        except FrameError as exc:
+            log.info("closing command connection: %s", exc)
+            transport.close()
+            return
+        emu = self.server.emulator
+        out = []
+        for req in frames:
+            prot = req.protocol  # type: ignore[union-attr]
+            if prot in PRIVATE_PROTOCOLS:
+                state, params = emu.handle(req.register, req.params)  # type: ignore[union-attr]
+                out.append(encode_reply(req.tid, prot, req.register, state, params))  # type: ignore[union-attr]
+            elif prot == PROTOCOL_HEARTBEAT:
+                continue
+            elif prot == PROTOCOL_STANDARD:
+                function = req.params[0] if req.params else 0  # type: ignore[union-attr]
+                out.append(encode_modbus_exception(req.tid, req.register, function, 1))  # type: ignore[union-attr]
+            else:
+                log.info("closing command connection: unknown protocol id %d", prot)
+                transport.close()
+                return
+        if out:
+            delay = self.server.reply_delay
+            payload = out[0] if len(out) == 1 else b"".join(out)
+            if delay > 0.0:
+                asyncio.get_running_loop().call_later(delay, self._send, payload)
+            else:
+                transport.write(payload)
+
+    def _send(self, payload: bytes) -> None:
+        if self.transport is not None and not self.transport.is_closing():
+            self.transport.write(payload)
+
+
+class EmulatorServer:
+    """Runs one emulator on its ports."""
+
+    def __init__(self, emulator: Emulator, config: ServerConfig | None = None) -> None:
+        self.emulator = emulator
+        self.config = config or ServerConfig()
+        self.clock = ScaledClock(PERIOD, self.config.speed)
+        self.command_clients: set[_CommandProtocol] = set()
+        self.report_clients: dict[str, set[asyncio.StreamWriter]] = {k: set() for k in _ENCODERS}
+        self._servers: list[asyncio.AbstractServer] = []
+        self._tasks: list[asyncio.Task[None]] = []
+        self.ports: dict[str, int] = {}
+        self.reply_delay = 0.0  # fault injection: seconds before each reply
+        self.report_pause_until = 0.0  # fault injection: loop time until which reports pause
+        self.frames_sent: dict[str, int] = {k: 0 for k in _ENCODERS}
+        self.frame_times: dict[str, list[float]] | None = None  # set to a dict to record tick times
+        self._stopped = asyncio.Event()
+
+    async def start(self) -> None:
+        loop = asyncio.get_running_loop()
+        cfg = self.config
+        srv = await loop.create_server(lambda: _CommandProtocol(self), cfg.host, cfg.port, reuse_address=True)
+        self._servers.append(srv)
+        self.ports["command"] = srv.sockets[0].getsockname()[1]
+        report_ports = (("normal", cfg.normal_port), ("rich", cfg.rich_port), ("develop", cfg.develop_port))
+        for kind, port in report_ports:
+            s = await asyncio.start_server(self._report_client(kind), cfg.host, port, reuse_address=True)
+            self._servers.append(s)
+            self.ports[kind] = s.sockets[0].getsockname()[1]
+        self.clock.start(loop.time())
+        self._tasks.append(asyncio.create_task(self._control_loop()))
+        for kind in _ENCODERS:
+            self._tasks.append(asyncio.create_task(self._report_loop(kind)))
+
+    def _report_client(self, kind: str) -> Callable[[asyncio.StreamReader, asyncio.StreamWriter], object]:
+        async def on_client(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            _nodelay(writer)
+            self.report_clients[kind].add(writer)
+            try:
+                # Clients never write on report ports (research note section 1.2); read until EOF.
+                while await reader.read(4096):
+                    pass
+            except (ConnectionError, OSError):
+                pass
+            finally:
+                self.report_clients[kind].discard(writer)
+                with contextlib.suppress(Exception):
+                    writer.close()
+
+        return on_client
+
+    async def _control_loop(self) -> None:
+        loop = asyncio.get_running_loop()
+        emu = self.emulator
+        while True:
+            n = self.clock.due(loop.time())
+            for _ in range(n):
+                emu.step()
+            delay = self.clock.next_wall() - loop.time()
+            await asyncio.sleep(max(0.0, delay))
+
+    async def _report_loop(self, kind: str) -> None:
+        loop = asyncio.get_running_loop()
+        rate = self.config.report_rates[kind]
+        interval = 1.0 / rate
+        encode = _ENCODERS[kind]
+        clients = self.report_clients[kind]
+        next_t = loop.time()
+        while True:
+            next_t += interval
+            now = loop.time()
+            if next_t < now - interval:  # fell far behind (suspended process): re-anchor
+                next_t = now + interval
+            await asyncio.sleep(max(0.0, next_t - loop.time()))
+            if not clients or loop.time() < self.report_pause_until:
+                continue
+            frame = encode(self.emulator.snapshot())
+            if self.frame_times is not None:
+                self.frame_times.setdefault(kind, []).append(loop.time())
+            for w in tuple(clients):
+                transport = w.transport
+                if transport.is_closing():
+                    clients.discard(w)
+                    continue
+                if transport.get_write_buffer_size() > SLOW_READER_BYTES:
+                    continue  # slow reader: skip whole frames, never block
+                transport.write(frame)
+            self.frames_sent[kind] += 1
+
+    def drop_clients(self) -> None:
+        """Close every client connection (fault injection ``drop-clients``)."""
+        for c in tuple(self.command_clients):
+            if c.transport is not None:
+                c.transport.close()
+        for group in self.report_clients.values():
+            for w in tuple(group):
+                w.close()
+
+    async def close(self) -> None:
+        for t in self._tasks:
+            t.cancel()
+        for t in self._tasks:
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await t
+        self._tasks.clear()
+        self.drop_clients()
+        for s in self._servers:
+            s.close()
+            with contextlib.suppress(Exception):
+                await s.wait_closed()
+        self._servers.clear()
+        self._stopped.set()
+
+    async def serve_forever(self) -> None:
+        await self.start()
+        await self._stopped.wait()
+
+
+class ServerThread:
+    """The emulator server on a background thread with its own event loop (tests, embedding)."""
+
+    def __init__(self, emulator: Emulator, config: ServerConfig | None = None) -> None:
+        self.server = EmulatorServer(emulator, config)
+        self.loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._run, name="xarm-emu-server", daemon=True)
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+
+    @property
+    def emulator(self) -> Emulator:
+        return self.server.emulator
+
+    @property
+    def ports(self) -> dict[str, int]:
+        return self.server.ports
+
+    def _run(self) -> None:
+        asyncio.set_event_loop(self.loop)
+        try:
+            self.loop.run_until_complete(self.server.start())
+        except BaseException as exc:  # noqa: BLE001 - reported to the starting thread
+            self._error = exc
+            self._ready.set()
+            return
+        self._ready.set()
+        self.loop.run_forever()
+
+    def start(self) -> ServerThread:
+        self._thread.start()
+        self._ready.wait(10)
+        if self._error is not None:
+            raise self._error
+        return self
+
+    def call(self, fn: Callable[[], object]) -> object:
+        """Run ``fn`` in the server's loop thread and return its result."""
+        async def wrapper() -> object:
+            return fn()
+
+        return asyncio.run_coroutine_threadsafe(wrapper(), self.loop).result(10)
+
+    def stop(self) -> None:
+        if not self._thread.is_alive():
+            return
+        fut = asyncio.run_coroutine_threadsafe(self.server.close(), self.loop)
+        with contextlib.suppress(Exception):
+            fut.result(10)
+        self.loop.call_soon_threadsafe(self.loop.stop)
+        self._thread.join(10)
+        self.loop.close()
+
+    def __enter__(self) -> ServerThread:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

@@ -1,0 +1,45 @@
+"""Clocks that drive the controller: real time, scaled time and stepped time.
+
+- real time: one control period of controller time per period of wall time;
+- scaled time (``speed``): ``speed`` periods of controller time per period of wall
+  time (10 runs ten times faster than the wall clock, 0.1 ten times slower);
+- stepped time: nothing advances unless the owner calls ``step()`` (tests, lockstep).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass
+class ScaledClock:
+    """Converts wall time to the number of controller steps that are due."""
+
+    period: float
+    speed: float = 1.0
+    _wall0: float | None = None
+    _steps: int = 0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.speed) and self.speed > 0.0):
+            raise ValueError("speed must be a positive number")
+
+    def start(self, wall: float) -> None:
+        self._wall0 = wall
+        self._steps = 0
+
+    def due(self, wall: float) -> int:
+        """Steps to run now to catch up with ``wall``."""
+        if self._wall0 is None:
+            self.start(wall)
+        assert self._wall0 is not None
+        target = int((wall - self._wall0) * self.speed / self.period)
+        n = target - self._steps
+        self._steps = max(self._steps, target)
+        return max(0, n)
+
+    def next_wall(self) -> float:
+        """Wall time at which the next step falls due."""
+        assert self._wall0 is not None
+        return self._wall0 + (self._steps + 1) * self.period / self.speed
