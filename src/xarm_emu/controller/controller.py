@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..model import dynamics as dyn
 from ..model import kinematics as kin
 from ..model import rotations as rot
 from ..model.robots import RobotModel
@@ -89,6 +90,8 @@ class Controller:
         self.steps = 0
         self.q = np.zeros(self.dof)
         self.qd = np.zeros(self.dof)
+        self.qdd = np.zeros(self.dof)
+        self._torque_cache: tuple[int, np.ndarray] | None = None
         self._state = STATE_STOP
         self.mode = MODE_POSITION
         self.enabled = [True] * self.dof
@@ -246,7 +249,9 @@ class Controller:
                     self._step_position(dt)
         except CommandError as e:
             self.raise_error(e.code)
-        self.qd = (self.q - q_prev) / dt
+        qd = (self.q - q_prev) / dt
+        self.qdd = (qd - self.qd) / dt
+        self.qd = qd
         for c in self.components:
             c.step(dt, self)
 
@@ -748,10 +753,30 @@ class Controller:
 
     # torques (issue 7 provides the dynamic model)
     def joint_torques(self) -> np.ndarray:
-        return np.zeros(self.dof)
+        """Theoretical joint torques (N m): gravity of the links and the payload of register 36
+        with the gravity direction of register 51, plus the inertial terms of the planned motion
+        (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`). Computed at most once per step."""
+        if self._torque_cache is not None and self._torque_cache[0] == self.steps:
+            return self._torque_cache[1]
+        s = self.settings
+        try:
+            g = dyn.gravity_from_direction(s.gravity_direction)
+        except ValueError:
+            g = dyn.DEFAULT_GRAVITY
+        tau = dyn.inverse_dynamics(self.model, self.q, self.qd, self.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
+        self._torque_cache = (self.steps, tau)
+        return tau
+
+    def joint_currents(self) -> np.ndarray:
+        """Motor currents (A) from the torques and the documented torque constants."""
+        return dyn.torques_to_currents(self.model, self.joint_torques())
+
+    def reported_torques(self) -> np.ndarray:
+        """What the reports and register 55 carry: torques, or currents after registers 24/70."""
+        return self.joint_currents() if self.settings.report_current else self.joint_torques()
 
     def joint_torques7(self) -> tuple[float, ...]:
-        t = self.joint_torques()
+        t = self.reported_torques()
         return tuple(float(x) for x in t) + (0.0,) * (7 - self.dof)
 
     @property

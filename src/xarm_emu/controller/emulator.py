@@ -14,10 +14,17 @@ from typing import Any
 
 import numpy as np
 
+from ..model.inertials import NOMINAL_JOINT_VOLTAGE
 from ..model.robots import RobotModel, get_model
 from ..protocol.reports import ReportSnapshot
 from .base import PERIOD
 from .controller import Controller
+from .gripper import GripperModule
+from .io import IOModule
+from .thermal import ThermalModel
+
+#: The thermal model is advanced every this many control periods (0.1 s).
+THERMAL_EVERY = 25
 
 log = logging.getLogger("xarm_emu.emulator")
 
@@ -38,6 +45,13 @@ class Emulator:
         self.model = get_model(model) if isinstance(model, int) else model
         sn = robot_sn or {5: "XF1300", 6: "XI1300", 7: "XS1300"}.get(self.model.dof, "XI1300")
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD)
+        box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
+        # Control boxes with SN >= 1300 have 16 digital IO (research note section 5.1).
+        self.io = IOModule(n_digital=16 if box_number >= 1300 else 8)
+        self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9])
+        self.controller.add_component(self.io)
+        self.controller.add_component(self.gripper)
+        self.thermal = ThermalModel(self.model.dof)
         self.config_dir = config_dir
         self.config_message: str | None = None
         self._store: Any = None
@@ -66,12 +80,15 @@ class Emulator:
         return self.controller.handle(code, params)
 
     def step(self, n: int = 1) -> None:
+        ctl = self.controller
         for _ in range(n):
-            self.controller.step()
+            ctl.step()
+            if ctl.steps % THERMAL_EVERY == 0:
+                self.thermal.step(THERMAL_EVERY * ctl.period, np.abs(ctl.joint_currents()))
 
     def advance(self, seconds: float) -> None:
         """Run ``seconds`` of controller time now (stepped clock)."""
-        self.controller.advance(seconds)
+        self.step(max(0, round(seconds / self.controller.period)))
 
     @property
     def time(self) -> float:
@@ -86,7 +103,10 @@ class Emulator:
         joints = c.joints7()
         speeds = tuple(float(x) for x in c.qd) + (0.0,) * (7 - c.dof)
         servo = tuple((1 if e else 0, e) for e in c.servo_errors) + ((0, 0),) * (7 - c.dof)
-        return ReportSnapshot(
+        pad = (0.0,) * (7 - c.dof)
+        currents = tuple(float(x) for x in c.joint_currents()) + pad
+        temps = tuple(self.thermal.celsius_u8()) + (0,) * (7 - c.dof)
+        snap = ReportSnapshot(
             state=c.state,
             mode=c.mode,
             cmdnum=c.executor.cmdnum,
@@ -120,7 +140,13 @@ class Emulator:
             self_collision=s.self_collision_on,
             collision_tool_type=int(s.collision_tool[0]),
             collision_tool_params=tuple(s.collision_tool[1:7]),
+            joint_currents=currents,
+            joint_voltages=(NOMINAL_JOINT_VOLTAGE,) * c.dof + pad,
+            temperatures=temps,
+            tgpio_code=(1 if self.gripper.gripper.error else 0, self.gripper.gripper.error),
+            **self.io.snapshot_fields(),
         )
+        return snap
 
     # -- in-process API ------------------------------------------------------------------------
     @property

@@ -186,7 +186,16 @@ def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], J: list[list[Sym]], n: i
     for i in range(5, -1, -1):
         s = g.assign(g.add(y[i], *(g.neg(g.scale(L[k][i], x[k])) for k in range(i + 1, 6))))
         x[i] = g.assign(g.scale(s, dinv[i]))
-    return [g.assign(g.dot([J[a][k] for a in range(6)], x)) for k in range(n)]
+    dq = [g.assign(g.dot([J[a][k] for a in range(6)], x)) for k in range(n)]
+    # step capped at MAX_STEP on any joint, then each joint clamped into its limits (projected step)
+    g.lines.append("    big = max(" + ", ".join(f"abs({d})" for d in dq) + ")")
+    g.lines.append("    k = MAX_STEP/big if big > MAX_STEP else 1.0")
+    out: list[Sym] = []
+    for i, d in enumerate(dq):
+        g.lines.append(f"    n{i} = q{i} + {d}*k")
+        g.lines.append(f"    n{i} = LO[{i}] if n{i} < LO[{i}] else (HI[{i}] if n{i} > HI[{i}] else n{i})")
+        out.append(f"n{i}")
+    return out
 
 
 def _generate(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
@@ -194,7 +203,7 @@ def _generate(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
 
     fk: (R row-major 9, p 3) in mm.  jac: the same plus the 6 x dof Jacobian row-major.
     lm: args (q..., T0..T8, tx, ty, tz, mu) in metres; returns (|dp|^2, |dtheta|^2) when converged,
-    else (|dp|^2, |dtheta|^2, dq...).
+    else (|dp|^2, |dtheta|^2, next q...) after one capped, limit-clamped step.
     """
     g = _Gen()
     args = [f"q{i}" for i in range(model.dof)]
@@ -210,7 +219,8 @@ def _generate(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
     src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
     namespace: dict[str, object] = {
         "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "_rotvec": _rotvec,
-        "PTOL2": (POS_TOL * 1e-3) ** 2, "RTOL2": ROT_TOL ** 2,
+        "PTOL2": (POS_TOL * 1e-3) ** 2, "RTOL2": ROT_TOL ** 2, "MAX_STEP": MAX_STEP,
+        "LO": tuple(j.lower for j in model.joints), "HI": tuple(j.upper for j in model.joints),
     }
     exec(compile(src, f"<kinematics {model.name} {mode}>", "exec"), namespace)  # noqa: S102
     fn = namespace["_chain"]
@@ -309,9 +319,7 @@ def _lm(model: RobotModel, target: np.ndarray, seed: list[float]) -> list[float]
     step_fn = _chain_fn(model, "lm")
     t = target[:3, :3].ravel().tolist()
     tp = [float(v) * 1e-3 for v in target[:3, 3]]
-    lo = [j.lower for j in model.joints]
-    hi = [j.upper for j in model.joints]
-    q = [min(max(v, a), b) for v, a, b in zip(seed, lo, hi, strict=True)]
+    q = tuple(min(max(v, j.lower), j.upper) for v, j in zip(seed, model.joints, strict=True))
     mu = LM_MU
     prev = math.inf
     for _ in range(MAX_ITER):
@@ -320,18 +328,12 @@ def _lm(model: RobotModel, target: np.ndarray, seed: list[float]) -> list[float]
         except ValueError:  # Cholesky of a matrix that is not positive definite (degenerate input)
             return None
         if len(r) == 2:
-            return q
+            return list(q)
         err2 = r[0] + r[1]
         if err2 > prev:  # diverging: damp harder
             mu *= 10.0
         prev = err2
-        step = r[2:]
-        big = max(map(abs, step))
-        if big > MAX_STEP:
-            k = MAX_STEP / big
-            step = [v * k for v in step]
-        # projected step: iterates stay inside the joint limits, which steers xArm7's null space too
-        q = [min(max(a + b, c), d) for a, b, c, d in zip(q, step, lo, hi, strict=True)]
+        q = r[2:]
     return None
 
 
