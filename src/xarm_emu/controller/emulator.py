@@ -152,3 +152,51 @@ class Emulator:
     @property
     def joints(self) -> np.ndarray:
         return self.controller.q.copy()
+
+    # -- fault injection and inputs from outside (issue 5; the admin channel calls these) ----
+    def inject_error(self, code: int) -> None:
+        """Raise control box error C<code> exactly as the natural cause would (section 3.2.1)."""
+        if not 1 <= code <= 255:
+            raise ValueError(f"error code {code} out of range 1..255")
+        self.controller.raise_error(code)
+
+    def inject_estop(self) -> None:
+        """The emergency stop button: error C1, joints disabled until re-enabled."""
+        self.controller.raise_error(1)
+
+    def inject_warning(self, code: int) -> None:
+        """Set warning ``code`` (section 3.2.2); nothing else changes."""
+        if not 1 <= code <= 255:
+            raise ValueError(f"warning code {code} out of range 1..255")
+        self.controller.raise_warning(code)
+
+    def inject_servo_error(self, joint: int, code: int) -> None:
+        """A joint (servo) error S<code> on ``joint`` (1-based, section 3.1): error C10+joint."""
+        ctl = self.controller
+        if not 1 <= joint <= ctl.dof:
+            raise ValueError(f"joint {joint} out of range 1..{ctl.dof}")
+        if not 1 <= code <= 255:
+            raise ValueError(f"servo error code {code} out of range 1..255")
+        ctl.servo_errors[joint - 1] = code
+        ctl.raise_error(10 + joint)
+
+    def inject_gripper_error(self, code: int) -> None:
+        """A gripper error G<code> (section 3.3), read through the gripper's error register."""
+        self.gripper.gripper.inject_error(code)
+
+    def inject_end_module_lost(self) -> None:
+        """The end module stops answering: error C28 (end module communication)."""
+        self.controller.raise_error(28)
+
+    def clear_faults(self) -> None:
+        """Clear every injected fault at once (errors, warnings, servo and gripper errors)."""
+        ctl = self.controller
+        ctl.error_code = 0
+        ctl.warning_code = 0
+        ctl.servo_errors = [0] * ctl.dof
+        self.gripper.gripper.clear_error()
+
+    def set_input(self, kind: str, index: int, value: float) -> None:
+        """Play a sensor: ``cgpio``/``tgpio`` digital inputs (0/1), ``analog`` (control box, V),
+        ``tool-analog`` (V)."""
+        self.io.set_input(kind, index, value)
