@@ -119,10 +119,11 @@ class _Gen:
 Sym = float | str
 
 
-def _chain_code(
-    g: _Gen, model: RobotModel, unit: float
-) -> tuple[list[list[Sym]], list[Sym], list[list[Sym]]]:
-    """Emit the chain; returns flange R (3x3), p (3) and the geometric Jacobian rows (6 x dof)."""
+Axes = list[tuple[list[Sym], list[Sym]]]
+
+
+def _chain_code(g: _Gen, model: RobotModel, unit: float) -> tuple[list[list[Sym]], list[Sym], Axes]:
+    """Emit the chain; returns flange R (3x3), p (3) and each joint's (z axis, origin)."""
     R: list[list[Sym]] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     p: list[Sym] = [0.0, 0.0, 0.0]
     axes: list[tuple[list[Sym], list[Sym]]] = []
@@ -138,12 +139,12 @@ def _chain_code(
         new0 = [g.assign(g.add(g.scale(R[k][0], c), g.scale(R[k][1], s))) for k in range(3)]
         new1 = [g.assign(g.add(g.scale(R[k][1], c), g.scale(g.neg(R[k][0]), s))) for k in range(3)]
         R = [[new0[k], new1[k], R[k][2]] for k in range(3)]
+    return R, p, axes
+
+
+def _jac_rows(g: _Gen, axes: Axes, p: list[Sym]) -> list[list[Sym]]:
+    """Emit the geometric Jacobian rows (6 x dof): z_i x (p - o_i) over z_i."""
     rows: list[list[Sym]] = [[] for _ in range(6)]
-    return R, p, _jac_rows(g, axes, p, rows)
-
-
-def _jac_rows(g: _Gen, axes: list[tuple[list[Sym], list[Sym]]], p: list[Sym], rows: list[list[Sym]]
-              ) -> list[list[Sym]]:
     for z, o in axes:
         d = [g.assign(g.add(p[k], g.neg(o[k]))) for k in range(3)]
         cross = [
@@ -157,7 +158,7 @@ def _jac_rows(g: _Gen, axes: list[tuple[list[Sym], list[Sym]]], p: list[Sym], ro
     return rows
 
 
-def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], J: list[list[Sym]], n: int) -> list[Sym]:
+def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], axes: Axes, n: int) -> list[Sym]:
     """Emit one damped least-squares step (error, J J^T + lambda I, unrolled Cholesky, J^T x)."""
     E = [[g.assign(g.dot([f"T{3 * a + k}" for k in range(3)], R[b])) for b in range(3)] for a in range(3)]
     entries = ", ".join(str(E[a][b]) for a in range(3) for b in range(3))
@@ -166,6 +167,7 @@ def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], J: list[list[Sym]], n: i
     g.lines.append("    pe = px*px + py*py + pz*pz; re = wx*wx + wy*wy + wz*wz")
     g.lines.append("    if pe <= PTOL2 and re <= RTOL2: return (pe, re)")
     g.lines.append("    lam = mu*(pe + re) + 1e-12")
+    J = _jac_rows(g, axes, p)  # only needed when not converged
     e = ["px", "py", "pz", "wx", "wy", "wz"]
     A = [[g.assign(g.add(g.dot(J[a], J[b]), *(["lam"] if a == b else []))) for b in range(a + 1)]
          for a in range(6)]
@@ -208,13 +210,13 @@ def _generate(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
     g = _Gen()
     args = [f"q{i}" for i in range(model.dof)]
     unit = 1e-3 if mode == "lm" else 1.0
-    R, p, J = _chain_code(g, model, unit)
+    R, p, axes = _chain_code(g, model, unit)
     out: list[Sym] = [R[a][b] for a in range(3) for b in range(3)] + p
     if mode == "jac":
-        out += [e for row in J for e in row]
+        out += [e for row in _jac_rows(g, axes, p) for e in row]
     elif mode == "lm":
         args += [f"T{k}" for k in range(9)] + ["tx", "ty", "tz", "mu"]
-        out = ["pe", "re", *_lm_code(g, R, p, J, model.dof)]
+        out = ["pe", "re", *_lm_code(g, R, p, axes, model.dof)]
     src = f"def _chain({', '.join(args)}):\n" + "\n".join(g.lines)
     src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
     namespace: dict[str, object] = {
@@ -309,7 +311,7 @@ def within_limits(model: RobotModel, q: Sequence[float] | np.ndarray) -> bool:
 # Inverse kinematics
 
 
-def _lm(model: RobotModel, target: np.ndarray, seed: list[float]) -> list[float] | None:
+def _lm(model: RobotModel, target: list[list[float]], seed: list[float]) -> list[float] | None:
     """Levenberg-Marquardt on the flange pose, minimum-norm step dq = J^T (J J^T + lambda I)^-1 e.
 
     The error is weighted (position in metres, rotation in rad); lambda = mu |e|^2 + 1e-12 with mu raised
@@ -317,8 +319,8 @@ def _lm(model: RobotModel, target: np.ndarray, seed: list[float]) -> list[float]
     clamped into the joint limits (a limit-violating solution would be rejected anyway).
     """
     step_fn = _chain_fn(model, "lm")
-    t = target[:3, :3].ravel().tolist()
-    tp = [float(v) * 1e-3 for v in target[:3, 3]]
+    t = [*target[0][:3], *target[1][:3], *target[2][:3]]
+    tp = (target[0][3] * 1e-3, target[1][3] * 1e-3, target[2][3] * 1e-3)
     q = tuple(min(max(v, j.lower), j.upper) for v, j in zip(seed, model.joints, strict=True))
     mu = LM_MU
     prev = math.inf
@@ -340,16 +342,15 @@ def _lm(model: RobotModel, target: np.ndarray, seed: list[float]) -> list[float]
 def _fit_limits(model: RobotModel, q: list[float], limited: bool) -> np.ndarray | None:
     """Wrap into [-pi, pi] where the limits allow (limited), else shift by 2 pi into the limits."""
     out = []
+    two_pi = 2.0 * math.pi
     for j, v in zip(model.joints, q, strict=True):
-        if limited:
-            w = math.remainder(v, 2.0 * math.pi)  # [-pi, pi]
-            cands = (w, w - 2.0 * math.pi, w + 2.0 * math.pi)
-        else:
-            cands = (v, v - 2.0 * math.pi, v + 2.0 * math.pi)
-        for c in cands:
-            if j.lower <= c <= j.upper:
-                out.append(c)
-                break
+        w = math.remainder(v, two_pi) if limited else v  # remainder: [-pi, pi]
+        if j.lower <= w <= j.upper:
+            out.append(w)
+        elif j.lower <= w - two_pi <= j.upper:
+            out.append(w - two_pi)
+        elif j.lower <= w + two_pi <= j.upper:
+            out.append(w + two_pi)
         else:
             return None
     return np.array(out)
@@ -420,17 +421,20 @@ def ik(
     """
     try:
         target = np.asarray(T_target, dtype=float)
-        if target.shape != (4, 4) or not np.all(np.isfinite(target)):
+        if target.shape != (4, 4):
+            return None
+        rows = target.tolist()
+        if not math.isfinite(sum(map(sum, rows))):  # NaN or inf anywhere
             return None
         qs = [0.0] * model.dof if seed is None else _joints(model, seed)
-    except (ValueError, TypeError):
+    except (ValueError, TypeError, OverflowError):
         return None
     if model.fixed_roll_pitch:
         sol = _ik_xarm5(model, target, qs, limited)
         if sol is not None and not _residual_ok(model, sol, target):
             return None
         return sol
-    raw = _lm(model, target, qs)  # converged to POS_TOL / ROT_TOL, or None
+    raw = _lm(model, rows, qs)  # converged to POS_TOL / ROT_TOL, or None
     return None if raw is None else _fit_limits(model, raw, limited)
 
 
