@@ -200,6 +200,7 @@ class Controller:
             return self.status_byte(), b""
         reply = b""
         self._code = code
+        extra = 0
         try:
             try:
                 values = reg.request.decode(params)
@@ -208,14 +209,16 @@ class Controller:
             result = handler(values)
             if result is not None:
                 reply = reg.reply.encode(result)
+        except _NotReady:
+            extra = STATE_NOT_READY  # this command cannot run now: nothing queued, nothing moves
+            reply = self._default_reply(reg)
         except CommandWarning as w:
-            if w.code:
-                self.raise_warning(w.code)
+            self.raise_warning(w.code)
             reply = self._default_reply(reg)
         except CommandError as e:
             self.raise_error(e.code)
             reply = self._default_reply(reg)
-        return self.status_byte(), reply
+        return self.status_byte() | extra, reply
 
     def _default_reply(self, reg: regs.Register) -> bytes:
         """Reply bytes of a refused command: the buffer count for queued commands, else zeros.

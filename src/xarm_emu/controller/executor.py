@@ -97,11 +97,12 @@ class Executor:
         self._ramp_u = 1.0  # progress of the current ramp, 0..1
         self.stopping = False  # a stop ramp is running; the plan ends when it reaches rest
         self.tcp_speed = 0.0
+        self.merged = 0  # further commands of a blended chain that the current plan runs
 
     # -- buffer ------------------------------------------------------------------------------
     @property
     def cmdnum(self) -> int:
-        return len(self.buffer) + (1 if self.current is not None else 0)
+        return len(self.buffer) + (1 + self.merged if self.current is not None else 0)
 
     @property
     def active(self) -> bool:
@@ -117,6 +118,7 @@ class Executor:
         self._ramp_u = 1.0
         self.stopping = False
         self.tcp_speed = 0.0
+        self.merged = 0
 
     # -- rate ramps (suspend, resume, stop) --------------------------------------------------
     def ramp_to(self, target: float) -> None:
@@ -170,6 +172,7 @@ class Executor:
         if self.t >= plan.duration:
             self.plan = None
             self.current = None
+            self.merged = 0
         return np.asarray(new_q, dtype=float)
 
     # -- planning ----------------------------------------------------------------------------
@@ -184,6 +187,9 @@ class Executor:
             return _JointPlan(traj)
         start = tcp_pose(q)
         acc = min(cmd.acc, limits.tcp_maxacc)
+        blend_next = bool(self.buffer) and isinstance(self.buffer[0], LineMove)
+        if isinstance(cmd, LineMove) and cmd.radius > 0.0 and blend_next:
+            return self._plan_blended(cmd, start, q, acc, limits, to_flange)
         if isinstance(cmd, LineMove):
             target = resolve_line_target(cmd, start)
             path: motion.Path = motion.LinePath(start, target)
@@ -199,6 +205,36 @@ class Executor:
         if kin.ik(self.model, to_flange(end_check), q, limited=False) is None:
             raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
         move = motion.CartesianMove(path, cmd.speed, acc, limits.tcp_jerk)
+        return _CartesianPlan(move, to_flange, self.model)
+
+
+    def _plan_blended(self, cmd: LineMove, start: np.ndarray, q: np.ndarray, acc: float, limits: Limits,
+                      to_flange: Callable[[np.ndarray], np.ndarray]) -> _Plan:
+        """Register 22: linear moves with arc blending become one continuous move.
+
+        The chain takes every following linear move while the previous one has a blend radius;
+        the corner after a move is rounded with that move's radius (paths.blend_runs), and the
+        TCP does not stop there. The chain uses the first move's speed and acceleration, and the
+        buffer count drops by the whole chain when it ends.
+        """
+        poses = [start, resolve_line_target(cmd, start)]
+        radii: list[float | None] = [cmd.radius]
+        last = cmd
+        while self.buffer and isinstance(self.buffer[0], LineMove) and last.radius > 0.0:
+            nxt = self.buffer.popleft()
+            assert isinstance(nxt, LineMove)
+            poses.append(resolve_line_target(nxt, poses[-1]))
+            radii.append(nxt.radius if nxt.radius > 0.0 else None)
+            self.merged += 1
+            last = nxt
+        radii[-1] = None  # the chain ends at rest on its last target
+        seed = q
+        for target in poses[1:]:
+            sol = kin.ik(self.model, to_flange(target), seed, limited=False)
+            if sol is None:
+                raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
+            seed = sol
+        move = motion.plan_blended(poses, radii, cmd.speed, acc, limits.tcp_jerk)
         return _CartesianPlan(move, to_flange, self.model)
 
 

@@ -1,0 +1,34 @@
+"""Test helpers: encode requests and decode replies through the register table."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
+from xarm_emu.protocol.registers import REGISTERS
+
+
+def call(emu: Emulator, code: int, **values: Any) -> tuple[int, dict[str, Any]]:
+    """Send one command to an in-process emulator; returns (state byte, reply values)."""
+    reg = REGISTERS[code]
+    state, reply = emu.handle(code, reg.request.encode(values))
+    decoded = reg.reply.decode(reply) if reply or reg.reply.fields else {}
+    return state, decoded
+
+
+def ready(emu: Emulator) -> None:
+    """The SDK's start sequence: enable all joints, position mode, ready state."""
+    for code, values in ((11, {"joint": 8, "enable": 1}), (19, {"mode": 0}), (12, {"state": 0})):
+        state, _ = call(emu, code, **values)
+        assert not state & (STATE_ERROR | STATE_WARNING), (code, state)
+    assert emu.controller.state == 2
+
+
+def bits(state: int) -> tuple[bool, bool, bool]:
+    """(error, warning, not ready) bits of a reply state byte."""
+    return bool(state & STATE_ERROR), bool(state & STATE_WARNING), bool(state & STATE_NOT_READY)
+
+
+def joints7(*q: float) -> tuple[float, ...]:
+    return tuple(q) + (0.0,) * (7 - len(q))
