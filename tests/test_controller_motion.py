@@ -1,0 +1,217 @@
+"""Motion through the controller (issue 4): end points, paths and timing, sampled every control
+period with the stepped clock."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import ruckig
+from helpers import call, joints7, ready
+
+from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.protocol import reports
+
+ROLL = math.pi
+
+
+@pytest.fixture
+def emu() -> Emulator:
+    e = Emulator(6)
+    ready(e)
+    return e
+
+
+def run_until_idle(emu: Emulator, limit: float = 30.0) -> list[np.ndarray]:
+    """Step until the buffer is empty and the arm rests; returns the TCP pose at every period."""
+    poses = []
+    t = 0.0
+    while t < limit:
+        emu.step()
+        t += PERIOD
+        poses.append(emu.controller.tcp_pose())
+        if emu.controller.executor.cmdnum == 0 and emu.controller.state == 2:
+            break
+    else:
+        raise AssertionError("motion did not finish")
+    return poses
+
+
+def line(emu: Emulator, x: float, y: float, z: float, speed: float = 200.0, acc: float = 2000.0,
+         radius: float | None = None) -> dict:
+    pose = (x, y, z, ROLL, 0.0, 0.0)
+    if radius is None:
+        return call(emu, 21, pose=pose, speed=speed, acc=acc, mvtime=0.0)[1]
+    return call(emu, 22, pose=pose, speed=speed, acc=acc, mvtime=0.0, radius=radius)[1]
+
+
+def dist_to_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    ab = b - a
+    u = float(np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0))
+    return float(np.linalg.norm(p - (a + u * ab)))
+
+
+def test_joint_move_ends_on_target_with_ideal_jerk_limited_duration(emu: Emulator) -> None:
+    target = np.array([0.8, -0.3, -0.5, 0.4, 0.6, -0.2])
+    speed, acc = 0.8, 6.0
+    call(emu, 23, joints=joints7(*target), speed=speed, acc=acc, mvtime=0.0)
+    steps = 0
+    while emu.controller.executor.cmdnum:
+        emu.step()
+        steps += 1
+    np.testing.assert_allclose(emu.controller.q, target.astype(np.float32), atol=1e-7)
+    # Ideal time-optimal jerk-limited profile with the same limits (ruckig, independent call).
+    otg = ruckig.Ruckig(6)
+    inp = ruckig.InputParameter(6)
+    inp.current_position = [0.0] * 6
+    inp.target_position = [float(np.float32(x)) for x in target]
+    inp.max_velocity = [float(np.float32(speed))] * 6
+    inp.max_acceleration = [float(np.float32(acc))] * 6
+    inp.max_jerk = [emu.controller.settings.joint_jerk] * 6
+    traj = ruckig.Trajectory(6)
+    otg.calculate(inp, traj)
+    assert steps * PERIOD == pytest.approx(traj.duration, rel=0.05)
+
+
+def test_linear_move_stays_on_the_straight_line(emu: Emulator) -> None:
+    start = emu.controller.tcp_pose()
+    reply = line(emu, 350.0, 120.0, 250.0)
+    assert reply["cmdnum"] == 1
+    poses = run_until_idle(emu)
+    a, b = start[:3], np.array([350.0, 120.0, 250.0])
+    worst = max(dist_to_segment(p[:3], a, b) for p in poses)
+    assert worst < 1e-3
+    end = emu.controller.tcp_pose()
+    np.testing.assert_allclose(end[:3], b, atol=0.01)
+    assert abs(abs(end[3]) - math.pi) < 1e-5 and abs(end[4]) < 1e-5 and abs(end[5]) < 1e-5
+
+
+def test_linear_move_speed_is_the_commanded_linear_speed(emu: Emulator) -> None:
+    line(emu, 207.0, 0.0, 412.0, speed=100.0, acc=5000.0)  # 300 mm straight up
+    poses = run_until_idle(emu)
+    z = np.array([p[2] for p in poses])
+    v = np.diff(z) / PERIOD
+    assert v.max() == pytest.approx(100.0, rel=0.01)
+    assert np.all(v <= 100.0 * 1.001)
+
+
+def test_blended_corner_never_stops_and_stays_within_radius(emu: Emulator) -> None:
+    radius = 30.0
+    line(emu, 300.0, 0.0, 112.0, radius=radius)
+    line(emu, 300.0, 150.0, 112.0)
+    assert emu.controller.executor.cmdnum == 2
+    poses = run_until_idle(emu)
+    pts = np.array([p[:3] for p in poses])
+    speeds = np.linalg.norm(np.diff(pts, axis=0), axis=1) / PERIOD
+    corner = np.array([300.0, 0.0, 112.0])
+    near = np.linalg.norm(pts[1:] - corner, axis=1) < 2 * radius
+    assert near.any()
+    assert speeds[near].min() > 50.0  # does not stop at the corner
+    closest = np.linalg.norm(pts - corner, axis=1).min()
+    assert closest > 1.0  # the corner itself is cut
+    for p in pts:  # every point is on a line or within the blend radius of the corner
+        d_line = min(dist_to_segment(p, np.array([207.0, 0.0, 112.0]), corner),
+                     dist_to_segment(p, corner, np.array([300.0, 150.0, 112.0])))
+        assert d_line < 1e-3 or np.linalg.norm(p - corner) <= radius + 1e-6
+    np.testing.assert_allclose(pts[-1], [300.0, 150.0, 112.0], atol=0.01)
+
+
+def test_circle_points_lie_on_circle_and_cover_the_percentage(emu: Emulator) -> None:
+    # Start at (300, 0, 200): move there first.
+    line(emu, 300.0, 0.0, 200.0)
+    run_until_idle(emu)
+    p1 = (350.0, 50.0, 200.0, ROLL, 0.0, 0.0)
+    p2 = (400.0, 0.0, 200.0, ROLL, 0.0, 0.0)
+    state, reply = call(emu, 27, pose1=p1, pose2=p2, speed=100.0, acc=2000.0, mvtime=0.0, percent=50.0)
+    assert state == 0 and reply["cmdnum"] == 1
+    poses = run_until_idle(emu)
+    centre = np.array([350.0, 0.0, 200.0])
+    pts = np.array([p[:3] for p in poses])
+    r = np.linalg.norm(pts - centre, axis=1)
+    assert np.max(np.abs(r - 50.0)) < 0.1
+    np.testing.assert_allclose(pts[:, 2], 200.0, atol=0.1)
+    np.testing.assert_allclose(pts[-1], [400.0, 0.0, 200.0], atol=0.01)  # half the circle
+
+
+def test_collinear_circle_is_error_c32(emu: Emulator) -> None:
+    p1 = (250.0, 0.0, 112.0, ROLL, 0.0, 0.0)
+    p2 = (300.0, 0.0, 112.0, ROLL, 0.0, 0.0)
+    call(emu, 27, pose1=p1, pose2=p2, speed=100.0, acc=2000.0, mvtime=0.0, percent=50.0)
+    emu.step()
+    assert call(emu, 15)[1]["error"] == 32
+
+
+def test_unreachable_line_target_is_kinematic_error(emu: Emulator) -> None:
+    line(emu, 2000.0, 0.0, 112.0)
+    emu.step()
+    assert call(emu, 15)[1]["error"] == 21
+    assert call(emu, 14)[1]["cmdnum"] == 0
+
+
+def test_go_home_returns_to_zero(emu: Emulator) -> None:
+    call(emu, 23, joints=joints7(0.5, 0.2, -0.4, 0.1, 0.3, 0.2), speed=1.0, acc=10.0, mvtime=0.0)
+    state, reply = call(emu, 25, speed=1.0, acc=10.0, mvtime=0.0)
+    assert reply["cmdnum"] == 2
+    run_until_idle(emu)
+    np.testing.assert_allclose(emu.controller.q, 0.0, atol=1e-9)
+
+
+def test_dwell_pauses_the_queue(emu: Emulator) -> None:
+    call(emu, 26, seconds=0.5)
+    call(emu, 23, joints=joints7(0.1), speed=1.0, acc=10.0, mvtime=0.0)
+    emu.advance(0.48)
+    assert emu.controller.q[0] == 0.0
+    emu.advance(1.0)
+    assert emu.controller.q[0] == pytest.approx(0.1, abs=1e-7)
+
+
+def test_tool_frame_line_moves_along_tool_z(emu: Emulator) -> None:
+    # At the zero pose the tool z axis points down: +50 mm along tool z lowers the TCP by 50 mm.
+    call(emu, 28, pose=(0.0, 0.0, 50.0, 0.0, 0.0, 0.0), speed=100.0, acc=2000.0, mvtime=0.0)
+    run_until_idle(emu)
+    np.testing.assert_allclose(emu.controller.tcp_pose()[:3], [207.0, 0.0, 62.0], atol=0.01)
+
+
+def test_axis_angle_relative_line(emu: Emulator) -> None:
+    call(emu, 92, pose=(10.0, 20.0, 30.0, 0.0, 0.0, 0.0), speed=100.0, acc=2000.0, mvtime=0.0,
+         coord=0, relative=1)
+    run_until_idle(emu)
+    np.testing.assert_allclose(emu.controller.tcp_pose()[:3], [217.0, 20.0, 142.0], atol=0.01)
+
+
+def test_reports_carry_moving_state_and_speeds(emu: Emulator) -> None:
+    line(emu, 207.0, 0.0, 312.0, speed=100.0)
+    emu.advance(1.0)
+    snap = emu.snapshot()
+    frame = reports.encode_rich(snap)
+    back = reports.decode_rich(frame)
+    assert back.state == 1 and back.cmdnum == 1
+    assert back.tcp_speed == pytest.approx(100.0, rel=0.02)
+    assert any(abs(v) > 0.01 for v in back.joint_speeds[:6])
+    assert back.pose[2] == pytest.approx(emu.controller.tcp_pose()[2], abs=1e-3)
+
+
+def _program(emu: Emulator) -> list[bytes]:
+    frames = []
+    call(emu, 23, joints=joints7(0.4, 0.1, -0.3, 0.0, 0.2, 0.0), speed=1.0, acc=8.0, mvtime=0.0)
+    line(emu, 300.0, 50.0, 200.0, radius=20.0)
+    line(emu, 300.0, -50.0, 200.0)
+    call(emu, 27, pose1=(330.0, 0.0, 200.0, ROLL, 0.0, 0.0), pose2=(300.0, 50.0, 230.0, ROLL, 0.0, 0.0),
+         speed=150.0, acc=2000.0, mvtime=0.0, percent=120.0)
+    call(emu, 26, seconds=1.0)
+    call(emu, 25, speed=1.0, acc=8.0, mvtime=0.0)
+    for _ in range(int(60.0 / 0.01)):  # 60 s of controller time, a develop frame every 10 ms
+        emu.advance(0.012 if len(frames) % 2 else 0.008)
+        frames.append(reports.encode_develop(emu.snapshot()))
+    return frames
+
+
+def test_stepped_clock_is_deterministic() -> None:
+    runs = []
+    for _ in range(2):
+        e = Emulator(6)
+        ready(e)
+        runs.append(_program(e))
+    assert runs[0] == runs[1]
