@@ -412,21 +412,28 @@ class IOModule:
             if self.tgpio_reset_on_stop:
                 self.tool.digital_outputs = 0
         self._last_state = state
-        tcp = tuple(float(v) for v in ctl.tcp_position)
-        tcp3: tuple[float, float, float] = (tcp[0], tcp[1], tcp[2])
+        if not any(p.due is None for p in self.pending):
+            # No position trigger pending: skip the TCP read (it costs forward kinematics).
+            self._last_tcp = None
+            tcp3 = None
+        else:
+            tcp = tuple(float(v) for v in ctl.tcp_position)
+            tcp3 = (tcp[0], tcp[1], tcp[2])
         if self.pending:
             keep: list[PendingIO] = []
             for p in self.pending:
                 if p.due is not None:
                     hit = self.now >= p.due - 1e-9
                 else:
+                    assert tcp3 is not None
                     hit = self._reached(p, self._last_tcp, tcp3)
                 if hit:
                     self._fire(p)
                 else:
                     keep.append(p)
             self.pending = keep
-        self._last_tcp = tcp3
+        if tcp3 is not None:
+            self._last_tcp = tcp3
         self.cgpio.update_functions(ctl)
 
     # --- register table adapter -------------------------------------------------------------------

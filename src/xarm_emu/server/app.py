@@ -8,6 +8,8 @@
   2.1.6: each tick encodes one frame and writes it to every client whose socket is
   keeping up; a slow reader skips frames instead of slowing anyone down.
 - The control loop steps the controller on its period in real or scaled time.
+- The admin channel (fault injection, :mod:`.admin`) listens on loopback only, and only when
+  ``ServerConfig.admin`` is set.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from ..protocol.frame import (
     encode_modbus_exception,
     encode_reply,
 )
+from .admin import AdminProtocol, derive_admin_port
 from .clock import ScaledClock
 
 log = logging.getLogger("xarm_emu.server")
@@ -48,6 +51,8 @@ class ServerConfig:
     rich_port: int = reports.RICH_PORT
     develop_port: int = reports.DEVELOP_PORT
     speed: float = 1.0  # controller seconds per wall second
+    admin: bool = False  # fault-injection channel (issue 5 item 5), off by default
+    admin_port: int | None = None  # None: command port + admin.ADMIN_PORT_OFFSET (0 if port is 0)
     report_rates: dict[str, float] = field(default_factory=lambda: {
         "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE})
 
@@ -142,6 +147,8 @@ class EmulatorServer:
         self.frames_sent: dict[str, int] = {k: 0 for k in _ENCODERS}
         self.frame_times: dict[str, list[float]] | None = None  # set to a dict to record tick times
         self._stopped = asyncio.Event()
+        self._client_tasks: set[asyncio.Task[None]] = set()
+        self.admin_clients: set[AdminProtocol] = set()
 
     async def start(self) -> None:
         loop = asyncio.get_running_loop()
@@ -154,6 +161,15 @@ class EmulatorServer:
             s = await asyncio.start_server(self._report_client(kind), cfg.host, port, reuse_address=True)
             self._servers.append(s)
             self.ports[kind] = s.sockets[0].getsockname()[1]
+        if cfg.admin:
+            admin_port = cfg.admin_port
+            if admin_port is None:
+                admin_port = 0 if cfg.port == 0 else derive_admin_port(self.ports["command"])
+            # Loopback only, whatever ``host`` is (the protocol also refuses non-loopback peers).
+            a = await loop.create_server(lambda: AdminProtocol(self), "127.0.0.1", admin_port,
+                                         reuse_address=True)
+            self._servers.append(a)
+            self.ports["admin"] = a.sockets[0].getsockname()[1]
         self.clock.start(loop.time())
         self._tasks.append(asyncio.create_task(self._control_loop()))
         for kind in _ENCODERS:
@@ -162,6 +178,10 @@ class EmulatorServer:
     def _report_client(self, kind: str) -> Callable[[asyncio.StreamReader, asyncio.StreamWriter], object]:
         async def on_client(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
             _nodelay(writer)
+            task = asyncio.current_task()
+            if task is not None:
+                self._client_tasks.add(task)
+                task.add_done_callback(self._client_tasks.discard)
             self.report_clients[kind].add(writer)
             try:
                 # Clients never write on report ports (research note section 1.2); read until EOF.
@@ -214,14 +234,28 @@ class EmulatorServer:
                 transport.write(frame)
             self.frames_sent[kind] += 1
 
-    def drop_clients(self) -> None:
-        """Close every client connection (fault injection ``drop-clients``)."""
-        for c in tuple(self.command_clients):
-            if c.transport is not None:
-                c.transport.close()
-        for group in self.report_clients.values():
-            for w in tuple(group):
-                w.close()
+    def drop_clients(self, abort: bool = False) -> int:
+        """Close every command and report connection (fault injection ``drop-clients``); returns
+        how many were closed. Admin connections stay. ``abort`` discards unsent data."""
+        n = 0
+        transports: list[asyncio.BaseTransport] = [c.transport for c in self.command_clients
+                                                   if c.transport is not None]
+        transports += [w.transport for group in self.report_clients.values() for w in group]
+        for t in transports:
+            if abort and isinstance(t, asyncio.WriteTransport):
+                t.abort()
+                n += 1
+            elif not t.is_closing():
+                t.close()
+                n += 1
+        return n
+
+    def pause_reports(self, seconds: float) -> None:
+        """No report frame goes out for ``seconds`` of wall time (fault injection ``report-pause``)."""
+        self.report_pause_until = asyncio.get_running_loop().time() + seconds
+
+    def reports_paused(self) -> bool:
+        return asyncio.get_running_loop().time() < self.report_pause_until
 
     async def close(self) -> None:
         for t in self._tasks:
@@ -230,12 +264,22 @@ class EmulatorServer:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await t
         self._tasks.clear()
-        self.drop_clients()
         for s in self._servers:
             s.close()
+        self.drop_clients(abort=True)
+        for a in tuple(self.admin_clients):
+            if a.transport is not None:
+                a.transport.abort()
+        handlers = tuple(self._client_tasks)
+        for t in handlers:
+            t.cancel()
+        await asyncio.gather(*handlers, return_exceptions=True)
+        for s in self._servers:
             with contextlib.suppress(Exception):
                 await s.wait_closed()
         self._servers.clear()
+        for _ in range(3):  # let connection_lost callbacks close the sockets
+            await asyncio.sleep(0)
         self._stopped.set()
 
     async def serve_forever(self) -> None:
@@ -243,12 +287,25 @@ class EmulatorServer:
         await self._stopped.wait()
 
 
+def new_event_loop(use_uvloop: bool = False) -> asyncio.AbstractEventLoop:
+    """A fresh event loop; uvloop's when asked for and installed (Linux, macOS)."""
+    if use_uvloop:
+        try:
+            import uvloop  # type: ignore[import-not-found]
+
+            return uvloop.new_event_loop()
+        except ImportError:
+            pass
+    return asyncio.new_event_loop()
+
+
 class ServerThread:
     """The emulator server on a background thread with its own event loop (tests, embedding)."""
 
-    def __init__(self, emulator: Emulator, config: ServerConfig | None = None) -> None:
+    def __init__(self, emulator: Emulator, config: ServerConfig | None = None, *,
+                 use_uvloop: bool = False) -> None:
         self.server = EmulatorServer(emulator, config)
-        self.loop = asyncio.new_event_loop()
+        self.loop = new_event_loop(use_uvloop)
         self._thread = threading.Thread(target=self._run, name="xarm-emu-server", daemon=True)
         self._ready = threading.Event()
         self._error: BaseException | None = None
@@ -267,6 +324,9 @@ class ServerThread:
             self.loop.run_until_complete(self.server.start())
         except BaseException as exc:  # noqa: BLE001 - reported to the starting thread
             self._error = exc
+            with contextlib.suppress(Exception):
+                self.loop.run_until_complete(self.server.close())
+            self.loop.close()
             self._ready.set()
             return
         self._ready.set()
@@ -276,6 +336,7 @@ class ServerThread:
         self._thread.start()
         self._ready.wait(10)
         if self._error is not None:
+            self._thread.join(10)
             raise self._error
         return self
 
