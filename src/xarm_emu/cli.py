@@ -44,6 +44,10 @@ def serve(
                                                          "(default: per-user config directory).")] = None,
     speed: Annotated[float, typer.Option(help="Time scale: 10 runs ten times faster than real time.")] = 1.0,
     log_level: Annotated[str, typer.Option(help="Logging level.")] = "INFO",
+    admin: Annotated[bool, typer.Option("--admin", help="Open the fault-injection admin channel "
+                                                         "(loopback only; see `xarm-emu inject`).")] = False,
+    admin_port: Annotated[int | None, typer.Option(help="Admin channel port (default: command port "
+                                                        "+ 10000, e.g. 10502).")] = None,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .controller.emulator import Emulator
@@ -58,7 +62,7 @@ def serve(
     if emu.config_message:
         err_console.print(f"[yellow]{emu.config_message}[/yellow]")
     cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
-                       develop_port=develop_port, speed=speed)
+                       develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port)
     server = EmulatorServer(emu, cfg)
 
     async def main() -> None:
@@ -67,18 +71,22 @@ def serve(
                       f"on {host}: command {server.ports['command']}, normal {server.ports['normal']}, "
                       f"rich {server.ports['rich']}, develop {server.ports['develop']}; "
                       f"speed x{speed:g}; config {cdir}")
+        if "admin" in server.ports:
+            console.print(f"admin channel (fault injection) on 127.0.0.1:{server.ports['admin']}")
         await server.serve_forever()
 
     try:
         _run(main())
     except PermissionError:
-        err_console.print(f"cannot bind port {port} on {host}: ports below 1024 need privileges this process "
-                          "lacks; run with --port 5020 (and point the SDK there by setting "
-                          "xarm.core.config.x_config.XCONF.SocketConf.TCP_CONTROL_PORT = 5020 before "
-                          "XArmAPI(...)), or grant the capability: sudo setcap "
-                          "'cap_net_bind_service=+ep' $(readlink -f $(which python3))")
+        err_console.print(_PRIVILEGED.format(port=port, host=host))
         raise typer.Exit(1) from None
+    except ValueError as exc:  # no default admin port for this command port
+        err_console.print(str(exc))
+        raise typer.Exit(2) from None
     except OSError as exc:
+        if exc.errno == errno.EACCES:
+            err_console.print(_PRIVILEGED.format(port=port, host=host))
+            raise typer.Exit(1) from None
         if exc.errno == errno.EADDRINUSE:
             err_console.print(f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
                               "choose other ports with --port/--normal-port/--rich-port/--develop-port")
@@ -86,6 +94,13 @@ def serve(
         raise
     except KeyboardInterrupt:
         pass
+
+
+_PRIVILEGED = ("cannot bind port {port} on {host}: ports below 1024 need privileges this process lacks; "
+               "run with --port 5020 (and point the SDK there by setting "
+               "xarm.core.config.x_config.XCONF.SocketConf.TCP_CONTROL_PORT = 5020 before XArmAPI(...)), "
+               "or grant the capability: sudo setcap 'cap_net_bind_service=+ep' "
+               "$(readlink -f $(which python3))")
 
 
 def _run(coro: Any) -> None:
@@ -138,6 +153,128 @@ def status(
     t.add_row("pose (mm, deg)", ", ".join([f"{p:.3f}" for p in pose[:3]] +
                                           [f"{math.degrees(p):.3f}" for p in pose[3:]]))
     console.print(t)
+
+
+# -- fault injection through the admin channel (issue 5 item 5) --------------------------------------
+inject_app = typer.Typer(no_args_is_help=True, help=(
+    "Inject a fault into an emulator started with `xarm-emu serve --admin`. The emulator is addressed "
+    "by --host and --port (its command port, as for `status`); the admin channel listens on loopback at "
+    "the command port + 10000 (502 -> 10502) unless the server was given --admin-port, in which case pass "
+    "the same --admin-port here."))
+app.add_typer(inject_app, name="inject")
+
+HostOpt = Annotated[str, typer.Option(help="Emulator address (the admin channel is loopback only).")]
+PortOpt = Annotated[int, typer.Option(help="The emulator's command port; the admin port is this + 10000.")]
+AdminPortOpt = Annotated[int | None, typer.Option(help="Admin channel port, if the server was started "
+                                                       "with --admin-port.")]
+
+
+def _admin(host: str, port: int, admin_port: int | None, cmd: str, **args: Any) -> None:
+    """Send one admin request, print the emulator's answer; exit 1 on refusal or no channel."""
+    from .client import ClientError
+    from .client.admin import AdminClient, AdminRefused
+    from .client.admin import admin_port as derive
+
+    try:
+        aport = derive(port, admin_port)
+    except ValueError as exc:
+        err_console.print(str(exc))
+        raise typer.Exit(2) from None
+    try:
+        with AdminClient(host, aport, timeout=3.0) as a:
+            message = a.request(cmd, **args)
+    except AdminRefused as exc:
+        err_console.print(f"refused: {exc}")
+        raise typer.Exit(1) from None
+    except (OSError, ClientError) as exc:
+        err_console.print(f"cannot reach the admin channel at {host}:{aport} ({exc}); start the emulator "
+                          "with `xarm-emu serve --admin` and run this on the same machine")
+        raise typer.Exit(1) from None
+    console.print(message)
+
+
+@inject_app.command("estop")
+def inject_estop(host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None) -> None:
+    """Press the emergency stop (error C1)."""
+    _admin(host, port, admin_port, "estop")
+
+
+@inject_app.command("error")
+def inject_error(code: Annotated[str, typer.Argument(help="Control box error, e.g. C31 (manual 3.2.1).")],
+                 host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None) -> None:
+    """Raise a control box error."""
+    _admin(host, port, admin_port, "error", code=code)
+
+
+@inject_app.command("warning")
+def inject_warning(code: Annotated[str, typer.Argument(help="Warning code, e.g. 11 (manual 3.2.2).")],
+                   host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None) -> None:
+    """Raise a control box warning."""
+    _admin(host, port, admin_port, "warning", code=code)
+
+
+@inject_app.command("servo-error")
+def inject_servo_error(code: Annotated[str, typer.Argument(help="Servo error, e.g. S23 (manual 3.1).")],
+                       joint: Annotated[int, typer.Option(help="Joint number, 1..axis.")],
+                       host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                       admin_port: AdminPortOpt = None) -> None:
+    """Raise a joint (servo) error on one joint (error C10 + joint)."""
+    _admin(host, port, admin_port, "servo-error", joint=joint, code=code)
+
+
+@inject_app.command("gripper-error")
+def inject_gripper_error(code: Annotated[str, typer.Argument(help="Gripper error, e.g. G11 (manual 3.3).")],
+                         host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                         admin_port: AdminPortOpt = None) -> None:
+    """Raise a gripper error."""
+    _admin(host, port, admin_port, "gripper-error", code=code)
+
+
+@inject_app.command("end-module-lost")
+def inject_end_module_lost(host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                           admin_port: AdminPortOpt = None) -> None:
+    """The end module stops answering (error C28)."""
+    _admin(host, port, admin_port, "end-module-lost")
+
+
+@inject_app.command("report-pause")
+def inject_report_pause(duration: Annotated[str, typer.Argument(help="e.g. 2s, 500ms.")],
+                        host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                        admin_port: AdminPortOpt = None) -> None:
+    """Stop the report streams for a while (wall time)."""
+    _admin(host, port, admin_port, "report-pause", seconds=duration)
+
+
+@inject_app.command("reply-delay")
+def inject_reply_delay(duration: Annotated[str, typer.Argument(help="e.g. 50ms; 0 switches it off.")],
+                       host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                       admin_port: AdminPortOpt = None) -> None:
+    """Delay every command reply."""
+    _admin(host, port, admin_port, "reply-delay", seconds=duration)
+
+
+@inject_app.command("drop-clients")
+def inject_drop_clients(host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                        admin_port: AdminPortOpt = None) -> None:
+    """Close every command and report connection."""
+    _admin(host, port, admin_port, "drop-clients")
+
+
+@app.command()
+def clear(host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None) -> None:
+    """Clear every injected fault, the reply delay and the report pause (admin channel)."""
+    _admin(host, port, admin_port, "clear")
+
+
+@app.command("set-input")
+def set_input(
+    kind: Annotated[str, typer.Argument(help="cgpio, tgpio, analog or tool-analog.")],
+    index: Annotated[int, typer.Argument(help="Input number.")],
+    value: Annotated[float, typer.Argument(help="0/1 for digital inputs, volts for analog ones.")],
+    host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None,
+) -> None:
+    """Play a sensor input: `set-input cgpio 3 1`, `set-input tgpio 0 1`, `set-input analog 1 5.0`."""
+    _admin(host, port, admin_port, "set-input", kind=kind, index=index, value=value)
 
 
 @app.command()

@@ -11,6 +11,7 @@ ready), 3 suspend, 4 stop, 5 system reset. Modes (register 19): 0 position,
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from typing import Any
@@ -29,6 +30,7 @@ from .base import (
     PERIOD,
     WARN_BUFFER_OVERFLOW,
     WARN_NO_SOLUTION,
+    WARN_PARAMETER,
     WARN_UNKNOWN_COMMAND,
     CommandError,
     CommandWarning,
@@ -74,6 +76,9 @@ FIRMWARE_VERSION = "v1.6.0"
 _REENABLE_ERRORS = frozenset({1, 2, 3, 10, 11, 12, 13, 14, 15, 16, 17})
 
 C_JOINT_LIMIT = 23
+C_OTHER = 29
+
+log = logging.getLogger("xarm_emu.controller")
 
 
 class Controller:
@@ -218,6 +223,10 @@ class Controller:
         except CommandError as e:
             self.raise_error(e.code)
             reply = self._default_reply(reg)
+        except Exception:  # a bug must not take the connection down: log it, answer warning 12
+            log.exception("register %d with %d parameter bytes failed", code, len(params))
+            self.raise_warning(WARN_PARAMETER)
+            reply = self._default_reply(reg)
         return self.status_byte() | extra, reply
 
     def _default_reply(self, reg: regs.Register) -> bytes:
@@ -252,6 +261,9 @@ class Controller:
                     self._step_position(dt)
         except CommandError as e:
             self.raise_error(e.code)
+        except Exception:  # keep the control loop alive; the arm stops with C29 "other errors"
+            log.exception("control step failed")
+            self.raise_error(C_OTHER)
         qd = (self.q - q_prev) / dt
         self.qdd = (qd - self.qd) / dt
         self.qd = qd

@@ -64,16 +64,29 @@ class Emulator:
 
         self._store = ConfigStore(directory, self.controller.robot_sn)
         ctl = self.controller
-        ctl.on_save = self._store.save
-        ctl.on_clean_conf = self._store.delete
+        ctl.on_save = self._save_config
+        ctl.on_clean_conf = self._clean_config
         if load:
             data = self._store.load()
             if data is not None:
                 ctl.load_config(data)
+                io = data.get("io")
+                if isinstance(io, dict):
+                    self.io.load_config(io)
             msg = getattr(self._store, "last_error", None)
             if msg:
                 self.config_message = str(msg)
                 log.warning("%s", msg)
+
+    def _save_config(self, values: dict[str, Any]) -> None:
+        values = dict(values)
+        values["io"] = self.io.config()
+        self._store.save(values)
+
+    def _clean_config(self) -> None:
+        """Register 39: delete the saved configuration and restore the defaults."""
+        self._store.delete()
+        self.io.load_config(IOModule().config())
 
     # -- protocol ------------------------------------------------------------------------------
     def handle(self, code: int, params: bytes) -> tuple[int, bytes]:

@@ -334,6 +334,28 @@ class IOModule:
             "output_functions": tuple(self.cgpio.output_functions),
         }
 
+    # --- saved configuration (register 40) ---------------------------------------------------------
+
+    def config(self) -> dict[str, Any]:
+        """The IO settings register 40 saves: function configuration and stop-clearing switches."""
+        return {
+            "input_functions": list(self.cgpio.input_functions),
+            "output_functions": list(self.cgpio.output_functions),
+            "cgpio_reset_on_stop": self.cgpio_reset_on_stop,
+            "tgpio_reset_on_stop": self.tgpio_reset_on_stop,
+        }
+
+    def load_config(self, data: dict[str, Any]) -> None:
+        """Apply saved IO settings; malformed entries are ignored (defaults stay)."""
+        for key in ("input_functions", "output_functions"):
+            funs = data.get(key)
+            if isinstance(funs, list) and len(funs) == 16 and all(isinstance(f, int) and 0 <= f <= 255
+                                                                   for f in funs):
+                setattr(self.cgpio, key, list(funs))
+        for key in ("cgpio_reset_on_stop", "tgpio_reset_on_stop"):
+            if isinstance(data.get(key), bool):
+                setattr(self, key, data[key])
+
     # --- special IO (142-147) ---------------------------------------------------------------------
 
     def _add_pending(self, p: PendingIO) -> None:

@@ -1,0 +1,280 @@
+"""Admin channel: fault injection and sensor play from outside the emulator (issue 5, item 5).
+
+Off unless ``xarm-emu serve --admin`` (``ServerConfig.admin``). It listens on the loopback
+interface only, whatever ``--host`` says, and refuses any peer that is not a loopback address.
+
+Port: ``--admin-port`` if given, else the command port + :data:`ADMIN_PORT_OFFSET` (502 -> 10502).
+The ``inject``/``clear``/``set-input`` CLI commands derive it the same way from ``--port``.
+
+Protocol: line-based JSON over TCP. Each request is one JSON object on one line, with ``cmd`` and
+the command's arguments; each answer is one JSON object on one line::
+
+    -> {"cmd": "error", "code": "C31"}
+    <- {"ok": true, "message": "injected C31 Collision caused abnormal current"}
+    -> {"cmd": "servo-error", "joint": 9, "code": "S23"}
+    <- {"ok": false, "error": "joint 9 out of range 1..6"}
+
+Commands (the codes are the manual's labels, chapter 3, parsed with ``codes.parse_label``):
+
+=================  ===========================================  ===============================
+cmd                arguments                                     effect
+=================  ===========================================  ===============================
+estop              -                                             emergency stop, error C1
+error              code "C31" (or 31)                            control box error (3.2.1)
+warning            code 11 (or "W11")                            warning (3.2.2)
+servo-error        joint 1..dof, code "S23"                      servo error, error C10+joint
+gripper-error      code "G11"                                    gripper error (3.3)
+end-module-lost    -                                             error C28
+report-pause       seconds (wall)                                no report frames for that long
+reply-delay        seconds (wall, 0 switches it off)             each command reply delayed
+drop-clients       -                                             close every client connection
+clear              -                                             clear all faults and delays
+set-input          kind cgpio/tgpio/analog/tool-analog,          a sensor input
+                   index, value
+status             -                                             error, warning, delays
+=================  ===========================================  ===============================
+
+A refused request changes nothing.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import ipaddress
+import json
+import logging
+import math
+from typing import TYPE_CHECKING, Any
+
+from ..protocol import codes
+
+if TYPE_CHECKING:
+    from .app import EmulatorServer
+
+log = logging.getLogger("xarm_emu.admin")
+
+#: The admin port is the command port plus this offset unless given explicitly.
+ADMIN_PORT_OFFSET = 10000
+#: Admin request lines longer than this are refused and the connection closed.
+MAX_LINE = 4096
+#: Longest accepted report pause or reply delay, seconds.
+MAX_SECONDS = 3600.0
+
+COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "end-module-lost",
+            "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status")
+INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog")
+
+
+def derive_admin_port(command_port: int) -> int:
+    """The default admin port for a command port (502 -> 10502)."""
+    port = command_port + ADMIN_PORT_OFFSET
+    if not 0 < port <= 0xFFFF:
+        raise ValueError(f"no default admin port for command port {command_port}: give --admin-port")
+    return port
+
+
+def is_loopback(host: str) -> bool:
+    try:
+        addr = ipaddress.ip_address(host.split("%", 1)[0])
+    except ValueError:
+        return False
+    if isinstance(addr, ipaddress.IPv6Address) and addr.ipv4_mapped is not None:
+        addr = addr.ipv4_mapped
+    return addr.is_loopback
+
+
+class AdminError(ValueError):
+    """A refused admin request (its message goes back to the client)."""
+
+
+def _label(value: Any, prefix: str) -> codes.Code:
+    """Parse a code given as a label ('C31') or a bare number (31) for the table ``prefix``."""
+    if isinstance(value, bool) or not isinstance(value, (str, int)):
+        raise AdminError(f"code must be a label like {prefix}11, got {value!r}")
+    text = str(value).strip()
+    if text.isdigit():
+        text = prefix + text
+    try:
+        entry = codes.parse_label(text)
+    except ValueError as exc:
+        raise AdminError(str(exc)) from None
+    if entry.prefix != prefix:
+        raise AdminError(f"{entry.label} is not a {_KIND[prefix]} code ({prefix}<n>)")
+    return entry
+
+
+_KIND = {"C": "control box error", "W": "warning", "S": "servo error", "G": "gripper error"}
+
+
+def _seconds(value: Any) -> float:
+    if isinstance(value, str):
+        value = parse_duration(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise AdminError(f"seconds must be a number, got {value!r}")
+    if not 0.0 <= value <= MAX_SECONDS:
+        raise AdminError(f"seconds {value} out of range 0..{MAX_SECONDS:g}")
+    return float(value)
+
+
+def parse_duration(text: str) -> float:
+    """'2s', '50ms', '1.5' (seconds), '250us' -> seconds."""
+    t = text.strip().lower()
+    for suffix, scale in (("ms", 1e-3), ("us", 1e-6), ("s", 1.0), ("", 1.0)):
+        if suffix and not t.endswith(suffix):
+            continue
+        number = t[: len(t) - len(suffix)] if suffix else t
+        try:
+            value = float(number) * scale
+        except ValueError:
+            break
+        if not math.isfinite(value) or value < 0:
+            break
+        return value
+    raise AdminError(f"not a duration: {text!r} (examples: 2s, 50ms, 0.5)")
+
+
+def _int(value: Any, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        if isinstance(value, str) and value.strip().lstrip("-").isdigit():
+            return int(value)
+        raise AdminError(f"{name} must be an integer, got {value!r}")
+    return value
+
+
+def execute(server: EmulatorServer, request: dict[str, Any]) -> str:
+    """Run one admin request in the server's loop thread; returns a message or raises AdminError.
+
+    Every argument is checked before anything changes, so a refused request changes nothing.
+    """
+    emu = server.emulator
+    cmd = request.get("cmd")
+    if cmd == "estop":
+        emu.inject_estop()
+        return "emergency stop: C1"
+    if cmd == "error":
+        entry = _label(request.get("code"), "C")
+        emu.inject_error(entry.code)
+        return f"injected {entry.label} {entry.name}"
+    if cmd == "warning":
+        entry = _label(request.get("code"), "W")
+        emu.inject_warning(entry.code)
+        return f"injected warning {entry.code} {entry.name}"
+    if cmd == "servo-error":
+        dof = emu.model.dof
+        joint = _int(request.get("joint"), "joint")
+        if not 1 <= joint <= dof:
+            raise AdminError(f"joint {joint} out of range 1..{dof}")
+        entry = _label(request.get("code"), "S")
+        emu.inject_servo_error(joint, entry.code)
+        return f"injected {entry.label} {entry.name} on joint {joint} (C{10 + joint})"
+    if cmd == "gripper-error":
+        entry = _label(request.get("code"), "G")
+        emu.inject_gripper_error(entry.code)
+        return f"injected gripper {entry.label} {entry.name}"
+    if cmd == "end-module-lost":
+        emu.inject_end_module_lost()
+        return "end module lost: C28"
+    if cmd == "report-pause":
+        secs = _seconds(request.get("seconds"))
+        server.pause_reports(secs)
+        return f"reports paused for {secs:g} s"
+    if cmd == "reply-delay":
+        secs = _seconds(request.get("seconds"))
+        server.reply_delay = secs
+        return f"reply delay {secs * 1e3:g} ms" if secs else "reply delay off"
+    if cmd == "drop-clients":
+        n = server.drop_clients()
+        return f"dropped {n} client connections"
+    if cmd == "clear":
+        emu.clear_faults()
+        server.reply_delay = 0.0
+        server.report_pause_until = 0.0
+        return "faults, reply delay and report pause cleared"
+    if cmd == "set-input":
+        return _set_input(server, request)
+    if cmd == "status":
+        ctl = emu.controller
+        return json.dumps({"error": ctl.error_code, "warning": ctl.warning_code,
+                           "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
+                           "reports_paused": server.reports_paused()})
+    raise AdminError(f"unknown command {cmd!r}; known: {', '.join(COMMANDS)}")
+
+
+def _set_input(server: EmulatorServer, request: dict[str, Any]) -> str:
+    kind = request.get("kind")
+    if kind not in INPUT_KINDS:
+        raise AdminError(f"unknown input kind {kind!r}; known: {', '.join(INPUT_KINDS)}")
+    index = _int(request.get("index"), "index")
+    value = request.get("value")
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            raise AdminError(f"value must be a number, got {value!r}") from None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise AdminError(f"value must be a number, got {value!r}")
+    if kind in ("cgpio", "tgpio") and value not in (0, 1):
+        raise AdminError(f"digital input value must be 0 or 1, got {value!r}")
+    try:
+        server.emulator.set_input(kind, index, float(value))
+    except Exception as exc:  # noqa: BLE001 - the IO module's own range checks
+        raise AdminError(f"{kind} input {index}: {exc}") from None
+    return f"{kind} input {index} = {value:g}"
+
+
+class AdminProtocol(asyncio.Protocol):
+    """One admin connection: JSON lines in, JSON lines out."""
+
+    def __init__(self, server: EmulatorServer) -> None:
+        self.server = server
+        self.transport: asyncio.Transport | None = None
+        self._buf = bytearray()
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self.transport = transport
+        self.server.admin_clients.add(self)
+        peer = transport.get_extra_info("peername")
+        host = str(peer[0]) if peer else ""
+        if not is_loopback(host):
+            log.warning("admin: refused non-loopback peer %s", host)
+            self._answer({"ok": False, "error": f"refused: the admin channel accepts loopback peers only, "
+                                                f"not {host or 'unknown'}"})
+            transport.close()
+            self.transport = None
+
+    def data_received(self, data: bytes) -> None:
+        if self.transport is None:
+            return
+        self._buf += data
+        while self.transport is not None and b"\n" in self._buf:
+            line, _, rest = bytes(self._buf).partition(b"\n")
+            self._buf = bytearray(rest)
+            if line.strip():
+                self._answer(self.handle_line(line))
+        if self.transport is not None and len(self._buf) > MAX_LINE:
+            self._answer({"ok": False, "error": f"request line longer than {MAX_LINE} bytes"})
+            self.transport.close()
+            self.transport = None
+
+    def handle_line(self, line: bytes) -> dict[str, Any]:
+        try:
+            request = json.loads(line)
+        except (ValueError, UnicodeDecodeError):
+            return {"ok": False, "error": "not a JSON object line"}
+        if not isinstance(request, dict):
+            return {"ok": False, "error": "not a JSON object line"}
+        try:
+            message = execute(self.server, request)
+        except AdminError as exc:
+            return {"ok": False, "error": str(exc)}
+        log.info("admin: %s", message)
+        return {"ok": True, "message": message}
+
+    def _answer(self, obj: dict[str, Any]) -> None:
+        if self.transport is not None and not self.transport.is_closing():
+            self.transport.write(json.dumps(obj).encode() + b"\n")
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self.transport = None
+        self.server.admin_clients.discard(self)
