@@ -50,11 +50,11 @@ def test_saved_configuration_comes_back_after_restart(tmp_path: Path) -> None:
 def test_unsaved_changes_are_lost_and_clean_conf_restores_defaults(tmp_path: Path) -> None:
     emu = Emulator(6, config_dir=tmp_path)
     configure(emu)  # not saved
-    assert Emulator(6, config_dir=tmp_path).controller.settings == Settings()
+    assert Emulator(6, config_dir=tmp_path).controller.settings == Settings.for_model(emu.model)
     call(emu, 40)
     call(emu, 39)
-    assert emu.controller.settings == Settings()
-    assert Emulator(6, config_dir=tmp_path).controller.settings == Settings()
+    assert emu.controller.settings == Settings.for_model(emu.model)
+    assert Emulator(6, config_dir=tmp_path).controller.settings == Settings.for_model(emu.model)
 
 
 def test_corrupt_file_gives_one_message_is_kept_aside_and_defaults_load(tmp_path: Path) -> None:
@@ -66,7 +66,7 @@ def test_corrupt_file_gives_one_message_is_kept_aside_and_defaults_load(tmp_path
     files[0].write_text('{"broken": ')
     again = Emulator(6, config_dir=tmp_path)
     assert again.config_message
-    assert again.controller.settings == Settings()
+    assert again.controller.settings == Settings.for_model(again.model)
     assert any(".corrupt" in p.name for p in tmp_path.iterdir())
 
 
@@ -75,4 +75,4 @@ def test_configurations_are_keyed_by_serial_number(tmp_path: Path) -> None:
     call(a, 37, sensitivity=1)
     call(a, 40)
     b = Emulator(7, config_dir=tmp_path)
-    assert b.controller.settings.collision_sensitivity == Settings().collision_sensitivity
+    assert b.controller.settings.collision_sensitivity == Settings.for_model(b.model).collision_sensitivity

@@ -43,12 +43,6 @@ from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
 from .executor import Executor, Limits
 from .settings import (
     COLLISION_SENSITIVITY_RANGE,
-    JOINT_ACC_MAX,
-    JOINT_JERK_MAX,
-    JOINT_SPEED_MAX,
-    TCP_ACC_MAX,
-    TCP_JERK_MAX,
-    TCP_SPEED_MAX,
     TEACH_SENSITIVITY_RANGE,
     Settings,
     in_range,
@@ -104,7 +98,7 @@ class Controller:
         self.error_code = 0
         self.warning_code = 0
         self.servo_errors = [0] * self.dof  # per-joint servo error codes (section 3.1)
-        self.settings = Settings()
+        self.settings = Settings.for_model(self.model)
         self.simulation_robot = False  # register 79
         self.executor = Executor(model)
         self.servo_target: np.ndarray | None = None
@@ -336,6 +330,7 @@ class Controller:
 
     # -- handlers ------------------------------------------------------------------------------
     def _core_handlers(self) -> dict[int, Handler]:
+        model = self.model
         h: dict[int, Handler] = {
             1: self._h_version,
             2: self._h_robot_sn,
@@ -361,10 +356,10 @@ class Controller:
             28: self._h_move_line,
             29: self._h_servoj,
             30: self._h_servo_cartesian,
-            31: self._setter("tcp_jerk", "jerk", TCP_JERK_MAX),
-            32: self._setter("tcp_maxacc", "maxacc", TCP_ACC_MAX),
-            33: self._setter("joint_jerk", "jerk", JOINT_JERK_MAX),
-            34: self._setter("joint_maxacc", "maxacc", JOINT_ACC_MAX),
+            31: self._setter("tcp_jerk", "jerk", model.max_tcp_jerk),
+            32: self._setter("tcp_maxacc", "maxacc", model.max_tcp_acc),
+            33: self._setter("joint_jerk", "jerk", model.max_joint_jerk),
+            34: self._setter("joint_maxacc", "maxacc", model.max_joint_acc),
             35: self._h_tcp_offset,
             36: self._h_tcp_load,
             37: self._h_collision_sensitivity,
@@ -502,7 +497,7 @@ class Controller:
     def _h_move_line(self, v: Values) -> dict[str, Any]:
         if not all_finite(v):
             raise ParameterError("non-finite value")
-        self._check_speed(v["speed"], v["acc"], TCP_SPEED_MAX, TCP_ACC_MAX)
+        self._check_speed(v["speed"], v["acc"], self.model.max_tcp_speed, self.model.max_tcp_acc)
         self._require_motion_allowed()
         code = self._current_code
         radius = float(v.get("radius", -1.0))
@@ -513,7 +508,7 @@ class Controller:
     def _h_move_line_aa(self, v: Values) -> dict[str, Any]:
         if not all_finite(v):
             raise ParameterError("non-finite value")
-        self._check_speed(v["speed"], v["acc"], TCP_SPEED_MAX, TCP_ACC_MAX)
+        self._check_speed(v["speed"], v["acc"], self.model.max_tcp_speed, self.model.max_tcp_acc)
         if v["coord"] not in (0, 1) or v["relative"] not in (0, 1):
             raise ParameterError("coordinate and relative flags are 0 or 1")
         self._require_motion_allowed()
@@ -530,7 +525,7 @@ class Controller:
     def _h_move_joint(self, v: Values) -> dict[str, Any]:
         if not all_finite(v):
             raise ParameterError("non-finite value")
-        self._check_speed(v["speed"], v["acc"], JOINT_SPEED_MAX, JOINT_ACC_MAX)
+        self._check_speed(v["speed"], v["acc"], self.model.max_joint_speed, self.model.max_joint_acc)
         self._require_motion_allowed()
         q = self._joint_target(v["joints"])
         return self._queue(JointMove(self._current_code, q, v["speed"], v["acc"]))
@@ -546,7 +541,7 @@ class Controller:
     def _h_move_home(self, v: Values) -> dict[str, Any]:
         if not all_finite(v):
             raise ParameterError("non-finite value")
-        self._check_speed(v["speed"], v["acc"], JOINT_SPEED_MAX, JOINT_ACC_MAX)
+        self._check_speed(v["speed"], v["acc"], self.model.max_joint_speed, self.model.max_joint_acc)
         self._require_motion_allowed()
         return self._queue(JointMove(25, np.zeros(self.dof), v["speed"], v["acc"]))
 
@@ -560,7 +555,7 @@ class Controller:
     def _h_move_circle(self, v: Values) -> dict[str, Any]:
         if not all_finite(v):
             raise ParameterError("non-finite value")
-        self._check_speed(v["speed"], v["acc"], TCP_SPEED_MAX, TCP_ACC_MAX)
+        self._check_speed(v["speed"], v["acc"], self.model.max_tcp_speed, self.model.max_tcp_acc)
         if v["percent"] <= 0.0:
             raise ParameterError("percent must be > 0")
         self._require_motion_allowed()
@@ -655,7 +650,7 @@ class Controller:
         return None
 
     def _h_clean_conf(self, v: Values) -> None:
-        self.settings = Settings()
+        self.settings = Settings.for_model(self.model)
         if self.on_clean_conf is not None:
             self.on_clean_conf()
         return None
@@ -669,7 +664,7 @@ class Controller:
         return self.settings.to_dict()
 
     def load_config(self, data: dict[str, Any]) -> None:
-        self.settings = Settings.from_dict(data)
+        self.settings = Settings.from_dict(data, self.model)
 
     # kinematics registers (issue 3)
     def _h_ik(self, v: Values) -> dict[str, Any]:
