@@ -40,7 +40,7 @@ from .base import (
     Values,
 )
 from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
-from .executor import Executor, Limits
+from .executor import Executor, Limits, wire_pose_to_matrix
 from .settings import (
     COLLISION_SENSITIVITY_RANGE,
     TEACH_SENSITIVITY_RANGE,
@@ -587,7 +587,7 @@ class Controller:
         if not all_finite(v):
             raise ParameterError("non-finite value")
         self._require_motion_allowed(servo=True)
-        T = rot.pose_to_matrix(np.asarray(v["pose"], dtype=float))
+        T = wire_pose_to_matrix(v["pose"])
         if v["coord"] != 0.0:
             T = self.tcp_matrix() @ T
         self._servo_cartesian(T)
@@ -669,8 +669,8 @@ class Controller:
     # kinematics registers (issue 3)
     def _h_ik(self, v: Values) -> dict[str, Any]:
         if not all_finite(v):
-            raise CommandWarning(WARN_NO_SOLUTION)
-        T = rot.pose_to_matrix(np.asarray(v["pose"], dtype=float))
+            raise ParameterError("non-finite pose")
+        T = wire_pose_to_matrix(v["pose"])
         q = kin.ik(self.model, self.flange_target(T), self.q)
         if q is None:
             raise CommandWarning(WARN_NO_SOLUTION)
@@ -692,7 +692,7 @@ class Controller:
             raise ParameterError("non-finite value")
         aa_in = int(v["input_aa"]) == 1
         aa_out = int(v["output_aa"]) == 1
-        to_m = rot.pose_aa_to_matrix if aa_in else rot.pose_to_matrix
+        to_m = rot.pose_aa_to_matrix if aa_in else wire_pose_to_matrix
         T1 = to_m(np.asarray(v["pose1"], dtype=float))
         T2 = to_m(np.asarray(v["pose2"], dtype=float))
         D = kin.pose_offset(T1, T2)

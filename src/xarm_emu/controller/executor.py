@@ -197,8 +197,8 @@ class Executor:
         else:
             assert isinstance(cmd, CircleMove)
             try:
-                path = motion.CirclePath(start, rot.pose_to_matrix(cmd.pose1), rot.pose_to_matrix(cmd.pose2),
-                                         cmd.percent)
+                p1, p2 = wire_pose_to_matrix(cmd.pose1), wire_pose_to_matrix(cmd.pose2)
+                path = motion.CirclePath(start, p1, p2, cmd.percent)
             except motion.CollinearError as exc:
                 raise CommandError(C_CIRCLE, str(exc)) from exc
             end_check = path.pose(path.length)
@@ -238,6 +238,13 @@ class Executor:
         return _CartesianPlan(move, to_flange, self.model)
 
 
+def wire_pose_to_matrix(pose: tuple[float, ...] | np.ndarray) -> np.ndarray:
+    """A pose as received on the wire (x, y, z mm; roll, pitch, yaw rad as float32) to a 4x4
+    matrix; float32(pi) is read as pi (research note section 3, register 43 example)."""
+    p = [float(x) for x in pose]
+    return rot.pose_to_matrix(p[:3] + [rot.snap_seam(a) for a in p[3:6]])
+
+
 def resolve_line_target(cmd: LineMove, start: np.ndarray) -> np.ndarray:
     """The absolute target (4x4, user frame) of a linear move from ``start``.
 
@@ -246,7 +253,7 @@ def resolve_line_target(cmd: LineMove, start: np.ndarray) -> np.ndarray:
     - tool frame (registers 28, 92 with coordinate 1): the pose is a motion of the tool frame,
       T_target = T_start * T_pose.
     """
-    to_matrix = rot.pose_aa_to_matrix if cmd.axis_angle else rot.pose_to_matrix
+    to_matrix = rot.pose_aa_to_matrix if cmd.axis_angle else wire_pose_to_matrix
     delta = to_matrix(np.asarray(cmd.pose, dtype=float))
     if cmd.tool_frame:
         return start @ delta
