@@ -1,0 +1,433 @@
+"""Self-collision geometry of the xArm 5/6/7 (manual registers 77 and 78; error C22, manual 3.2.1).
+
+Each link is one or more capsules (a segment fixed in a joint frame plus a radius, mm); the end tool of
+register 78 is a capsule (built-in tools, cylinder 21) or a box (cuboid 22) in the flange frame.
+
+Link geometry. Segments follow the joint frames of ``robots.py`` (URDF joint origins, research note
+kinematics.md section 2.3): the upper arm runs J2 -> J3 (53.5, 284.5 mm), the elbow J3 -> forearm axis
+(77.5 mm), the forearm down to the wrist (342.5 mm), the wrist to the tool axis (76 mm) and the last
+motor down to the flange (97 mm). xArm7 adds the 293 mm upper arm and 52.5 mm elbow offset. Radii are
+estimates of the joint modules' housings (no vendor collision model is published in a form we can read):
+base column and shoulder 60, upper arm 55, elbow module 50, forearm tube 42, wrist module 40, last
+module and flange 35. Where a module's housing is a cylinder about its own joint axis the capsule lies on
+that axis, which makes it invariant to that joint. Parts of a link that always touch a neighbour through
+the joint are left to the neighbour (adjacent bodies are never checked).
+
+Checked pairs. Every pair of bodies at least two apart in the chain, except pairs that can never meet
+(elbow vs wrist, kept apart by the forearm) and the forearm vs the last module, which the J5 (xArm5: J4,
+xArm7: J6) range brings side by side at 180 deg with a designed clearance (modelled: 1 mm).
+
+Built-in tools (register 78 types 1-5, no parameters): the manual gives only their names; each is
+modelled as a capsule along the flange z axis with an estimated envelope (radius, length): the length is
+the usual TCP offset of the tool (xArm Gripper 172 mm, see UFACTORY examples), the others are estimates
+from the vendors' published outline sizes. Custom tools (type 21 cylinder: radius, height, x, y, z
+offset; type 22 cuboid: x, y, z, x, y, z offset; the parameter order of the SDK's
+``set_collision_tool_model``) start at the flange (plus the offset) and extend along flange +z; the box
+axes are the flange (default TCP) axes, as the manual says. The cylinder is enclosed by a capsule (its
+rounded ends reach ``radius`` beyond the flat faces: conservative); the box is exact.
+
+Speed: the joint chain is evaluated in scalar Python using the fact that every joint origin rotation is
+Rx(0) or Rx(+/-pi/2) (a column permutation), and distances are closed-form scalar code (segment-segment
+after Ericson, segment-box by piecewise quadratics). ``bench/bench_safety.py`` measures it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .robots import RobotModel
+
+Vec = tuple[float, float, float]
+
+TOOL_NONE = 0
+TOOL_CYLINDER = 21
+TOOL_CUBOID = 22
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """Segment ``a``-``b`` swept by a sphere of ``radius`` (mm). ``body`` is its index in the chain."""
+
+    a: Vec
+    b: Vec
+    radius: float
+    name: str
+    body: int
+
+
+@dataclass(frozen=True)
+class Box:
+    """Oriented box: ``center``, unit ``axes`` (3 vectors) and ``half`` extents along them (mm)."""
+
+    center: Vec
+    axes: tuple[Vec, Vec, Vec]
+    half: Vec
+    name: str
+    body: int
+
+
+Shape = Capsule | Box
+
+
+@dataclass(frozen=True)
+class _LocalCapsule:
+    frame: int  # -1: base frame, k: frame after joint k+1 (``joint_frames`` index)
+    a: Vec
+    b: Vec
+    radius: float
+    name: str
+    body: int
+
+
+@dataclass(frozen=True)
+class ToolModel:
+    """End tool of register 78 in the flange frame: ``kind`` (type number), ``params`` as received."""
+
+    kind: int
+    params: tuple[float, ...]
+    capsule: tuple[Vec, Vec, float] | None = None  # a, b, radius
+    box: tuple[Vec, Vec] | None = None  # center, half extents (axes = flange axes)
+
+
+# Built-in tools: (name, radius, length) in mm, along flange +z (module docstring: estimates).
+BUILTIN_TOOLS: dict[int, tuple[str, float, float]] = {
+    1: ("xArm Gripper", 45.0, 172.0),
+    2: ("xArm Vacuum Gripper", 40.0, 126.0),
+    3: ("xArm BIO Gripper", 45.0, 150.0),
+    4: ("Robotiq 2F-85", 50.0, 174.0),
+    5: ("Robotiq 2F-140", 75.0, 244.0),
+}
+
+
+def tool_model(kind: int, params: Sequence[float] = ()) -> ToolModel:
+    """Register 78 tool: 0 none, 1-5 built-in, 21 cylinder (r, h, dx, dy, dz), 22 cuboid (x, y, z, dx, ...).
+
+    Missing offsets are 0. ``ValueError`` for an unknown type or non-positive / non-finite sizes.
+    """
+    kind = int(kind)
+    p = [float(v) for v in params]
+    if not all(math.isfinite(v) for v in p):
+        raise ValueError("tool parameters must be finite")
+    if kind == TOOL_NONE:
+        return ToolModel(0, ())
+    if kind in BUILTIN_TOOLS:
+        _, r, length = BUILTIN_TOOLS[kind]
+        return ToolModel(kind, (), capsule=((0.0, 0.0, 0.0), (0.0, 0.0, length), r))
+    if kind == TOOL_CYLINDER:
+        if len(p) < 2 or p[0] <= 0.0 or p[1] <= 0.0:
+            raise ValueError("cylinder tool needs radius > 0 and height > 0")
+        dx, dy, dz = (p[2:5] + [0.0, 0.0, 0.0])[:3]
+        return ToolModel(kind, tuple(p[:5]), capsule=((dx, dy, dz), (dx, dy, dz + p[1]), p[0]))
+    if kind == TOOL_CUBOID:
+        if len(p) < 3 or min(p[:3]) <= 0.0:
+            raise ValueError("cuboid tool needs x, y, z > 0")
+        dx, dy, dz = (p[3:6] + [0.0, 0.0, 0.0])[:3]
+        return ToolModel(kind, tuple(p[:6]),
+                         box=((dx, dy, dz + p[2] / 2.0), (p[0] / 2.0, p[1] / 2.0, p[2] / 2.0)))
+    raise ValueError(f"unknown self-collision tool type {kind}")
+
+
+NO_TOOL = tool_model(TOOL_NONE)
+
+# --------------------------------------------------------------------------------------------------------
+# Link capsules per model (frame index, a, b, radius, name, body); see the module docstring.
+
+_R_BASE, _R_UPPER, _R_ELBOW, _R_FORE, _R_WRIST, _R_LAST = 60.0, 46.0, 50.0, 38.0, 40.0, 35.0
+_FORE_TOP = 110.0  # forearm split: the top 110 mm (J4 module side) belongs to the elbow body
+_FORE_LOW = 45.0  # the forearm capsule ends this far above the wrist axis (the wrist module covers below)
+_WRIST_HALF = 45.0  # wrist module half length along its axis
+
+
+def _c(frame: int, a: Vec, b: Vec, r: float, name: str, body: int) -> _LocalCapsule:
+    return _LocalCapsule(frame, a, b, r, name, body)
+
+
+# Bodies: 1 base (+ J1 column and shoulder, axisymmetric about J1), 2 upper arm, 3 elbow (+ the top of
+# the forearm), 4 forearm, 5 wrist module, 6 last module and flange, 7 tool (xArm7: one more upper body).
+_LINKS: dict[int, tuple[_LocalCapsule, ...]] = {
+    5: (
+        _c(-1, (0, 0, 0), (0, 0, 267), _R_BASE, "base", 1),
+        _c(1, (0, 0, 0), (53.5, -284.5, 0), _R_UPPER, "upper arm", 2),
+        _c(2, (0, 0, 0), (77.5, 0, 0), _R_ELBOW, "elbow", 3),
+        _c(2, (77.5, 0, 0), (77.5, _FORE_TOP, 0), _R_FORE, "forearm top", 3),
+        _c(2, (77.5, _FORE_TOP, 0), (77.5, 342.5 - _FORE_LOW, 0), _R_FORE, "forearm", 4),
+        _c(3, (0, 0, -_WRIST_HALF), (0, 0, _WRIST_HALF), _R_WRIST, "wrist", 5),
+        _c(4, (0, 0, -97), (0, 0, 0), _R_LAST, "flange", 6),
+    ),
+    6: (
+        _c(-1, (0, 0, 0), (0, 0, 267), _R_BASE, "base", 1),
+        _c(1, (0, 0, 0), (53.5, -284.5, 0), _R_UPPER, "upper arm", 2),
+        _c(2, (0, 0, 0), (77.5, 0, 0), _R_ELBOW, "elbow", 3),
+        _c(2, (77.5, 0, 0), (77.5, _FORE_TOP, 0), _R_FORE, "forearm top", 3),
+        _c(3, (0, 0, -342.5 + _FORE_TOP), (0, 0, -_FORE_LOW), _R_FORE, "forearm", 4),
+        _c(4, (0, 0, -_WRIST_HALF), (0, 0, _WRIST_HALF), _R_WRIST, "wrist", 5),
+        _c(5, (0, 0, -97), (0, 0, 0), _R_LAST, "flange", 6),
+    ),
+    7: (
+        _c(-1, (0, 0, 0), (0, 0, 267), _R_BASE, "base", 1),
+        _c(1, (0, 0, 0), (0, -293, 0), _R_UPPER, "upper arm", 2),
+        _c(2, (0, 0, 0), (52.5, 0, 0), _R_ELBOW, "elbow J4 side", 3),
+        _c(3, (0, 0, 0), (77.5, 0, 0), _R_ELBOW, "elbow", 4),
+        _c(3, (77.5, 0, 0), (77.5, -_FORE_TOP, 0), _R_FORE, "forearm top", 4),
+        _c(4, (0, 0, -342.5 + _FORE_TOP), (0, 0, -_FORE_LOW), _R_FORE, "forearm", 5),
+        _c(5, (0, 0, -_WRIST_HALF), (0, 0, _WRIST_HALF), _R_WRIST, "wrist", 6),
+        _c(6, (0, 0, -97), (0, 0, 0), _R_LAST, "flange", 7),
+    ),
+}
+
+# Body pairs two or more apart that are not checked (module docstring), per dof.
+_SKIP_56 = frozenset({(3, 5), (3, 6), (4, 6)})
+_SKIP: dict[int, frozenset[tuple[int, int]]] = {
+    5: _SKIP_56,
+    6: _SKIP_56,
+    7: frozenset({(1, 3), (2, 4), (4, 6), (4, 7), (5, 7)}),
+}
+
+
+def collision_pairs(model: RobotModel, tool: ToolModel = NO_TOOL) -> list[tuple[int, int]]:
+    """Indices (into ``link_shapes``) of the shape pairs checked for ``model`` with ``tool``."""
+    shapes = _local_shapes(model, tool)
+    skip = _SKIP[model.dof]
+    out = []
+    for i in range(len(shapes)):
+        for j in range(i + 1, len(shapes)):
+            bi, bj = shapes[i][-1], shapes[j][-1]
+            lo, hi = min(bi, bj), max(bi, bj)
+            if hi - lo >= 2 and (lo, hi) not in skip:
+                out.append((i, j))
+    return out
+
+
+def _local_shapes(model: RobotModel, tool: ToolModel) -> list[tuple]:
+    """(kind, frame, data..., name, body) rows; tool last, as body dof + 1."""
+    rows: list[tuple] = [("c", c.frame, c.a, c.b, c.radius, c.name, c.body) for c in _LINKS[model.dof]]
+    flange, body = model.dof - 1, model.dof + 1
+    if tool.capsule is not None:
+        a, b, r = tool.capsule
+        rows.append(("c", flange, a, b, r, f"tool {tool.kind}", body))
+    elif tool.box is not None:
+        center, half = tool.box
+        rows.append(("b", flange, center, half, f"tool {tool.kind}", body))
+    return rows
+
+
+# --------------------------------------------------------------------------------------------------------
+# Fast scalar joint chain
+
+
+def _origin_codes(model: RobotModel) -> tuple[tuple[int, float, float, float], ...]:
+    out = []
+    for j in model.joints:
+        roll, pitch, yaw = j.origin_rpy
+        if pitch != 0.0 or yaw != 0.0:
+            raise ValueError("collision chain supports origin rotations about x only")
+        if abs(roll) < 1e-12:
+            code = 0
+        elif abs(roll - math.pi / 2) < 1e-12:
+            code = 1
+        elif abs(roll + math.pi / 2) < 1e-12:
+            code = -1
+        else:
+            raise ValueError("collision chain supports roll 0 or +/-pi/2 only")
+        out.append((code, *(float(v) for v in j.origin_xyz)))
+    return tuple(out)
+
+
+_CODES: dict[str, tuple[tuple[int, float, float, float], ...]] = {}
+
+
+def frames_scalar(model: RobotModel, q: Sequence[float]) -> list[tuple[float, ...]]:
+    """Joint frames as 12-tuples (x axis, y axis, z axis, origin), same frames as ``joint_frames``."""
+    codes = _CODES.get(model.name)
+    if codes is None:
+        codes = _CODES[model.name] = _origin_codes(model)
+    xx, xy, xz, yx, yy, yz, zx, zy, zz = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
+    px = py = pz = 0.0
+    out = []
+    cos, sin = math.cos, math.sin
+    for (code, ox, oy, oz), qi in zip(codes, q, strict=False):
+        px, py, pz = (px + xx * ox + yx * oy + zx * oz, py + xy * ox + yy * oy + zy * oz,
+                      pz + xz * ox + yz * oy + zz * oz)
+        if code == 1:  # Rx(+pi/2): new y = z, new z = -y
+            yx, yy, yz, zx, zy, zz = zx, zy, zz, -yx, -yy, -yz
+        elif code == -1:  # Rx(-pi/2): new y = -z, new z = y
+            yx, yy, yz, zx, zy, zz = -zx, -zy, -zz, yx, yy, yz
+        c, s = cos(qi), sin(qi)
+        xx, xy, xz, yx, yy, yz = (c * xx + s * yx, c * xy + s * yy, c * xz + s * yz,
+                                  c * yx - s * xx, c * yy - s * xy, c * yz - s * xz)
+        out.append((xx, xy, xz, yx, yy, yz, zx, zy, zz, px, py, pz))
+    return out
+
+
+_IDENT = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+
+
+def _xf(f: tuple[float, ...], v: Vec) -> Vec:
+    x, y, z = v
+    return (f[9] + f[0] * x + f[3] * y + f[6] * z, f[10] + f[1] * x + f[4] * y + f[7] * z,
+            f[11] + f[2] * x + f[5] * y + f[8] * z)
+
+
+def _joints(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
+    qs = [float(v) for v in q]
+    if len(qs) < model.dof:
+        raise ValueError(f"{model.name} needs {model.dof} joint values, got {len(qs)}")
+    return qs[: model.dof]
+
+
+def link_shapes(model: RobotModel, q: Sequence[float] | np.ndarray, tool: ToolModel = NO_TOOL) -> list[Shape]:
+    """World-frame (base frame) shapes of the links and the tool at joints ``q`` (mm)."""
+    frames = frames_scalar(model, _joints(model, q))
+    out: list[Shape] = []
+    for row in _local_shapes(model, tool):
+        f = _IDENT if row[1] < 0 else frames[row[1]]
+        if row[0] == "c":
+            out.append(Capsule(_xf(f, row[2]), _xf(f, row[3]), row[4], row[5], row[6]))
+        else:
+            axes = ((f[0], f[1], f[2]), (f[3], f[4], f[5]), (f[6], f[7], f[8]))
+            out.append(Box(_xf(f, row[2]), axes, row[3], row[4], row[5]))
+    return out
+
+
+def link_capsules(
+    model: RobotModel, q: Sequence[float] | np.ndarray, tool: ToolModel = NO_TOOL
+) -> list[Capsule]:
+    """World-frame capsules of the links (and of a capsule tool; a cuboid tool is in ``link_shapes``)."""
+    return [s for s in link_shapes(model, q, tool) if isinstance(s, Capsule)]
+
+
+# --------------------------------------------------------------------------------------------------------
+# Distances (scalar)
+
+
+def segment_distance(p1: Vec, q1: Vec, p2: Vec, q2: Vec) -> float:
+    """Minimum distance between segments p1-q1 and p2-q2 (closest points, clamped; Ericson 5.1.9)."""
+    d1x, d1y, d1z = q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]
+    d2x, d2y, d2z = q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]
+    rx, ry, rz = p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    eps = 1e-12
+    if a <= eps and e <= eps:
+        s = t = 0.0
+    elif a <= eps:
+        s = 0.0
+        t = min(max(f / e, 0.0), 1.0)
+    else:
+        c = d1x * rx + d1y * ry + d1z * rz
+        if e <= eps:
+            t = 0.0
+            s = min(max(-c / a, 0.0), 1.0)
+        else:
+            b = d1x * d2x + d1y * d2y + d1z * d2z
+            denom = a * e - b * b
+            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > eps * a * e else 0.0
+            t = (b * s + f) / e
+            if t < 0.0:
+                t = 0.0
+                s = min(max(-c / a, 0.0), 1.0)
+            elif t > 1.0:
+                t = 1.0
+                s = min(max((b - c) / a, 0.0), 1.0)
+    dx = rx + d1x * s - d2x * t
+    dy = ry + d1y * s - d2y * t
+    dz = rz + d1z * s - d2z * t
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+def segment_box_distance(p: Vec, q: Vec, box: Box) -> float:
+    """Minimum distance between segment p-q and a solid oriented box (0 when they meet).
+
+    In box coordinates the squared distance is, between the parameters where the segment crosses a face
+    plane, a quadratic in the segment parameter; each piece is minimised in closed form.
+    """
+    cx, cy, cz = box.center
+    a: list[float] = []
+    d: list[float] = []
+    for ax in box.axes:
+        ua = (p[0] - cx) * ax[0] + (p[1] - cy) * ax[1] + (p[2] - cz) * ax[2]
+        ub = (q[0] - cx) * ax[0] + (q[1] - cy) * ax[1] + (q[2] - cz) * ax[2]
+        a.append(ua)
+        d.append(ub - ua)
+    h = box.half
+    ts = [0.0, 1.0]
+    for k in range(3):
+        if d[k] != 0.0:
+            for bound in (h[k], -h[k]):
+                t = (bound - a[k]) / d[k]
+                if 0.0 < t < 1.0:
+                    ts.append(t)
+    ts.sort()
+    best = math.inf
+    for i in range(len(ts) - 1):
+        t0, t1 = ts[i], ts[i + 1]
+        tm = 0.5 * (t0 + t1)
+        num = den = 0.0
+        active = []
+        for k in range(3):
+            x = a[k] + tm * d[k]
+            if x > h[k]:
+                active.append((a[k] - h[k], d[k]))
+            elif x < -h[k]:
+                active.append((a[k] + h[k], d[k]))
+        if not active:
+            return 0.0
+        for u, v in active:
+            num += u * v
+            den += v * v
+        t = -num / den if den > 0.0 else t0
+        t = t0 if t < t0 else (t1 if t > t1 else t)
+        s = 0.0
+        for u, v in active:
+            w = u + t * v
+            s += w * w
+        if s < best:
+            best = s
+    return math.sqrt(best)
+
+
+def shape_distance(s1: Shape, s2: Shape) -> float:
+    """Surface distance between two shapes (0 when they overlap)."""
+    if isinstance(s1, Box):
+        s1, s2 = s2, s1
+    if isinstance(s1, Box):
+        raise ValueError("box-box distance is not supported (only one tool is a box)")
+    if isinstance(s2, Box):
+        return max(segment_box_distance(s1.a, s1.b, s2) - s1.radius, 0.0)
+    return max(segment_distance(s1.a, s1.b, s2.a, s2.b) - s1.radius - s2.radius, 0.0)
+
+
+_PAIRS: dict[tuple[str, int, bool], list[tuple[int, int]]] = {}
+
+
+def self_collision(
+    model: RobotModel, q: Sequence[float] | np.ndarray, tool: ToolModel = NO_TOOL, margin: float = 0.0
+) -> tuple[bool, float, tuple[int, int]]:
+    """(collides, minimum surface distance mm, (i, j) indices into ``link_shapes``) over checked pairs.
+
+    Collides when the minimum distance is below ``margin`` (mm); a distance of 0 means overlap.
+    """
+    shapes = link_shapes(model, q, tool)
+    key = (model.name, len(shapes), tool.box is not None)
+    pairs = _PAIRS.get(key)
+    if pairs is None:
+        pairs = _PAIRS[key] = collision_pairs(model, tool)
+    best, best_pair = math.inf, (-1, -1)
+    seg = segment_distance
+    for i, j in pairs:
+        s1, s2 = shapes[i], shapes[j]
+        if type(s1) is Capsule and type(s2) is Capsule:
+            rr = s1.radius + s2.radius
+            d = seg(s1.a, s1.b, s2.a, s2.b) - rr
+            if d < 0.0:
+                d = 0.0
+        else:
+            d = shape_distance(s1, s2)
+        if d < best:
+            best, best_pair = d, (i, j)
+    return (best <= 0.0 or best < margin), best, best_pair
