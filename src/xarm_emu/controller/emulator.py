@@ -23,8 +23,8 @@ from .gripper import GripperModule
 from .io import IOModule
 from .thermal import ThermalModel
 
-#: The thermal model is advanced every this many control periods (0.1 s).
-THERMAL_EVERY = 25
+#: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
+THERMAL_EVERY = 250
 
 log = logging.getLogger("xarm_emu.emulator")
 
