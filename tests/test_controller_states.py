@@ -266,3 +266,27 @@ def test_poses_are_computed_from_joints(emu: Emulator) -> None:
     snap = emu.snapshot()
     assert snap.pose[:3] == pytest.approx(pose[:3], abs=1e-3)
     assert snap.joints[0] == pytest.approx(math.pi / 3, abs=1e-6)
+
+
+def test_brake_engaged_joint_cannot_move_until_released(emu: Emulator) -> None:
+    ready(emu)
+    call(emu, 18, joint=2, enable=1)  # brake on for joint 2 (a system reset)
+    call(emu, 12, state=0)
+    state, reply = move_joint(emu, 0.3)
+    assert bits(state)[2] and reply["cmdnum"] == 0
+    assert emu.snapshot().brake_bits == 0b111101
+    call(emu, 11, joint=8, enable=1)  # enabling releases the brakes
+    call(emu, 12, state=0)
+    assert move_joint(emu, 0.3)[0] == 0
+
+
+def test_virtual_robot_mode_keeps_the_physical_arm(emu: Emulator) -> None:
+    ready(emu)
+    call(emu, 79, on=1)
+    assert emu.snapshot().simulation
+    move_joint(emu, 0.5)
+    emu.advance(3.0)
+    assert emu.controller.q[0] == pytest.approx(0.5, abs=1e-7)
+    assert emu.controller.physical_joints[0] == 0.0
+    call(emu, 79, on=0)
+    assert emu.controller.q[0] == 0.0 and not emu.snapshot().simulation

@@ -100,6 +100,7 @@ class Controller:
         self.servo_errors = [0] * self.dof  # per-joint servo error codes (section 3.1)
         self.settings = Settings.for_model(self.model)
         self.simulation_robot = False  # register 79
+        self._physical_q: np.ndarray | None = None
         self.executor = Executor(model)
         self.servo_target: np.ndarray | None = None
         self.servo_tracker: motion.ServoTracker | None = None
@@ -154,7 +155,7 @@ class Controller:
     def ready(self) -> bool:
         """Whether the arm can perform motion (reply bit 0x10 clear)."""
         return (self.error_code == 0 and self._state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND)
-                and all(self.enabled))
+                and all(self.enabled) and all(self.brakes))
 
     def status_byte(self) -> int:
         s = 0
@@ -749,10 +750,30 @@ class Controller:
         return None
 
     def _h_simulation_robot(self, v: Values) -> None:
+        """Register 79, virtual robot mode: while on, the reported arm follows the commands and the
+        physical arm stays where it was; switching it off ends motion and reports the physical arm
+        again."""
         if v["on"] not in (0, 1):
             raise ParameterError("switch is 0 or 1")
-        self.simulation_robot = bool(v["on"])
+        on = bool(v["on"])
+        if on and not self.simulation_robot:
+            self._physical_q = self.q.copy()
+        elif not on and self.simulation_robot:
+            self.executor.clear()
+            self.servo_target = None
+            self.servo_tracker = None
+            if self._physical_q is not None:
+                self.q = self._physical_q
+            self._physical_q = None
+            if self._state in (STATE_MOVING, STATE_SUSPEND):
+                self._state = STATE_SLEEP
+        self.simulation_robot = on
         return None
+
+    @property
+    def physical_joints(self) -> np.ndarray:
+        """Joints of the physical arm: frozen while virtual robot mode (register 79) is on."""
+        return self._physical_q.copy() if self._physical_q is not None else self.q.copy()
 
     def _h_servo_debug(self, v: Values) -> dict[str, Any]:
         servos = [0] * 16
