@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..model import collision
 from ..model import dynamics as dyn
 from ..model import kinematics as kin
 from ..model import rotations as rot
@@ -101,6 +102,7 @@ class Controller:
         self.settings = Settings.for_model(self.model)
         self.simulation_robot = False  # register 79
         self._physical_q: np.ndarray | None = None
+        self.collision_tool = collision.NO_TOOL
         self.executor = Executor(model)
         self.servo_target: np.ndarray | None = None
         self.servo_tracker: motion.ServoTracker | None = None
@@ -666,6 +668,11 @@ class Controller:
 
     def load_config(self, data: dict[str, Any]) -> None:
         self.settings = Settings.from_dict(data, self.model)
+        tool = self.settings.collision_tool
+        try:
+            self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])
+        except (ValueError, TypeError, IndexError):
+            self.collision_tool = collision.NO_TOOL
 
     # kinematics registers (issue 3)
     def _h_ik(self, v: Values) -> dict[str, Any]:
@@ -745,8 +752,14 @@ class Controller:
         return None
 
     def _h_collision_tool(self, v: Values) -> None:
+        """Register 78: the end tool's geometry for self-collision detection (model/collision.py)."""
         params = [float(x) for x in v.get("params", ())]
-        self.settings.collision_tool = [float(v["tool_type"]), *params, *([0.0] * (6 - len(params)))][:7]
+        try:
+            tool = collision.tool_model(int(v["tool_type"]), params)
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
+        self.collision_tool = tool
+        self.settings.collision_tool = [float(tool.kind), *params, *([0.0] * (6 - len(params)))][:7]
         return None
 
     def _h_simulation_robot(self, v: Values) -> None:
