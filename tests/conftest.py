@@ -1,0 +1,138 @@
+"""Shared fixtures: an in-process emulator, a server on free ports, and the official SDK pointed at it.
+
+Servers bind port 0 on loopback and publish their ports in ``server.ports``. The SDK has no port
+argument (research note section 0.1): ``sdk_arm`` sets ``XCONF.SocketConf`` for the duration of a
+test and maps our report ports onto the SDK's report structures, which it picks by the standard
+port numbers 30001/30002/30003.
+
+Tests in the server, client, CLI and SDK files are checked for leaks: every thread they start must
+end and every socket they open must be closed by the end of the test.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.server.app import ServerConfig, ServerThread
+
+_LEAK_CHECKED = ("test_server_", "test_client_", "test_cli_", "test_sdk_")
+
+
+def _open_sockets() -> set[str]:
+    """Inode names of this process's open sockets (Linux); empty where /proc is missing."""
+    out = set()
+    with contextlib.suppress(OSError):
+        for fd in os.listdir("/proc/self/fd"):
+            with contextlib.suppress(OSError):
+                target = os.readlink(f"/proc/self/fd/{fd}")
+                if target.startswith("socket:"):
+                    out.add(target)
+    return out
+
+
+@pytest.fixture(autouse=True)
+def _no_leaks(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Fail a server/client/CLI/SDK test that leaves threads or sockets behind."""
+    if not request.module.__name__.rsplit(".", 1)[-1].startswith(_LEAK_CHECKED):
+        yield
+        return
+    threads = set(threading.enumerate())
+    sockets = _open_sockets()
+    yield
+    deadline = time.monotonic() + 3.0  # the SDK's threads notice a closed socket within ~1 s
+    while True:
+        extra_threads = [t for t in threading.enumerate() if t not in threads and t.is_alive()]
+        extra_sockets = _open_sockets() - sockets
+        if not extra_threads and not extra_sockets:
+            return
+        if time.monotonic() > deadline:
+            break
+        time.sleep(0.05)
+    assert not extra_threads, f"threads left running: {[t.name for t in extra_threads]}"
+    assert not extra_sockets, f"{len(extra_sockets)} sockets left open"
+
+
+@pytest.fixture
+def emu(tmp_path: Path) -> Emulator:
+    """An in-process xArm6 with its saved configuration in a temporary directory."""
+    return Emulator(6, config_dir=tmp_path / "config")
+
+
+ServerFactory = Callable[..., ServerThread]
+
+
+@pytest.fixture
+def make_server(tmp_path: Path) -> Iterator[ServerFactory]:
+    """``make_server(model=6, speed=1.0, admin=False, **config)``: a started ServerThread on free ports."""
+    started: list[ServerThread] = []
+
+    def factory(model: int = 6, *, emulator: Emulator | None = None, use_uvloop: bool = False,
+                **config: Any) -> ServerThread:
+        emu = emulator or Emulator(model, config_dir=tmp_path / f"config{len(started)}")
+        cfg = ServerConfig(**{"host": "127.0.0.1", "port": 0, "normal_port": 0, "rich_port": 0,
+                              "develop_port": 0, **config})
+        st = ServerThread(emu, cfg, use_uvloop=use_uvloop).start()
+        started.append(st)
+        return st
+
+    yield factory
+    for st in started:
+        st.stop()
+
+
+@pytest.fixture
+def server(make_server: ServerFactory) -> ServerThread:
+    """A real-time xArm6 server with the admin channel on (ports in ``server.ports``)."""
+    return make_server(admin=True)
+
+
+_SDK_REPORT_PORTS = {"normal": "TCP_REPORT_NORM_PORT", "rich": "TCP_REPORT_RICH_PORT",
+                     "develop": "TCP_REPORT_REAL_PORT"}
+_STANDARD = {"normal": 30001, "rich": 30002, "develop": 30003}
+
+
+@pytest.fixture
+def sdk_arm(monkeypatch: pytest.MonkeyPatch) -> Iterator[Callable[..., Any]]:
+    """``sdk_arm(server, report_type='rich', **kwargs)``: the official XArmAPI connected to ``server``.
+
+    Disconnected at teardown; the process-wide default socket timeout the SDK sets is restored.
+    """
+    from xarm.core.config.x_config import XCONF
+    from xarm.wrapper import XArmAPI
+    from xarm.x3.report import ReportDataStructure
+
+    arms: list[Any] = []
+    previous_timeout = socket.getdefaulttimeout()
+    original_create = ReportDataStructure.create.__func__  # type: ignore[attr-defined]
+
+    def factory(st: ServerThread, report_type: str = "rich", **kwargs: Any) -> Any:
+        ports = st.ports
+        monkeypatch.setattr(XCONF.SocketConf, "TCP_CONTROL_PORT", ports["command"])
+        for kind, attr in _SDK_REPORT_PORTS.items():
+            monkeypatch.setattr(XCONF.SocketConf, attr, ports[kind])
+        mapping = {ports[k]: v for k, v in _STANDARD.items()}
+
+        def create(cls: type, sock_port: int, **kw: Any) -> Any:
+            return original_create(cls, mapping.get(sock_port, sock_port), **kw)
+
+        monkeypatch.setattr(ReportDataStructure, "create", classmethod(create))
+        kwargs.setdefault("forbid_uds", True)
+        arm = XArmAPI("127.0.0.1", report_type=report_type, **kwargs)
+        arms.append(arm)
+        return arm
+
+    yield factory
+    for arm in arms:
+        with contextlib.suppress(Exception):
+            arm.disconnect()
+    socket.setdefaulttimeout(previous_timeout)
