@@ -26,7 +26,7 @@ from ..model.robots import RobotModel
 from ..protocol import registers as regs
 from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError, all_finite
-from . import motion
+from . import motion, safety
 from .base import (
     PERIOD,
     WARN_BUFFER_OVERFLOW,
@@ -256,6 +256,8 @@ class Controller:
                     self._step_position(dt)
                 elif self._state == STATE_STOP and self.executor.stopping:
                     self._step_position(dt)
+                if self.q is not q_prev:
+                    self._check_safety(q_prev)
         except CommandError as e:
             self.raise_error(e.code)
         except Exception:  # keep the control loop alive; the arm stops with C29 "other errors"
@@ -266,6 +268,18 @@ class Controller:
         self.qd = qd
         for c in self.components:
             c.step(dt, self)
+
+    def _check_safety(self, q_prev: np.ndarray) -> None:
+        """Safety boundary (52, 59: C35) and self-collision (77, 78: C22) on the step just planned:
+        the arm stops on the boundary or before contact (controller/safety.py)."""
+        s = self.settings
+        if not (s.boundary_on or s.self_collision_on):
+            return
+        stop = safety.check_path_step(self.model, q_prev, self.q, self.collision_tool, s.self_collision_on,
+                                      s.boundary, s.boundary_on, s.tcp_offset)
+        if stop is not None:
+            self.q = np.asarray(stop.q_stop, dtype=float)
+            raise CommandError(stop.code, stop.reason)
 
     def _step_position(self, dt: float) -> None:
         ex = self.executor
