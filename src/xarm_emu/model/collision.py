@@ -412,22 +412,30 @@ def self_collision(
 
     Collides when the minimum distance is below ``margin`` (mm); a distance of 0 means overlap.
     """
-    shapes = link_shapes(model, q, tool)
-    key = (model.name, len(shapes), tool.box is not None)
+    rows = _local_shapes(model, tool)
+    key = (model.name, len(rows), tool.box is not None)
     pairs = _PAIRS.get(key)
     if pairs is None:
         pairs = _PAIRS[key] = collision_pairs(model, tool)
+    frames = frames_scalar(model, _joints(model, q))
+    world: list = []  # plain tuples (a, b, radius) for capsules; Box objects for a cuboid tool
+    for row in rows:
+        f = _IDENT if row[1] < 0 else frames[row[1]]
+        if row[0] == "c":
+            world.append((_xf(f, row[2]), _xf(f, row[3]), row[4]))
+        else:
+            axes = ((f[0], f[1], f[2]), (f[3], f[4], f[5]), (f[6], f[7], f[8]))
+            world.append(Box(_xf(f, row[2]), axes, row[3], row[4], row[5]))
     best, best_pair = math.inf, (-1, -1)
     seg = segment_distance
     for i, j in pairs:
-        s1, s2 = shapes[i], shapes[j]
-        if type(s1) is Capsule and type(s2) is Capsule:
-            rr = s1.radius + s2.radius
-            d = seg(s1.a, s1.b, s2.a, s2.b) - rr
-            if d < 0.0:
-                d = 0.0
+        s1, s2 = world[i], world[j]
+        if type(s2) is Box:
+            d = segment_box_distance(s1[0], s1[1], s2) - s1[2]
         else:
-            d = shape_distance(s1, s2)
+            d = seg(s1[0], s1[1], s2[0], s2[1]) - s1[2] - s2[2]
+        if d < 0.0:
+            d = 0.0
         if d < best:
             best, best_pair = d, (i, j)
     return (best <= 0.0 or best < margin), best, best_pair
