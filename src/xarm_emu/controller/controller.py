@@ -103,6 +103,8 @@ class Controller:
         self.simulation_robot = False  # register 79
         self._physical_q: np.ndarray | None = None
         self.collision_tool = collision.NO_TOOL
+        #: (state, code) of the end tool for register 106; the emulator keeps it current.
+        self.tool_error: tuple[int, int] = (0, 0)
         self.executor = Executor(model)
         self.servo_target: np.ndarray | None = None
         self.servo_tracker: motion.ServoTracker | None = None
@@ -752,7 +754,7 @@ class Controller:
         self.settings.boundary_on = bool(v["on"])
         return None
 
-    def _h_report_tau_or_i(self, v: Values) -> None:
+    def _h_report_tau_or_i(self, v: Values) -> dict[str, Any] | None:
         value = v["tau_or_i"]
         if value not in (0, 1):
             raise ParameterError("0: torque, 1: current")
@@ -803,11 +805,13 @@ class Controller:
         return self._physical_q.copy() if self._physical_q is not None else self.q.copy()
 
     def _h_servo_debug(self, v: Values) -> dict[str, Any]:
+        """Register 106: (state, error code) of joints 1-7, then of the end tool (gripper)."""
         servos = [0] * 16
         for i in range(self.dof):
             servos[2 * i] = 1 if self.servo_errors[i] else 0
             servos[2 * i + 1] = self.servo_errors[i] & 0xFF
-        return {"status": 1 if any(self.servo_errors) else 0, "servos": tuple(servos)}
+        servos[14], servos[15] = self.tool_error
+        return {"servos": tuple(servos)}
 
     # torques (issue 7 provides the dynamic model)
     def joint_torques(self) -> np.ndarray:
@@ -818,7 +822,7 @@ class Controller:
             return self._torque_cache[1]
         s = self.settings
         try:
-            g = dyn.gravity_from_direction(s.gravity_direction)
+            g: Any = dyn.gravity_from_direction(s.gravity_direction)
         except ValueError:
             g = dyn.DEFAULT_GRAVITY
         tau = dyn.inverse_dynamics(self.model, self.q, self.qd, self.qdd, g, s.tcp_load[0], s.tcp_load[1:4])

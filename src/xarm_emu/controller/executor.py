@@ -69,8 +69,8 @@ class _DwellPlan(_Plan):
 
 
 class _CartesianPlan(_Plan):
-    def __init__(self, move: motion.CartesianMove, to_flange: Callable[[np.ndarray], np.ndarray],
-                 model: RobotModel) -> None:
+    def __init__(self, move: motion.CartesianMove | motion.MoveChain,
+                 to_flange: Callable[[np.ndarray], np.ndarray], model: RobotModel) -> None:
         self.move = move
         self.duration = move.duration
         self.to_flange = to_flange

@@ -84,7 +84,7 @@ def canonical_rpy(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return matrix_to_rpy(rpy_to_matrix(roll, pitch, yaw))
 
 
-def axis_angle_to_matrix(rv: Sequence[float]) -> np.ndarray:
+def axis_angle_to_matrix(rv: Sequence[float] | np.ndarray) -> np.ndarray:
     """3x3 rotation of the rotation vector [Rx, Ry, Rz] = axis * phi (manual 1.5, Rodrigues)."""
     x, y, z = float(rv[0]), float(rv[1]), float(rv[2])
     _finite(x, y, z)
@@ -136,7 +136,7 @@ def matrix_to_axis_angle(R: np.ndarray) -> np.ndarray:
     return a * phi
 
 
-def pose_to_matrix(pose: Sequence[float]) -> np.ndarray:
+def pose_to_matrix(pose: Sequence[float] | np.ndarray) -> np.ndarray:
     """4x4 homogeneous transform of (x, y, z, roll, pitch, yaw) in mm/rad."""
     T = np.eye(4)
     T[:3, :3] = rpy_to_matrix(pose[3], pose[4], pose[5])
@@ -156,7 +156,7 @@ def matrix_to_pose(T: np.ndarray) -> np.ndarray:
     return out
 
 
-def pose_aa_to_matrix(pose: Sequence[float]) -> np.ndarray:
+def pose_aa_to_matrix(pose: Sequence[float] | np.ndarray) -> np.ndarray:
     """4x4 transform of (x, y, z, Rx, Ry, Rz) (axis-angle orientation, manual 1.5)."""
     T = np.eye(4)
     T[:3, :3] = axis_angle_to_matrix(pose[3:6])
