@@ -90,6 +90,9 @@ class Emulator:
 
     # -- protocol ------------------------------------------------------------------------------
     def handle(self, code: int, params: bytes) -> tuple[int, bytes]:
+        if code == 106:
+            err = self.gripper.gripper.error
+            self.controller.tool_error = (1 if err else 0, err)
         return self.controller.handle(code, params)
 
     def step(self, n: int = 1) -> None:
