@@ -39,8 +39,11 @@ from .clock import ScaledClock
 
 log = logging.getLogger("xarm_emu.server")
 
-#: A report client whose unsent data exceeds this many bytes skips frames.
-SLOW_READER_BYTES = 64 * 1024
+#: A report client whose unsent data (beyond the kernel's buffer) exceeds this many bytes skips frames.
+SLOW_READER_BYTES = 16 * 1024
+#: Kernel send buffer of a report socket. Small, so that a reader that stalls gets recent frames
+#: when it resumes instead of megabytes of old ones (about 4 s of develop frames).
+REPORT_SNDBUF = 32 * 1024
 
 
 @dataclass
@@ -145,6 +148,7 @@ class EmulatorServer:
         self.reply_delay = 0.0  # fault injection: seconds before each reply
         self.report_pause_until = 0.0  # fault injection: loop time until which reports pause
         self.frames_sent: dict[str, int] = {k: 0 for k in _ENCODERS}
+        self.frames_skipped: dict[str, int] = {k: 0 for k in _ENCODERS}  # per slow client and frame
         self.frame_times: dict[str, list[float]] | None = None  # set to a dict to record tick times
         self._stopped = asyncio.Event()
         self._client_tasks: set[asyncio.Task[None]] = set()
@@ -178,6 +182,10 @@ class EmulatorServer:
     def _report_client(self, kind: str) -> Callable[[asyncio.StreamReader, asyncio.StreamWriter], object]:
         async def on_client(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
             _nodelay(writer)
+            sock = writer.get_extra_info("socket")
+            if sock is not None:
+                with contextlib.suppress(OSError):
+                    sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, REPORT_SNDBUF)
             task = asyncio.current_task()
             if task is not None:
                 self._client_tasks.add(task)
@@ -230,6 +238,7 @@ class EmulatorServer:
                     clients.discard(w)
                     continue
                 if transport.get_write_buffer_size() > SLOW_READER_BYTES:
+                    self.frames_skipped[kind] += 1
                     continue  # slow reader: skip whole frames, never block
                 transport.write(frame)
             self.frames_sent[kind] += 1
