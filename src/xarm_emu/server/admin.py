@@ -233,7 +233,6 @@ class AdminProtocol(asyncio.Protocol):
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
         self.transport = transport
-        self.server.admin_clients.add(self)
         peer = transport.get_extra_info("peername")
         host = str(peer[0]) if peer else ""
         if not is_loopback(host):
@@ -242,6 +241,8 @@ class AdminProtocol(asyncio.Protocol):
                                                 f"not {host or 'unknown'}"})
             transport.close()
             self.transport = None
+            return
+        self.server.admin_clients.add(self)
 
     def data_received(self, data: bytes) -> None:
         if self.transport is None:
