@@ -215,3 +215,30 @@ def test_stepped_clock_is_deterministic() -> None:
         ready(e)
         runs.append(_program(e))
     assert runs[0] == runs[1]
+
+
+def test_fast_line_near_the_j1_axis_is_speed_error_c24(emu: Emulator) -> None:
+    # Passing 150 mm from the J1 axis at 1000 mm/s needs J1 at about 6.7 rad/s (> 180 deg/s).
+    line(emu, 150.0, -200.0, 250.0)
+    run_until_idle(emu)
+    line(emu, 150.0, 200.0, 250.0, speed=1000.0, acc=50000.0)
+    emu.advance(3.0)
+    assert call(emu, 15)[1]["error"] == 24
+    assert emu.controller.tcp_pose()[1] < 0.0  # stopped before the closest point
+    # The same line at 200 mm/s stays within the joint speed limit.
+    call(emu, 16)
+    ready(emu)
+    line(emu, 150.0, -200.0, 250.0)
+    run_until_idle(emu)
+    line(emu, 150.0, 200.0, 250.0, speed=200.0, acc=50000.0)
+    run_until_idle(emu)
+    assert call(emu, 15)[1]["error"] == 0
+    np.testing.assert_allclose(emu.controller.tcp_pose()[:3], [150.0, 200.0, 250.0], atol=0.01)
+
+
+def test_target_behind_the_base_is_reached_by_turning_j1(emu: Emulator) -> None:
+    q = call(emu, 43, pose=(-250.0, 0.0, 300.0, math.pi, 0.0, 0.0))[1]["joints"]
+    assert abs(abs(q[0]) - math.pi) < 1e-5
+    call(emu, 23, joints=q, speed=1.0, acc=10.0, mvtime=0.0)
+    run_until_idle(emu)
+    np.testing.assert_allclose(emu.controller.tcp_pose()[:3], [-250.0, 0.0, 300.0], atol=0.01)

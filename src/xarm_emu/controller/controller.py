@@ -291,7 +291,7 @@ class Controller:
                 self._state = STATE_SLEEP
             return
         limits = Limits(self.settings.tcp_jerk, self.settings.tcp_maxacc, self.settings.joint_jerk,
-                        self.settings.joint_maxacc)
+                        self.settings.joint_maxacc, self.model.max_joint_speed)
         self.q = ex.step(dt, self.q, limits, self.flange_target, self.tcp_matrix)
         self.counter += max(0, was - ex.cmdnum)
         if self._state != STATE_STOP:
@@ -695,7 +695,7 @@ class Controller:
         if not all_finite(v):
             raise ParameterError("non-finite pose")
         T = wire_pose_to_matrix(v["pose"])
-        q = kin.ik(self.model, self.flange_target(T), self.q)
+        q = kin.ik(self.model, self.flange_target(T), self.q, restarts=True)
         if q is None:
             raise CommandWarning(WARN_NO_SOLUTION)
         return {"joints": self.joints7(q)}

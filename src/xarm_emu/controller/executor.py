@@ -8,6 +8,7 @@ same path (issue 4, manual register 12).
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -28,6 +29,10 @@ RAMP_TIME = 0.2
 C_KINEMATIC = 21
 C_JOINT_LIMIT = 23
 C_CIRCLE = 32
+C_SPEED = 24
+
+#: A Cartesian step may exceed the joint speed limit by this factor before C24 (sampling slack).
+SPEED_TOLERANCE = 1.05
 
 
 @dataclass
@@ -38,6 +43,7 @@ class Limits:
     tcp_maxacc: float
     joint_jerk: float
     joint_maxacc: float
+    max_joint_speed: float = math.pi  # Table 1.2; a Cartesian path needing more is error C24
 
 
 class _Plan:
@@ -168,6 +174,12 @@ class Executor:
         if not kin.within_limits(self.model, new_q):
             self.clear()
             raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
+        if isinstance(plan, _CartesianPlan) and dt > 0.0:
+            # Near a singularity a TCP path can need joint speeds beyond the limit (section 3.2.1, C24).
+            speed = float(np.max(np.abs(np.asarray(new_q) - q))) / dt
+            if speed > limits.max_joint_speed * SPEED_TOLERANCE:
+                self.clear()
+                raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")
         self.tcp_speed = plan.tcp_speed * self.rate
         if self.t >= plan.duration:
             self.plan = None
@@ -202,7 +214,7 @@ class Executor:
             except motion.CollinearError as exc:
                 raise CommandError(C_CIRCLE, str(exc)) from exc
             end_check = path.pose(path.length)
-        if kin.ik(self.model, to_flange(end_check), q, limited=False) is None:
+        if kin.ik(self.model, to_flange(end_check), q, limited=False, restarts=True) is None:
             raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
         move = motion.CartesianMove(path, cmd.speed, acc, limits.tcp_jerk)
         return _CartesianPlan(move, to_flange, self.model)
@@ -230,7 +242,7 @@ class Executor:
         radii[-1] = None  # the chain ends at rest on its last target
         seed = q
         for target in poses[1:]:
-            sol = kin.ik(self.model, to_flange(target), seed, limited=False)
+            sol = kin.ik(self.model, to_flange(target), seed, limited=False, restarts=True)
             if sol is None:
                 raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
             seed = sol

@@ -408,17 +408,66 @@ def _residual_ok(model: RobotModel, q: np.ndarray, target: np.ndarray) -> bool:
     return perr <= 10 * POS_TOL and rerr <= 10 * ROT_TOL
 
 
+#: Extra starting points tried by ``ik(..., restarts=True)`` after the seed itself fails: fractions of
+#: each joint's range, fixed so that results are deterministic.
+_RESTART_FRACTIONS = (
+    (0.5, 0.45, 0.55, 0.5, 0.6, 0.5, 0.5),
+    (0.5, 0.6, 0.35, 0.5, 0.7, 0.5, 0.5),
+    (0.5, 0.35, 0.7, 0.5, 0.4, 0.5, 0.5),
+    (0.5, 0.5, 0.45, 0.6, 0.55, 0.4, 0.5),
+)
+
+
 def ik(
     model: RobotModel,
     T_target: np.ndarray,
     seed: Sequence[float] | np.ndarray | None = None,
     limited: bool = True,
+    restarts: bool = False,
 ) -> np.ndarray | None:
     """Joints (length dof) that put the flange at ``T_target`` (4x4, base frame, mm), or None.
 
     ``seed`` defaults to zero joints. Never raises on bad numbers: NaN/inf input gives None.
     For path following pass ``limited=False`` so that joints stay continuous with the seed.
+    With ``restarts`` (targets of moves, register 43), a seed that does not converge is followed by
+    the seed turned toward the target about J1, then fixed starting points; the answer nearest the
+    seed wins. Path following keeps ``restarts`` off so that the posture follows the seed.
     """
+    sol = _ik_once(model, T_target, seed, limited)
+    if sol is not None or not restarts or model.fixed_roll_pitch:
+        return sol
+    try:
+        target = np.asarray(T_target, dtype=float)
+        base = np.zeros(model.dof) if seed is None else np.asarray(_joints(model, seed), dtype=float)
+        heading = math.atan2(float(target[1, 3]), float(target[0, 3]))
+    except (ValueError, TypeError, IndexError):
+        return None
+    if not (np.all(np.isfinite(base)) and math.isfinite(heading)):
+        return None
+    lo, hi = model.lower, model.upper
+    starts = [np.concatenate(([heading], base[1:]))]
+    for frac in _RESTART_FRACTIONS:
+        q0 = lo + np.asarray(frac[: model.dof]) * (hi - lo)
+        q0[0] = heading
+        starts.append(q0)
+    best: tuple[float, np.ndarray] | None = None
+    for q0 in starts:
+        cand = _ik_once(model, target, q0, limited)
+        if cand is None:
+            continue
+        dist = float(np.sum((cand - base) ** 2))
+        if best is None or dist < best[0]:
+            best = (dist, cand)
+    return None if best is None else best[1]
+
+
+def _ik_once(
+    model: RobotModel,
+    T_target: np.ndarray,
+    seed: Sequence[float] | np.ndarray | None,
+    limited: bool,
+) -> np.ndarray | None:
+    """One seeded solve (see :func:`ik`)."""
     try:
         target = np.asarray(T_target, dtype=float)
         if target.shape != (4, 4):
