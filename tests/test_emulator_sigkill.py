@@ -39,7 +39,8 @@ def test_sigkill_mid_save_never_leaves_a_broken_or_mixed_configuration(tmp_path:
     last = 0
     loaded = 0
     for _ in range(30):
-        proc = subprocess.Popen([sys.executable, "-c", WRITER, str(tmp_path)], stdout=subprocess.PIPE, env=env)
+        proc = subprocess.Popen([sys.executable, "-c", WRITER, str(tmp_path)], stdout=subprocess.PIPE,
+                                env=env)
         assert proc.stdout is not None
         assert proc.stdout.readline().strip() == b"ready"
         time.sleep(rng.uniform(0.0, 0.05))
