@@ -290,3 +290,19 @@ def test_virtual_robot_mode_keeps_the_physical_arm(emu: Emulator) -> None:
     assert emu.controller.physical_joints[0] == 0.0
     call(emu, 79, on=0)
     assert emu.controller.q[0] == 0.0 and not emu.snapshot().simulation
+
+
+def test_suspend_of_a_fast_move_decelerates_within_the_acceleration_limit(emu: Emulator) -> None:
+    ready(emu)
+    call(emu, 34, maxacc=5.0)
+    move_joint(emu, 3.0, speed=math.pi, acc=5.0)
+    emu.advance(0.9)  # at full speed
+    qs = []
+    call(emu, 12, state=3)
+    for _ in range(400):
+        emu.step()
+        qs.append(emu.controller.q[0])
+    v = np.diff(qs) / 0.004
+    a = np.diff(v) / 0.004
+    assert abs(v[-1]) < 1e-9
+    assert np.max(np.abs(a)) <= 5.0 * 1.02

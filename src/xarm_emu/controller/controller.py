@@ -283,6 +283,10 @@ class Controller:
             self.q = np.asarray(stop.q_stop, dtype=float)
             raise CommandError(stop.code, stop.reason)
 
+    def _limits(self) -> Limits:
+        s = self.settings
+        return Limits(s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed)
+
     def _step_position(self, dt: float) -> None:
         ex = self.executor
         was = ex.cmdnum
@@ -290,9 +294,7 @@ class Controller:
             if self._state == STATE_MOVING:
                 self._state = STATE_SLEEP
             return
-        limits = Limits(self.settings.tcp_jerk, self.settings.tcp_maxacc, self.settings.joint_jerk,
-                        self.settings.joint_maxacc, self.model.max_joint_speed)
-        self.q = ex.step(dt, self.q, limits, self.flange_target, self.tcp_matrix)
+        self.q = ex.step(dt, self.q, self._limits(), self.flange_target, self.tcp_matrix)
         self.counter += max(0, was - ex.cmdnum)
         if self._state != STATE_STOP:
             if ex.active and not (self._state == STATE_SUSPEND):
@@ -464,7 +466,7 @@ class Controller:
             if self.error_code:
                 return None  # stays in stop; the reply carries 0x40
             if self._state == STATE_SUSPEND:
-                self.executor.ramp_to(1.0)
+                self.executor.ramp_to(1.0, self._limits())
                 self._state = STATE_MOVING if self.executor.active else STATE_SLEEP
             elif self._state in (STATE_STOP, STATE_SYSTEM_RESET):
                 if not self.executor.stopping:
@@ -472,14 +474,14 @@ class Controller:
             return None
         if s == STATE_SUSPEND:
             if self._state in (STATE_MOVING, STATE_SLEEP):
-                self.executor.ramp_to(0.0)
+                self.executor.ramp_to(0.0, self._limits())
                 self._state = STATE_SUSPEND
             return None
         if s == STATE_STOP:
             if self.mode == MODE_POSITION and self.executor.plan is not None:
                 self.executor.buffer.clear()
                 self.executor.stopping = True
-                self.executor.ramp_to(0.0)
+                self.executor.ramp_to(0.0, self._limits())
             else:
                 self.executor.clear()
             self.servo_target = None

@@ -22,8 +22,11 @@ from . import motion
 from .base import CommandError
 from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
 
-#: Time to ramp the path rate between full speed and rest for suspend/stop (s).
+#: Shortest time to ramp the path rate between full speed and rest for suspend/stop (s); faster
+#: motion ramps longer so that the deceleration stays within the acceleration limit.
 RAMP_TIME = 0.2
+#: Peak slope of the smoothstep ramp (3u^2 - 2u^3) relative to a linear one.
+_SMOOTHSTEP_PEAK = 1.5
 
 # Control box error codes raised here (manual section 3.2.1).
 C_KINEMATIC = 21
@@ -55,6 +58,10 @@ class _Plan:
     def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
         raise NotImplementedError
 
+    def stop_time(self, t: float, limits: Limits) -> float:
+        """Seconds to come to rest from path time ``t`` at the acceleration limit."""
+        return 0.0
+
 
 class _JointPlan(_Plan):
     def __init__(self, traj: motion.JointTrajectory) -> None:
@@ -63,6 +70,10 @@ class _JointPlan(_Plan):
 
     def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
         return self.traj.at(t)[0]
+
+    def stop_time(self, t: float, limits: Limits) -> float:
+        qd = self.traj.at(min(t, self.duration))[1]
+        return float(np.max(np.abs(qd))) / limits.joint_maxacc
 
 
 class _DwellPlan(_Plan):
@@ -87,6 +98,9 @@ class _CartesianPlan(_Plan):
         self.tcp_speed = speed
         return kin.ik(self.model, self.to_flange(pose), seed, limited=False)
 
+    def stop_time(self, t: float, limits: Limits) -> float:
+        return self.tcp_speed / limits.tcp_maxacc
+
 
 class Executor:
     """The command buffer and the motion that runs from it."""
@@ -101,6 +115,7 @@ class Executor:
         self._ramp_from = 1.0
         self._ramp_to = 1.0
         self._ramp_u = 1.0  # progress of the current ramp, 0..1
+        self._ramp_time = RAMP_TIME
         self.stopping = False  # a stop ramp is running; the plan ends when it reaches rest
         self.tcp_speed = 0.0
         self.merged = 0  # further commands of a blended chain that the current plan runs
@@ -127,16 +142,25 @@ class Executor:
         self.merged = 0
 
     # -- rate ramps (suspend, resume, stop) --------------------------------------------------
-    def ramp_to(self, target: float) -> None:
+    def ramp_to(self, target: float, limits: Limits | None = None) -> None:
+        """Ramp the path rate to ``target`` (0: suspend/stop, 1: resume) along the same path.
+
+        The ramp lasts at least :data:`RAMP_TIME` and long enough that slowing the current motion
+        down stays within the acceleration limit of ``limits``.
+        """
         if target == self._ramp_to and self._ramp_u >= 1.0:
             return
+        duration = RAMP_TIME
+        if self.plan is not None and limits is not None:
+            duration = max(duration, _SMOOTHSTEP_PEAK * self.plan.stop_time(self.t, limits))
         self._ramp_from = self.rate
         self._ramp_to = target
         self._ramp_u = 0.0
+        self._ramp_time = duration
 
     def _advance_rate(self, dt: float) -> None:
         if self._ramp_u < 1.0:
-            self._ramp_u = min(1.0, self._ramp_u + dt / RAMP_TIME)
+            self._ramp_u = min(1.0, self._ramp_u + dt / self._ramp_time)
             u = self._ramp_u
             s = u * u * (3.0 - 2.0 * u)  # smoothstep: bounded acceleration of the path rate
             self.rate = self._ramp_from + (self._ramp_to - self._ramp_from) * s
