@@ -62,9 +62,12 @@ def assert_closed(s: socket.socket, timeout: float = 2.0) -> None:
         pass
 
 
-@pytest.fixture
-def srv(make_server) -> ServerThread:
-    return make_server()
+@pytest.fixture(params=["asyncio", "uvloop"])
+def srv(make_server, request: pytest.FixtureRequest) -> ServerThread:
+    """The server on the standard event loop and on uvloop (what `xarm-emu serve` uses)."""
+    if request.param == "uvloop":
+        pytest.importorskip("uvloop")
+    return make_server(use_uvloop=request.param == "uvloop")
 
 
 @pytest.mark.parametrize("protocol", [2, 3])

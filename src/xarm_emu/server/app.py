@@ -83,8 +83,7 @@ class _CommandProtocol(asyncio.Protocol):
         self.transport: asyncio.Transport | None = None
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        assert isinstance(transport, asyncio.Transport)
-        self.transport = transport
+        self.transport = transport  # type: ignore[assignment]  # uvloop's transports are not subclasses
         sock = transport.get_extra_info("socket")
         if sock is not None:
             with contextlib.suppress(OSError):
@@ -251,7 +250,7 @@ class EmulatorServer:
                                                    if c.transport is not None]
         transports += [w.transport for group in self.report_clients.values() for w in group]
         for t in transports:
-            if abort and isinstance(t, asyncio.WriteTransport):
+            if abort and hasattr(t, "abort"):  # uvloop's transports are not asyncio subclasses
                 t.abort()
                 n += 1
             elif not t.is_closing():
@@ -292,7 +291,9 @@ class EmulatorServer:
         self._stopped.set()
 
     async def serve_forever(self) -> None:
-        await self.start()
+        """Start (unless started) and serve until :meth:`close`."""
+        if not self._servers:
+            await self.start()
         await self._stopped.wait()
 
 

@@ -1,0 +1,200 @@
+"""The ``xarm-emu`` CLI (issue 2 item 8, issue 5 item 5) against a ServerThread, through typer's
+CliRunner: status, inject, clear, set-input, and serve's messages for privileged or busy ports."""
+
+from __future__ import annotations
+
+import errno
+import json
+import math
+import os
+import socket
+
+import pytest
+from typer.testing import CliRunner
+
+from xarm_emu import cli
+from xarm_emu.server.app import ServerThread
+
+runner = CliRunner()
+
+
+def run(*args: str) -> tuple[int, str]:
+    result = runner.invoke(cli.app, list(args))
+    return result.exit_code, result.output
+
+
+def addr(st: ServerThread) -> list[str]:
+    return ["--port", str(st.ports["command"]), "--admin-port", str(st.ports["admin"])]
+
+
+def state_of(st: ServerThread) -> tuple[int, int, list[int]]:
+    def read() -> tuple[int, int, list[int]]:
+        c = st.emulator.controller
+        return c.error_code, c.warning_code, list(c.servo_errors)
+    return st.call(read)  # type: ignore[return-value]
+
+
+def test_status_json(server: ServerThread) -> None:
+    code, out = run("status", "--json", "--port", str(server.ports["command"]),
+                    "--report-port", str(server.ports["develop"]))
+    assert code == 0, out
+    data = json.loads(out)
+    assert data["version"] == server.call(lambda: server.emulator.controller.version_string())
+    assert (data["state"], data["mode"], data["error"], data["warning"]) == (4, 0, 0, 0)
+    assert data["joints"] == [0.0] * 6
+    assert data["pose"][:3] == pytest.approx([207.0, 0.0, 112.0], abs=1e-3)
+    assert abs(abs(data["pose"][3]) - math.pi) < 1e-5
+
+
+def test_status_table_and_unreachable(server: ServerThread) -> None:
+    code, out = run("status", "--port", str(server.ports["command"]), "--report-port",
+                    str(server.ports["develop"]))
+    assert code == 0 and "stop" in out and "207.000" in out
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        free = s.getsockname()[1]
+    code, out = run("status", "--port", str(free))
+    assert code == 1 and "cannot reach the control box" in out
+
+
+@pytest.mark.parametrize("args, expect", [
+    (["inject", "estop"], (1, 0)),
+    (["inject", "error", "C31"], (31, 0)),
+    (["inject", "warning", "11"], (0, 11)),
+    (["inject", "end-module-lost"], (28, 0)),
+    (["inject", "servo-error", "--joint", "3", "S23"], (13, 0)),
+])
+def test_inject_then_clear(server: ServerThread, args: list[str], expect: tuple[int, int]) -> None:
+    code, out = run(*args, *addr(server))
+    assert code == 0, out
+    assert state_of(server)[:2] == expect
+    code, out = run("clear", *addr(server))
+    assert code == 0 and "cleared" in out
+    assert state_of(server) == (0, 0, [0] * 6)
+
+
+def test_inject_gripper_delay_pause_and_inputs(server: ServerThread) -> None:
+    assert run("inject", "gripper-error", "G11", *addr(server))[0] == 0
+    assert server.call(lambda: server.emulator.gripper.gripper.error) == 11
+    code, out = run("inject", "reply-delay", "50ms", *addr(server))
+    assert code == 0 and "50 ms" in out
+    assert server.call(lambda: server.server.reply_delay) == pytest.approx(0.05)
+    code, out = run("inject", "report-pause", "2s", *addr(server))
+    assert code == 0 and server.call(server.server.reports_paused) is True
+    assert run("inject", "drop-clients", *addr(server))[0] == 0
+    assert run("set-input", "cgpio", "3", "1", *addr(server))[0] == 0
+    assert run("set-input", "tgpio", "0", "1", *addr(server))[0] == 0
+    assert run("set-input", "analog", "1", "5.0", *addr(server))[0] == 0
+    assert server.call(lambda: server.emulator.io.tool.digital_inputs & 1) == 1
+    assert run("clear", *addr(server))[0] == 0
+    assert server.call(lambda: (server.server.reply_delay, server.server.reports_paused())) == (0.0, False)
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["inject", "error", "C99"], "not in the manual"),
+    (["inject", "error", "nonsense"], "not an error label"),
+    (["inject", "servo-error", "--joint", "9", "S23"], "joint 9 out of range 1..6"),
+    (["inject", "warning", "C31"], "not a warning"),
+    (["inject", "reply-delay", "soon"], "not a duration"),
+    (["set-input", "cgpio", "40", "1"], "cgpio input 40"),
+])
+def test_cli_refusals_change_nothing(server: ServerThread, args: list[str], fragment: str) -> None:
+    before = state_of(server)
+    code, out = run(*args, *addr(server))
+    assert code == 1
+    assert "refused" in out and fragment in " ".join(out.split())
+    assert state_of(server) == before
+
+
+def test_inject_derives_the_admin_port_from_the_command_port(make_server) -> None:
+    for _ in range(20):
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            p = s.getsockname()[1]
+        if p + 10000 > 65535:
+            continue
+        try:
+            st = make_server(port=p, admin=True)
+        except OSError:
+            continue
+        code, out = run("inject", "error", "C31", "--port", str(p))
+        assert code == 0, out
+        assert state_of(st)[0] == 31
+        return
+    pytest.skip("no free port pair")
+
+
+def test_inject_without_admin_channel(make_server) -> None:
+    st = make_server()  # no --admin
+    code, out = run("inject", "estop", "--port", str(st.ports["command"]), "--admin-port",
+                    str(st.ports["command"] + 1 if st.ports["command"] < 65535 else 1))
+    assert code == 1 and "serve --admin" in " ".join(out.split())
+    assert state_of(st)[0] == 0
+
+
+def test_serve_privileged_port_message(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
+    def refuse(coro) -> None:
+        coro.close()
+        raise PermissionError(errno.EACCES, "Permission denied")
+
+    monkeypatch.setattr(cli, "_run", refuse)
+    code, out = run("serve", "--config-dir", str(tmp_path))
+    assert code == 1
+    text = " ".join(out.split())
+    assert "cannot bind port 502" in text and "--port 5020" in text and "TCP_CONTROL_PORT" in text
+
+
+def test_serve_port_in_use_message(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
+    def busy(coro) -> None:
+        coro.close()
+        raise OSError(errno.EADDRINUSE, "Address already in use")
+
+    monkeypatch.setattr(cli, "_run", busy)
+    code, out = run("serve", "--port", "5020", "--config-dir", str(tmp_path))
+    assert code == 1 and "already in use" in out
+
+
+def test_serve_rejects_bad_speed(tmp_path) -> None:
+    code, out = run("serve", "--speed", "0", "--config-dir", str(tmp_path))
+    assert code == 2 and "--speed" in out
+
+
+def test_serve_subprocess_with_admin(tmp_path) -> None:
+    """`xarm-emu serve --admin` end to end: the banner names the admin port; inject reaches it."""
+    import subprocess
+    import sys
+    import time
+
+    ports = []
+    socks = []
+    for _ in range(5):
+        s = socket.socket()
+        s.bind(("127.0.0.1", 0))
+        socks.append(s)
+        ports.append(s.getsockname()[1])
+    for s in socks:
+        s.close()
+    cmd, normal, rich, develop, admin = ports
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "xarm_emu.cli", "serve", "--port", str(cmd), "--normal-port", str(normal),
+         "--rich-port", str(rich), "--develop-port", str(develop), "--admin", "--admin-port", str(admin),
+         "--config-dir", str(tmp_path), "--log-level", "WARNING"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "COLUMNS": "500"})
+    try:
+        assert proc.stdout is not None
+        banner = proc.stdout.readline() + proc.stdout.readline()
+        assert f"admin channel (fault injection) on 127.0.0.1:{admin}" in " ".join(banner.split()), banner
+        code, out = run("inject", "error", "C31", "--port", str(cmd), "--admin-port", str(admin))
+        assert code == 0, out
+        code, out = run("status", "--json", "--port", str(cmd), "--report-port", str(develop))
+        assert code == 0 and json.loads(out)["error"] == 31
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        if proc.stdout is not None:
+            proc.stdout.close()
+        time.sleep(0)
