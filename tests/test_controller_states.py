@@ -130,7 +130,8 @@ def test_wrong_length_gives_warning_12(emu: Emulator) -> None:
     assert call(emu, 15)[1]["warning"] == 12
 
 
-@pytest.mark.parametrize("speed,acc", [(math.nan, 10.0), (1.0, -1.0), (4.0, 10.0), (0.5, math.inf), (0.0, 1.0)])
+@pytest.mark.parametrize("speed,acc", [(math.nan, 10.0), (1.0, -1.0), (4.0, 10.0), (0.5, math.inf),
+                                       (0.0, 1.0)])
 def test_bad_joint_speeds_refused_with_warning_12(emu: Emulator, speed: float, acc: float) -> None:
     ready(emu)
     state, reply = move_joint(emu, 0.5, speed=speed, acc=acc)
