@@ -134,3 +134,12 @@ def test_reported_pose_is_fk_of_reported_joints() -> None:
         np.testing.assert_allclose(pose[:3], T[:3, 3], atol=1e-3)
         R = rot.rpy_to_matrix(*pose[3:])
         np.testing.assert_allclose(R, T[:3, :3], atol=1e-5)
+
+
+def test_register_42_joint_states_blocks(emu: Emulator) -> None:
+    emu.controller.q = np.array([0.1, 0.2, -0.3, 0.0, 0.4, 0.0])
+    assert len(emu.handle(42, b"")[1]) == 28
+    state, reply = emu.handle(42, bytes([3]))
+    values = struct.unpack("<21f", reply)
+    assert values[:3] == pytest.approx((0.1, 0.2, -0.3), abs=1e-7)
+    assert values[14:21] == pytest.approx(emu.controller.joint_torques7(), abs=1e-4)

@@ -388,7 +388,7 @@ class Controller:
             39: self._h_clean_conf,
             40: self._h_save_conf,
             41: lambda v: {"pose": tuple(self.tcp_pose())},
-            42: lambda v: {"joints": self.joints7()},
+            42: self._h_joint_states,
             43: self._h_ik,
             44: self._h_fk,
             45: self._h_joint_limit,
@@ -691,6 +691,16 @@ class Controller:
             self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])
         except (ValueError, TypeError, IndexError):
             self.collision_tool = collision.NO_TOOL
+
+    def _h_joint_states(self, v: Values) -> dict[str, Any]:
+        """Register 42: joint positions; SDKs asking ``num`` blocks also get velocities and efforts."""
+        out: dict[str, Any] = {"joints": self.joints7()}
+        blocks = int(v.get("num", 1)) & 0x0F
+        if blocks >= 2:
+            out["velocities"] = self.joints7(self.qd)
+        if blocks >= 3:
+            out["efforts"] = self.joint_torques7()
+        return out
 
     # kinematics registers (issue 3)
     def _h_ik(self, v: Values) -> dict[str, Any]:
