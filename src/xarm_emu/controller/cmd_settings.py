@@ -1,0 +1,199 @@
+"""Parameter and configuration registers (manual 2.1.3, registers 5, 31-40, 51-59, 70-79)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..model import collision
+from ..protocol.layouts import all_finite
+from .base import (
+    Handler,
+    ParameterError,
+    Values,
+)
+from .core import (
+    STATE_MOVING,
+    STATE_SLEEP,
+    STATE_SUSPEND,
+    ControllerCore,
+)
+from .settings import (
+    COLLISION_SENSITIVITY_RANGE,
+    TEACH_SENSITIVITY_RANGE,
+    Settings,
+    in_range,
+)
+
+
+class SettingCommands(ControllerCore):
+    """Registers 5, 31-40, 51, 52, 59, 70, 73, 77-79."""
+
+    def register_handlers(self) -> dict[int, Handler]:
+        h = super().register_handlers()
+        model = self.model
+        h.update({
+            5: lambda v: {"tau_or_i": int(self.settings.report_current)},
+            31: self._setter("tcp_jerk", "jerk", model.max_tcp_jerk),
+            32: self._setter("tcp_maxacc", "maxacc", model.max_tcp_acc),
+            33: self._setter("joint_jerk", "jerk", model.max_joint_jerk),
+            34: self._setter("joint_maxacc", "maxacc", model.max_joint_acc),
+            35: self._h_tcp_offset,
+            36: self._h_tcp_load,
+            37: self._h_collision_sensitivity,
+            38: self._h_teach_sensitivity,
+            39: self._h_clean_conf,
+            40: self._h_save_conf,
+            51: self._h_gravity,
+            52: self._h_boundary,
+            59: self._h_boundary_on,
+            70: self._h_report_tau_or_i,
+            73: self._h_world_offset,
+            77: self._h_self_collision,
+            78: self._h_collision_tool,
+            79: self._h_simulation_robot,
+        })
+        return h
+
+    # parameters
+    def _setter(self, name: str, key: str, hi: float) -> Handler:
+        def set_value(v: Values) -> dict[str, Any]:
+            value = v[key]
+            if not in_range(value, hi):
+                raise ParameterError(f"{name} outside Table 1.2")
+            setattr(self.settings, name, float(value))
+            return {"cmdnum": self.executor.cmdnum}
+
+        return set_value
+
+    def _h_tcp_offset(self, v: Values) -> None:
+        if not all_finite(v):
+            raise ParameterError("non-finite value")
+        self.settings.tcp_offset = [float(x) for x in v["pose"]]
+        self.system_reset()
+        return None
+
+    def _h_tcp_load(self, v: Values) -> None:
+        if not all_finite(v) or v["mass"] < 0.0:
+            raise ParameterError("bad payload")
+        self.settings.tcp_load = [float(v["mass"]), *(float(x) for x in v["center"])]
+        return None
+
+    def _h_collision_sensitivity(self, v: Values) -> None:
+        lo, hi = COLLISION_SENSITIVITY_RANGE
+        if not lo <= v["sensitivity"] <= hi:
+            raise ParameterError("collision sensitivity is 0..5")
+        self.settings.collision_sensitivity = int(v["sensitivity"])
+        self.system_reset()
+        return None
+
+    def _h_teach_sensitivity(self, v: Values) -> None:
+        lo, hi = TEACH_SENSITIVITY_RANGE
+        if not lo <= v["sensitivity"] <= hi:
+            raise ParameterError("teach sensitivity is 1..5")
+        self.settings.teach_sensitivity = int(v["sensitivity"])
+        self.system_reset()
+        return None
+
+    def _h_clean_conf(self, v: Values) -> None:
+        self.settings = Settings.for_model(self.model)
+        if self.on_clean_conf is not None:
+            self.on_clean_conf()
+        return None
+
+    def _h_save_conf(self, v: Values) -> None:
+        if self.on_save is not None:
+            self.on_save(self.config_values())
+        return None
+
+    def config_values(self) -> dict[str, Any]:
+        return self.settings.to_dict()
+
+    def load_config(self, data: dict[str, Any]) -> None:
+        self.settings = Settings.from_dict(data, self.model)
+        tool = self.settings.collision_tool
+        try:
+            self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])
+        except (ValueError, TypeError, IndexError):
+            self.collision_tool = collision.NO_TOOL
+
+
+    def _h_world_offset(self, v: Values) -> None:
+        if not all_finite(v):
+            raise ParameterError("non-finite value")
+        self.settings.world_offset = [float(x) for x in v["pose"]]
+        self.system_reset()
+        return None
+
+    # other settings
+    def _h_gravity(self, v: Values) -> None:
+        g = np.asarray(v["direction"], dtype=float)
+        if not np.all(np.isfinite(g)) or float(np.linalg.norm(g)) == 0.0:
+            raise ParameterError("gravity direction must be a non-zero finite vector")
+        self.settings.gravity_direction = [float(x) for x in g]
+        return None
+
+    def _h_boundary(self, v: Values) -> None:
+        b = [int(x) for x in v["boundary"]]
+        if b[0] < b[1] or b[2] < b[3] or b[4] < b[5]:
+            raise ParameterError("boundary maxima must not be below minima")
+        self.settings.boundary = b
+        return None
+
+    def _h_boundary_on(self, v: Values) -> None:
+        if v["on"] not in (0, 1):
+            raise ParameterError("switch is 0 or 1")
+        self.settings.boundary_on = bool(v["on"])
+        return None
+
+    def _h_report_tau_or_i(self, v: Values) -> dict[str, Any] | None:
+        value = v["tau_or_i"]
+        if value not in (0, 1):
+            raise ParameterError("0: torque, 1: current")
+        self.settings.report_current = bool(value)
+        return None
+
+    def _h_self_collision(self, v: Values) -> None:
+        if v["on"] not in (0, 1):
+            raise ParameterError("switch is 0 or 1")
+        self.settings.self_collision_on = bool(v["on"])
+        return None
+
+    def _h_collision_tool(self, v: Values) -> None:
+        """Register 78: the end tool's geometry for self-collision detection (model/collision.py)."""
+        params = [float(x) for x in v.get("params", ())]
+        try:
+            tool = collision.tool_model(int(v["tool_type"]), params)
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
+        self.collision_tool = tool
+        self.settings.collision_tool = [float(tool.kind), *params, *([0.0] * (6 - len(params)))][:7]
+        return None
+
+    def _h_simulation_robot(self, v: Values) -> None:
+        """Register 79, virtual robot mode: while on, the reported arm follows the commands and the
+        physical arm stays where it was; switching it off ends motion and reports the physical arm
+        again."""
+        if v["on"] not in (0, 1):
+            raise ParameterError("switch is 0 or 1")
+        on = bool(v["on"])
+        if on and not self.simulation_robot:
+            self._physical_q = self.q.copy()
+        elif not on and self.simulation_robot:
+            self.executor.clear()
+            self.servo_target = None
+            self.servo_tracker = None
+            if self._physical_q is not None:
+                self.q = self._physical_q
+            self._physical_q = None
+            if self._state in (STATE_MOVING, STATE_SUSPEND):
+                self._state = STATE_SLEEP
+        self.simulation_robot = on
+        return None
+
+    @property
+    def physical_joints(self) -> np.ndarray:
+        """Joints of the physical arm: frozen while virtual robot mode (register 79) is on."""
+        return self._physical_q.copy() if self._physical_q is not None else self.q.copy()
+

@@ -1,0 +1,153 @@
+"""Registers of the common port section and the system state (manual 2.1.3, registers 1-19 and 106):
+version, serial numbers, enable, state, mode, errors and warnings."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .base import (
+    Handler,
+    ParameterError,
+    Values,
+)
+from .core import (
+    FIRMWARE_VERSION,
+    MODE_JOINT_TEACH,
+    MODE_POSITION,
+    MODE_SERVO,
+    REENABLE_ERRORS,
+    STATE_MOVING,
+    STATE_SLEEP,
+    STATE_STOP,
+    STATE_SUSPEND,
+    STATE_SYSTEM_RESET,
+    ControllerCore,
+)
+
+
+class StateCommands(ControllerCore):
+    """Registers 1, 2, 10-19 and 106."""
+
+    def register_handlers(self) -> dict[int, Handler]:
+        h = super().register_handlers()
+        h.update({
+            1: self._h_version,
+            2: self._h_robot_sn,
+            10: self._h_shutdown,
+            11: self._h_motion_enable,
+            12: self._h_set_state,
+            13: lambda v: {"state": self._state},
+            14: lambda v: {"cmdnum": self.executor.cmdnum},
+            15: lambda v: {"error": self.error_code, "warning": self.warning_code},
+            16: self._h_clean_error,
+            17: self._h_clean_warning,
+            18: self._h_brake,
+            19: self._h_set_mode,
+            106: self._h_servo_debug,
+        })
+        return h
+
+    # version and identity
+    def version_string(self) -> str:
+        """Register 1: ``<axis>,<type>,<robot SN>,<box SN>,v1.6.0`` (research note section 5.1)."""
+        return f"{self.model.axis},{self.model.robot_type},{self.robot_sn},{self.box_sn},{FIRMWARE_VERSION}"
+
+    def _h_version(self, v: Values) -> dict[str, Any]:
+        return {"version": self.version_string()}
+
+    def _h_robot_sn(self, v: Values) -> dict[str, Any]:
+        return {"serials": f"{self.robot_sn}\0{self.box_sn}\0".encode("ascii").ljust(40, b"\0")[:40]}
+
+
+    def _h_shutdown(self, v: Values) -> dict[str, Any]:
+        # Remote shutdown of the control box OS: the emulator acknowledges and keeps running
+        # (documented in the README); the server may act on ``shutdown_requested``.
+        self.shutdown_requested = True
+        return {"cmdnum": self.executor.cmdnum}
+
+    # state machine
+    def _joint_ids(self, joint: int) -> list[int]:
+        if joint == 8:
+            return list(range(self.dof))
+        if 1 <= joint <= self.dof:
+            return [joint - 1]
+        raise ParameterError(f"joint {joint} out of range")
+
+    def _h_motion_enable(self, v: Values) -> None:
+        ids = self._joint_ids(v["joint"])
+        if v["enable"] not in (0, 1):
+            raise ParameterError("enable must be 0 or 1")
+        for i in ids:
+            self.enabled[i] = bool(v["enable"])
+            if v["enable"]:
+                self.brakes[i] = True
+        self.system_reset()
+        return None
+
+    def _h_brake(self, v: Values) -> None:
+        ids = self._joint_ids(v["joint"])
+        for i in ids:
+            self.brakes[i] = not bool(v["enable"])
+        self.system_reset()
+        return None
+
+    def _h_set_state(self, v: Values) -> None:
+        s = v["state"]
+        if s == 0:
+            if self.error_code:
+                return None  # stays in stop; the reply carries 0x40
+            if self._state == STATE_SUSPEND:
+                self.executor.ramp_to(1.0, self._limits())
+                self._state = STATE_MOVING if self.executor.active else STATE_SLEEP
+            elif self._state in (STATE_STOP, STATE_SYSTEM_RESET):
+                if not self.executor.stopping:
+                    self._state = STATE_SLEEP
+            return None
+        if s == STATE_SUSPEND:
+            if self._state in (STATE_MOVING, STATE_SLEEP):
+                self.executor.ramp_to(0.0, self._limits())
+                self._state = STATE_SUSPEND
+            return None
+        if s == STATE_STOP:
+            if self.mode == MODE_POSITION and self.executor.plan is not None:
+                self.executor.buffer.clear()
+                self.executor.stopping = True
+                self.executor.ramp_to(0.0, self._limits())
+            else:
+                self.executor.clear()
+            self.servo_target = None
+            self._state = STATE_STOP
+            self._enter_stop()
+            return None
+        raise ParameterError(f"state {s} cannot be set")
+
+    def _h_clean_error(self, v: Values) -> None:
+        if self.error_code in REENABLE_ERRORS:
+            self.enabled = [False] * self.dof
+        self.error_code = 0
+        self.servo_errors = [0] * self.dof
+        self.system_reset()
+        return None
+
+    def _h_clean_warning(self, v: Values) -> None:
+        self.warning_code = 0
+        return None
+
+    def _h_set_mode(self, v: Values) -> None:
+        mode = v["mode"]
+        if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH):
+            raise ParameterError(f"mode {mode} not available")
+        self.mode = mode
+        self.system_reset()
+        return None
+
+
+    def _h_servo_debug(self, v: Values) -> dict[str, Any]:
+        """Register 106: (state, error code) of joints 1-7, then of the end tool (gripper)."""
+        servos = [0] * 16
+        for i in range(self.dof):
+            servos[2 * i] = 1 if self.servo_errors[i] else 0
+            servos[2 * i + 1] = self.servo_errors[i] & 0xFF
+        servos[14], servos[15] = self.tool_error
+        return {"servos": tuple(servos)}
+

@@ -1,0 +1,393 @@
+"""The control box core: state, readiness, poses, dispatch through the register table, the
+control step and the safety checks.
+
+Pure and deterministic: no sockets, no wall clock. The server calls :meth:`handle` for every
+request and :meth:`step` once per control period (:data:`~xarm_emu.controller.base.PERIOD`).
+Register handlers live in the command modules (``cmd_*.py``) that :class:`Controller` combines.
+
+States (register 13, manual section 2.1.3): 1 in motion, 2 sleep (idle and ready), 3 suspend,
+4 stop, 5 system reset. Modes (register 19): 0 position, 1 servo, 2 joint teaching, 3 Cartesian
+teaching (not available).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..model import collision
+from ..model import dynamics as dyn
+from ..model import kinematics as kin
+from ..model import rotations as rot
+from ..model.robots import RobotModel
+from ..protocol import registers as regs
+from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
+from ..protocol.layouts import LayoutError
+from . import motion, safety
+from .base import (
+    PERIOD,
+    WARN_BUFFER_OVERFLOW,
+    WARN_PARAMETER,
+    WARN_UNKNOWN_COMMAND,
+    CommandError,
+    CommandWarning,
+    Component,
+    Handler,
+    ParameterError,
+)
+from .commands import QueuedCommand
+from .executor import Executor, Limits
+from .settings import (
+    Settings,
+)
+
+STATE_MOVING = 1
+STATE_SLEEP = 2
+STATE_SUSPEND = 3
+STATE_STOP = 4
+STATE_SYSTEM_RESET = 5
+
+MODE_POSITION = 0
+MODE_SERVO = 1
+MODE_JOINT_TEACH = 2
+MODE_CARTESIAN_TEACH = 3
+
+#: Command buffer capacity; the SDK throttles itself at 512 (max_cmdnum).
+BUFFER_CAPACITY = 1024
+
+#: Firmware version the emulator claims. v1.6.0 keeps the SDK on the manual's
+#: layouts (research note section 5.3).
+FIRMWARE_VERSION = "v1.6.0"
+
+# Control box errors (section 3.2.1) that need the joints enabled again after clearing.
+REENABLE_ERRORS = frozenset({1, 2, 3, 10, 11, 12, 13, 14, 15, 16, 17})
+
+C_JOINT_LIMIT = 23
+C_OTHER = 29
+
+log = logging.getLogger("xarm_emu.controller")
+
+class ControllerCore:
+    """State and mechanisms shared by every command group."""
+
+    def __init__(self, model: RobotModel, *, robot_sn: str = "XI1300", box_sn: str = "AC1300",
+                 period: float = PERIOD) -> None:
+        self.model = model
+        self.dof = model.dof
+        self.period = period
+        self.robot_sn = robot_sn
+        self.box_sn = box_sn
+        self._time = 0.0
+        self.steps = 0
+        self.q = np.zeros(self.dof)
+        self.qd = np.zeros(self.dof)
+        self.qdd = np.zeros(self.dof)
+        self._torque_cache: tuple[int, np.ndarray] | None = None
+        self._state = STATE_STOP
+        self.mode = MODE_POSITION
+        self.enabled = [True] * self.dof
+        self.brakes = [True] * self.dof  # True: brake released (motor holds the joint)
+        self.error_code = 0
+        self.warning_code = 0
+        self.servo_errors = [0] * self.dof  # per-joint servo error codes (section 3.1)
+        self.settings = Settings.for_model(self.model)
+        self.simulation_robot = False  # register 79
+        self._physical_q: np.ndarray | None = None
+        self.collision_tool = collision.NO_TOOL
+        #: (state, code) of the end tool for register 106; the emulator keeps it current.
+        self.tool_error: tuple[int, int] = (0, 0)
+        self.executor = Executor(model)
+        self.servo_target: np.ndarray | None = None
+        self.servo_tracker: motion.ServoTracker | None = None
+        self.components: list[Component] = []
+        self.counter = 0  # commands executed (rich report bytes 285-288)
+        self._pose_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
+        self._handlers: dict[int, Handler] = self.register_handlers()
+        self.on_save: Callable[[dict[str, Any]], None] | None = None
+        self.on_clean_conf: Callable[[], None] | None = None
+        self.shutdown_requested = False
+
+    def register_handlers(self) -> dict[int, Handler]:
+        """Handlers by register code; each command group adds its own (cooperative ``super()``)."""
+        return {}
+
+    # -- components ----------------------------------------------------------------------------
+    def add_component(self, component: Component) -> None:
+        self.components.append(component)
+        self._handlers.update(component.handlers())
+
+    # -- ControllerView ------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return self._time
+
+    @property
+    def state(self) -> int:
+        return self._state
+
+    @property
+    def is_moving(self) -> bool:
+        return self._state == STATE_MOVING
+
+    @property
+    def tcp_position(self) -> tuple[float, float, float]:
+        p = self.tcp_matrix()[:3, 3]
+        return (float(p[0]), float(p[1]), float(p[2]))
+
+    def raise_error(self, code: int) -> None:
+        """Enter an error: stop at once, discard the buffer, state 4 (section 3.2.1)."""
+        if self.error_code == 0 or code != self.error_code:
+            self.error_code = code
+        self.executor.clear()
+        self.servo_target = None
+        self.qd[:] = 0.0
+        self._state = STATE_STOP
+        self._enter_stop()
+
+    def raise_warning(self, code: int) -> None:
+        """Set a warning: only the flag and the code change (section 3.2.2)."""
+        self.warning_code = code
+
+    # -- readiness -----------------------------------------------------------------------------
+    @property
+    def ready(self) -> bool:
+        """Whether the arm can perform motion (reply bit 0x10 clear)."""
+        return (self.error_code == 0 and self._state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND)
+                and all(self.enabled) and all(self.brakes))
+
+    def status_byte(self) -> int:
+        s = 0
+        if self.error_code:
+            s |= STATE_ERROR
+        if self.warning_code:
+            s |= STATE_WARNING
+        if not self.ready:
+            s |= STATE_NOT_READY
+        return s
+
+    # -- poses ---------------------------------------------------------------------------------
+    def tcp_matrix(self, q: np.ndarray | None = None) -> np.ndarray:
+        """TCP pose (4x4, mm) in the user frame, TCP offset applied."""
+        if q is None:
+            key = (self.q.tobytes(), tuple(self.settings.tcp_offset), tuple(self.settings.world_offset))
+            if self._pose_cache is not None and self._pose_cache[0] == key:
+                return self._pose_cache[1]
+            T = kin.tcp_pose(self.model, self.q, self.settings.tcp_offset, self.settings.world_offset)
+            self._pose_cache = (key, T)
+            return T
+        return kin.tcp_pose(self.model, q, self.settings.tcp_offset, self.settings.world_offset)
+
+    def tcp_pose(self) -> np.ndarray:
+        """(x, y, z, roll, pitch, yaw) of the TCP in the user frame (register 41)."""
+        return rot.matrix_to_pose(self.tcp_matrix())
+
+    def flange_target(self, T_tcp_user: np.ndarray) -> np.ndarray:
+        return kin.flange_target(T_tcp_user, self.settings.tcp_offset, self.settings.world_offset)
+
+    def joints7(self, q: np.ndarray | None = None) -> tuple[float, ...]:
+        v = self.q if q is None else q
+        return tuple(float(x) for x in v) + (0.0,) * (7 - self.dof)
+
+    # -- request handling ----------------------------------------------------------------------
+    def handle(self, code: int, params: bytes) -> tuple[int, bytes]:
+        """Handle one command; returns (reply state byte, reply parameter bytes)."""
+        reg = regs.get(code)
+        handler = self._handlers.get(code)
+        if reg is None or handler is None:
+            self.raise_warning(WARN_UNKNOWN_COMMAND)
+            return self.status_byte(), b""
+        reply = b""
+        self._code = code
+        extra = 0
+        try:
+            try:
+                values = reg.request.decode(params)
+            except LayoutError as exc:
+                raise ParameterError(str(exc)) from exc
+            result = handler(values)
+            if result is not None:
+                reply = reg.reply.encode(result)
+        except NotReady:
+            extra = STATE_NOT_READY  # this command cannot run now: nothing queued, nothing moves
+            reply = self._default_reply(reg)
+        except CommandWarning as w:
+            self.raise_warning(w.code)
+            reply = self._default_reply(reg)
+        except CommandError as e:
+            self.raise_error(e.code)
+            reply = self._default_reply(reg)
+        except Exception:  # a bug must not take the connection down: log it, answer warning 12
+            log.exception("register %d with %d parameter bytes failed", code, len(params))
+            self.raise_warning(WARN_PARAMETER)
+            reply = self._default_reply(reg)
+        return self.status_byte() | extra, reply
+
+    def _default_reply(self, reg: regs.Register) -> bytes:
+        """Reply bytes of a refused command: the buffer count for queued commands, else zeros.
+
+        The SDK raises on short replies (research note section 0.4), so a refused getter still
+        answers with its full layout.
+        """
+        if reg.reply.fields and reg.reply.fields[0].name == "cmdnum" and len(reg.reply.fields) == 1:
+            return reg.reply.encode(cmdnum=self.executor.cmdnum)
+        return bytes(reg.reply.size)
+
+    # -- stepping ------------------------------------------------------------------------------
+    def step(self) -> None:
+        """Advance the control box by one control period."""
+        dt = self.period
+        self._time += dt
+        self.steps += 1
+        q_prev = self.q
+        try:
+            if self.error_code == 0:
+                if self.mode == MODE_SERVO and self.servo_target is not None and self._state in (
+                        STATE_SLEEP, STATE_MOVING):
+                    tracker = self._tracker()
+                    tracker.set_target(self.servo_target)
+                    q, _, _ = tracker.step(dt)
+                    self.q = q.copy()
+                    self._state = STATE_SLEEP if tracker.at_target else STATE_MOVING
+                elif self.mode == MODE_POSITION and self._state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
+                    self._step_position(dt)
+                elif self._state == STATE_STOP and self.executor.stopping:
+                    self._step_position(dt)
+                if self.q is not q_prev:
+                    self._check_safety(q_prev)
+        except CommandError as e:
+            self.raise_error(e.code)
+        except Exception:  # keep the control loop alive; the arm stops with C29 "other errors"
+            log.exception("control step failed")
+            self.raise_error(C_OTHER)
+        qd = (self.q - q_prev) / dt
+        self.qdd = (qd - self.qd) / dt
+        self.qd = qd
+        for c in self.components:
+            c.step(dt, self)
+
+    def _tracker(self) -> motion.ServoTracker:
+        if self.servo_tracker is None:
+            m = self.model
+            self.servo_tracker = motion.ServoTracker(self.q, m.max_joint_speed, m.max_joint_acc)
+        return self.servo_tracker
+
+    def _check_safety(self, q_prev: np.ndarray) -> None:
+        """Safety boundary (52, 59: C35) and self-collision (77, 78: C22) on the step just planned:
+        the arm stops on the boundary or before contact (controller/safety.py)."""
+        s = self.settings
+        if not (s.boundary_on or s.self_collision_on):
+            return
+        stop = safety.check_path_step(self.model, q_prev, self.q, self.collision_tool, s.self_collision_on,
+                                      s.boundary, s.boundary_on, s.tcp_offset)
+        if stop is not None:
+            self.q = np.asarray(stop.q_stop, dtype=float)
+            raise CommandError(stop.code, stop.reason)
+
+    def _limits(self) -> Limits:
+        s = self.settings
+        return Limits(s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed)
+
+    def _step_position(self, dt: float) -> None:
+        ex = self.executor
+        was = ex.cmdnum
+        if not ex.active:
+            if self._state == STATE_MOVING:
+                self._state = STATE_SLEEP
+            return
+        self.q = ex.step(dt, self.q, self._limits(), self.flange_target, self.tcp_matrix)
+        self.counter += max(0, was - ex.cmdnum)
+        if self._state != STATE_STOP:
+            if ex.active and not (self._state == STATE_SUSPEND):
+                self._state = STATE_MOVING
+            elif not ex.active:
+                self._state = STATE_SLEEP
+
+    def advance(self, seconds: float) -> None:
+        """Step for ``seconds`` of controller time (in-process clock)."""
+        for _ in range(max(0, round(seconds / self.period))):
+            self.step()
+
+    # -- in-process API ------------------------------------------------------------------------
+    def teach_move(self, q: Any) -> None:
+        """Move the joints by hand (joint teaching mode 2), as a hand would."""
+        if self.mode != MODE_JOINT_TEACH:
+            raise RuntimeError("joints can be moved by hand only in joint teaching mode (mode 2)")
+        arr = np.asarray(q, dtype=float)[: self.dof]
+        if not np.all(np.isfinite(arr)) or not kin.within_limits(self.model, arr):
+            raise ValueError("joint values outside the limits")
+        self.q = arr.copy()
+
+    # -- state changes -------------------------------------------------------------------------
+    def system_reset(self) -> None:
+        """The manual's "System reset" (section 2.1.1): motion ends, buffer cleared, state 5."""
+        self.executor.clear()
+        self.servo_target = None
+        self.servo_tracker = None
+        self._state = STATE_SYSTEM_RESET
+        self._enter_stop()
+
+    def _enter_stop(self) -> None:
+        for c in self.components:
+            on_stop = getattr(c, "on_stop", None)
+            if on_stop is not None:
+                on_stop()
+
+    def _require_motion_allowed(self, servo: bool = False) -> None:
+        """Refuse motion commands that cannot run now (reply bit 0x10; nothing is queued)."""
+        if self.error_code or not self.ready:
+            raise NotReady()
+        if servo and self.mode != MODE_SERVO:
+            raise NotReady()
+        if not servo and self.mode != MODE_POSITION:
+            raise NotReady()
+
+    def _queue(self, cmd: QueuedCommand) -> dict[str, Any]:
+        if self.executor.cmdnum >= BUFFER_CAPACITY:
+            raise CommandWarning(WARN_BUFFER_OVERFLOW)
+        self.executor.buffer.append(cmd)
+        if self._state == STATE_SLEEP:
+            self._state = STATE_MOVING
+        return {"cmdnum": self.executor.cmdnum}
+
+    # torques (issue 7 provides the dynamic model)
+    def joint_torques(self) -> np.ndarray:
+        """Theoretical joint torques (N m): gravity of the links and the payload of register 36
+        with the gravity direction of register 51, plus the inertial terms of the planned motion
+        (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`). Computed at most once per step."""
+        if self._torque_cache is not None and self._torque_cache[0] == self.steps:
+            return self._torque_cache[1]
+        s = self.settings
+        try:
+            g: Any = dyn.gravity_from_direction(s.gravity_direction)
+        except ValueError:
+            g = dyn.DEFAULT_GRAVITY
+        tau = dyn.inverse_dynamics(self.model, self.q, self.qd, self.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
+        self._torque_cache = (self.steps, tau)
+        return tau
+
+    def joint_currents(self) -> np.ndarray:
+        """Motor currents (A) from the torques and the documented torque constants."""
+        return dyn.torques_to_currents(self.model, self.joint_torques())
+
+    def reported_torques(self) -> np.ndarray:
+        """What the reports and register 55 carry: torques, or currents after registers 24/70."""
+        return self.joint_currents() if self.settings.report_current else self.joint_torques()
+
+    def joint_torques7(self) -> tuple[float, ...]:
+        t = self.reported_torques()
+        return tuple(float(x) for x in t) + (0.0,) * (7 - self.dof)
+
+    @property
+    def _current_code(self) -> int:
+        return self._code
+
+
+class NotReady(CommandWarning):
+    """A motion command while the arm cannot move: nothing queued, the reply shows 0x10."""
+
+    def __init__(self) -> None:
+        super().__init__(0, "arm not ready for motion")
+
