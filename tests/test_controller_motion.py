@@ -242,3 +242,25 @@ def test_target_behind_the_base_is_reached_by_turning_j1(emu: Emulator) -> None:
     call(emu, 23, joints=q, speed=1.0, acc=10.0, mvtime=0.0)
     run_until_idle(emu)
     np.testing.assert_allclose(emu.controller.tcp_pose()[:3], [-250.0, 0.0, 300.0], atol=0.01)
+
+
+def test_blend_into_a_move_that_arrives_while_the_first_runs(emu: Emulator) -> None:
+    radius = 25.0
+    line(emu, 307.0, 0.0, 112.0, speed=150.0, radius=radius)
+    poses = []
+    for _ in range(100):  # 0.4 s: the first move is under way when the next ones arrive
+        emu.step()
+        poses.append(emu.controller.tcp_pose())
+    line(emu, 307.0, 100.0, 112.0, speed=150.0, radius=radius)
+    line(emu, 207.0, 100.0, 112.0, speed=150.0)
+    poses += run_until_idle(emu)
+    pts = np.array([p[:3] for p in poses])
+    speeds = np.linalg.norm(np.diff(pts, axis=0), axis=1) / PERIOD
+    for corner in (np.array([307.0, 0.0, 112.0]), np.array([307.0, 100.0, 112.0])):
+        d = np.linalg.norm(pts - corner, axis=1)
+        assert d.min() > 1.0  # the corner is cut: blended
+        near = d[1:] < radius
+        assert speeds[near].min() > 50.0  # and the TCP does not stop there
+        assert np.all(d[d < radius] <= radius + 1e-6)
+    np.testing.assert_allclose(pts[-1], [207.0, 100.0, 112.0], atol=0.01)
+    assert emu.controller.executor.cmdnum == 0

@@ -87,11 +87,25 @@ class _DwellPlan(_Plan):
 
 class _CartesianPlan(_Plan):
     def __init__(self, move: motion.CartesianMove | motion.MoveChain,
-                 to_flange: Callable[[np.ndarray], np.ndarray], model: RobotModel) -> None:
+                 to_flange: Callable[[np.ndarray], np.ndarray], model: RobotModel,
+                 blend_into: tuple[np.ndarray, float, LineMove] | None = None) -> None:
         self.move = move
         self.duration = move.duration
         self.to_flange = to_flange
         self.model = model
+        #: For a line (chain) whose last move has a blend radius: (its target, the radius, the first
+        #: command of the chain), so that a linear move arriving later can still be blended into.
+        self.blend_into = blend_into
+
+    def last_run(self, t: float) -> tuple[motion.CartesianMove, float] | None:
+        """The final run of the plan and the time within it, if ``t`` lies in that run."""
+        move = self.move
+        if isinstance(move, motion.MoveChain):
+            last_start = move.duration - move.moves[-1].duration
+            if t < last_start:
+                return None
+            return move.moves[-1], t - last_start
+        return move, t
 
     def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
         pose, speed = self.move.at(t)
@@ -188,6 +202,8 @@ class Executor:
             self.current = self.buffer.popleft()
             self.t = 0.0
             self.plan = self._plan(self.current, q, limits, to_flange, tcp_pose)
+        elif isinstance(self.plan, _CartesianPlan) and self.plan.blend_into is not None:
+            self._blend_late_arrival(q, limits, to_flange)
         self.t += dt * self.rate
         plan = self.plan
         t = min(self.t, plan.duration)
@@ -210,6 +226,60 @@ class Executor:
             self.current = None
             self.merged = 0
         return np.asarray(new_q, dtype=float)
+
+    def _blend_late_arrival(self, q: np.ndarray, limits: Limits,
+                            to_flange: Callable[[np.ndarray], np.ndarray]) -> None:
+        """Register 22: a linear move queued while a blended move runs is still blended into.
+
+        Once the TCP is on the last straight piece of the running plan, the rest of the path is
+        re-planned through the new targets from the current path speed and acceleration, without
+        stopping. Until then (or when the blend zone has begun) nothing changes.
+        """
+        plan = self.plan
+        assert isinstance(plan, _CartesianPlan) and plan.blend_into is not None
+        if not self.buffer or not isinstance(self.buffer[0], LineMove) or self.rate != 1.0 or self.stopping:
+            return
+        found = plan.last_run(self.t)
+        if found is None:
+            return
+        run, t_run = found
+        path = run.path
+        s, v, a = run.state(t_run)
+        last_piece = path._starts[-1] if isinstance(path, motion.CompositePath) else 0.0
+        target, radius, first = plan.blend_into
+        if s < last_piece or path.length - s <= radius:
+            return  # still before the last straight piece, or already inside the blend zone
+        poses = [path.pose(s), target]
+        radii: list[float | None] = [radius]
+        last: LineMove | None = None
+        extra = 0
+        while self.buffer and isinstance(self.buffer[0], LineMove) and (last is None or last.radius > 0.0):
+            nxt = self.buffer.popleft()
+            assert isinstance(nxt, LineMove)
+            poses.append(resolve_line_target(nxt, poses[-1]))
+            radii.append(nxt.radius if nxt.radius > 0.0 else None)
+            extra += 1
+            last = nxt
+        seed = q
+        for pose in poses[2:]:
+            sol = kin.ik(self.model, to_flange(pose), seed, limited=False, restarts=True)
+            if sol is None:
+                self.clear()
+                raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
+            seed = sol
+        assert last is not None
+        radii[-1] = None
+        acc = min(first.acc, limits.tcp_maxacc)
+        runs = motion.blend_runs(poses, radii)
+        profile = motion.MovingProfile(runs[0].length, v, a, first.speed, acc, limits.tcp_jerk)
+        moves = [motion.CartesianMove(runs[0], first.speed, acc, limits.tcp_jerk, profile=profile)]
+        moves += [motion.CartesianMove(r, first.speed, acc, limits.tcp_jerk) for r in runs[1:]]
+        move: motion.CartesianMove | motion.MoveChain = (moves[0] if len(moves) == 1
+                                                         else motion.MoveChain(moves))
+        blend = (poses[-1], last.radius, first) if last.radius > 0.0 else None
+        self.plan = _CartesianPlan(move, to_flange, self.model, blend)
+        self.t = 0.0
+        self.merged += extra
 
     # -- planning ----------------------------------------------------------------------------
     def _plan(self, cmd: QueuedCommand, q: np.ndarray, limits: Limits,
@@ -241,7 +311,8 @@ class Executor:
         if kin.ik(self.model, to_flange(end_check), q, limited=False, restarts=True) is None:
             raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
         move = motion.CartesianMove(path, cmd.speed, acc, limits.tcp_jerk)
-        return _CartesianPlan(move, to_flange, self.model)
+        blend = (end_check, cmd.radius, cmd) if isinstance(cmd, LineMove) and cmd.radius > 0.0 else None
+        return _CartesianPlan(move, to_flange, self.model, blend)
 
 
     def _plan_blended(self, cmd: LineMove, start: np.ndarray, q: np.ndarray, acc: float, limits: Limits,
@@ -271,7 +342,8 @@ class Executor:
                 raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
             seed = sol
         move = motion.plan_blended(poses, radii, cmd.speed, acc, limits.tcp_jerk)
-        return _CartesianPlan(move, to_flange, self.model)
+        blend = (poses[-1], last.radius, cmd) if last.radius > 0.0 else None
+        return _CartesianPlan(move, to_flange, self.model, blend)
 
 
 def wire_pose_to_matrix(pose: tuple[float, ...] | np.ndarray) -> np.ndarray:

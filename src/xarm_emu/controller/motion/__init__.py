@@ -14,12 +14,13 @@ from .paths import (
     Path,
     blend_runs,
 )
-from .profile import JerkProfile, SCurve, resume_profile, stop_profile
+from .profile import JerkProfile, MovingProfile, SCurve, resume_profile, stop_profile
 from .servo import ServoTracker
 
 __all__ = [
     "ROT_MM_PER_RAD", "BlendArc", "CartesianMove", "CirclePath", "CollinearError", "CompositePath",
-    "JerkProfile", "JointTrajectory", "LinePath", "MoveChain", "Path", "PlanningError", "SCurve",
+    "JerkProfile", "JointTrajectory",
+    "MovingProfile", "LinePath", "MoveChain", "Path", "PlanningError", "SCurve",
     "ServoTracker", "blend_runs", "plan_blended", "plan_joint_move", "plan_joint_stop", "plan_line",
     "resume_profile", "stop_profile",
 ]

@@ -170,3 +170,43 @@ def stop_profile(v0: float, a0: float, amax: float, jmax: float) -> JerkProfile:
 def resume_profile(remaining: float, vmax: float, amax: float, jmax: float) -> SCurve:
     """Profile that resumes a suspended move from rest over the ``remaining`` distance."""
     return SCurve(remaining, vmax, amax, jmax)
+
+
+class MovingProfile:
+    """Jerk-limited profile from a moving state ``(s=0, v0, a0)`` to rest at ``distance``.
+
+    Used when a blended move arrives while the arm already moves (register 22): the remaining path is
+    re-planned from the current path speed and acceleration without stopping. Solved time-optimally
+    by ruckig (offline, one degree of freedom); same interface as :class:`JerkProfile`.
+    """
+
+    __slots__ = ("duration", "distance", "_traj", "_end")
+
+    def __init__(self, distance: float, v0: float, a0: float, vmax: float, amax: float, jmax: float) -> None:
+        from ruckig import InputParameter, Result, Ruckig, Trajectory
+
+        _check_limits(vmax, amax, jmax)
+        inp = InputParameter(1)
+        inp.current_position = [0.0]
+        inp.current_velocity = [v0]
+        inp.current_acceleration = [a0]
+        inp.target_position = [distance]
+        inp.target_velocity = [0.0]
+        inp.target_acceleration = [0.0]
+        inp.max_velocity = [max(vmax, abs(v0))]
+        inp.max_acceleration = [max(amax, abs(a0))]
+        inp.max_jerk = [jmax]
+        traj = Trajectory(1)
+        if Ruckig(1).calculate(inp, traj) not in (Result.Working, Result.Finished):
+            raise ValueError("no jerk-limited profile from this moving state")
+        self._traj = traj
+        self.duration = float(traj.duration)
+        self.distance = distance
+        self._end = (distance, 0.0, 0.0)
+
+    def sample(self, t: float) -> tuple[float, float, float]:
+        """``(s, v, a)`` at time ``t`` (clamped to ``[0, duration]``)."""
+        if t >= self.duration:
+            return self._end
+        p, v, a = self._traj.at_time(max(t, 0.0))
+        return float(p[0]), float(v[0]), float(a[0])
