@@ -83,6 +83,7 @@ def test_stop_clears_buffer_and_needs_set_state_0(emu: Emulator) -> None:
     move_joint(emu, -1.0)
     emu.advance(0.3)
     call(emu, 12, state=4)
+    assert call(emu, 14)[1]["cmdnum"] == 0  # discarded at once, while the arm comes to rest
     emu.advance(0.5)
     assert call(emu, 14)[1]["cmdnum"] == 0
     assert call(emu, 13)[1]["state"] == 4

@@ -137,6 +137,10 @@ class Executor:
     # -- buffer ------------------------------------------------------------------------------
     @property
     def cmdnum(self) -> int:
+        """Commands in the buffer, the running one included; 0 once a stop (state 4) discarded them,
+        even while the arm is still coming to rest."""
+        if self.stopping:
+            return 0
         return len(self.buffer) + (1 + self.merged if self.current is not None else 0)
 
     @property
