@@ -264,3 +264,17 @@ def test_blend_into_a_move_that_arrives_while_the_first_runs(emu: Emulator) -> N
         assert np.all(d[d < radius] <= radius + 1e-6)
     np.testing.assert_allclose(pts[-1], [207.0, 100.0, 112.0], atol=0.01)
     assert emu.controller.executor.cmdnum == 0
+
+
+def test_report_counter_counts_completed_commands(emu: Emulator) -> None:
+    call(emu, 23, joints=joints7(0.2), speed=1.0, acc=10.0, mvtime=0.0)
+    call(emu, 26, seconds=0.1)
+    call(emu, 23, joints=joints7(0.0), speed=1.0, acc=10.0, mvtime=0.0)
+    run_until_idle(emu)
+    assert emu.snapshot().counter == 3
+    call(emu, 23, joints=joints7(0.5), speed=1.0, acc=10.0, mvtime=0.0)
+    call(emu, 23, joints=joints7(0.0), speed=1.0, acc=10.0, mvtime=0.0)
+    emu.advance(0.2)
+    call(emu, 12, state=4)  # discarded commands do not count
+    emu.advance(1.0)
+    assert emu.snapshot().counter == 3

@@ -103,7 +103,6 @@ class ControllerCore:
         self.servo_target: np.ndarray | None = None
         self.servo_tracker: motion.ServoTracker | None = None
         self.components: list[Component] = []
-        self.counter = 0  # commands executed (rich report bytes 285-288)
         self._pose_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._handlers: dict[int, Handler] = self.register_handlers()
         self.on_save: Callable[[dict[str, Any]], None] | None = None
@@ -286,19 +285,22 @@ class ControllerCore:
             self.q = np.asarray(stop.q_stop, dtype=float)
             raise CommandError(stop.code, stop.reason)
 
+    @property
+    def counter(self) -> int:
+        """Commands completed since power-on (rich report bytes 285-288)."""
+        return self.executor.completed
+
     def _limits(self) -> Limits:
         s = self.settings
         return Limits(s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed)
 
     def _step_position(self, dt: float) -> None:
         ex = self.executor
-        was = ex.cmdnum
         if not ex.active:
             if self._state == STATE_MOVING:
                 self._state = STATE_SLEEP
             return
         self.q = ex.step(dt, self.q, self._limits(), self.flange_target, self.tcp_matrix)
-        self.counter += max(0, was - ex.cmdnum)
         if self._state != STATE_STOP:
             if ex.active and not (self._state == STATE_SUSPEND):
                 self._state = STATE_MOVING

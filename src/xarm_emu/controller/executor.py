@@ -133,6 +133,7 @@ class Executor:
         self.stopping = False  # a stop ramp is running; the plan ends when it reaches rest
         self.tcp_speed = 0.0
         self.merged = 0  # further commands of a blended chain that the current plan runs
+        self.completed = 0  # commands run to their end (the report's command counter)
 
     # -- buffer ------------------------------------------------------------------------------
     @property
@@ -226,6 +227,7 @@ class Executor:
                 raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")
         self.tcp_speed = plan.tcp_speed * self.rate
         if self.t >= plan.duration:
+            self.completed += 1 + self.merged
             self.plan = None
             self.current = None
             self.merged = 0
