@@ -18,7 +18,9 @@ import asyncio
 import contextlib
 import logging
 import socket
+import struct
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -26,6 +28,7 @@ from ..controller.base import PERIOD
 from ..controller.emulator import Emulator
 from ..protocol import reports
 from ..protocol.frame import (
+    MAX_LENGTH,
     PRIVATE_PROTOCOLS,
     PROTOCOL_HEARTBEAT,
     PROTOCOL_STANDARD,
@@ -35,7 +38,7 @@ from ..protocol.frame import (
     encode_reply,
 )
 from .admin import AdminProtocol, derive_admin_port
-from .clock import ScaledClock
+from .clock import ScaledClock, Ticker
 
 log = logging.getLogger("xarm_emu.server")
 
@@ -97,19 +100,25 @@ class _CommandProtocol(asyncio.Protocol):
         transport = self.transport
         if transport is None or transport.is_closing():
             return
+        # Fast path: the usual case, exactly one whole private-protocol frame in this read.
+        n = len(data)
+        if n >= 7 and not self.decoder.pending:
+            tid, prot, length = _HEADER.unpack_from(data)
+            if length + 6 == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS:
+                self._reply(transport, self.server.answer(tid, prot, data[6], data[7:]))
+                return
         try:
             frames = self.decoder.feed(data)
         except FrameError as exc:
             log.info("closing command connection: %s", exc)
             transport.close()
             return
-        emu = self.server.emulator
+        answer = self.server.answer
         out = []
         for req in frames:
             prot = req.protocol  # type: ignore[union-attr]
             if prot in PRIVATE_PROTOCOLS:
-                state, params = emu.handle(req.register, req.params)  # type: ignore[union-attr]
-                out.append(encode_reply(req.tid, prot, req.register, state, params))  # type: ignore[union-attr]
+                out.append(answer(req.tid, prot, req.register, req.params))  # type: ignore[union-attr]
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
@@ -120,16 +129,31 @@ class _CommandProtocol(asyncio.Protocol):
                 transport.close()
                 return
         if out:
-            delay = self.server.reply_delay
-            payload = out[0] if len(out) == 1 else b"".join(out)
-            if delay > 0.0:
-                asyncio.get_running_loop().call_later(delay, self._send, payload)
-            else:
-                transport.write(payload)
+            self._reply(transport, out[0] if len(out) == 1 else b"".join(out))
+
+    def _reply(self, transport: asyncio.Transport, payload: bytes) -> None:
+        """One write per read (research note 0.5), now or after the injected reply delay."""
+        delay = self.server.reply_delay
+        if delay > 0.0:
+            asyncio.get_running_loop().call_later(delay, self._send, payload)
+        else:
+            transport.write(payload)
 
     def _send(self, payload: bytes) -> None:
         if self.transport is not None and not self.transport.is_closing():
             self.transport.write(payload)
+
+
+#: Shortest sleep of the control loop when woken before a step was due (seconds).
+MIN_SLEEP = 0.001
+
+_HEADER = struct.Struct(">HHH")
+_TID_PROT = struct.Struct(">HH")
+
+#: Registers whose reply with no parameters is a pure read of the controller's state (manual 2.1.3:
+#: version, serial number, state, cmdnum, error/warning, TCP pose, joints). Between two control steps,
+#: and until any other command or injection, their answer cannot change, so it is computed once.
+PURE_READS = frozenset({1, 2, 13, 14, 15, 41, 42})
 
 
 class EmulatorServer:
@@ -148,8 +172,11 @@ class EmulatorServer:
         self.report_pause_until = 0.0  # fault injection: loop time until which reports pause
         self.frames_sent: dict[str, int] = {k: 0 for k in _ENCODERS}
         self.frames_skipped: dict[str, int] = {k: 0 for k in _ENCODERS}  # per slow client and frame
-        self.frame_times: dict[str, list[float]] | None = None  # set to a dict to record tick times
+        # Set to a dict to record each report frame's send time (time.perf_counter(); benchmarks).
+        self.frame_times: dict[str, list[float]] | None = None
         self._stopped = asyncio.Event()
+        self._read_cache: dict[int, bytes] = {}  # register -> reply frame after tid and protocol
+        self._ticker: Ticker | None = None
         self._client_tasks: set[asyncio.Task[None]] = set()
         self.admin_clients: set[AdminProtocol] = set()
 
@@ -173,6 +200,7 @@ class EmulatorServer:
                                          reuse_address=True)
             self._servers.append(a)
             self.ports["admin"] = a.sockets[0].getsockname()[1]
+        self._ticker = Ticker()
         self.clock.start(loop.time())
         self._tasks.append(asyncio.create_task(self._control_loop()))
         for kind in _ENCODERS:
@@ -203,15 +231,37 @@ class EmulatorServer:
 
         return on_client
 
+    def answer(self, tid: int, protocol: int, register: int, params: bytes) -> bytes:
+        """The reply frame to one private-protocol request (manual 2.1.2)."""
+        cache = self._read_cache
+        if not params and register in PURE_READS:
+            tail = cache.get(register)
+            if tail is None:
+                state, reply = self.emulator.handle(register, params)
+                tail = encode_reply(0, 0, register, state, reply)[4:]
+                cache[register] = tail
+            return _TID_PROT.pack(tid & 0xFFFF, protocol) + tail
+        cache.clear()
+        state, reply = self.emulator.handle(register, params)
+        return encode_reply(tid, protocol, register, state, reply)
+
+    def invalidate(self) -> None:
+        """Forget cached reads: call after changing the emulator outside a command (injection)."""
+        self._read_cache.clear()
+
     async def _control_loop(self) -> None:
         loop = asyncio.get_running_loop()
         emu = self.emulator
         while True:
             n = self.clock.due(loop.time())
+            if n:
+                self._read_cache.clear()
             for _ in range(n):
                 emu.step()
             delay = self.clock.next_wall() - loop.time()
-            await asyncio.sleep(max(0.0, delay))
+            # Never a zero sleep when no step is due: uvloop's timers have 1 ms resolution and fire up to
+            # 1 ms early, which would spin; a step that comes up to 1 ms late is caught up by the clock.
+            await asyncio.sleep(max(MIN_SLEEP, delay) if n == 0 else max(0.0, delay))
 
     async def _report_loop(self, kind: str) -> None:
         loop = asyncio.get_running_loop()
@@ -219,18 +269,22 @@ class EmulatorServer:
         interval = 1.0 / rate
         encode = _ENCODERS[kind]
         clients = self.report_clients[kind]
-        next_t = loop.time()
+        ticker = self._ticker
+        next_t = time.perf_counter()
         while True:
             next_t += interval
-            now = loop.time()
+            now = time.perf_counter()
             if next_t < now - interval:  # fell far behind (suspended process): re-anchor
                 next_t = now + interval
-            await asyncio.sleep(max(0.0, next_t - loop.time()))
+            if ticker is not None:
+                await ticker.wait_until(next_t)
+            else:
+                await asyncio.sleep(max(0.0, next_t - time.perf_counter()))
             if not clients or loop.time() < self.report_pause_until:
                 continue
             frame = encode(self.emulator.snapshot())
             if self.frame_times is not None:
-                self.frame_times.setdefault(kind, []).append(loop.time())
+                self.frame_times.setdefault(kind, []).append(time.perf_counter())
             for w in tuple(clients):
                 transport = w.transport
                 if transport.is_closing():
@@ -272,6 +326,9 @@ class EmulatorServer:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await t
         self._tasks.clear()
+        if self._ticker is not None:
+            self._ticker.close()
+            self._ticker = None
         for s in self._servers:
             s.close()
         self.drop_clients(abort=True)
@@ -279,9 +336,11 @@ class EmulatorServer:
             if a.transport is not None:
                 a.transport.abort()
         handlers = tuple(self._client_tasks)
-        for t in handlers:
-            t.cancel()
-        await asyncio.gather(*handlers, return_exceptions=True)
+        if handlers:  # aborted transports end their handlers (EOF); cancel only stragglers
+            _, late = await asyncio.wait(handlers, timeout=1.0)
+            for t in late:
+                t.cancel()
+            await asyncio.gather(*late, return_exceptions=True)
         for s in self._servers:
             with contextlib.suppress(Exception):
                 await s.wait_closed()
@@ -353,7 +412,10 @@ class ServerThread:
     def call(self, fn: Callable[[], object]) -> object:
         """Run ``fn`` in the server's loop thread and return its result."""
         async def wrapper() -> object:
-            return fn()
+            try:
+                return fn()
+            finally:
+                self.server.invalidate()
 
         return asyncio.run_coroutine_threadsafe(wrapper(), self.loop).result(10)
 
