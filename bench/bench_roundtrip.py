@@ -3,8 +3,8 @@ sends GET_STATE (13) and GET_POSITION (41) one at a time, against the emulator s
 minimal asyncio-protocol echo server started in the same run (it answers every request frame with a
 fixed reply of the same size, TCP_NODELAY, one write). Target: emulator / echo >= 0.85.
 
-Each server runs on its own thread and event loop (uvloop, as ``xarm-emu serve`` uses, when
-installed), in this process. Run: ``python -m bench roundtrip``.
+Each server runs in a child process of its own, on the standard event loop and on uvloop (what
+``xarm-emu serve`` uses when installed); the client runs here. Run: ``python -m bench roundtrip``.
 """
 
 from __future__ import annotations
@@ -12,15 +12,18 @@ from __future__ import annotations
 import asyncio
 import socket
 import struct
+import subprocess
+import sys
 import threading
 import time
+from pathlib import Path
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import encode_reply, encode_request
-from xarm_emu.server.app import ServerConfig, ServerThread, new_event_loop
+from xarm_emu.server.app import new_event_loop
 
-CALLS = 1500
-REPEATS = 15  # short interleaved rounds; the best of each is what the server can do undisturbed
+CALLS = 1000
+REPEATS = 30  # short interleaved rounds; the best of each is what the server can do undisturbed
 TARGET = 0.85
 
 
@@ -112,20 +115,57 @@ def canned_replies(emu: Emulator) -> dict[int, bytes]:
     return out
 
 
+_CHILD = """
+import json, sys
+from bench.bench_roundtrip import EchoServer, canned_replies
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.server.app import ServerConfig, ServerThread
+uv = sys.argv[2] == "1"
+if sys.argv[1] == "emulator":
+    cfg = ServerConfig(port=0, normal_port=0, rich_port=0, develop_port=0)
+    with ServerThread(Emulator(6), cfg, use_uvloop=uv) as st:
+        print(st.ports["command"], flush=True)
+        sys.stdin.readline()
+else:
+    with EchoServer(canned_replies(Emulator(6)), use_uvloop=uv) as echo:
+        print(echo.port, flush=True)
+        sys.stdin.readline()
+"""
+
+
+def _spawn(kind: str, use_uvloop: bool) -> tuple[subprocess.Popen[str], int]:
+    """A server in a child process of its own (its own GIL, as under ``xarm-emu serve``)."""
+    root = str(Path(__file__).resolve().parent.parent)
+    proc = subprocess.Popen([sys.executable, "-c", _CHILD, kind, "1" if use_uvloop else "0"], cwd=root,
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    return proc, int(proc.stdout.readline())
+
+
+def _finish(proc: subprocess.Popen[str]) -> None:
+    assert proc.stdin is not None and proc.stdout is not None
+    proc.stdin.write("\n")
+    proc.stdin.close()
+    proc.wait(10)
+    proc.stdout.close()
+
+
 def measure(use_uvloop: bool) -> dict[str, tuple[float, float, float]]:
     """Per register: best emulator rate, best echo rate, median of the per-round ratios."""
-    emu = Emulator(6)
-    cfg = ServerConfig(port=0, normal_port=0, rich_port=0, develop_port=0)
     results: dict[str, tuple[float, float, float]] = {}
-    with ServerThread(emu, cfg, use_uvloop=use_uvloop) as st, \
-            EchoServer(canned_replies(Emulator(6)), use_uvloop=use_uvloop) as echo:
+    emu_proc, emu_port = _spawn("emulator", use_uvloop)
+    echo_proc, echo_port = _spawn("echo", use_uvloop)
+    try:
         for reg, name in ((13, "get_state"), (41, "get_position")):
             emu_rates, echo_rates = [], []
             for _ in range(REPEATS):  # interleaved rounds: both servers see the same machine load
-                emu_rates.append(round_trips(st.ports["command"], reg))
-                echo_rates.append(round_trips(echo.port, reg))
+                emu_rates.append(round_trips(emu_port, reg))
+                echo_rates.append(round_trips(echo_port, reg))
             ratios = sorted(a / b for a, b in zip(emu_rates, echo_rates, strict=True))
             results[name] = (max(emu_rates), max(echo_rates), ratios[len(ratios) // 2])
+    finally:
+        _finish(emu_proc)
+        _finish(echo_proc)
     return results
 
 
@@ -144,7 +184,8 @@ def run() -> list[str]:
             ratio = emu_rate / echo_rate
             verdict = "ok" if ratio >= TARGET else f"below target {TARGET}"
             lines.append(f"{loop_name:7s} {name:12s}: emulator {emu_rate:8.0f}/s, "
-                         f"echo {echo_rate:8.0f}/s (best of {REPEATS}), ratio {ratio:.2f} ({verdict}); median round ratio {median:.2f}")
+                         f"echo {echo_rate:8.0f}/s (best of {REPEATS}), ratio {ratio:.2f} ({verdict}); "
+                         f"median round ratio {median:.2f}")
     return lines
 
 
