@@ -147,3 +147,19 @@ def test_sdk_emergency_stop_leaves_state_4(make_server, sdk_arm) -> None:
     assert st.call(lambda: st.emulator.joints[0]) == q1  # stopped, short of the target
     assert math.degrees(q1) < 45.0
     assert arm.state == 4
+
+
+@pytest.mark.parametrize("use_uvloop", [False, True])
+def test_sdk_mode_follows_the_report(make_server, sdk_arm, use_uvloop: bool) -> None:
+    """Mode changes reach arm.mode through the report; on both event loops (`serve` uses uvloop)."""
+    if use_uvloop:
+        pytest.importorskip("uvloop")
+    st = make_server(speed=5.0, use_uvloop=use_uvloop)
+    arm = sdk_arm(st, report_type="real")
+    ready(arm)
+    assert wait_for(lambda: arm.mode == 0 and arm.state == 2)
+    assert arm.set_mode(1) == 0 and arm.set_state(0) == 0
+    assert wait_for(lambda: arm.mode == 1)
+    assert st.call(lambda: st.emulator.controller.mode) == 1
+    assert arm.set_mode(0) == 0 and arm.set_state(0) == 0
+    assert wait_for(lambda: arm.mode == 0 and arm.state == 2)
