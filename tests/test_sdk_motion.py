@@ -101,6 +101,28 @@ def recorder() -> Iterator[Callable[[ServerThread], DevelopRecorder]]:
         r.close()
 
 
+class SnapshotLog:
+    """Records (controller time, joints, pose, state, cmdnum) of every snapshot the server encodes into
+    a report frame (the develop report's content, stamped with controller time instead of wall time)."""
+
+    def __init__(self, st: ServerThread) -> None:
+        self.st, self.frames = st, []
+        emu = st.emulator
+        orig = emu.snapshot
+
+        def snapshot() -> Any:
+            snap = orig()
+            self.frames.append((emu.time, tuple(snap.joints), tuple(snap.pose), snap.state, snap.cmdnum))
+            return snap
+
+        st.call(lambda: setattr(emu, "snapshot", snapshot))
+        assert wait_for(lambda: len(self.frames) >= 2)
+
+    def close(self) -> list:
+        self.st.call(lambda: self.st.emulator.__dict__.pop("snapshot", None))
+        return list(self.frames)
+
+
 def ideal_duration(start: list[float], target: list[float], v: float, a: float, j: float) -> float:
     """Time-optimal jerk-limited duration from rest to rest (ruckig, same limits on every axis)."""
     n = len(start)
@@ -116,12 +138,22 @@ def ideal_duration(start: list[float], target: list[float], v: float, a: float, 
 
 
 def motion_window(frames: list, start: np.ndarray, target: np.ndarray, key: int,
-                  tol: float) -> tuple[int, int]:
+                  tol: float, start_tol: float = 1e-6) -> tuple[int, int]:
     """Indices of the first frame that left ``start`` and the first frame on ``target``."""
-    i0 = next(i for i, f in enumerate(frames) if np.max(np.abs(np.array(f[key][:len(start)]) - start)) > 1e-6)
+    i0 = next(i for i, f in enumerate(frames)
+              if np.max(np.abs(np.array(f[key][:len(start)]) - start)) > start_tol)
+    assert i0 >= 1, "recording started after the motion"
     i1 = next(i for i, f in enumerate(frames)
               if i > i0 and np.max(np.abs(np.array(f[key][:len(target)]) - target)) < tol)
     return i0, i1
+
+
+def window_seconds(frames: list, i0: int, i1: int) -> float:
+    """Seconds (of the frames' clock) from the start to the end of a motion: each lies between two
+    frames (the last one before and the first one after), taken at the midpoint."""
+    start = (frames[i0 - 1][0] + frames[i0][0]) / 2
+    end = (frames[i1 - 1][0] + frames[i1][0]) / 2
+    return end - start
 
 
 def joints_deg(st: ServerThread) -> list[float]:
@@ -149,14 +181,21 @@ def test_joint_move_wait_true_on_target_with_ideal_duration(make_server, sdk_arm
     arm = sdk_arm(st, report_type="real")
     ready(arm)
     rec = recorder(st)
+    log = SnapshotLog(st)
     target = [40.0, -20.0, -10.0, 0.0, 15.0, 0.0]
     v_deg, a_deg = 60.0, 300.0
     assert arm.set_servo_angle(angle=target, speed=v_deg, mvacc=a_deg, wait=True) == 0
     assert joints_deg(st) == pytest.approx(target, abs=1e-5)
+    stamped = log.close()
     frames = list(rec.frames)
     tgt = np.radians(target)
-    i0, i1 = motion_window(frames, np.zeros(6), tgt, 1, 1e-5)
-    measured = (frames[i1][0] - frames[i0 - 1][0]) * speed  # start lies between frames i0-1 and i0
+    final = np.array(stamped[-1][1][:6])  # the wire's float32 target, reached exactly
+    assert final == pytest.approx(tgt, abs=1e-6)
+    i0, i1 = motion_window(stamped, np.zeros(6), final, 1, 1e-12, 1e-12)
+    measured = window_seconds(stamped, i0, i1)  # controller seconds
+    # the same window read from the frames received (wall time x speed), to three frames
+    w0, w1 = motion_window(frames, np.zeros(6), tgt, 1, 1e-5)
+    assert window_seconds(frames, w0, w1) * speed == pytest.approx(measured, abs=3 * speed / 100)
     jerk = st.call(lambda: st.emulator.snapshot().joint_jerk)
     ideal = ideal_duration([0.0] * 6, list(tgt), math.radians(v_deg), math.radians(a_deg), jerk)
     assert ideal > 0.5
@@ -188,6 +227,7 @@ def test_linear_move_is_straight_on_target_with_ideal_duration(make_server, sdk_
     arm = sdk_arm(st, report_type="real")
     ready(arm)
     rec = recorder(st)
+    log = SnapshotLog(st)
     p0 = np.array(ZERO_POSE)
     p1 = np.array([307.0, 60.0, 172.0])
     v, a = 150.0, 1500.0
@@ -195,6 +235,7 @@ def test_linear_move_is_straight_on_target_with_ideal_duration(make_server, sdk_
     assert tcp_xyz(st) == pytest.approx(p1, abs=0.01)
     code, pose = arm.get_position()
     assert code == 0 and pose[:3] == pytest.approx(list(p1), abs=0.01)
+    stamped = log.close()
     frames = list(rec.frames)
     u = (p1 - p0) / np.linalg.norm(p1 - p0)
     worst = 0.0
@@ -205,7 +246,9 @@ def test_linear_move_is_straight_on_target_with_ideal_duration(make_server, sdk_
     assert worst < 0.1, worst
     i0, i1 = motion_window(frames, p0, p1, 2, 0.01)
     assert i1 - i0 > 50  # sampled at 100 Hz over the move
-    measured = frames[i1][0] - frames[i0 - 1][0]
+    j0, j1 = motion_window(stamped, p0, np.array(stamped[-1][2][:3]), 2, 1e-9, 1e-9)
+    measured = window_seconds(stamped, j0, j1)  # controller seconds (speed 1: also about wall seconds)
+    assert window_seconds(frames, i0, i1) == pytest.approx(measured, abs=0.03)
     tcp_jerk = st.call(lambda: st.emulator.snapshot().tcp_jerk)
     ideal = ideal_duration([0.0], [float(np.linalg.norm(p1 - p0))], v, a, tcp_jerk)
     assert abs(measured - ideal) / ideal < 0.05, (measured, ideal)
