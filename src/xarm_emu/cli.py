@@ -16,6 +16,7 @@ from rich.console import Console
 from rich.table import Table
 
 from . import __version__
+from .protocol import codes
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Emulator of the UFACTORY xArm 5/6/7 control box (Developer Manual V1.6.0).")
@@ -147,12 +148,37 @@ def status(
     t.add_row("version", version)
     t.add_row("state", f"{state} ({_STATES.get(state, '?')})")
     t.add_row("mode", "unknown (no report)" if mode is None else f"{mode} ({_MODES.get(mode, '?')})")
-    t.add_row("error", f"C{error}" if error else "none")
-    t.add_row("warning", str(warning) if warning else "none")
+    t.add_row("error", codes.describe_error(error))
+    t.add_row("warning", codes.describe_warning(warning))
     t.add_row("joints (deg)", ", ".join(f"{math.degrees(j):.3f}" for j in joints[:axis]))
     t.add_row("pose (mm, deg)", ", ".join([f"{p:.3f}" for p in pose[:3]] +
                                           [f"{math.degrees(p):.3f}" for p in pose[3:]]))
     console.print(t)
+
+
+@app.command(name="codes")
+def show_codes(
+    label: Annotated[str | None, typer.Argument(help="One code, e.g. C31, W11, S23 or G11.")] = None,
+) -> None:
+    """List the error and warning codes of manual chapter 3 with their handling, or explain one."""
+    if label is not None:
+        try:
+            console.print(codes.parse_label(label).describe())
+        except ValueError as exc:
+            err_console.print(str(exc))
+            raise typer.Exit(2) from None
+        return
+    for title, table in (("Control box errors (3.2.1)", codes.CONTROLLER_ERRORS),
+                         ("Warnings (3.2.2)", codes.WARNINGS),
+                         ("Joint (servo) errors (3.1)", codes.SERVO_ERRORS),
+                         ("Gripper errors (3.3)", codes.GRIPPER_ERRORS)):
+        t = Table(title=title)
+        t.add_column("code")
+        t.add_column("name")
+        t.add_column("handling")
+        for entry in table.values():
+            t.add_row(entry.label, entry.name, entry.handling)
+        console.print(t)
 
 
 # -- fault injection through the admin channel (issue 5 item 5) --------------------------------------
