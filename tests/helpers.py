@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from typing import Any
 
 from xarm_emu.controller.emulator import Emulator
@@ -32,3 +34,20 @@ def bits(state: int) -> tuple[bool, bool, bool]:
 
 def joints7(*q: float) -> tuple[float, ...]:
     return tuple(q) + (0.0,) * (7 - len(q))
+
+
+def sdk_ready(arm: Any) -> None:
+    """The SDK's start sequence on an ``XArmAPI``: each call returns 0."""
+    assert arm.motion_enable(True) == 0
+    assert arm.set_mode(0) == 0
+    assert arm.set_state(0) == 0
+
+
+def wait_for(pred: Callable[[], bool], timeout: float = 5.0) -> bool:
+    """Poll ``pred`` every 10 ms until it holds or ``timeout`` (wall seconds) passes."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if pred():
+            return True
+        time.sleep(0.01)
+    return pred()

@@ -9,12 +9,12 @@
 from __future__ import annotations
 
 import math
-import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers import sdk_ready as ready
+from helpers import wait_for
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerThread
@@ -22,19 +22,6 @@ from xarm_emu.server.app import ServerThread
 G = 9.81  # m/s2, the emulator's documented gravity (issue 7)
 
 
-def wait_for(pred: Callable[[], bool], timeout: float = 3.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
-
-
-def ready(arm: Any) -> None:
-    assert arm.motion_enable(True) == 0
-    assert arm.set_mode(0) == 0
-    assert arm.set_state(0) == 0
 
 
 def start(make_server, sdk_arm, config_dir: Path) -> tuple[Any, ServerThread]:

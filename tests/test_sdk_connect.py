@@ -6,29 +6,16 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
-from typing import Any
 
 import pytest
+from helpers import sdk_ready as ready
+from helpers import wait_for
 
 from xarm_emu.server.app import ServerThread
 
 SDK_REPORT_TYPES = {"normal": "normal", "rich": "rich", "real": "develop"}
 
 
-def wait_for(pred: Callable[[], bool], timeout: float = 3.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
-
-
-def ready(arm: Any) -> None:
-    assert arm.motion_enable(True) == 0
-    assert arm.set_mode(0) == 0
-    assert arm.set_state(0) == 0
 
 
 @pytest.mark.parametrize("report_type", sorted(SDK_REPORT_TYPES))

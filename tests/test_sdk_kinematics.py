@@ -8,8 +8,6 @@ Manual sections: 2.1.3 registers 41, 42, 43 (IK example), 44 (FK example), 45, 3
 from __future__ import annotations
 
 import math
-import time
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -19,14 +17,6 @@ from xarm_emu.server.app import ServerThread
 
 SPEED = 5.0  # nothing here times motion; the factor only shortens settling
 
-
-def wait_for(pred: Callable[[], bool], timeout: float = 3.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
 
 
 @pytest.fixture

@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import sdk_ready as ready
+from helpers import wait_for
 from ruckig import InputParameter, Ruckig, Trajectory
 
 from xarm_emu.controller.base import PERIOD
@@ -30,19 +32,6 @@ from xarm_emu.server.app import ServerThread
 ZERO_POSE = (207.0, 0.0, 112.0)
 
 
-def wait_for(pred: Callable[[], bool], timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
-
-
-def ready(arm: Any) -> None:
-    assert arm.motion_enable(True) == 0
-    assert arm.set_mode(0) == 0
-    assert arm.set_state(0) == 0
 
 
 class DevelopRecorder:

@@ -13,24 +13,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import sdk_ready as ready
+from helpers import wait_for
 
 from xarm_emu.controller.base import PERIOD
 from xarm_emu.server.app import ServerThread
-
-
-def wait_for(pred: Callable[[], bool], timeout: float = 3.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
-
-
-def ready(arm: Any) -> None:
-    assert arm.motion_enable(True) == 0
-    assert arm.set_mode(0) == 0
-    assert arm.set_state(0) == 0
 
 
 def connect(make_server, sdk_arm, speed: float = 1.0, report_type: str = "rich") -> tuple[Any, ServerThread]:

@@ -8,7 +8,7 @@ from typing import Any
 
 from ..protocol import registers as regs
 from ..protocol import reports
-from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING, Reply, encode_request
+from ..protocol.frame import Reply, StateBits, encode_request
 
 REPORT_DECODERS = {
     "develop": (reports.DEVELOP_PORT, reports.decode_develop),
@@ -22,25 +22,13 @@ class ClientError(RuntimeError):
 
 
 @dataclass(frozen=True)
-class Response:
+class Response(StateBits):
     """A decoded reply: the state byte's bits and the reply values of the register's layout."""
 
     register: int
     state: int
     values: dict[str, Any] = field(default_factory=dict)
     raw: bytes = b""
-
-    @property
-    def has_error(self) -> bool:
-        return bool(self.state & STATE_ERROR)
-
-    @property
-    def has_warning(self) -> bool:
-        return bool(self.state & STATE_WARNING)
-
-    @property
-    def not_ready(self) -> bool:
-        return bool(self.state & STATE_NOT_READY)
 
     def __getitem__(self, key: str) -> Any:
         return self.values[key]

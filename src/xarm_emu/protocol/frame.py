@@ -49,18 +49,11 @@ class Request:
         return encode_request(self.tid, self.register, self.params, self.protocol)
 
 
-@dataclass(frozen=True, slots=True)
-class Reply:
-    """One decoded reply frame."""
+class StateBits:
+    """The reply state byte's bits (section 2.1.2) for anything with a ``state`` attribute."""
 
-    tid: int
-    protocol: int
-    register: int
+    __slots__ = ()
     state: int
-    params: bytes
-
-    def encode(self) -> bytes:
-        return encode_reply(self.tid, self.protocol, self.register, self.state, self.params)
 
     @property
     def has_error(self) -> bool:
@@ -73,6 +66,20 @@ class Reply:
     @property
     def not_ready(self) -> bool:
         return bool(self.state & STATE_NOT_READY)
+
+
+@dataclass(frozen=True, slots=True)
+class Reply(StateBits):
+    """One decoded reply frame."""
+
+    tid: int
+    protocol: int
+    register: int
+    state: int
+    params: bytes
+
+    def encode(self) -> bytes:
+        return encode_reply(self.tid, self.protocol, self.register, self.state, self.params)
 
 
 def encode_request(tid: int, register: int, params: bytes = b"", protocol: int = PROTOCOL_PRIVATE) -> bytes:
