@@ -108,6 +108,10 @@ class ControllerCore:
         self.on_save: Callable[[dict[str, Any]], None] | None = None
         self.on_clean_conf: Callable[[], None] | None = None
         self.shutdown_requested = False
+        self._code = 0  # register being handled
+        #: Tests set this: unexpected exceptions in handlers or steps propagate instead of being
+        #: logged and answered with warning 12 / error C29 (what a running server does).
+        self.strict = False
 
     def register_handlers(self) -> dict[int, Handler]:
         """Handlers by register code; each command group adds its own (cooperative ``super()``)."""
@@ -219,6 +223,8 @@ class ControllerCore:
             self.raise_error(e.code)
             reply = self._default_reply(reg)
         except Exception:  # a bug must not take the connection down: log it, answer warning 12
+            if self.strict:
+                raise
             log.exception("register %d with %d parameter bytes failed", code, len(params))
             self.raise_warning(WARN_PARAMETER)
             reply = self._default_reply(reg)
@@ -259,6 +265,8 @@ class ControllerCore:
         except CommandError as e:
             self.raise_error(e.code)
         except Exception:  # keep the control loop alive; the arm stops with C29 "other errors"
+            if self.strict:
+                raise
             log.exception("control step failed")
             self.raise_error(C_OTHER)
         qd = (self.q - q_prev) / dt
