@@ -70,3 +70,29 @@ def test_wrong_length_of_every_register_is_warning_12(code: int) -> None:
     state, _ = emu.handle(code, bytes(bad))
     assert state & 0x20
     assert call(emu, 15)[1]["warning"] == 12
+
+
+@pytest.mark.parametrize("code", CODES)
+def test_every_accepted_size_of_every_register_with_random_values(code: int) -> None:
+    """Deterministic sweep: each accepted parameter size, 20 random payloads, from a ready arm."""
+    import random
+
+    rng = random.Random(code)
+    specials = [0.0, -0.0, 1.0, -1.0, 3.1416, 1e9, -1e9, float("nan"), float("inf"), 8.0, 21.0, 22.0]
+    for size in accepted_sizes(code):
+        for k in range(20):
+            emu = Emulator(6)
+            emu.controller.strict = True
+            ready(emu)
+            if k % 2:
+                floats = [rng.choice(specials) for _ in range(size // 4)]
+                tail = bytes(rng.randrange(256) for _ in range(size % 4))
+                raw = struct.pack(f"<{len(floats)}f", *floats) + tail
+            else:
+                raw = bytes(rng.randrange(256) for _ in range(size))
+            if code in (10, 39, 40):
+                continue
+            state, reply = emu.handle(code, raw)
+            if reply:
+                assert REGISTERS[code].reply.accepts(len(reply)), (code, size, raw)
+            emu.step(3)

@@ -7,7 +7,6 @@ import errno
 import json
 import logging
 import math
-import sys
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -49,6 +48,10 @@ def serve(
                                                          "(loopback only; see `xarm-emu inject`).")] = False,
     admin_port: Annotated[int | None, typer.Option(help="Admin channel port (default: command port "
                                                         "+ 10000, e.g. 10502).")] = None,
+    view: Annotated[bool, typer.Option("--view", help="Serve the 3D view in the browser (needs the "
+                                                       "'view' extra: viser).")] = False,
+    view_host: Annotated[str, typer.Option(help="Address of the 3D view.")] = "127.0.0.1",
+    view_port: Annotated[int, typer.Option(help="Port of the 3D view.")] = 8080,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .controller.emulator import Emulator
@@ -63,7 +66,8 @@ def serve(
     if emu.config_message:
         err_console.print(f"[yellow]{emu.config_message}[/yellow]")
     cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
-                       develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port)
+                       develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
+                       view=view, view_host=view_host, view_port=view_port)
     server = EmulatorServer(emu, cfg)
 
     async def main() -> None:
@@ -74,6 +78,8 @@ def serve(
                       f"speed x{speed:g}; config {cdir}")
         if "admin" in server.ports:
             console.print(f"admin channel (fault injection) on 127.0.0.1:{server.ports['admin']}")
+        if "view" in server.ports:
+            console.print(f"3D view on http://{view_host}:{server.ports['view']}/")
         await server.serve_forever()
 
     try:
@@ -82,6 +88,9 @@ def serve(
         err_console.print(_PRIVILEGED.format(port=port, host=host))
         raise typer.Exit(1) from None
     except ValueError as exc:  # no default admin port for this command port
+        err_console.print(str(exc))
+        raise typer.Exit(2) from None
+    except RuntimeError as exc:  # the 3D view without its optional dependency
         err_console.print(str(exc))
         raise typer.Exit(2) from None
     except OSError as exc:
@@ -314,4 +323,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main()

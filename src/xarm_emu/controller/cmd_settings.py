@@ -162,7 +162,8 @@ class SettingCommands(ControllerCore):
 
     def _h_collision_tool(self, v: Values) -> None:
         """Register 78: the end tool's geometry for self-collision detection (model/collision.py)."""
-        params = [float(x) for x in v.get("params", ())]
+        raw = v.get("params", ())
+        params = [float(x) for x in (raw if isinstance(raw, tuple) else (raw,))]  # one value: a scalar
         try:
             tool = collision.tool_model(int(v["tool_type"]), params)
         except ValueError as exc:

@@ -56,13 +56,13 @@ def boundary_violation(xyz: Sequence[float], boundary6: Sequence[float], on: boo
     return _excess(xyz, boundary6) > 0.0
 
 
-def _excess(p: Sequence[float], b: Sequence[float]) -> float:
+def _excess(p: Sequence[float] | np.ndarray, b: Sequence[float]) -> float:
     """Largest signed distance outside the box along an axis (negative: inside by that much)."""
     return max(p[0] - b[0], b[1] - p[0], p[1] - b[2], b[3] - p[1], p[2] - b[4], b[5] - p[2])
 
 
 def first_boundary_crossing(
-    p0: Sequence[float], p1: Sequence[float], boundary: Sequence[float]
+    p0: Sequence[float] | np.ndarray, p1: Sequence[float] | np.ndarray, boundary: Sequence[float]
 ) -> float | None:
     """Fraction t in [0, 1] where segment p0 -> p1 first reaches a face it leaves by; None if p1 is inside.
 

@@ -220,7 +220,7 @@ def _local_shapes(model: RobotModel, tool: ToolModel) -> list[tuple]:
 
 
 def _origin_codes(model: RobotModel) -> tuple[tuple[int, float, float, float], ...]:
-    out = []
+    out: list[tuple[int, float, float, float]] = []
     for j in model.joints:
         roll, pitch, yaw = j.origin_rpy
         if pitch != 0.0 or yaw != 0.0:
@@ -233,7 +233,8 @@ def _origin_codes(model: RobotModel) -> tuple[tuple[int, float, float, float], .
             code = -1
         else:
             raise ValueError("collision chain supports roll 0 or +/-pi/2 only")
-        out.append((code, *(float(v) for v in j.origin_xyz)))
+        x, y, z = (float(v) for v in j.origin_xyz)
+        out.append((code, x, y, z))
     return tuple(out)
 
 
@@ -247,7 +248,7 @@ def frames_scalar(model: RobotModel, q: Sequence[float]) -> list[tuple[float, ..
         codes = _CODES[model.name] = _origin_codes(model)
     xx, xy, xz, yx, yy, yz, zx, zy, zz = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
     px = py = pz = 0.0
-    out = []
+    out: list[tuple[float, ...]] = []
     cos, sin = math.cos, math.sin
     for (code, ox, oy, oz), qi in zip(codes, q, strict=False):
         px, py, pz = (px + xx * ox + yx * oy + zx * oz, py + xy * ox + yy * oy + zy * oz,

@@ -21,8 +21,9 @@ import socket
 import struct
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from ..controller.base import PERIOD
 from ..controller.emulator import Emulator
@@ -39,6 +40,9 @@ from ..protocol.frame import (
 )
 from .admin import AdminProtocol, derive_admin_port
 from .clock import ScaledClock, Ticker
+
+if TYPE_CHECKING:
+    from ..viewer.app import Viewer
 
 log = logging.getLogger("xarm_emu.server")
 
@@ -59,6 +63,9 @@ class ServerConfig:
     speed: float = 1.0  # controller seconds per wall second
     admin: bool = False  # fault-injection channel (issue 5 item 5), off by default
     admin_port: int | None = None  # None: command port + admin.ADMIN_PORT_OFFSET (0 if port is 0)
+    view: bool = False  # the 3D view in the browser (viewer/app.py), off by default
+    view_host: str = "127.0.0.1"
+    view_port: int = 8080
     report_rates: dict[str, float] = field(default_factory=lambda: {
         "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE})
 
@@ -177,6 +184,7 @@ class EmulatorServer:
         self._stopped = asyncio.Event()
         self._read_cache: dict[int, bytes] = {}  # register -> reply frame after tid and protocol
         self._ticker: Ticker | None = None
+        self.viewer: Viewer | None = None
         self._client_tasks: set[asyncio.Task[None]] = set()
         self.admin_clients: set[AdminProtocol] = set()
 
@@ -200,13 +208,20 @@ class EmulatorServer:
                                          reuse_address=True)
             self._servers.append(a)
             self.ports["admin"] = a.sockets[0].getsockname()[1]
+        if cfg.view:
+            from ..viewer.app import Viewer  # optional dependency (viser), imported on demand
+
+            self.viewer = Viewer(self.emulator, cfg.view_host, cfg.view_port)
+            self.viewer.start()
+            self.ports["view"] = self.viewer.port
         self._ticker = Ticker()
         self.clock.start(loop.time())
         self._tasks.append(asyncio.create_task(self._control_loop()))
         for kind in _ENCODERS:
             self._tasks.append(asyncio.create_task(self._report_loop(kind)))
 
-    def _report_client(self, kind: str) -> Callable[[asyncio.StreamReader, asyncio.StreamWriter], object]:
+    def _report_client(
+            self, kind: str) -> Callable[[asyncio.StreamReader, asyncio.StreamWriter], Awaitable[None]]:
         async def on_client(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
             _nodelay(writer)
             sock = writer.get_extra_info("socket")
@@ -320,6 +335,9 @@ class EmulatorServer:
         return asyncio.get_running_loop().time() < self.report_pause_until
 
     async def close(self) -> None:
+        if self.viewer is not None:
+            self.viewer.stop()
+            self.viewer = None
         for t in self._tasks:
             t.cancel()
         for t in self._tasks:

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .paths import Path, blend_runs
-from .profile import JerkProfile, SCurve, stop_profile
+from .profile import JerkProfile, MovingProfile, SCurve, stop_profile
 
 
 class CartesianMove:
@@ -29,7 +29,8 @@ class CartesianMove:
     __slots__ = ("path", "speed", "acc", "jerk", "s0", "profile", "duration", "rest")
 
     def __init__(self, path: Path, speed: float, acc: float, jerk: float, *, s0: float = 0.0,
-                 profile: JerkProfile | None = None, rest: Sequence[CartesianMove] = ()) -> None:
+                 profile: JerkProfile | MovingProfile | None = None,
+                 rest: Sequence[CartesianMove] = ()) -> None:
         self.path, self.speed, self.acc, self.jerk, self.s0 = path, speed, acc, jerk, s0
         self.profile = profile if profile is not None else SCurve(path.length - s0, speed, acc, jerk)
         self.duration = self.profile.duration

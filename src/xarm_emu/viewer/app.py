@@ -1,0 +1,111 @@
+"""The 3D view in the browser (viser): the arm as the self-collision check sees it, its TCP frame,
+the safety boundary when it is on, and in virtual robot mode (register 79) the physical arm as a
+ghost beside the commanded one.
+
+Started by ``xarm-emu serve --view``; it binds loopback unless ``--view-host`` says otherwise.
+Updates run as a task of the server's event loop at :data:`RATE` Hz and only read the emulator.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from typing import Any
+
+import numpy as np
+
+from ..controller.emulator import Emulator
+from . import scene
+
+RATE = 30.0  # Hz
+ARM_COLOR = (200, 205, 215)
+GHOST_COLOR = (120, 170, 255)
+TOOL_COLOR = (255, 170, 60)
+
+
+class Viewer:
+    """A viser server showing one emulator."""
+
+    def __init__(self, emulator: Emulator, host: str = "127.0.0.1", port: int = 8080) -> None:
+        try:
+            import viser
+        except ImportError as exc:  # the "view" extra
+            raise RuntimeError("the 3D view needs viser: pip install 'xarm-emu[view]'") from exc
+        self.emulator = emulator
+        self.server = viser.ViserServer(host=host, port=port, label="xarm-emu", verbose=False)
+        self.port = int(self.server.get_port())
+        self._handles: dict[str, Any] = {}
+        self._sizes: dict[str, tuple[float, float, tuple[float, float, float]]] = {}
+        self._meshes: dict[tuple[str, float, float], tuple[np.ndarray, np.ndarray]] = {}
+        self._task: asyncio.Task[None] | None = None
+        self.updates = 0
+        self.server.scene.add_grid("/ground", width=2.0, height=2.0, cell_size=0.1)
+        self._tcp = self.server.scene.add_frame("/tcp", axes_length=0.08, axes_radius=0.004)
+        self._boundary = self.server.scene.add_box("/boundary", color=(255, 80, 80), dimensions=(1, 1, 1),
+                                                   wireframe=True, visible=False)
+
+    def start(self) -> None:
+        """Start updating from the running event loop (the server's)."""
+        self._task = asyncio.get_running_loop().create_task(self._run())
+
+    async def _run(self) -> None:
+        while True:
+            self.update()
+            await asyncio.sleep(1.0 / RATE)
+
+    def update(self) -> None:
+        """Redraw from the emulator's current state."""
+        ctl = self.emulator.controller
+        physical = ctl.physical_joints
+        self._draw("arm", scene.arm_parts(ctl.model, ctl.q, ctl.collision_tool), ARM_COLOR, 1.0, True)
+        ghost = ctl.simulation_robot
+        self._draw("physical", scene.arm_parts(ctl.model, physical, ctl.collision_tool) if ghost else [],
+                   GHOST_COLOR, 0.35, ghost)
+        pos, wxyz = scene.tcp_frame(ctl.model, ctl.q, ctl.settings.tcp_offset)
+        self._tcp.position, self._tcp.wxyz = pos, wxyz
+        s = ctl.settings
+        self._boundary.visible = bool(s.boundary_on)
+        if s.boundary_on:
+            centre, size = scene.boundary_box(s.boundary)
+            self._boundary.position = centre
+            self._boundary.scale = size
+        self.updates += 1
+
+    def _draw(self, group: str, parts: list[scene.Part], color: tuple[int, int, int], opacity: float,
+              visible: bool) -> None:
+        seen = set()
+        for part in parts:
+            key = f"/{group}/{part.name}"
+            seen.add(key)
+            handle = self._handles.get(key)
+            tint = TOOL_COLOR if "tool" in part.name else color
+            size = (part.radius, part.length, part.half)
+            if handle is None or self._sizes.get(key) != size:
+                if handle is not None:
+                    handle.remove()
+                handle = self._create(key, part, tint, opacity)
+                self._handles[key] = handle
+                self._sizes[key] = size
+            handle.position, handle.wxyz, handle.visible = part.position, part.wxyz, visible
+        for key in [k for k in self._handles if k.startswith(f"/{group}/") and k not in seen]:
+            self._handles.pop(key).remove()
+            self._sizes.pop(key, None)
+
+    def _create(self, key: str, part: scene.Part, color: tuple[int, int, int], opacity: float) -> Any:
+        sc = self.server.scene
+        op = None if opacity >= 1.0 else opacity
+        if part.kind == "capsule":
+            mesh_key = ("capsule", round(part.radius, 6), round(part.length, 6))
+            if mesh_key not in self._meshes:
+                self._meshes[mesh_key] = scene.capsule_mesh(part.radius, part.length)
+            verts, faces = self._meshes[mesh_key]
+            return sc.add_mesh_simple(key, verts, faces, color=color, opacity=op)
+        h = part.half
+        return sc.add_box(key, color=color, dimensions=(2 * h[0], 2 * h[1], 2 * h[2]), opacity=op)
+
+    def stop(self) -> None:
+        if self._task is not None:
+            self._task.cancel()
+            self._task = None
+        with contextlib.suppress(Exception):
+            self.server.stop()

@@ -1,0 +1,137 @@
+"""What the 3D view draws, computed from the emulator's state (pure: no viewer library here).
+
+The arm is drawn with the same capsules and boxes the self-collision check uses
+(:mod:`xarm_emu.model.collision`), so what you see is what registers 77/78 check. Positions are in
+metres (the viewer's unit), orientations as unit quaternions ``(w, x, y, z)``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import collision
+from ..model import kinematics as kin
+from ..model.robots import RobotModel
+
+MM = 0.001  # metres per millimetre
+
+
+@dataclass(frozen=True)
+class Part:
+    """One drawn body: a capsule (``radius``, ``length`` along its local z from the origin) or a box
+    (``half`` extents about its origin), placed at ``position`` with orientation ``wxyz``."""
+
+    name: str
+    kind: str  # "capsule" or "box"
+    position: tuple[float, float, float]
+    wxyz: tuple[float, float, float, float]
+    radius: float = 0.0
+    length: float = 0.0
+    half: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+def quat_from_matrix(R: np.ndarray) -> tuple[float, float, float, float]:
+    """Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method)."""
+    m = R
+    tr = m[0, 0] + m[1, 1] + m[2, 2]
+    if tr > 0.0:
+        s = math.sqrt(tr + 1.0) * 2.0
+        q = (0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s)
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2]) * 2.0
+        q = ((m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s)
+    elif m[1, 1] > m[2, 2]:
+        s = math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2]) * 2.0
+        q = ((m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s)
+    else:
+        s = math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1]) * 2.0
+        q = ((m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s)
+    n = math.sqrt(sum(c * c for c in q))
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+
+
+def quat_z_to(d: Sequence[float]) -> tuple[float, float, float, float]:
+    """Shortest rotation taking +z onto the direction ``d``."""
+    n = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    if n == 0.0:
+        return (1.0, 0.0, 0.0, 0.0)
+    x, y, z = d[0] / n, d[1] / n, d[2] / n
+    if z < -1.0 + 1e-12:
+        return (0.0, 1.0, 0.0, 0.0)  # half turn about x
+    w = 1.0 + z  # from the half-angle identity for (0, 0, 1) x d
+    q = (w, -y, x, 0.0)
+    m = math.sqrt(sum(c * c for c in q))
+    return (q[0] / m, q[1] / m, q[2] / m, q[3] / m)
+
+
+def arm_parts(model: RobotModel, q: Sequence[float] | np.ndarray,
+              tool: collision.ToolModel = collision.NO_TOOL) -> list[Part]:
+    """The arm (and its end tool) at joints ``q`` as drawable parts."""
+    parts: list[Part] = []
+    for i, shape in enumerate(collision.link_shapes(model, q, tool)):
+        name = f"{i:02d}_{shape.name}"
+        if isinstance(shape, collision.Capsule):
+            a, b = shape.a, shape.b
+            d = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
+            parts.append(Part(name, "capsule", (a[0] * MM, a[1] * MM, a[2] * MM), quat_z_to(d),
+                              radius=shape.radius * MM, length=math.sqrt(sum(c * c for c in d)) * MM))
+        else:
+            R = np.array(shape.axes, dtype=float).T  # columns: the box axes
+            c = shape.center
+            parts.append(Part(name, "box", (c[0] * MM, c[1] * MM, c[2] * MM), quat_from_matrix(R),
+                              half=(shape.half[0] * MM, shape.half[1] * MM, shape.half[2] * MM)))
+    return parts
+
+
+Wxyz = tuple[float, float, float, float]
+
+
+def tcp_frame(model: RobotModel, q: Sequence[float] | np.ndarray,
+              tcp_offset: Sequence[float]) -> tuple[tuple[float, float, float], Wxyz]:
+    """Position (m) and orientation of the TCP in the base frame (the TCP offset applied)."""
+    T = kin.tcp_pose(model, q, tcp_offset)
+    p = T[:3, 3] * MM
+    return (float(p[0]), float(p[1]), float(p[2])), quat_from_matrix(T[:3, :3])
+
+
+def boundary_box(boundary: Sequence[float]) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """Centre and size (m) of the safety boundary of register 52 (x max, x min, y max, ... mm)."""
+    xM, xm, yM, ym, zM, zm = (float(v) * MM for v in boundary)
+    return ((xM + xm) / 2, (yM + ym) / 2, (zM + zm) / 2), (xM - xm, yM - ym, zM - zm)
+
+
+def capsule_mesh(radius: float, length: float, segments: int = 16,
+                 rings: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """A closed triangle mesh of a capsule from z = 0 to z = ``length`` (vertices, faces): rings of
+    ``segments`` vertices between one vertex at each pole."""
+    profile: list[tuple[float, float]] = []  # (r, z) of the rings, bottom to top, poles excluded
+    for k in range(1, rings + 1):  # bottom hemisphere
+        a = -math.pi / 2 + (math.pi / 2) * k / rings
+        profile.append((radius * math.cos(a), radius * math.sin(a)))
+    for k in range(rings):  # top hemisphere
+        a = (math.pi / 2) * k / rings
+        profile.append((radius * math.cos(a), length + radius * math.sin(a)))
+    verts: list[tuple[float, float, float]] = [(0.0, 0.0, -radius)]  # bottom pole
+    for r, z in profile:
+        for s in range(segments):
+            t = 2 * math.pi * s / segments
+            verts.append((r * math.cos(t), r * math.sin(t), z))
+    top = len(verts)
+    verts.append((0.0, 0.0, length + radius))  # top pole
+    faces: list[tuple[int, int, int]] = []
+    for s in range(segments):  # bottom cap, facing down
+        faces.append((0, 1 + (s + 1) % segments, 1 + s))
+    for i in range(len(profile) - 1):
+        for s in range(segments):
+            a0, a1 = 1 + i * segments + s, 1 + i * segments + (s + 1) % segments
+            b0, b1 = a0 + segments, a1 + segments
+            faces.append((a0, a1, b1))
+            faces.append((a0, b1, b0))
+    last = 1 + (len(profile) - 1) * segments
+    for s in range(segments):  # top cap
+        faces.append((last + s, last + (s + 1) % segments, top))
+    return np.array(verts, dtype=np.float32), np.array(faces, dtype=np.uint32)
