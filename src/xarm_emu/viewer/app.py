@@ -39,6 +39,8 @@ class Viewer:
         self._meshes: dict[tuple[str, float, float], tuple[np.ndarray, np.ndarray]] = {}
         self._task: asyncio.Task[None] | None = None
         self.updates = 0
+        self.server.initial_camera.position = (1.1, -0.9, 0.8)
+        self.server.initial_camera.look_at = (0.15, 0.0, 0.25)
         self.server.scene.add_grid("/ground", width=2.0, height=2.0, cell_size=0.1)
         self._tcp = self.server.scene.add_frame("/tcp", axes_length=0.08, axes_radius=0.004)
         self._boundary = self.server.scene.add_box("/boundary", color=(255, 80, 80), dimensions=(1, 1, 1),
