@@ -264,6 +264,7 @@ class AdminProtocol(asyncio.Protocol):
             return {"ok": False, "error": "not a JSON object line"}
         if not isinstance(request, dict):
             return {"ok": False, "error": "not a JSON object line"}
+        self.server.catch_up()  # the fault lands after every control period that has elapsed
         try:
             message = execute(self.server, request)
         except AdminError as exc:

@@ -152,7 +152,9 @@ class _CommandProtocol(asyncio.Protocol):
 
 
 #: Shortest sleep of the control loop when woken before a step was due (seconds).
-MIN_SLEEP = 0.001
+#: The control loop runs the due control periods at least this often (wall seconds); commands,
+#: report frames and admin actions run them before they act (EmulatorServer.catch_up).
+IDLE_WAKE = 0.02
 
 _HEADER = struct.Struct(">HHH")
 _TID_PROT = struct.Struct(">HH")
@@ -172,6 +174,8 @@ class EmulatorServer:
         self.clock = ScaledClock(PERIOD, self.config.speed)
         self.command_clients: set[_CommandProtocol] = set()
         self.report_clients: dict[str, set[asyncio.StreamWriter]] = {k: set() for k in _ENCODERS}
+        #: Set while a report stream has clients; its loop sleeps without waking up otherwise.
+        self._has_clients: dict[str, asyncio.Event] = {k: asyncio.Event() for k in _ENCODERS}
         self._servers: list[asyncio.AbstractServer] = []
         self._tasks: list[asyncio.Task[None]] = []
         self.ports: dict[str, int] = {}
@@ -183,6 +187,7 @@ class EmulatorServer:
         self.frame_times: dict[str, list[float]] | None = None
         self._stopped = asyncio.Event()
         self._read_cache: dict[int, bytes] = {}  # register -> reply frame after tid and protocol
+        self._loop: asyncio.AbstractEventLoop | None = None
         self._ticker: Ticker | None = None
         self.viewer: Viewer | None = None
         self._client_tasks: set[asyncio.Task[None]] = set()
@@ -215,6 +220,7 @@ class EmulatorServer:
             self.viewer.start()
             self.ports["view"] = self.viewer.port
         self._ticker = Ticker()
+        self._loop = loop
         self.clock.start(loop.time())
         self._tasks.append(asyncio.create_task(self._control_loop()))
         for kind in _ENCODERS:
@@ -233,6 +239,7 @@ class EmulatorServer:
                 self._client_tasks.add(task)
                 task.add_done_callback(self._client_tasks.discard)
             self.report_clients[kind].add(writer)
+            self._has_clients[kind].set()
             try:
                 # Clients never write on report ports (research note section 1.2); read until EOF.
                 while await reader.read(4096):
@@ -246,8 +253,27 @@ class EmulatorServer:
 
         return on_client
 
+    def catch_up(self) -> None:
+        """Run the control periods that are due by now (real or scaled time).
+
+        Called before every command, report frame and admin action, so that whatever anyone
+        observes is the state after every period that has elapsed: stepping in batches this way is
+        indistinguishable from stepping on every period, and the control loop only has to wake up
+        now and then (:data:`IDLE_WAKE`) when nobody is looking.
+        """
+        loop = self._loop
+        if loop is None:
+            return
+        n = self.clock.due(loop.time())
+        if n:
+            self._read_cache.clear()
+            step = self.emulator.step
+            for _ in range(n):
+                step()
+
     def answer(self, tid: int, protocol: int, register: int, params: bytes) -> bytes:
         """The reply frame to one private-protocol request (manual 2.1.2)."""
+        self.catch_up()
         cache = self._read_cache
         if not params and register in PURE_READS:
             tail = cache.get(register)
@@ -265,18 +291,10 @@ class EmulatorServer:
         self._read_cache.clear()
 
     async def _control_loop(self) -> None:
-        loop = asyncio.get_running_loop()
-        emu = self.emulator
+        """Keep controller time up with the wall clock while nobody asks (see :meth:`catch_up`)."""
         while True:
-            n = self.clock.due(loop.time())
-            if n:
-                self._read_cache.clear()
-            for _ in range(n):
-                emu.step()
-            delay = self.clock.next_wall() - loop.time()
-            # Never a zero sleep when no step is due: uvloop's timers have 1 ms resolution and fire up to
-            # 1 ms early, which would spin; a step that comes up to 1 ms late is caught up by the clock.
-            await asyncio.sleep(max(MIN_SLEEP, delay) if n == 0 else max(0.0, delay))
+            self.catch_up()
+            await asyncio.sleep(IDLE_WAKE)
 
     async def _report_loop(self, kind: str) -> None:
         loop = asyncio.get_running_loop()
@@ -286,7 +304,12 @@ class EmulatorServer:
         clients = self.report_clients[kind]
         ticker = self._ticker
         next_t = time.perf_counter()
+        has_clients = self._has_clients[kind]
         while True:
+            if not clients:
+                has_clients.clear()
+                await has_clients.wait()  # no reader: no wake-ups at all
+                next_t = time.perf_counter()
             next_t += interval
             now = time.perf_counter()
             if next_t < now - interval:  # fell far behind (suspended process): re-anchor
@@ -297,6 +320,7 @@ class EmulatorServer:
                 await asyncio.sleep(max(0.0, next_t - time.perf_counter()))
             if not clients or loop.time() < self.report_pause_until:
                 continue
+            self.catch_up()
             frame = encode(self.emulator.snapshot())
             if self.frame_times is not None:
                 self.frame_times.setdefault(kind, []).append(time.perf_counter())
@@ -430,6 +454,7 @@ class ServerThread:
     def call(self, fn: Callable[[], object]) -> object:
         """Run ``fn`` in the server's loop thread and return its result."""
         async def wrapper() -> object:
+            self.server.catch_up()
             try:
                 return fn()
             finally:
