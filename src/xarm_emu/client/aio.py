@@ -10,7 +10,7 @@ from typing import Any
 
 from ..protocol.frame import FrameDecoder, Reply
 from ..protocol.reports import ReportSnapshot
-from .common import REPORT_DECODERS, ClientError, Response, build, parse
+from .common import REPORT_DECODERS, ClientError, Response, add_register_methods, build, parse
 
 
 class AsyncClient:
@@ -84,6 +84,9 @@ class AsyncClient:
 
     async def set_state(self, state: int) -> Response:
         return await self.call(12, state=state)
+
+
+add_register_methods(AsyncClient, asynchronous=True)
 
 
 async def subscribe(kind: str = "develop", host: str = "127.0.0.1",

@@ -55,3 +55,39 @@ def parse(reg: regs.Register, reply: Reply) -> Response:
     if reply.params and reg.reply.accepts(len(reply.params)):
         values = reg.reply.decode(reply.params)
     return Response(reg.code, reply.state, values, reply.params)
+
+
+def method_name(reg: regs.Register) -> str:
+    """The client method of a register: its name in lower case (``MOVE_LINE`` -> ``move_line``)."""
+    return reg.name.lower()
+
+
+def _doc(reg: regs.Register) -> str:
+    return (f"Register {reg.code}, {reg.title} (manual {reg.section}).\n\n"
+            f"Request: {reg.request.describe()}\nReply: {reg.reply.describe()}\n"
+            + (f"\n{reg.doc}\n" if reg.doc else ""))
+
+
+def add_register_methods(cls: type, asynchronous: bool) -> None:
+    """Give ``cls`` one method per register of the table (keyword arguments are the request's
+    fields; the result is a :class:`Response` whose ``values`` are the reply's fields), unless the
+    class already defines a method of that name (a typed helper)."""
+    for reg in regs.REGISTERS.values():
+        name = method_name(reg)
+        if hasattr(cls, name):
+            continue
+        code = reg.code
+        if asynchronous:
+            async def amethod(self: Any, raw: bytes | None = None, _code: int = code,
+                              **values: Any) -> Response:
+                return await self.call(_code, raw, **values)
+
+            fn: Any = amethod
+        else:
+            def smethod(self: Any, raw: bytes | None = None, _code: int = code, **values: Any) -> Response:
+                return self.call(_code, raw, **values)
+
+            fn = smethod
+        fn.__name__ = fn.__qualname__ = name
+        fn.__doc__ = _doc(reg)
+        setattr(cls, name, fn)

@@ -9,7 +9,7 @@ from typing import Any
 
 from ..protocol.frame import FrameDecoder, Reply
 from ..protocol.reports import ReportSnapshot
-from .common import REPORT_DECODERS, ClientError, Response, build, parse
+from .common import REPORT_DECODERS, ClientError, Response, add_register_methods, build, parse
 
 
 class Client:
@@ -86,6 +86,9 @@ class Client:
 
     def clean_warn(self) -> Response:
         return self.call(17)
+
+
+add_register_methods(Client, asynchronous=False)
 
 
 def subscribe(kind: str = "develop", host: str = "127.0.0.1", port: int | None = None,
