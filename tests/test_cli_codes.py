@@ -35,3 +35,16 @@ def test_status_names_the_error(server) -> None:  # type: ignore[no-untyped-def]
                                      str(server.ports["develop"])], terminal_width=200)
     assert result.exit_code == 0
     assert "C31" in result.output and codes.controller_error(31).name in result.output
+
+
+def test_registers_command_reads_the_register_table() -> None:
+    from xarm_emu.protocol.registers import REGISTERS
+
+    result = runner.invoke(cli.app, ["registers", "21"], terminal_width=200)
+    assert result.exit_code == 0
+    assert REGISTERS[21].request.describe() in result.output and "queued" in result.output
+    listing = runner.invoke(cli.app, ["registers"], terminal_width=250)
+    assert listing.exit_code == 0
+    for reg in REGISTERS.values():
+        assert reg.name in listing.output
+    assert runner.invoke(cli.app, ["registers", "999"]).exit_code == 2

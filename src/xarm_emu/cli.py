@@ -165,6 +165,36 @@ def status(
     console.print(t)
 
 
+@app.command()
+def registers(
+    code: Annotated[int | None, typer.Argument(help="One register, e.g. 21.")] = None,
+) -> None:
+    """List the registers of the command port with their request and reply layouts (manual 2.1.3,
+    2.1.4), read from the register table the emulator itself uses."""
+    from .protocol.registers import REGISTERS
+
+    if code is not None:
+        reg = REGISTERS.get(code)
+        if reg is None:
+            err_console.print(f"no register {code}; `xarm-emu registers` lists them")
+            raise typer.Exit(2)
+        console.print(f"{reg.code} {reg.name}: {reg.title} (manual {reg.section})")
+        console.print(f"  request: {reg.request.describe()}")
+        console.print(f"  reply:   {reg.reply.describe()}")
+        flags = [f.name.lower().replace("_", " ") for f in type(reg.flags) if f in reg.flags and f.name]
+        if flags:
+            console.print(f"  flags:   {', '.join(flags)}")
+        if reg.doc:
+            console.print(f"  {reg.doc}")
+        return
+    t = Table(title="Command port registers (fp32/int32 little-endian, u16 big-endian)")
+    for col in ("code", "name", "title", "request", "reply"):
+        t.add_column(col)
+    for reg in REGISTERS.values():
+        t.add_row(str(reg.code), reg.name, reg.title, reg.request.describe(), reg.reply.describe())
+    console.print(t)
+
+
 @app.command(name="codes")
 def show_codes(
     label: Annotated[str | None, typer.Argument(help="One code, e.g. C31, W11, S23 or G11.")] = None,
