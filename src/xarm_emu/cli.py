@@ -187,12 +187,11 @@ def registers(
         if reg.doc:
             console.print(f"  {reg.doc}")
         return
-    t = Table(title="Command port registers (fp32/int32 little-endian, u16 big-endian)")
-    for col in ("code", "name", "title", "request", "reply"):
-        t.add_column(col)
+    # Plain lines (one per register), easy to grep: code, name, title; request -> reply.
+    print("# command port registers: fp32/int32 little-endian, u16 big-endian (manual 2.1.2)")
     for reg in REGISTERS.values():
-        t.add_row(str(reg.code), reg.name, reg.title, reg.request.describe(), reg.reply.describe())
-    console.print(t)
+        print(f"{reg.code:3d} {reg.name:26s} {reg.title}\n    request: {reg.request.describe()}"
+              f"\n    reply:   {reg.reply.describe()}")
 
 
 @app.command(name="codes")
