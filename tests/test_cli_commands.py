@@ -133,7 +133,7 @@ def test_inject_without_admin_channel(make_server) -> None:
 
 
 def test_serve_privileged_port_message(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
-    def refuse(coro) -> None:
+    def refuse(coro, loop) -> None:
         coro.close()
         raise PermissionError(errno.EACCES, "Permission denied")
 
@@ -145,7 +145,7 @@ def test_serve_privileged_port_message(monkeypatch: pytest.MonkeyPatch, tmp_path
 
 
 def test_serve_port_in_use_message(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
-    def busy(coro) -> None:
+    def busy(coro, loop) -> None:
         coro.close()
         raise OSError(errno.EADDRINUSE, "Address already in use")
 
