@@ -1,4 +1,4 @@
-"""Client of the emulator's admin channel (fault injection; protocol in :mod:`xarm_emu.server.admin`).
+"""Client of the emulator's admin channel (fault injection; protocol in :mod:`xarm_emu.protocol.admin`).
 
 The admin channel listens on loopback at the command port + 10000 unless the server was started
 with ``--admin-port``; :func:`admin_port` derives it the same way.
@@ -10,7 +10,7 @@ import json
 import socket
 from typing import Any
 
-from ..server.admin import ADMIN_PORT_OFFSET, derive_admin_port
+from ..protocol.admin import ADMIN_PORT_OFFSET, derive_admin_port
 from .common import ClientError
 
 __all__ = ["ADMIN_PORT_OFFSET", "AdminClient", "AdminRefused", "admin_port"]

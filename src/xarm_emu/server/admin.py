@@ -47,30 +47,19 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from ..protocol import codes
+from ..protocol.admin import (  # noqa: F401 - re-exported for the server's users
+    ADMIN_PORT_OFFSET,
+    COMMANDS,
+    INPUT_KINDS,
+    MAX_LINE,
+    MAX_SECONDS,
+    derive_admin_port,
+)
 
 if TYPE_CHECKING:
     from .app import EmulatorServer
 
 log = logging.getLogger("xarm_emu.admin")
-
-#: The admin port is the command port plus this offset unless given explicitly.
-ADMIN_PORT_OFFSET = 10000
-#: Admin request lines longer than this are refused and the connection closed.
-MAX_LINE = 4096
-#: Longest accepted report pause or reply delay, seconds.
-MAX_SECONDS = 3600.0
-
-COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "end-module-lost",
-            "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status")
-INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog")
-
-
-def derive_admin_port(command_port: int) -> int:
-    """The default admin port for a command port (502 -> 10502)."""
-    port = command_port + ADMIN_PORT_OFFSET
-    if not 0 < port <= 0xFFFF:
-        raise ValueError(f"no default admin port for command port {command_port}: give --admin-port")
-    return port
 
 
 def is_loopback(host: str) -> bool:
