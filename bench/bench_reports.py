@@ -21,6 +21,7 @@ import time
 
 import numpy as np
 
+from bench.affinity import PIN_SERVER, pin_client, restore
 from xarm_emu.protocol import reports
 from xarm_emu.protocol.frame import encode_request
 from xarm_emu.protocol.registers import REGISTERS
@@ -90,7 +91,7 @@ def _jitter(times: list[float], interval: float) -> tuple[float, float, float, i
     return float(np.percentile(d, 50)), float(np.percentile(d, 99)), float(d.max()), len(times)
 
 
-_CHILD = """
+_CHILD = PIN_SERVER + """
 import json, sys, time
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerConfig, ServerThread
@@ -108,6 +109,7 @@ st.stop()
 def measure(use_uvloop: bool) -> tuple[tuple[float, float, float, int], tuple[float, float, float, int], int]:
     """The server runs in a child process (its own GIL, as under ``xarm-emu serve``); the 20 readers and
     the servo client run here."""
+    saved = pin_client()  # the readers and the servo client on another CPU than the server
     proc = subprocess.Popen([sys.executable, "-c", _CHILD, "1" if use_uvloop else "0"],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     assert proc.stdin is not None and proc.stdout is not None
@@ -136,6 +138,7 @@ def measure(use_uvloop: bool) -> tuple[tuple[float, float, float, int], tuple[fl
         proc.stdin.close()
         proc.wait(10)
         proc.stdout.close()
+        restore(saved)
     return _jitter(times, INTERVAL), _jitter(got, INTERVAL), sent[0]
 
 

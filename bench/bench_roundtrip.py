@@ -3,8 +3,9 @@ sends GET_STATE (13) and GET_POSITION (41) one at a time, against the emulator s
 minimal asyncio-protocol echo server started in the same run (it answers every request frame with a
 fixed reply of the same size, TCP_NODELAY, one write). Target: emulator / echo >= 0.85.
 
-Each server runs in a child process of its own, on the standard event loop and on uvloop (what
-``xarm-emu serve`` uses when installed); the client runs here. Run: ``python -m bench roundtrip``.
+Each server runs in a child process of its own, on the standard event loop and on uvloop; the
+client runs here, on another CPU than the servers (``bench/affinity.py``).
+Run: ``python -m bench roundtrip``.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import threading
 import time
 from pathlib import Path
 
+from bench.affinity import PIN_SERVER, pin_client, restore
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import encode_reply, encode_request
 from xarm_emu.server.app import new_event_loop
@@ -115,7 +117,7 @@ def canned_replies(emu: Emulator) -> dict[int, bytes]:
     return out
 
 
-_CHILD = """
+_CHILD = PIN_SERVER + """
 import json, sys
 from bench.bench_roundtrip import EchoServer, canned_replies
 from xarm_emu.controller.emulator import Emulator
@@ -153,6 +155,7 @@ def _finish(proc: subprocess.Popen[str]) -> None:
 def measure(use_uvloop: bool) -> dict[str, tuple[float, float, float]]:
     """Per register: best emulator rate, best echo rate, median of the per-round ratios."""
     results: dict[str, tuple[float, float, float]] = {}
+    saved = pin_client()
     emu_proc, emu_port = _spawn("emulator", use_uvloop)
     echo_proc, echo_port = _spawn("echo", use_uvloop)
     try:
@@ -166,6 +169,7 @@ def measure(use_uvloop: bool) -> dict[str, tuple[float, float, float]]:
     finally:
         _finish(emu_proc)
         _finish(echo_proc)
+        restore(saved)
     return results
 
 
