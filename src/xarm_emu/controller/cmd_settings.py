@@ -41,8 +41,8 @@ class SettingCommands(ControllerCore):
             34: self._setter("joint_maxacc", "maxacc", model.max_joint_acc),
             35: self._h_tcp_offset,
             36: self._h_tcp_load,
-            37: self._h_collision_sensitivity,
-            38: self._h_teach_sensitivity,
+            37: self._sensitivity("collision_sensitivity", COLLISION_SENSITIVITY_RANGE),
+            38: self._sensitivity("teach_sensitivity", TEACH_SENSITIVITY_RANGE),
             39: self._h_clean_conf,
             40: self._h_save_conf,
             51: self._h_gravity,
@@ -80,21 +80,18 @@ class SettingCommands(ControllerCore):
         self.settings.tcp_load = [float(v["mass"]), *(float(x) for x in v["center"])]
         return None
 
-    def _h_collision_sensitivity(self, v: Values) -> None:
-        lo, hi = COLLISION_SENSITIVITY_RANGE
-        if not lo <= v["sensitivity"] <= hi:
-            raise ParameterError("collision sensitivity is 0..5")
-        self.settings.collision_sensitivity = int(v["sensitivity"])
-        self.system_reset()
-        return None
+    def _sensitivity(self, name: str, allowed: tuple[int, int]) -> Handler:
+        """Registers 37 and 38: a sensitivity level within ``allowed``; a system reset (section 1.5)."""
+        lo, hi = allowed
 
-    def _h_teach_sensitivity(self, v: Values) -> None:
-        lo, hi = TEACH_SENSITIVITY_RANGE
-        if not lo <= v["sensitivity"] <= hi:
-            raise ParameterError("teach sensitivity is 1..5")
-        self.settings.teach_sensitivity = int(v["sensitivity"])
-        self.system_reset()
-        return None
+        def set_level(v: Values) -> None:
+            if not lo <= v["sensitivity"] <= hi:
+                raise ParameterError(f"{name.replace('_', ' ')} is {lo}..{hi}")
+            setattr(self.settings, name, int(v["sensitivity"]))
+            self.system_reset()
+            return None
+
+        return set_level
 
     def _h_clean_conf(self, v: Values) -> None:
         self.settings = Settings.for_model(self.model)
