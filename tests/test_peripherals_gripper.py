@@ -229,3 +229,17 @@ def test_fuzzed_rtu_always_answers(pdu: bytes) -> None:
         assert slave == pdu[0]
     if func & 0x80:
         assert out[2] in (1, 2, 3, 4, 0x0B)
+
+
+def test_position_without_a_speed_first_moves_at_the_power_on_speed() -> None:
+    from xarm_emu.controller.gripper import DEFAULT_SPEED, SPEED_TO_PULSES, XArmGripper
+
+    g = XArmGripper()
+    g.set_enable(1)
+    g.set_target(500)
+    steps = 0
+    while g.position != 500 and steps < 10000:
+        g.step(0.004)
+        steps += 1
+    assert g.position == 500
+    assert steps * 0.004 == pytest.approx(500 / (DEFAULT_SPEED * SPEED_TO_PULSES), abs=0.008)

@@ -56,6 +56,9 @@ POS_MAX = 850
 SPEED_MIN = 1
 SPEED_MAX = 5000
 SPEED_TO_PULSES = POS_MAX / SPEED_MAX  # pulse/s per r/min: 0.17
+#: Speed after power-on (r/min), the manual's example speed: a position command sent without a
+#: speed first (the SDK's ``set_gripper_position(pos)``) moves the fingers instead of doing nothing.
+DEFAULT_SPEED = 1500
 
 # Register addresses.
 REG_STATUS = 0x0000
@@ -110,10 +113,10 @@ class XArmGripper:
         self.reset()
 
     def reset(self) -> None:
-        """Power-on state: disabled, at 0, speed 0 (unset), no error."""
+        """Power-on state: disabled, at 0, speed :data:`DEFAULT_SPEED`, no error."""
         self.enabled = False
         self.mode = 0
-        self.speed = 0
+        self.speed = DEFAULT_SPEED
         self.position = 0.0
         self.target = 0
         self.error = 0
