@@ -17,6 +17,20 @@ from typing import Any, Protocol
 #: the real control box's planning rate).
 PERIOD = 0.004
 
+# Control box error codes the controller raises (manual section 3.2.1; names and handling text in
+# protocol/codes.py).
+C_ESTOP = 1
+C_SERVO_BASE = 10  # C11..C17: servo error on joint 1..7
+C_KINEMATIC = 21
+C_SELF_COLLISION = 22
+C_JOINT_LIMIT = 23
+C_SPEED = 24
+C_END_MODULE = 28
+C_OTHER = 29
+C_CIRCLE = 32
+C_BOUNDARY = 35
+C_DELAYED_IO = 36
+
 # Warning codes, manual section 3.2.2.
 WARN_BUFFER_OVERFLOW = 11
 WARN_PARAMETER = 12

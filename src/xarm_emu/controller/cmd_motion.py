@@ -11,6 +11,7 @@ from ..model import kinematics as kin
 from ..model import rotations as rot
 from ..protocol.layouts import all_finite
 from .base import (
+    C_JOINT_LIMIT,
     WARN_NO_SOLUTION,
     CommandError,
     CommandWarning,
@@ -20,7 +21,6 @@ from .base import (
 )
 from .commands import CircleMove, Dwell, JointMove, LineMove
 from .core import (
-    C_JOINT_LIMIT,
     ControllerCore,
 )
 from .executor import wire_pose_to_matrix

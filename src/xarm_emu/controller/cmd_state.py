@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..protocol import codes
 from .base import (
     Handler,
     ParameterError,
@@ -15,7 +16,6 @@ from .core import (
     MODE_JOINT_TEACH,
     MODE_POSITION,
     MODE_SERVO,
-    REENABLE_ERRORS,
     STATE_MOVING,
     STATE_SLEEP,
     STATE_STOP,
@@ -23,6 +23,15 @@ from .core import (
     STATE_SYSTEM_RESET,
     ControllerCore,
 )
+
+
+def needs_power_on(code: int) -> bool:
+    """Whether clearing error ``code`` leaves the joints disabled until enabled again: the errors the
+    manual answers with "power on again" or "enable the robot" (section 3.2.1), and unlisted codes."""
+    if code == 0:
+        return False
+    entry = codes.controller_error(code)
+    return entry.restart if entry is not None else True
 
 
 class StateCommands(ControllerCore):
@@ -122,7 +131,7 @@ class StateCommands(ControllerCore):
         raise ParameterError(f"state {s} cannot be set")
 
     def _h_clean_error(self, v: Values) -> None:
-        if self.error_code in REENABLE_ERRORS:
+        if needs_power_on(self.error_code):
             self.enabled = [False] * self.dof
         self.error_code = 0
         self.servo_errors = [0] * self.dof

@@ -28,6 +28,7 @@ from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError
 from . import motion, safety
 from .base import (
+    C_OTHER,
     PERIOD,
     WARN_BUFFER_OVERFLOW,
     WARN_PARAMETER,
@@ -62,11 +63,6 @@ BUFFER_CAPACITY = 1024
 #: layouts (research note section 5.3).
 FIRMWARE_VERSION = "v1.6.0"
 
-# Control box errors (section 3.2.1) that need the joints enabled again after clearing.
-REENABLE_ERRORS = frozenset({1, 2, 3, 10, 11, 12, 13, 14, 15, 16, 17})
-
-C_JOINT_LIMIT = 23
-C_OTHER = 29
 
 log = logging.getLogger("xarm_emu.controller")
 

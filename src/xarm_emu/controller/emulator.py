@@ -17,7 +17,7 @@ import numpy as np
 from ..model.inertials import NOMINAL_JOINT_VOLTAGE
 from ..model.robots import RobotModel, get_model
 from ..protocol.reports import ReportSnapshot
-from .base import PERIOD
+from .base import C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
 from .controller import Controller
 from .gripper import GripperModule
 from .io import IOModule
@@ -178,7 +178,7 @@ class Emulator:
 
     def inject_estop(self) -> None:
         """The emergency stop button: error C1, joints disabled until re-enabled."""
-        self.controller.raise_error(1)
+        self.controller.raise_error(C_ESTOP)
 
     def inject_warning(self, code: int) -> None:
         """Set warning ``code`` (section 3.2.2); nothing else changes."""
@@ -194,7 +194,7 @@ class Emulator:
         if not 1 <= code <= 255:
             raise ValueError(f"servo error code {code} out of range 1..255")
         ctl.servo_errors[joint - 1] = code
-        ctl.raise_error(10 + joint)
+        ctl.raise_error(C_SERVO_BASE + joint)
 
     def inject_gripper_error(self, code: int) -> None:
         """A gripper error G<code> (section 3.3), read through the gripper's error register."""
@@ -202,7 +202,7 @@ class Emulator:
 
     def inject_end_module_lost(self) -> None:
         """The end module stops answering: error C28 (end module communication)."""
-        self.controller.raise_error(28)
+        self.controller.raise_error(C_END_MODULE)
 
     def clear_faults(self) -> None:
         """Clear every injected fault at once (errors, warnings, servo and gripper errors)."""

@@ -19,7 +19,7 @@ from ..model import kinematics as kin
 from ..model import rotations as rot
 from ..model.robots import RobotModel
 from . import motion
-from .base import CommandError
+from .base import C_CIRCLE, C_JOINT_LIMIT, C_KINEMATIC, C_SPEED, CommandError
 from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
 
 #: Shortest time to ramp the path rate between full speed and rest for suspend/stop (s); faster
@@ -27,12 +27,6 @@ from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
 RAMP_TIME = 0.2
 #: Peak slope of the smoothstep ramp (3u^2 - 2u^3) relative to a linear one.
 _SMOOTHSTEP_PEAK = 1.5
-
-# Control box error codes raised here (manual section 3.2.1).
-C_KINEMATIC = 21
-C_JOINT_LIMIT = 23
-C_CIRCLE = 32
-C_SPEED = 24
 
 #: A Cartesian step may exceed the joint speed limit by this factor before C24 (sampling slack).
 SPEED_TOLERANCE = 1.05

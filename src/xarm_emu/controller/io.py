@@ -34,7 +34,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from .base import CommandError, ControllerView, Handler, ParameterError
+from .base import C_DELAYED_IO, CommandError, ControllerView, Handler, ParameterError
 
 TOOL_HOST = 9
 CONTROL_BOX_HOST = 11
@@ -68,7 +68,7 @@ FUN_HAS_WARNING = 12  # SDK documentation
 
 STATE_STOP = 4
 MAX_PENDING = 36
-ERR_TOO_MANY_PENDING = 36  # C36, manual section 3.2.1
+ERR_TOO_MANY_PENDING = C_DELAYED_IO  # C36, manual section 3.2.1
 ZERO_RADIUS_EPS = 1e-3  # mm: a zero radius means "the TCP sample is on the point"
 
 

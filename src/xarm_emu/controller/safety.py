@@ -28,8 +28,8 @@ from xarm_emu.model.kinematics import fk
 from xarm_emu.model.robots import RobotModel
 from xarm_emu.model.rotations import pose_to_matrix
 
-C_SELF_COLLISION = 22
-C_BOUNDARY = 35
+from .base import C_BOUNDARY, C_SELF_COLLISION
+
 COLLISION_MARGIN = 1.0  # mm, minimum gap kept between links (module docstring)
 BOUNDARY_TOL = 0.01  # mm, the boundary stop point lies this close to the face (or closer), inside
 _COLLISION_BISECTIONS = 16  # step resolution 2^-16 of one control period
