@@ -29,8 +29,6 @@ def test_generated_methods_speak_the_table(server) -> None:  # type: ignore[no-u
         assert c.motion_en(joint=8, enable=1).not_ready  # a system reset: 0x10
         assert c.set_mode(0).not_ready
         assert not c.set_state(0).not_ready
-        r = c.move_joint(joints=(0.1, 0, 0, 0, 0, 0, 0), speed=1.0, acc=10.0, mvtime=0.0)
-        assert r["cmdnum"] == 1 and not r.has_error
         r = c.is_joint_limit(joints=(0.0, 3.0, 0, 0, 0, 0, 0))
         assert r["limited"] == 1
 
@@ -41,6 +39,8 @@ def test_generated_methods_speak_the_table(server) -> None:  # type: ignore[no-u
             assert r.values == {"error": 0, "warning": 0}
             r = await c.get_ik(pose=(207.0, 0.0, 112.0, math.pi, 0.0, 0.0))
             assert r["joints"][:6] == pytest.approx((0.0,) * 6, abs=1e-5)
+            r = await c.move_joint(joints=(0.1, 0, 0, 0, 0, 0, 0), speed=1.0, acc=10.0, mvtime=0.0)
+            assert r["cmdnum"] == 1 and not r.has_error
         finally:
             await c.close()
 
