@@ -278,3 +278,34 @@ def test_report_counter_counts_completed_commands(emu: Emulator) -> None:
     call(emu, 12, state=4)  # discarded commands do not count
     emu.advance(1.0)
     assert emu.snapshot().counter == 3
+
+
+def test_joint_moves_with_a_radius_blend_without_stopping(emu: Emulator) -> None:
+    # The SDK's set_servo_angle(..., radius=r) sends register 24 with the radius in mvtime's slot.
+    via = joints7(0.6, -0.2, -0.4, 0.0, 0.6, 0.0)
+    end = joints7(1.2, 0.0, -0.2, 0.0, 0.2, 0.0)
+    via_tcp = emu.controller.tcp_matrix(np.array(via[:6]))[:3, 3]
+    state, reply = call(emu, 24, joints=via, speed=1.0, acc=8.0, radius=30.0)
+    assert state == 0
+    call(emu, 24, joints=end, speed=1.0, acc=8.0, radius=-1.0)
+    qs, tcps = [], []
+    for _ in range(2500):
+        emu.step()
+        qs.append(emu.controller.q.copy())
+        tcps.append(emu.controller.tcp_pose()[:3])
+        if emu.controller.executor.cmdnum == 0:
+            break
+    qs_a, tcp_a = np.array(qs), np.array(tcps)
+    np.testing.assert_allclose(qs_a[-1], np.array(end[:6], dtype=np.float32), atol=1e-6)
+    speed = np.abs(np.diff(qs_a, axis=0)).max(axis=1) / PERIOD
+    d = np.linalg.norm(tcp_a - via_tcp, axis=1)
+    near = d[1:] < 30.0
+    assert near.any() and speed[near].min() > 0.05  # no stop at the via point
+    assert d.min() > 1.0  # the via point is rounded off
+    assert emu.snapshot().counter == 2
+    # Without a radius the arm stops at the via point.
+    call(emu, 24, joints=via, speed=1.0, acc=8.0, radius=-1.0)
+    call(emu, 24, joints=end, speed=1.0, acc=8.0, radius=-1.0)
+    pts = np.array([p[:3] for p in run_until_idle(emu)])
+    assert np.linalg.norm(pts - via_tcp, axis=1).min() < 1e-3  # reaches the via point exactly
+    assert emu.snapshot().counter == 4

@@ -88,7 +88,8 @@ class MotionCommands(ControllerCore):
         self._check_speed(v["speed"], v["acc"], self.model.max_joint_speed, self.model.max_joint_acc)
         self._require_motion_allowed()
         q = self._joint_target(v["joints"])
-        return self._queue(JointMove(self._current_code, q, v["speed"], v["acc"]))
+        radius = float(v.get("radius", -1.0))  # register 24's SDK form: blend into the next joint move
+        return self._queue(JointMove(self._current_code, q, v["speed"], v["acc"], radius=radius))
 
 
     def _h_move_home(self, v: Values) -> dict[str, Any]:

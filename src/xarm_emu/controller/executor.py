@@ -58,9 +58,12 @@ class _Plan:
 
 
 class _JointPlan(_Plan):
-    def __init__(self, traj: motion.JointTrajectory) -> None:
+    def __init__(self, traj: motion.JointTrajectory, blend: tuple[float, np.ndarray] | None = None) -> None:
         self.traj = traj
         self.duration = traj.duration
+        #: Blend radius (mm) and the TCP position (mm, base frame) at the target, when the command
+        #: asked to blend into the next joint move (register 24 with a radius).
+        self.blend = blend
 
     def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
         return self.traj.at(t)[0]
@@ -203,6 +206,8 @@ class Executor:
             self.plan = self._plan(self.current, q, limits, to_flange, tcp_pose)
         elif isinstance(self.plan, _CartesianPlan) and self.plan.blend_into is not None:
             self._blend_late_arrival(q, limits, to_flange)
+        elif isinstance(self.plan, _JointPlan) and self.plan.blend is not None:
+            self._blend_joint_moves(q, limits, tcp_pose)
         self.t += dt * self.rate
         plan = self.plan
         t = min(self.t, plan.duration)
@@ -281,6 +286,34 @@ class Executor:
         self.t = 0.0
         self.merged += extra
 
+    def _blend_joint_moves(self, q: np.ndarray, limits: Limits,
+                           tcp_pose: Callable[[np.ndarray], np.ndarray]) -> None:
+        """Joint moves with a blend radius (the SDK's register 24 form): once the TCP comes within the
+        radius of the move's target and the next joint move is queued, the arm heads for the next
+        target from its current joint positions, speeds and accelerations without stopping
+        (a jerk-limited ruckig move from the moving state)."""
+        plan = self.plan
+        assert isinstance(plan, _JointPlan) and plan.blend is not None
+        if not self.buffer or not isinstance(self.buffer[0], JointMove) or self.rate != 1.0 or self.stopping:
+            return
+        radius, target_tcp = plan.blend
+        if float(np.linalg.norm(tcp_pose(q)[:3, 3] - target_tcp)) > radius:
+            return
+        _, qd, qdd = plan.traj.at(min(self.t, plan.duration))
+        nxt = self.buffer.popleft()
+        assert isinstance(nxt, JointMove)
+        self.completed += 1  # the blended-away command is done
+        self.current = nxt
+        acc = min(nxt.acc, limits.joint_maxacc)
+        traj = motion.plan_joint_move(q, nxt.target, nxt.speed, acc, limits.joint_jerk, qd0=qd, qdd0=qdd)
+        self.plan = _JointPlan(traj, self._joint_blend(nxt, tcp_pose))
+        self.t = 0.0
+
+    @staticmethod
+    def _joint_blend(cmd: JointMove, tcp_pose: Callable[[np.ndarray], np.ndarray]
+                     ) -> tuple[float, np.ndarray] | None:
+        return (cmd.radius, tcp_pose(cmd.target)[:3, 3].copy()) if cmd.radius > 0.0 else None
+
     # -- planning ----------------------------------------------------------------------------
     def _plan(self, cmd: QueuedCommand, q: np.ndarray, limits: Limits,
               to_flange: Callable[[np.ndarray], np.ndarray],
@@ -290,7 +323,7 @@ class Executor:
         if isinstance(cmd, JointMove):
             acc = min(cmd.acc, limits.joint_maxacc)
             traj = motion.plan_joint_move(q, cmd.target, cmd.speed, acc, limits.joint_jerk)
-            return _JointPlan(traj)
+            return _JointPlan(traj, self._joint_blend(cmd, tcp_pose))
         start = tcp_pose(q)
         acc = min(cmd.acc, limits.tcp_maxacc)
         blend_next = bool(self.buffer) and isinstance(self.buffer[0], LineMove)
