@@ -63,8 +63,8 @@ BUFFER_CAPACITY = 1024
 #: layouts (research note section 5.3).
 FIRMWARE_VERSION = "v1.6.0"
 
-
 log = logging.getLogger("xarm_emu.controller")
+
 
 class ControllerCore:
     """State and mechanisms shared by every command group."""
@@ -138,8 +138,7 @@ class ControllerCore:
 
     def raise_error(self, code: int) -> None:
         """Enter an error: stop at once, discard the buffer, state 4 (section 3.2.1)."""
-        if self.error_code == 0 or code != self.error_code:
-            self.error_code = code
+        self.error_code = code
         self.executor.clear()
         self.servo_target = None
         self.qd[:] = 0.0
