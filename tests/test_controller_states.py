@@ -308,3 +308,20 @@ def test_suspend_of_a_fast_move_decelerates_within_the_acceleration_limit(emu: E
     a = np.diff(v) / 0.004
     assert abs(v[-1]) < 1e-9
     assert np.max(np.abs(a)) <= 5.0 * 1.02
+
+
+@pytest.mark.parametrize("code,values,expected", [
+    (30, {"pose": (207.0, 0.0, 100.0, math.pi, 0.0, 0.0), "coord": 0.0}, (207.0, 0.0, 100.0)),
+    (30, {"pose": (0.0, 0.0, 10.0, 0.0, 0.0, 0.0), "coord": 1.0}, (207.0, 0.0, 102.0)),  # tool z is down
+    (93, {"pose": (5.0, 0.0, 0.0, 0.0, 0.0, 0.0), "coord": 0.0, "relative": 1}, (212.0, 0.0, 112.0)),
+    (93, {"pose": (5.0, 0.0, 0.0, 0.0, 0.0, 0.0), "coord": 1.0, "relative": 0}, (212.0, 0.0, 112.0)),
+])
+def test_servo_cartesian_targets_in_base_tool_and_relative_frames(emu: Emulator, code: int, values: dict,
+                                                                  expected: tuple[float, ...]) -> None:
+    ready(emu)
+    call(emu, 19, mode=1)
+    call(emu, 12, state=0)
+    state, _ = call(emu, code, speed=0.0, acc=0.0, **values)
+    assert state == 0
+    emu.advance(0.5)
+    assert tuple(emu.controller.tcp_pose()[:3]) == pytest.approx(expected, abs=1e-3)

@@ -23,7 +23,7 @@ from .commands import CircleMove, Dwell, JointMove, LineMove
 from .core import (
     ControllerCore,
 )
-from .executor import wire_pose_to_matrix
+from .executor import apply_offset, wire_pose_to_matrix
 from .settings import (
     in_range,
 )
@@ -91,7 +91,6 @@ class MotionCommands(ControllerCore):
         radius = float(v.get("radius", -1.0))  # register 24's SDK form: blend into the next joint move
         return self._queue(JointMove(self._current_code, q, v["speed"], v["acc"], radius=radius))
 
-
     def _h_move_home(self, v: Values) -> dict[str, Any]:
         if not all_finite(v):
             raise ParameterError("non-finite value")
@@ -135,9 +134,8 @@ class MotionCommands(ControllerCore):
         if not all_finite(v):
             raise ParameterError("non-finite value")
         self._require_motion_allowed(servo=True)
-        T = wire_pose_to_matrix(v["pose"])
-        if v["coord"] != 0.0:
-            T = self.tcp_matrix() @ T
+        delta = wire_pose_to_matrix(v["pose"])
+        T = apply_offset(self.tcp_matrix(), delta, v["coord"] != 0.0, False)
         self._servo_cartesian(T)
         return None
 
@@ -145,15 +143,9 @@ class MotionCommands(ControllerCore):
         if not all_finite(v):
             raise ParameterError("non-finite value")
         self._require_motion_allowed(servo=True)
-        T = rot.pose_aa_to_matrix(np.asarray(v["pose"], dtype=float))
-        start = self.tcp_matrix()
-        if v["coord"] != 0.0:
-            T = start @ T
-        elif int(v.get("relative", 0)) == 1:
-            out = np.eye(4)
-            out[:3, :3] = T[:3, :3] @ start[:3, :3]
-            out[:3, 3] = start[:3, 3] + T[:3, 3]
-            T = out
+        delta = rot.pose_aa_to_matrix(np.asarray(v["pose"], dtype=float))
+        tool = v["coord"] != 0.0
+        T = apply_offset(self.tcp_matrix(), delta, tool, int(v.get("relative", 0)) == 1)
         self._servo_cartesian(T)
         return None
 

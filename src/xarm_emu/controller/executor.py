@@ -396,9 +396,15 @@ def resolve_line_target(cmd: LineMove, start: np.ndarray) -> np.ndarray:
     """
     to_matrix = rot.pose_aa_to_matrix if cmd.axis_angle else wire_pose_to_matrix
     delta = to_matrix(np.asarray(cmd.pose, dtype=float))
-    if cmd.tool_frame:
+    return apply_offset(start, delta, cmd.tool_frame, cmd.relative)
+
+
+def apply_offset(start: np.ndarray, delta: np.ndarray, tool_frame: bool, relative: bool) -> np.ndarray:
+    """Where a pose command goes from ``start``: tool frame (T_start * T_delta), relative in the base
+    frame (position added, rotation applied in the base frame), or absolute (``delta`` itself)."""
+    if tool_frame:
         return start @ delta
-    if cmd.relative:
+    if relative:
         out = np.eye(4)
         out[:3, :3] = delta[:3, :3] @ start[:3, :3]
         out[:3, 3] = start[:3, 3] + delta[:3, 3]
