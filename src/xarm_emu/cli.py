@@ -52,6 +52,8 @@ def serve(
                                                        "'view' extra: viser).")] = False,
     view_host: Annotated[str, typer.Option(help="Address of the 3D view.")] = "127.0.0.1",
     view_port: Annotated[int, typer.Option(help="Port of the 3D view.")] = 8080,
+    stepped: Annotated[bool, typer.Option("--stepped", help="Lockstep time: the controller advances only "
+                                                            "by `xarm-emu step` (needs --admin).")] = False,
     loop: Annotated[str, typer.Option(help="Event loop: asyncio (default: the steadiest 100 Hz report in "
                                            "`make bench`) or uvloop.")] = "asyncio",
 ) -> None:
@@ -72,7 +74,7 @@ def serve(
         err_console.print(f"[yellow]{emu.config_message}[/yellow]")
     cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
                        develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                       view=view, view_host=view_host, view_port=view_port)
+                       view=view, view_host=view_host, view_port=view_port, stepped=stepped)
     server = EmulatorServer(emu, cfg)
 
     async def main() -> None:
@@ -80,7 +82,8 @@ def serve(
         console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
                       f"on {host}: command {server.ports['command']}, normal {server.ports['normal']}, "
                       f"rich {server.ports['rich']}, develop {server.ports['develop']}; "
-                      f"speed x{speed:g}; config {cdir}")
+                      + ("lockstep time (xarm-emu step)" if stepped else f"speed x{speed:g}")
+                      + f"; config {cdir}")
         if "admin" in server.ports:
             console.print(f"admin channel (fault injection) on 127.0.0.1:{server.ports['admin']}")
         if "view" in server.ports:
@@ -347,6 +350,15 @@ def set_input(
 ) -> None:
     """Play a sensor input: `set-input cgpio 3 1`, `set-input tgpio 0 1`, `set-input analog 1 5.0`."""
     _admin(host, port, admin_port, "set-input", kind=kind, index=index, value=value)
+
+
+@app.command()
+def step(
+    duration: Annotated[str, typer.Argument(help="Controller time to run, e.g. 0.5s, 40ms.")],
+    host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None,
+) -> None:
+    """Lockstep: run an emulator started with `serve --stepped --admin` for this much controller time."""
+    _admin(host, port, admin_port, "step", seconds=duration)
 
 
 @app.command()

@@ -31,7 +31,8 @@ drop-clients       -                                             close every cli
 clear              -                                             clear all faults and delays
 set-input          kind cgpio/tgpio/analog/tool-analog,          a sensor input
                    index, value
-status             -                                             error, warning, delays
+status             -                                             time, error, warning, delays
+step               seconds (controller time)                     lockstep (--stepped) only: run them
 =================  ===========================================  ===============================
 
 A refused request changes nothing.
@@ -181,9 +182,15 @@ def execute(server: EmulatorServer, request: dict[str, Any]) -> str:
         return "faults, reply delay and report pause cleared"
     if cmd == "set-input":
         return _set_input(server, request)
+    if cmd == "step":
+        if not server.config.stepped:
+            raise AdminError("step needs lockstep time: start the emulator with --stepped")
+        secs = _seconds(request.get("seconds"))
+        n = server.advance(secs)
+        return f"advanced {n} control periods to t = {emu.time:.3f} s"
     if cmd == "status":
         ctl = emu.controller
-        return json.dumps({"error": ctl.error_code, "warning": ctl.warning_code,
+        return json.dumps({"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
                            "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
                            "reports_paused": server.reports_paused()})
     raise AdminError(f"unknown command {cmd!r}; known: {', '.join(COMMANDS)}")

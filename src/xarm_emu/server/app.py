@@ -63,6 +63,9 @@ class ServerConfig:
     speed: float = 1.0  # controller seconds per wall second
     admin: bool = False  # fault-injection channel (issue 5 item 5), off by default
     admin_port: int | None = None  # None: command port + admin.ADMIN_PORT_OFFSET (0 if port is 0)
+    #: Lockstep: controller time advances only by the admin channel's ``step`` command (an outside
+    #: harness drives the clock); needs ``admin``.
+    stepped: bool = False
     view: bool = False  # the 3D view in the browser (viewer/app.py), off by default
     view_host: str = "127.0.0.1"
     view_port: int = 8080
@@ -196,6 +199,8 @@ class EmulatorServer:
     async def start(self) -> None:
         loop = asyncio.get_running_loop()
         cfg = self.config
+        if cfg.stepped and not cfg.admin:
+            raise ValueError("lockstep (stepped) time is driven through the admin channel: add --admin")
         srv = await loop.create_server(lambda: _CommandProtocol(self), cfg.host, cfg.port, reuse_address=True)
         self._servers.append(srv)
         self.ports["command"] = srv.sockets[0].getsockname()[1]
@@ -262,7 +267,7 @@ class EmulatorServer:
         now and then (:data:`IDLE_WAKE`) when nobody is looking.
         """
         loop = self._loop
-        if loop is None:
+        if loop is None or self.config.stepped:
             return
         n = self.clock.due(loop.time())
         if n:
@@ -285,6 +290,14 @@ class EmulatorServer:
         cache.clear()
         state, reply = self.emulator.handle(register, params)
         return encode_reply(tid, protocol, register, state, reply)
+
+    def advance(self, seconds: float) -> int:
+        """Lockstep: run ``seconds`` of controller time now (whole control periods); returns the
+        number of periods run."""
+        n = max(0, round(seconds / PERIOD))
+        self.emulator.step(n)
+        self._read_cache.clear()
+        return n
 
     def invalidate(self) -> None:
         """Forget cached reads: call after changing the emulator outside a command (injection)."""
