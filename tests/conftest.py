@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -96,43 +95,25 @@ def server(make_server: ServerFactory) -> ServerThread:
     return make_server(admin=True)
 
 
-_SDK_REPORT_PORTS = {"normal": "TCP_REPORT_NORM_PORT", "rich": "TCP_REPORT_RICH_PORT",
-                     "develop": "TCP_REPORT_REAL_PORT"}
-_STANDARD = {"normal": 30001, "rich": 30002, "develop": 30003}
-
-
 @pytest.fixture
-def sdk_arm(monkeypatch: pytest.MonkeyPatch) -> Iterator[Callable[..., Any]]:
-    """``sdk_arm(server, report_type='rich', **kwargs)``: the official XArmAPI connected to ``server``.
-
-    Disconnected at teardown; the process-wide default socket timeout the SDK sets is restored.
-    """
-    from xarm.core.config.x_config import XCONF
+def sdk_arm() -> Iterator[Callable[..., Any]]:
+    """``sdk_arm(server, report_type='rich', **kwargs)``: the official XArmAPI connected to ``server``
+    through :func:`xarm_emu.testing.sdk_pointed_at`; disconnected and restored at teardown."""
     from xarm.wrapper import XArmAPI
-    from xarm.x3.report import ReportDataStructure
+
+    from xarm_emu.testing import sdk_pointed_at
 
     arms: list[Any] = []
-    previous_timeout = socket.getdefaulttimeout()
-    original_create = ReportDataStructure.create.__func__  # type: ignore[attr-defined]
+    with contextlib.ExitStack() as stack:
 
-    def factory(st: ServerThread, report_type: str = "rich", **kwargs: Any) -> Any:
-        ports = st.ports
-        monkeypatch.setattr(XCONF.SocketConf, "TCP_CONTROL_PORT", ports["command"])
-        for kind, attr in _SDK_REPORT_PORTS.items():
-            monkeypatch.setattr(XCONF.SocketConf, attr, ports[kind])
-        mapping = {ports[k]: v for k, v in _STANDARD.items()}
+        def factory(st: ServerThread, report_type: str = "rich", **kwargs: Any) -> Any:
+            stack.enter_context(sdk_pointed_at(st))
+            kwargs.setdefault("forbid_uds", True)
+            arm = XArmAPI("127.0.0.1", report_type=report_type, **kwargs)
+            arms.append(arm)
+            return arm
 
-        def create(cls: type, sock_port: int, **kw: Any) -> Any:
-            return original_create(cls, mapping.get(sock_port, sock_port), **kw)
-
-        monkeypatch.setattr(ReportDataStructure, "create", classmethod(create))
-        kwargs.setdefault("forbid_uds", True)
-        arm = XArmAPI("127.0.0.1", report_type=report_type, **kwargs)
-        arms.append(arm)
-        return arm
-
-    yield factory
-    for arm in arms:
-        with contextlib.suppress(Exception):
-            arm.disconnect()
-    socket.setdefaulttimeout(previous_timeout)
+        yield factory
+        for arm in arms:
+            with contextlib.suppress(Exception):
+                arm.disconnect()
