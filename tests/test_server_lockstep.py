@@ -44,3 +44,15 @@ def test_lockstep_needs_the_admin_channel(tmp_path) -> None:  # type: ignore[no-
     cfg = ServerConfig(port=0, normal_port=0, rich_port=0, develop_port=0, stepped=True)
     with pytest.raises(ValueError, match="--admin"):
         ServerThread(Emulator(6, config_dir=tmp_path), cfg).start()
+
+
+def test_scaled_clock_caps_each_catch_up_and_keeps_the_rest_due() -> None:
+    from xarm_emu.server.clock import ScaledClock
+
+    clock = ScaledClock(0.004, speed=100.0)
+    clock.start(0.0)
+    assert clock.due(1.0, limit=250) == 250  # 1 wall s at x100 is 25000 periods: 250 now
+    assert clock.due(1.0, limit=250) == 250  # the rest stays due
+    assert clock.due(1.0) == 25000 - 500
+    assert clock.due(1.0) == 0
+    assert clock.due(1.004) == 100

@@ -158,6 +158,9 @@ class _CommandProtocol(asyncio.Protocol):
 #: The control loop runs the due control periods at least this often (wall seconds); commands,
 #: report frames and admin actions run them before they act (EmulatorServer.catch_up).
 IDLE_WAKE = 0.02
+#: Most control periods one catch-up runs (1 s of controller time): beyond it the rest stays due for
+#: the next one, so at a --speed the machine cannot sustain the emulator runs slower, not stalled.
+MAX_CATCH_UP = 250
 
 _HEADER = struct.Struct(">HHH")
 _TID_PROT = struct.Struct(">HH")
@@ -258,23 +261,22 @@ class EmulatorServer:
 
         return on_client
 
-    def catch_up(self) -> None:
+    def catch_up(self) -> int:
         """Run the control periods that are due by now (real or scaled time).
 
-        Called before every command, report frame and admin action, so that whatever anyone
-        observes is the state after every period that has elapsed: stepping in batches this way is
-        indistinguishable from stepping on every period, and the control loop only has to wake up
-        now and then (:data:`IDLE_WAKE`) when nobody is looking.
+        Returns the number of periods run. Called before every command, report frame and admin
+        action, so that whatever anyone observes is the state after every period that has elapsed:
+        stepping in batches this way is indistinguishable from stepping on every period, and the
+        control loop only has to wake up now and then (:data:`IDLE_WAKE`) when nobody is looking.
         """
         loop = self._loop
         if loop is None or self.config.stepped:
-            return
-        n = self.clock.due(loop.time())
+            return 0
+        n = self.clock.due(loop.time(), MAX_CATCH_UP)
         if n:
             self._read_cache.clear()
-            step = self.emulator.step
-            for _ in range(n):
-                step()
+            self.emulator.step(n)
+        return n
 
     def answer(self, tid: int, protocol: int, register: int, params: bytes) -> bytes:
         """The reply frame to one private-protocol request (manual 2.1.2)."""
@@ -306,8 +308,8 @@ class EmulatorServer:
     async def _control_loop(self) -> None:
         """Keep controller time up with the wall clock while nobody asks (see :meth:`catch_up`)."""
         while True:
-            self.catch_up()
-            await asyncio.sleep(IDLE_WAKE)
+            backlog = self.catch_up() == MAX_CATCH_UP  # more is due: yield to clients, then go on
+            await asyncio.sleep(0.0 if backlog else IDLE_WAKE)
 
     async def _report_loop(self, kind: str) -> None:
         loop = asyncio.get_running_loop()

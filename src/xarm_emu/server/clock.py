@@ -34,15 +34,18 @@ class ScaledClock:
         self._wall0 = wall
         self._steps = 0
 
-    def due(self, wall: float) -> int:
-        """Steps to run now to catch up with ``wall``."""
+    def due(self, wall: float, limit: int | None = None) -> int:
+        """Steps to run now to catch up with ``wall``; at most ``limit`` (the rest stays due, so a
+        machine too slow for the requested speed runs slower instead of stalling in one burst)."""
         if self._wall0 is None:
             self.start(wall)
         assert self._wall0 is not None
         target = int((wall - self._wall0) * self.speed / self.period)
-        n = target - self._steps
-        self._steps = max(self._steps, target)
-        return max(0, n)
+        n = max(0, target - self._steps)
+        if limit is not None:
+            n = min(n, limit)
+        self._steps += n
+        return n
 
     def next_wall(self) -> float:
         """Wall time at which the next step falls due."""
