@@ -34,6 +34,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ..protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
 from .base import C_DELAYED_IO, CommandError, ControllerView, Handler, ParameterError
 
 TOOL_HOST = 9
@@ -55,8 +56,10 @@ DEFAULT_BAUD_INDEX = 11  # 2,000,000 bps, what the SDK checks before gripper com
 
 TOOL_DIGITAL = 2  # TO0/TO1, TI0/TI1 of the xArm 5/6/7 tool connector
 TOOL_AI_FULL_SCALE = 3.3  # V at 4095
-CGPIO_AI_FULL_SCALE = 10.0  # V at 4095
-ANALOG_MAX = 4095
+# Control box analog IO: 12-bit counts for 0-10 V, the scale the rich report also uses (one home:
+# protocol/reports.py).
+CGPIO_AI_FULL_SCALE = ANALOG_FULL_SCALE
+ANALOG_MAX = ANALOG_COUNTS
 
 FUN_GENERAL = 255
 GENERAL_INPUT = frozenset({0, FUN_GENERAL})  # SDK: input function 0 is "general input"
@@ -310,11 +313,11 @@ class IOModule:
 
     @property
     def analog_input_volts(self) -> tuple[float, float]:
-        return tuple(r * CGPIO_AI_FULL_SCALE / ANALOG_MAX for r in self.cgpio.analog_inputs)  # type: ignore
+        return tuple(counts_to_volts(r) for r in self.cgpio.analog_inputs)  # type: ignore
 
     @property
     def analog_output_volts(self) -> tuple[float, float]:
-        return tuple(r * CGPIO_AI_FULL_SCALE / ANALOG_MAX for r in self.cgpio.analog_outputs)  # type: ignore
+        return tuple(counts_to_volts(r) for r in self.cgpio.analog_outputs)  # type: ignore
 
     def snapshot_fields(self) -> dict[str, Any]:
         """The :class:`~xarm_emu.protocol.reports.ReportSnapshot` fields this component owns."""

@@ -16,10 +16,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..base import PERIOD
 from .joint import Limit
 
-#: The control period (``controller.base.PERIOD``), default step of :meth:`ServoTracker.step`.
-DEFAULT_DT = 0.004
+#: Default step of :meth:`ServoTracker.step`: the control period.
+DEFAULT_DT = PERIOD
 
 
 class ServoTracker:
