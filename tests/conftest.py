@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -87,6 +88,23 @@ def make_server(tmp_path: Path) -> Iterator[ServerFactory]:
     yield factory
     for st in started:
         st.stop()
+
+
+@pytest.fixture
+def server_with_derived_admin_port(make_server: ServerFactory) -> ServerThread:
+    """A server whose admin channel sits on its command port + 10000 (the default rule): tries free
+    command ports until that pair is free too."""
+    for _ in range(20):
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            p = s.getsockname()[1]
+        if p + 10000 > 65535:
+            continue
+        try:
+            return make_server(port=p, admin=True)
+        except OSError:
+            continue
+    pytest.skip("no free pair of command and admin ports")
 
 
 @pytest.fixture

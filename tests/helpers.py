@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
+
+import numpy as np
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
@@ -51,3 +55,35 @@ def wait_for(pred: Callable[[], bool], timeout: float = 5.0) -> bool:
             return True
         time.sleep(0.01)
     return pred()
+
+
+@dataclass
+class FakeView:
+    """A stand-in ControllerView for stepping a component on its own."""
+
+    time: float = 0.0
+    state: int = 0
+    mode: int = 0
+    error_code: int = 0
+    warning_code: int = 0
+    tcp_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    is_moving: bool = False
+
+    def raise_error(self, code: int) -> None:
+        self.error_code = code
+
+
+def rx(a: float) -> np.ndarray:
+    """Rotation about x, written out independently of the project's rotations module."""
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def ry(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def rz(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])

@@ -106,22 +106,11 @@ def test_cli_refusals_change_nothing(server: ServerThread, args: list[str], frag
     assert state_of(server) == before
 
 
-def test_inject_derives_the_admin_port_from_the_command_port(make_server) -> None:
-    for _ in range(20):
-        with socket.socket() as s:
-            s.bind(("127.0.0.1", 0))
-            p = s.getsockname()[1]
-        if p + 10000 > 65535:
-            continue
-        try:
-            st = make_server(port=p, admin=True)
-        except OSError:
-            continue
-        code, out = run("inject", "error", "C31", "--port", str(p))
-        assert code == 0, out
-        assert state_of(st)[0] == 31
-        return
-    pytest.skip("no free port pair")
+def test_inject_derives_the_admin_port_from_the_command_port(server_with_derived_admin_port) -> None:
+    st = server_with_derived_admin_port
+    code, out = run("inject", "error", "C31", "--port", str(st.ports["command"]))
+    assert code == 0, out
+    assert state_of(st)[0] == 31
 
 
 def test_inject_without_admin_channel(make_server) -> None:

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import rx, ry, rz
 
 from xarm_emu.model.dynamics import (
     gravity_from_direction,
@@ -64,17 +65,6 @@ def static_torques(frames, model: RobotModel, g, payload_mass=0.0, payload_com=(
 def chain_frames(model: RobotModel, q) -> list[tuple[np.ndarray, np.ndarray]]:
     """Independent forward chain: Trans(xyz) . Rz Ry Rx(rpy) . Rz(q) per joint, mm."""
 
-    def rx(a):
-        c, s = math.cos(a), math.sin(a)
-        return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-
-    def ry(a):
-        c, s = math.cos(a), math.sin(a)
-        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-
-    def rz(a):
-        c, s = math.cos(a), math.sin(a)
-        return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
 
     r, o = np.eye(3), np.zeros(3)
     frames = []

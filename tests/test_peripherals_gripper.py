@@ -7,6 +7,7 @@ import math
 import struct
 
 import pytest
+from helpers import FakeView as View
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -21,19 +22,6 @@ from xarm_emu.controller.gripper import (
 )
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.registers import REGISTERS
-
-
-class View:
-    time = 0.0
-    state = 0
-    mode = 0
-    error_code = 0
-    warning_code = 0
-    tcp_position = (0.0, 0.0, 0.0)
-    is_moving = False
-
-    def raise_error(self, code: int) -> None:
-        self.error_code = code
 
 
 def send(mod: GripperModule, pdu: bytes, host: int = 9) -> bytes:

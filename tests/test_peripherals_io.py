@@ -5,28 +5,14 @@ from __future__ import annotations
 
 import math
 import struct
-from dataclasses import dataclass
 from typing import Any
 
 import pytest
+from helpers import FakeView as View
 
 from xarm_emu.controller.base import PERIOD, CommandError, ParameterError
 from xarm_emu.controller.io import IOModule
 from xarm_emu.protocol.registers import REGISTERS
-
-
-@dataclass
-class View:
-    time: float = 0.0
-    state: int = 0
-    mode: int = 0
-    error_code: int = 0
-    warning_code: int = 0
-    tcp_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    is_moving: bool = False
-
-    def raise_error(self, code: int) -> None:
-        self.error_code = code
 
 
 def call(io: IOModule, code: int, params: bytes) -> bytes:

@@ -12,9 +12,8 @@ Manual errata handled here, each asserted explicitly:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import pytest
+from helpers import FakeView as View
 
 from xarm_emu.controller.base import CommandError, CommandWarning
 from xarm_emu.controller.gripper import GripperModule
@@ -22,20 +21,6 @@ from xarm_emu.controller.io import IOModule
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.frame import STATE_ERROR, STATE_WARNING, decode_reply, decode_request, encode_reply
 from xarm_emu.protocol.registers import REGISTERS
-
-
-@dataclass
-class View:
-    time: float = 0.0
-    state: int = 0
-    mode: int = 0
-    error_code: int = 0
-    warning_code: int = 0
-    tcp_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    is_moving: bool = False
-
-    def raise_error(self, code: int) -> None:
-        self.error_code = code
 
 
 def h(text: str) -> bytes:

@@ -60,22 +60,12 @@ def test_admin_port_derivation() -> None:
         derive_admin_port(60000)
 
 
-def test_derived_admin_port_is_used_by_the_server(make_server) -> None:
-    for _ in range(20):  # find a command port whose +10000 is also free
-        with socket.socket() as s:
-            s.bind(("127.0.0.1", 0))
-            p = s.getsockname()[1]
-        if p + 10000 > 65535:
-            continue
-        try:
-            st = make_server(port=p, admin=True)
-        except OSError:
-            continue
-        assert st.ports["admin"] == p + 10000
-        with AdminClient("127.0.0.1", admin_port(p)) as a:
-            assert "C1" in a.request("estop")
-        return
-    pytest.skip("no free port pair")
+def test_derived_admin_port_is_used_by_the_server(server_with_derived_admin_port) -> None:
+    st = server_with_derived_admin_port
+    p = st.ports["command"]
+    assert st.ports["admin"] == p + 10000
+    with AdminClient("127.0.0.1", admin_port(p)) as a:
+        assert "C1" in a.request("estop")
 
 
 def test_error_and_estop_show_on_the_command_port(srv: ServerThread, admin: AdminClient) -> None:
