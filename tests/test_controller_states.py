@@ -325,3 +325,10 @@ def test_servo_cartesian_targets_in_base_tool_and_relative_frames(emu: Emulator,
     assert state == 0
     emu.advance(0.5)
     assert tuple(emu.controller.tcp_pose()[:3]) == pytest.approx(expected, abs=1e-3)
+
+
+def test_gripper_error_shows_in_register_106_and_the_rich_report(emu: Emulator) -> None:
+    emu.inject_gripper_error(11)
+    state, reply = emu.handle(106, b"")
+    assert reply[14:16] == bytes((1, 11)) and reply[:14] == bytes(14)
+    assert tuple(emu.snapshot().tgpio_code) == (1, 11)

@@ -93,8 +93,8 @@ class ControllerCore:
         self.simulation_robot = False  # register 79
         self._physical_q: np.ndarray | None = None
         self.collision_tool = collision.NO_TOOL
-        #: (state, code) of the end tool for register 106; the emulator keeps it current.
-        self.tool_error: tuple[int, int] = (0, 0)
+        #: Error code of the end tool (gripper) for register 106; the emulator wires it up.
+        self.tool_error: Callable[[], int] = lambda: 0
         self.executor = Executor(model)
         self.servo_target: np.ndarray | None = None
         self.servo_tracker: motion.ServoTracker | None = None

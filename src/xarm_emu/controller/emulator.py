@@ -51,6 +51,7 @@ class Emulator:
         self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9])
         self.controller.add_component(self.io)
         self.controller.add_component(self.gripper)
+        self.controller.tool_error = lambda: self.gripper.gripper.error
         self.thermal = ThermalModel(self.model.dof)
         self.config_dir = config_dir
         self.config_message: str | None = None
@@ -90,9 +91,6 @@ class Emulator:
 
     # -- protocol ------------------------------------------------------------------------------
     def handle(self, code: int, params: bytes) -> tuple[int, bytes]:
-        if code == 106:
-            err = self.gripper.gripper.error
-            self.controller.tool_error = (1 if err else 0, err)
         return self.controller.handle(code, params)
 
     def step(self, n: int = 1) -> None:
@@ -120,6 +118,7 @@ class Emulator:
         speeds = tuple(float(x) for x in c.qd) + (0.0,) * (7 - c.dof)
         servo = tuple((1 if e else 0, e) for e in c.servo_errors) + ((0, 0),) * (7 - c.dof)
         pad = (0.0,) * (7 - c.dof)
+        tool_error = c.tool_error()
         currents = tuple(float(x) for x in c.joint_currents()) + pad
         temps = tuple(self.thermal.celsius_u8()) + (0,) * (7 - c.dof)
         snap = ReportSnapshot(
@@ -159,7 +158,7 @@ class Emulator:
             joint_currents=currents,
             joint_voltages=(NOMINAL_JOINT_VOLTAGE,) * c.dof + pad,
             temperatures=temps,
-            tgpio_code=(1 if self.gripper.gripper.error else 0, self.gripper.gripper.error),
+            tgpio_code=(1 if tool_error else 0, tool_error),
             **self.io.snapshot_fields(),
         )
         return snap
