@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: install serve test bench lint clean
+.PHONY: install serve test bench lint clean fuzz
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +22,12 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) -m bench
+
+# Random exploration beyond the deterministic examples of `make test` (FUZZ_SCALE times as many).
+FUZZ_SCALE ?= 25
+fuzz: $(STAMP)
+	HYPOTHESIS_PROFILE=explore XARM_EMU_FUZZ_SCALE=$(FUZZ_SCALE) $(PY) -m pytest -q tests/test_controller_fuzz.py \
+		tests/test_protocol_frame.py tests/test_model_rotations.py
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests bench

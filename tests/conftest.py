@@ -21,9 +21,16 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import settings
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerConfig, ServerThread
+
+# `make test` is deterministic: the same examples on every run, so CI never fails on a draw a developer
+# could not see. `make fuzz` explores new random examples (HYPOTHESIS_PROFILE=explore).
+settings.register_profile("ci", derandomize=True, print_blob=True)
+settings.register_profile("explore", derandomize=False, print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 _LEAK_CHECKED = ("test_server_", "test_client_", "test_cli_", "test_sdk_")
 

@@ -4,6 +4,7 @@ stepping. ``strict`` makes any unexpected exception fail the test instead of bei
 
 from __future__ import annotations
 
+import os
 import struct
 
 import pytest
@@ -15,6 +16,8 @@ from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.registers import REGISTERS
 
 CODES = sorted(REGISTERS)
+# `make fuzz` multiplies the example count to explore further than `make test` does.
+SCALE = max(1, int(os.environ.get("XARM_EMU_FUZZ_SCALE", "1")))
 
 
 def accepted_sizes(code: int) -> list[int]:
@@ -33,7 +36,8 @@ def requests(draw: st.DrawFn) -> tuple[int, bytes]:
     if draw(st.booleans()):
         # floats that decode to plausible numbers, including NaN/inf and extremes
         floats = draw(st.lists(st.sampled_from([0.0, 1.0, -1.0, 0.5, 3.1416, 100.0, 1e9, -1e9,
-                                                float("nan"), float("inf")]), min_size=size // 4,
+                                                3.0e38, -3.0e38, 1e-40, float("nan"),
+                                                float("inf")]), min_size=size // 4,
                                max_size=size // 4))
         raw = struct.pack(f"<{len(floats)}f", *floats) + draw(st.binary(min_size=size % 4, max_size=size % 4))
     else:
@@ -41,7 +45,7 @@ def requests(draw: st.DrawFn) -> tuple[int, bytes]:
     return code, raw
 
 
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=400 * SCALE, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(reqs=st.lists(requests(), min_size=1, max_size=12), enabled=st.booleans())
 def test_random_requests_never_raise(reqs: list[tuple[int, bytes]], enabled: bool) -> None:
     emu = Emulator(6)

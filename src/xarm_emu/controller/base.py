@@ -17,6 +17,12 @@ from typing import Any, Protocol
 #: the real control box's planning rate).
 PERIOD = 0.004
 
+#: Largest magnitude a float parameter may have on the wire. Every fp32 the manual defines is a
+#: length in mm, an angle, a speed, an acceleration, a time or an analog value, all far below this;
+#: a larger (or NaN, or infinite) value is parameter abnormal, warning 12, whatever the register. The
+#: bound also keeps everything computed from parameters inside the fp32 range of the replies.
+PARAMETER_LIMIT = 1.0e9
+
 # Control box error codes the controller raises (manual section 3.2.1; names and handling text in
 # protocol/codes.py).
 C_ESTOP = 1

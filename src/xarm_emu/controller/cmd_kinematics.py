@@ -8,12 +8,10 @@ import numpy as np
 
 from ..model import kinematics as kin
 from ..model import rotations as rot
-from ..protocol.layouts import all_finite
 from .base import (
     WARN_NO_SOLUTION,
     CommandWarning,
     Handler,
-    ParameterError,
     Values,
 )
 from .core import (
@@ -61,8 +59,6 @@ class KinematicsCommands(ControllerCore):
 
     # kinematics registers (issue 3)
     def _h_ik(self, v: Values) -> dict[str, Any]:
-        if not all_finite(v):
-            raise ParameterError("non-finite pose")
         T = wire_pose_to_matrix(v["pose"])
         q = kin.ik(self.model, self.flange_target(T), self.q, restarts=True)
         if q is None:
@@ -70,8 +66,6 @@ class KinematicsCommands(ControllerCore):
         return {"joints": self.joints7(q)}
 
     def _h_fk(self, v: Values) -> dict[str, Any]:
-        if not all_finite(v):
-            raise ParameterError("non-finite joints")
         q = np.asarray(v["joints"][: self.dof], dtype=float)
         return {"pose": tuple(rot.matrix_to_pose(self.tcp_matrix(q)))}
 
@@ -81,8 +75,6 @@ class KinematicsCommands(ControllerCore):
         return {"limited": 0 if ok else 1}
 
     def _h_pose_offset(self, v: Values) -> dict[str, Any]:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         aa_in = int(v["input_aa"]) == 1
         aa_out = int(v["output_aa"]) == 1
         to_m = rot.pose_aa_to_matrix if aa_in else wire_pose_to_matrix

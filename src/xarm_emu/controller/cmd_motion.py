@@ -9,7 +9,6 @@ import numpy as np
 
 from ..model import kinematics as kin
 from ..model import rotations as rot
-from ..protocol.layouts import all_finite
 from .base import (
     C_JOINT_LIMIT,
     WARN_NO_SOLUTION,
@@ -55,8 +54,6 @@ class MotionCommands(ControllerCore):
             raise ParameterError("speed or acceleration outside Table 1.2")
 
     def _h_move_line(self, v: Values) -> dict[str, Any]:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self._check_speed(v["speed"], v["acc"], self.model.max_tcp_speed, self.model.max_tcp_acc)
         self._require_motion_allowed()
         code = self._current_code
@@ -66,8 +63,6 @@ class MotionCommands(ControllerCore):
         return self._queue(cmd)
 
     def _h_move_line_aa(self, v: Values) -> dict[str, Any]:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self._check_speed(v["speed"], v["acc"], self.model.max_tcp_speed, self.model.max_tcp_acc)
         if v["coord"] not in (0, 1) or v["relative"] not in (0, 1):
             raise ParameterError("coordinate and relative flags are 0 or 1")
@@ -83,8 +78,6 @@ class MotionCommands(ControllerCore):
         return q
 
     def _h_move_joint(self, v: Values) -> dict[str, Any]:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self._check_speed(v["speed"], v["acc"], self.model.max_joint_speed, self.model.max_joint_acc)
         self._require_motion_allowed()
         q = self._joint_target(v["joints"])
@@ -92,8 +85,6 @@ class MotionCommands(ControllerCore):
         return self._queue(JointMove(self._current_code, q, v["speed"], v["acc"], radius=radius))
 
     def _h_move_home(self, v: Values) -> dict[str, Any]:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self._check_speed(v["speed"], v["acc"], self.model.max_joint_speed, self.model.max_joint_acc)
         self._require_motion_allowed()
         return self._queue(JointMove(25, np.zeros(self.dof), v["speed"], v["acc"]))
@@ -106,8 +97,6 @@ class MotionCommands(ControllerCore):
         return self._queue(Dwell(26, t))
 
     def _h_move_circle(self, v: Values) -> dict[str, Any]:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self._check_speed(v["speed"], v["acc"], self.model.max_tcp_speed, self.model.max_tcp_acc)
         if v["percent"] <= 0.0:
             raise ParameterError("percent must be > 0")
@@ -116,8 +105,6 @@ class MotionCommands(ControllerCore):
                                       v["percent"]))
 
     def _h_servoj(self, v: Values) -> None:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self._require_motion_allowed(servo=True)
         self.servo_target = self._joint_target(v["joints"])
         return None
@@ -131,8 +118,6 @@ class MotionCommands(ControllerCore):
         self.servo_target = q
 
     def _h_servo_cartesian(self, v: Values) -> None:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self._require_motion_allowed(servo=True)
         delta = wire_pose_to_matrix(v["pose"])
         T = apply_offset(self.tcp_matrix(), delta, v["coord"] != 0.0, False)
@@ -140,8 +125,6 @@ class MotionCommands(ControllerCore):
         return None
 
     def _h_servo_cartesian_aa(self, v: Values) -> None:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self._require_motion_allowed(servo=True)
         delta = rot.pose_aa_to_matrix(np.asarray(v["pose"], dtype=float))
         tool = v["coord"] != 0.0

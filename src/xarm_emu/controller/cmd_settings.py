@@ -7,7 +7,6 @@ from typing import Any
 import numpy as np
 
 from ..model import collision
-from ..protocol.layouts import all_finite
 from .base import (
     Handler,
     ParameterError,
@@ -68,15 +67,20 @@ class SettingCommands(ControllerCore):
         return set_value
 
     def _h_tcp_offset(self, v: Values) -> None:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self.settings.tcp_offset = [float(x) for x in v["pose"]]
         self.system_reset()
         return None
 
     def _h_tcp_load(self, v: Values) -> None:
-        if not all_finite(v) or v["mass"] < 0.0:
-            raise ParameterError("bad payload")
+        """Register 36 (manual 2.1.4, end payload setting): mass in kg, centre of mass in mm.
+
+        Within the model's rated payload and centre-of-mass bound, or warning 12.
+        """
+        m = self.model
+        if not 0.0 <= v["mass"] <= m.rated_payload:
+            raise ParameterError(f"payload mass is 0..{m.rated_payload} kg")
+        if any(abs(c) > m.payload_com_limit for c in v["center"]):
+            raise ParameterError(f"payload centre of mass is within +/-{m.payload_com_limit} mm")
         self.settings.tcp_load = [float(v["mass"]), *(float(x) for x in v["center"])]
         return None
 
@@ -117,8 +121,6 @@ class SettingCommands(ControllerCore):
 
 
     def _h_world_offset(self, v: Values) -> None:
-        if not all_finite(v):
-            raise ParameterError("non-finite value")
         self.settings.world_offset = [float(x) for x in v["pose"]]
         self.system_reset()
         return None

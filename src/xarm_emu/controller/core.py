@@ -25,10 +25,11 @@ from ..model import rotations as rot
 from ..model.robots import RobotModel
 from ..protocol import registers as regs
 from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
-from ..protocol.layouts import LayoutError
+from ..protocol.layouts import LayoutError, all_within
 from . import motion, safety
 from .base import (
     C_OTHER,
+    PARAMETER_LIMIT,
     PERIOD,
     WARN_BUFFER_OVERFLOW,
     WARN_PARAMETER,
@@ -81,7 +82,7 @@ class ControllerCore:
         self.q = np.zeros(self.dof)
         self.qd = np.zeros(self.dof)
         self.qdd = np.zeros(self.dof)
-        self._torque_cache: tuple[int, np.ndarray] | None = None
+        self._torque_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._state = STATE_STOP
         self.mode = MODE_POSITION
         self.enabled = [True] * self.dof
@@ -205,6 +206,8 @@ class ControllerCore:
                 values = reg.request.decode(params)
             except LayoutError as exc:
                 raise ParameterError(str(exc)) from exc
+            if not (reg.flags & regs.Flag.ANY_FLOAT or all_within(values, PARAMETER_LIMIT)):
+                raise ParameterError(f"a float parameter is not finite or exceeds {PARAMETER_LIMIT:g}")
             result = handler(values)
             if result is not None:
                 reply = reg.reply.encode(result)
@@ -362,15 +365,16 @@ class ControllerCore:
         """Theoretical joint torques (N m): gravity of the links and the payload of register 36
         with the gravity direction of register 51, plus the inertial terms of the planned motion
         (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`). Computed at most once per step."""
-        if self._torque_cache is not None and self._torque_cache[0] == self.steps:
-            return self._torque_cache[1]
         s = self.settings
+        key = (self.steps, tuple(s.tcp_load), tuple(s.gravity_direction))
+        if self._torque_cache is not None and self._torque_cache[0] == key:
+            return self._torque_cache[1]
         try:
             g: Any = dyn.gravity_from_direction(s.gravity_direction)
         except ValueError:
             g = dyn.DEFAULT_GRAVITY
         tau = dyn.inverse_dynamics(self.model, self.q, self.qd, self.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
-        self._torque_cache = (self.steps, tau)
+        self._torque_cache = (key, tau)
         return tau
 
     def joint_currents(self) -> np.ndarray:

@@ -7,11 +7,15 @@ acceleration settings start at those maxima (:meth:`Settings.for_model`).
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from ..model.robots import RobotModel
+from .base import PARAMETER_LIMIT
+
+log = logging.getLogger(__name__)
 
 COLLISION_SENSITIVITY_RANGE = (0, 5)  # section 1.5
 TEACH_SENSITIVITY_RANGE = (1, 5)
@@ -55,10 +59,47 @@ class Settings:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], model: RobotModel) -> Settings:
-        """Build settings from saved data; unknown keys are ignored, missing ones default."""
+        """Build settings from saved data; unknown keys are ignored, missing ones default.
+
+        A saved value of the wrong shape (type, length, a non-finite number, a payload the model does
+        not carry) keeps its default and is logged: a file written by an older or a hand-changed
+        emulator must not put values in the controller that its registers would have refused.
+        """
         base = cls.for_model(model)
         names = {f.name for f in fields(cls)}
         for key, value in data.items():
-            if key in names:
+            if key not in names:
+                continue
+            if _same_shape(getattr(base, key), value) and _plausible(key, value, model):
                 setattr(base, key, value)
+            else:
+                log.warning("saved setting %s=%r is not valid here; keeping the default", key, value)
         return base
+
+
+def _same_shape(default: Any, value: Any) -> bool:
+    """True when ``value`` has the type (and for lists the length) of ``default``, numbers finite."""
+    if isinstance(default, bool):
+        return isinstance(value, bool)
+    if isinstance(default, (int, float)):
+        return (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and math.isfinite(value) and abs(value) <= PARAMETER_LIMIT
+                and (isinstance(default, float) or value == int(value)))
+    if isinstance(default, list):
+        return (isinstance(value, list) and len(value) == len(default)
+                and all(_same_shape(d, v) for d, v in zip(default, value, strict=True)))
+    if isinstance(default, dict):
+        return isinstance(value, dict)
+    return False
+
+
+def _plausible(key: str, value: Any, model: RobotModel) -> bool:
+    """The ranges the setting registers enforce that a shape check cannot see."""
+    if key == "tcp_load":
+        return (0.0 <= value[0] <= model.rated_payload
+                and all(abs(c) <= model.payload_com_limit for c in value[1:]))
+    if key == "collision_sensitivity":
+        return in_range(value, COLLISION_SENSITIVITY_RANGE[1], COLLISION_SENSITIVITY_RANGE[0])
+    if key == "teach_sensitivity":
+        return in_range(value, TEACH_SENSITIVITY_RANGE[1], TEACH_SENSITIVITY_RANGE[0])
+    return True

@@ -55,6 +55,11 @@ class RobotModel:
     max_tcp_speed: float = 1000.0  # mm/s, manual 1.3 Table 1.2
     max_tcp_acc: float = 50000.0  # mm/s^2
     max_tcp_jerk: float = 10000.0  # mm/s^3
+    # Rated payload in kg (manual 4.2-4.4: xArm5 3 kg, xArm6 5 kg, xArm7 3.5 kg). Register 36 refuses a
+    # heavier payload or a centre of mass farther than ``payload_com_limit`` mm from the flange on any
+    # axis; the manual gives no bound there, so this is the emulator's, wide enough for its 400 mm example.
+    rated_payload: float = 5.0
+    payload_com_limit: float = 1000.0
 
     @property
     def lower(self) -> np.ndarray:
@@ -98,6 +103,7 @@ XARM5 = RobotModel(
     max_joint_speed=math.pi,
     zero_pose=(207.0, 0.0, 112.0, math.pi, 0.0, 0.0),
     fixed_roll_pitch=True,
+    rated_payload=3.0,
 )
 
 XARM6 = RobotModel(
@@ -133,6 +139,7 @@ XARM7 = RobotModel(
     ),
     max_joint_speed=math.pi,
     zero_pose=(206.0, 0.0, 120.5, math.pi, 0.0, 0.0),
+    rated_payload=3.5,
 )
 
 MODELS: dict[int, RobotModel] = {5: XARM5, 6: XARM6, 7: XARM7}

@@ -268,16 +268,16 @@ def _encode_field(f: Field, value: Any) -> bytes:
         if t.is_float:
             return struct.pack(order + code * f.count, *(float(v) for v in seq))
         return struct.pack(order + code * f.count, *(int(v) for v in seq))
-    except (struct.error, TypeError, ValueError) as exc:
+    except (struct.error, TypeError, ValueError, OverflowError) as exc:
         raise LayoutError(f"field {f.name!r}: {exc}") from exc
 
 
-def all_finite(values: Mapping[str, Any]) -> bool:
-    """True when every float in decoded values is finite (NaN/inf are parameter errors)."""
+def all_within(values: Mapping[str, Any], limit: float) -> bool:
+    """True when every float in decoded values is finite and no larger than ``limit`` in magnitude."""
     for v in values.values():
         seq = v if isinstance(v, tuple) else (v,)
         for x in seq:
-            if isinstance(x, float) and not math.isfinite(x):
+            if isinstance(x, float) and not (math.isfinite(x) and abs(x) <= limit):
                 return False
     return True
 

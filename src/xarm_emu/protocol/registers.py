@@ -31,6 +31,9 @@ class Flag(enum.Flag):
     SERVO = enum.auto()
     #: Not in manual V1.6.0, answered because the SDK or ROS driver sends it.
     EXTENSION = enum.auto()
+    #: Answers for any float value, NaN and infinities included (a check such as register 45);
+    #: other registers refuse such values with warning 12.
+    ANY_FLOAT = enum.auto()
 
 
 @dataclass(frozen=True)
@@ -196,7 +199,8 @@ _TABLE: list[Register] = [
     Register(44, "GET_FK", "Get the solution of the forward kinematics",
              request=_r(JOINTS), reply=_r(POSE)),
     Register(45, "IS_JOINT_LIMIT", "Check the limit of the joint space",
-             request=_r(JOINTS), reply=_r(u8("limited", "1 outside the joint limits, 0 inside"))),
+             request=_r(JOINTS), reply=_r(u8("limited", "1 outside the joint limits, 0 inside")),
+             flags=Flag.ANY_FLOAT),
     # ---- 51~100 other functions ---------------------------------------------------------------
     Register(51, "SET_GRAVITY_DIR", "Set the gravity direction",
              request=_r(fp32("direction", 3, "gravity vector in the base frame"))),
