@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 import ruckig
-from helpers import call, joints7, ready
+from helpers import bits, call, joints7, ready
 
 from xarm_emu.controller.base import PERIOD
 from xarm_emu.controller.emulator import Emulator
@@ -309,3 +309,32 @@ def test_joint_moves_with_a_radius_blend_without_stopping(emu: Emulator) -> None
     pts = np.array([p[:3] for p in run_until_idle(emu)])
     assert np.linalg.norm(pts - via_tcp, axis=1).min() < 1e-3  # reaches the via point exactly
     assert emu.snapshot().counter == 4
+
+
+def test_no_trajectory_is_error_c25_and_the_arm_stops(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Manual 3.2.1 C25 "planning error": what the controller raises when the planner has no answer."""
+    from xarm_emu.controller import motion
+
+    emu = Emulator(6)
+    ready(emu)
+
+    def refuse(*args: object, **kwargs: object) -> object:
+        raise motion.PlanningError("no trajectory")
+
+    monkeypatch.setattr(motion, "plan_joint_move", refuse)
+    call(emu, 23, joints=joints7(0.5), speed=1.0, acc=5.0, mvtime=0.0)
+    call(emu, 23, joints=joints7(1.0), speed=1.0, acc=5.0, mvtime=0.0)
+    emu.step(2)
+    assert emu.controller.error_code == 25 and emu.controller.state == 4
+    assert emu.controller.executor.cmdnum == 0
+    assert bits(call(emu, 13)[0])[0]
+
+
+def test_extremely_slow_joint_move_is_accepted_and_moves_at_its_speed() -> None:
+    emu = Emulator(6)
+    ready(emu)
+    state, _ = call(emu, 23, joints=joints7(1.0), speed=1e-4, acc=1e-3, mvtime=0.0)
+    assert state & 0x60 == 0
+    emu.advance(100.0)
+    assert emu.controller.state == 1 and emu.controller.error_code == 0
+    assert emu.joints[0] == pytest.approx(1e-4 * (100.0 - 0.05), abs=2e-5)

@@ -126,3 +126,28 @@ def test_at_is_cheap():
     for i in range(5000):
         tr.at(i * 1e-4)
     assert (time.perf_counter() - t0) / 5000 < 50e-6
+
+
+def test_move_longer_than_ruckig_allows_runs_as_a_straight_line_within_limits() -> None:
+    """Ruckig refuses durations over about two hours; such a move from rest keeps the same line."""
+    q0, q1 = np.zeros(6), np.array([1.0, -0.5, 0.0, 0.25, 0.0, 0.0])
+    traj = plan_joint_move(q0, q1, 1e-4, 1e-3, 500.0)
+    assert traj.duration == pytest.approx(1.0 / 1e-4 + 1e-4 / 1e-3 + 1e-3 / 500.0, rel=1e-9)
+    for t in np.linspace(0.0, traj.duration, 97):
+        q, qd, qdd = traj.at(float(t))
+        assert np.all(np.abs(qd) <= 1e-4 * (1 + 1e-9)) and np.all(np.abs(qdd) <= 1e-3 * (1 + 1e-9))
+        u = q[0]  # on the line q0 + u (q1 - q0)
+        np.testing.assert_allclose(q, q1 * u, atol=1e-12)
+    np.testing.assert_array_equal(traj.at(traj.duration)[0], q1)
+
+
+def test_planner_failure_from_a_moving_state_is_a_planning_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    from xarm_emu.controller.motion import joint
+
+    def refuse(inp: InputParameter, dof: int) -> Trajectory:
+        raise joint.PlanningError("ruckig: refused")
+
+    monkeypatch.setattr(joint, "_run", refuse)
+    with pytest.raises(joint.PlanningError):
+        plan_joint_move(np.zeros(6), np.ones(6), 1.0, 1.0, 10.0, qd0=np.full(6, 0.1))
+    assert plan_joint_move(np.zeros(6), np.ones(6), 1.0, 1.0, 10.0).duration > 1.0  # from rest: a line

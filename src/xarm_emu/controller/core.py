@@ -29,6 +29,7 @@ from ..protocol.layouts import LayoutError, all_within
 from . import motion, safety
 from .base import (
     C_OTHER,
+    C_PLANNING,
     PARAMETER_LIMIT,
     PERIOD,
     WARN_BUFFER_OVERFLOW,
@@ -262,6 +263,9 @@ class ControllerCore:
                     self._check_safety(q_prev)
         except CommandError as e:
             self.raise_error(e.code)
+        except motion.PlanningError:
+            log.warning("no trajectory for command %r", self.executor.current)
+            self.raise_error(C_PLANNING)
         except Exception:  # keep the control loop alive; the arm stops with C29 "other errors"
             if self.strict:
                 raise

@@ -9,20 +9,64 @@ Synchronisation is ruckig's *phase* synchronisation where possible (a move
 from rest is then a straight line in joint space, so a suspended move resumes
 on the same path) and *time* synchronisation otherwise; both give the same,
 minimum duration from rest.
+
+ruckig bounds a trajectory's duration (about two hours). A slower move from rest,
+which the manual does not forbid, runs as the same straight joint-space line
+with one S-curve along it (:class:`StraightLine`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
-from ruckig import ControlInterface, InputParameter, Result, Ruckig, Synchronization, Trajectory
+from ruckig import ControlInterface, InputParameter, Result, Ruckig, RuckigError, Synchronization, Trajectory
+
+from .profile import SCurve
 
 Limit = float | Sequence[float] | np.ndarray
 
 
 class PlanningError(RuntimeError):
-    """ruckig found no trajectory (the controller raises C25)."""
+    """No trajectory for the given state and limits (the controller raises C25, planning error)."""
+
+
+class _Samples(Protocol):
+    """What :class:`JointTrajectory` needs of a planned trajectory (ruckig's or a straight line)."""
+
+    @property
+    def duration(self) -> float: ...
+
+    def at_time(self, t: float) -> tuple[list[float], list[float], list[float]]: ...
+
+
+class StraightLine:
+    """A rest-to-rest move along the joint-space line from ``q0`` to ``q1``: one S-curve of the line
+    parameter, scaled so that no joint exceeds its limits. That is the path and timing of a
+    phase-synchronised move from rest; used where ruckig refuses the duration.
+    """
+
+    __slots__ = ("duration", "_q0", "_dq", "_curve")
+
+    def __init__(self, q0: np.ndarray, q1: np.ndarray, limits: tuple[list[float], list[float], list[float]]
+                 ) -> None:
+        self._q0 = q0
+        self._dq = q1 - q0
+        span = np.abs(self._dq)
+        moving = span > 0.0
+        if not moving.any():
+            raise ValueError("q0 and q1 are the same")
+
+        def scale(lim: list[float]) -> float:
+            return float(np.min(np.asarray(lim)[moving] / span[moving]))
+
+        self._curve = SCurve(1.0, scale(limits[0]), scale(limits[1]), scale(limits[2]))
+        self.duration = self._curve.duration
+
+    def at_time(self, t: float) -> tuple[list[float], list[float], list[float]]:
+        u, du, ddu = self._curve.sample(t)
+        return ((self._q0 + self._dq * u).tolist(), (self._dq * du).tolist(), (self._dq * ddu).tolist())
 
 
 def _limits(x: Limit, dof: int, name: str) -> list[float]:
@@ -41,7 +85,7 @@ class JointTrajectory:
 
     __slots__ = ("dof", "duration", "target", "limits", "_traj", "_start", "_end")
 
-    def __init__(self, traj: Trajectory | None, start: tuple[np.ndarray, np.ndarray, np.ndarray],
+    def __init__(self, traj: _Samples | Trajectory | None, start: tuple[np.ndarray, np.ndarray, np.ndarray],
                  end: tuple[np.ndarray, np.ndarray, np.ndarray], target: np.ndarray,
                  limits: tuple[list[float], list[float], list[float]]) -> None:
         self._traj = traj
@@ -58,8 +102,8 @@ class JointTrajectory:
         if t <= 0.0:
             q, qd, qdd = self._start
             return q.copy(), qd.copy(), qdd.copy()
-        q, qd, qdd = self._traj.at_time(t)
-        return np.array(q), np.array(qd), np.array(qdd)
+        pos, vel, acc = self._traj.at_time(t)
+        return np.array(pos), np.array(vel), np.array(acc)
 
     def stop(self, t: float) -> JointTrajectory:
         """Jerk-limited stop from the state at ``t`` (suspend / stop); ``resume()`` goes on to the target."""
@@ -77,7 +121,10 @@ class JointTrajectory:
 
 def _run(inp: InputParameter, dof: int) -> Trajectory:
     traj = Trajectory(dof)
-    result = Ruckig(dof).calculate(inp, traj)
+    try:
+        result = Ruckig(dof).calculate(inp, traj)
+    except (RuckigError, ValueError) as exc:  # ValueError: a result code the binding does not name
+        raise PlanningError(f"ruckig: {exc}".strip()) from exc
     if result not in (Result.Working, Result.Finished):
         raise PlanningError(f"ruckig: {result}")
     return traj
@@ -107,7 +154,13 @@ def plan_joint_move(q0: Sequence[float] | np.ndarray, q1: Sequence[float] | np.n
     inp.target_position = target.tolist()
     inp.max_velocity, inp.max_acceleration, inp.max_jerk = limits
     inp.synchronization = Synchronization.Phase
-    return JointTrajectory(_run(inp, dof), start, end, target, limits)
+    try:
+        traj: _Samples | Trajectory = _run(inp, dof)
+    except PlanningError:
+        if v0.any() or a0.any():
+            raise
+        traj = StraightLine(start_q, target, limits)
+    return JointTrajectory(traj, start, end, target, limits)
 
 
 def plan_joint_stop(q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray,
