@@ -63,6 +63,7 @@ def test_status_table_and_unreachable(server: ServerThread) -> None:
     (["inject", "warning", "11"], (0, 11)),
     (["inject", "end-module-lost"], (28, 0)),
     (["inject", "servo-error", "--joint", "3", "S23"], (13, 0)),
+    (["inject", "collision", "--joint", "2", "--torque", "-40"], (31, 0)),  # default sensitivity 3
 ])
 def test_inject_then_clear(server: ServerThread, args: list[str], expect: tuple[int, int]) -> None:
     code, out = run(*args, *addr(server))

@@ -46,9 +46,10 @@ def requests(draw: st.DrawFn) -> tuple[int, bytes]:
 
 
 @settings(max_examples=400 * SCALE, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(reqs=st.lists(requests(), min_size=1, max_size=12), enabled=st.booleans())
-def test_random_requests_never_raise(reqs: list[tuple[int, bytes]], enabled: bool) -> None:
-    emu = Emulator(6)
+@given(reqs=st.lists(requests(), min_size=1, max_size=12), enabled=st.booleans(),
+       dof=st.sampled_from([6, 5, 7]))
+def test_random_requests_never_raise(reqs: list[tuple[int, bytes]], enabled: bool, dof: int) -> None:
+    emu = Emulator(dof)
     emu.controller.strict = True
     if enabled:
         ready(emu)

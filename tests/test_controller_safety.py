@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import call, joints7, ready
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from xarm_emu.controller import safety
+from xarm_emu.controller.emulator import Emulator
 from xarm_emu.controller.safety import (
     BOUNDARY_TOL,
     C_BOUNDARY,
@@ -131,3 +134,38 @@ def test_xarm7_step() -> None:
     stop = check_path_step(XARM7, q0, q1, self_collision_on=True)
     assert stop is not None and stop.code == C_SELF_COLLISION
     assert self_collision(XARM7, stop.q_stop)[1] >= COLLISION_MARGIN
+
+
+def test_collision_thresholds_fall_as_the_sensitivity_rises() -> None:
+    """Register 37 (manual 1.5): the higher the level, the smaller the torque it detects; 0 is off."""
+    thresholds = [safety.COLLISION_THRESHOLDS[level] for level in range(1, 6)]
+    assert thresholds == sorted(thresholds, reverse=True) and len(set(thresholds)) == 5
+    for level, limit in safety.COLLISION_THRESHOLDS.items():
+        assert safety.collision_detected(level, limit) and safety.collision_detected(level, -limit)
+        assert not safety.collision_detected(level, 0.99 * limit)
+    assert not safety.collision_detected(0, 1e6)
+
+
+def test_injected_collision_stops_a_moving_arm_with_c31() -> None:
+    emu = Emulator(7)
+    ready(emu)
+    call(emu, 37, sensitivity=5)
+    call(emu, 12, state=0)  # 37 is a system reset
+    call(emu, 23, joints=joints7(1.0), speed=1.0, acc=10.0, mvtime=0.0)
+    call(emu, 23, joints=joints7(0.0), speed=1.0, acc=10.0, mvtime=0.0)
+    emu.advance(0.3)
+    assert emu.controller.state == 1
+    with pytest.raises(ValueError, match="joint 8"):
+        emu.inject_collision(8, 50.0)
+    assert not emu.inject_collision(4, 9.0)
+    assert emu.inject_collision(4, 10.0)
+    held = emu.joints.copy()
+    emu.step(1)
+    assert emu.controller.error_code == 31 and emu.controller.state == 4
+    assert emu.controller.executor.cmdnum == 0
+    emu.advance(0.5)
+    np.testing.assert_allclose(emu.joints, held, atol=0.02)  # stopped within one control period
+    assert not emu.inject_collision(4, 50.0)  # an arm already in error detects nothing new
+    call(emu, 11, joint=8, enable=0)
+    call(emu, 16)
+    assert not emu.inject_collision(4, 50.0)  # disabled joints: nothing to detect with

@@ -108,6 +108,20 @@ def test_servo_error_on_joint_3(srv: ServerThread, admin: AdminClient) -> None:
     assert srv.call(lambda: list(srv.emulator.controller.servo_errors)) == [0, 0, 23, 0, 0, 0]
 
 
+def test_collision_is_c31_only_when_the_sensitivity_detects_it(srv: ServerThread, admin: AdminClient) -> None:
+    with Client("127.0.0.1", srv.ports["command"]) as c:
+        c.call(11, joint=8, enable=1)
+        c.call(37, sensitivity=0)  # detection off
+        assert "not detected" in admin.request("collision", joint=2, torque=100.0)
+        assert c.get_err_warn()[0] == 0
+        c.call(37, sensitivity=3)
+        assert "not detected" in admin.request("collision", joint=2, torque=-25.0)
+        assert c.get_err_warn()[0] == 0
+        assert "C31" in admin.request("collision", joint=2, torque=-30.0)
+        assert c.get_err_warn()[0] == 31
+        assert c.call(13).state & 0x40
+
+
 def test_gripper_error(srv: ServerThread, admin: AdminClient) -> None:
     admin.request("gripper-error", code="G11")
     assert srv.call(lambda: srv.emulator.gripper.gripper.error) == 11
@@ -198,6 +212,9 @@ def test_set_input(srv: ServerThread, admin: AdminClient) -> None:
     ({"cmd": "set-input", "kind": "cgpio", "index": 99, "value": 1}, "cgpio input 99"),
     ({"cmd": "set-input", "kind": "cgpio", "index": 1, "value": 2}, "0 or 1"),
     ({"cmd": "set-input", "kind": "laser", "index": 1, "value": 1}, "unknown input kind"),
+    ({"cmd": "collision", "joint": 7, "torque": 50}, "joint 7 out of range"),
+    ({"cmd": "collision", "joint": 2, "torque": "hard"}, "torque must be a number"),
+    ({"cmd": "collision", "joint": 2, "torque": "nan"}, "torque must be finite"),
     ({"cmd": "set-input", "kind": "analog", "index": 5, "value": 1.0}, "analog input 5"),
 ])
 def test_bad_requests_are_refused_and_change_nothing(srv: ServerThread, admin: AdminClient,

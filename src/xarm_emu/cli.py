@@ -312,6 +312,15 @@ def inject_end_module_lost(host: HostOpt = "127.0.0.1", port: PortOpt = 502,
     _admin(host, port, admin_port, "end-module-lost")
 
 
+@inject_app.command("collision")
+def inject_collision(joint: Annotated[int, typer.Option(help="Joint number, 1..axis.")],
+                     torque: Annotated[float, typer.Option(help="External torque on that joint, N m.")],
+                     host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                     admin_port: AdminPortOpt = None) -> None:
+    """Push on a joint: error C31 when the collision sensitivity (register 37) detects the torque."""
+    _admin(host, port, admin_port, "collision", joint=joint, torque=torque)
+
+
 @inject_app.command("report-pause")
 def inject_report_pause(duration: Annotated[str, typer.Argument(help="e.g. 2s, 500ms.")],
                         host: HostOpt = "127.0.0.1", port: PortOpt = 502,

@@ -9,6 +9,7 @@ as the CPU allows, deterministically).
 from __future__ import annotations
 
 import logging
+import math
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +18,8 @@ import numpy as np
 from ..model.inertials import NOMINAL_JOINT_VOLTAGE
 from ..model.robots import RobotModel, get_model
 from ..protocol.reports import ReportSnapshot
-from .base import C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
+from . import safety
+from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
 from .controller import Controller
 from .gripper import GripperModule
 from .io import IOModule
@@ -202,6 +204,25 @@ class Emulator:
     def inject_end_module_lost(self) -> None:
         """The end module stops answering: error C28 (end module communication)."""
         self.controller.raise_error(C_END_MODULE)
+
+    def inject_collision(self, joint: int, torque: float) -> bool:
+        """An external ``torque`` (N m) on ``joint`` (1-based), as a collision would apply.
+
+        Detected (error C31, manual 3.2.1) when the joints are enabled and the torque reaches the
+        threshold of the collision sensitivity (register 37; ``safety.COLLISION_THRESHOLDS``);
+        sensitivity 0 switches detection off. Returns whether it was detected.
+        """
+        ctl = self.controller
+        if not 1 <= joint <= ctl.dof:
+            raise ValueError(f"joint {joint} out of range 1..{ctl.dof}")
+        if not math.isfinite(torque):
+            raise ValueError(f"torque must be finite, got {torque!r}")
+        if ctl.error_code or not all(ctl.enabled):
+            return False
+        if not safety.collision_detected(ctl.settings.collision_sensitivity, torque):
+            return False
+        ctl.raise_error(C_COLLISION)
+        return True
 
     def clear_faults(self) -> None:
         """Clear every injected fault at once (errors, warnings, servo and gripper errors)."""

@@ -13,6 +13,10 @@ at, found on the step from ``q_prev`` to ``q_next`` (joints interpolated linearl
   reported joints). A step that starts closer than the margin is allowed only when it moves the links
   apart (so an arm inside the margin can be driven out); otherwise it stops where it is.
 - A TCP already outside an enabled boundary stops at once (fraction 0).
+
+Collision detection (register 37, manual 1.5 and C31 of 3.2.1): an external torque on a joint, which
+only fault injection can apply here, is detected when it reaches the threshold of the collision
+sensitivity (:func:`collision_detected`). Level 0 switches detection off.
 """
 
 from __future__ import annotations
@@ -29,6 +33,17 @@ from xarm_emu.model.robots import RobotModel
 from xarm_emu.model.rotations import pose_to_matrix
 
 from .base import C_BOUNDARY, C_SELF_COLLISION
+
+#: External joint torque (N m) that collision sensitivity 1..5 detects (C31). The vendor publishes
+#: no figures, only that a higher level needs less torque; these are the emulator's, the same for
+#: every joint.
+COLLISION_THRESHOLDS = {1: 60.0, 2: 45.0, 3: 30.0, 4: 20.0, 5: 10.0}
+
+
+def collision_detected(sensitivity: int, torque: float) -> bool:
+    """Whether an external ``torque`` (N m, either sign) trips collision detection at ``sensitivity``."""
+    threshold = COLLISION_THRESHOLDS.get(int(sensitivity))
+    return threshold is not None and abs(torque) >= threshold
 
 COLLISION_MARGIN = 1.0  # mm, minimum gap kept between links (module docstring)
 BOUNDARY_TOL = 0.01  # mm, the boundary stop point lies this close to the face (or closer), inside

@@ -16,7 +16,8 @@ MAX_LINE = 4096
 MAX_SECONDS = 3600.0
 
 COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "end-module-lost",
-            "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status", "step")
+            "collision", "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status",
+            "step")
 INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog")
 
 

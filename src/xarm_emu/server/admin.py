@@ -25,6 +25,8 @@ warning            code 11 (or "W11")                            warning (3.2.2)
 servo-error        joint 1..dof, code "S23"                      servo error, error C10+joint
 gripper-error      code "G11"                                    gripper error (3.3)
 end-module-lost    -                                             error C28
+collision          joint 1..dof, torque (N m)                    external torque: C31 when the
+                                                                 collision sensitivity detects it
 report-pause       seconds (wall)                                no report frames for that long
 reply-delay        seconds (wall, 0 switches it off)             each command reply delayed
 drop-clients       -                                             close every client connection
@@ -131,6 +133,18 @@ def _int(value: Any, name: str) -> int:
     return value
 
 
+def _float(value: Any, name: str) -> float:
+    if isinstance(value, bool):
+        raise AdminError(f"{name} must be a number, got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise AdminError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise AdminError(f"{name} must be finite, got {value!r}")
+    return x
+
+
 def execute(server: EmulatorServer, request: dict[str, Any]) -> str:
     """Run one admin request in the server's loop thread; returns a message or raises AdminError.
 
@@ -164,6 +178,16 @@ def execute(server: EmulatorServer, request: dict[str, Any]) -> str:
     if cmd == "end-module-lost":
         emu.inject_end_module_lost()
         return "end module lost: C28"
+    if cmd == "collision":
+        dof = emu.model.dof
+        joint = _int(request.get("joint"), "joint")
+        if not 1 <= joint <= dof:
+            raise AdminError(f"joint {joint} out of range 1..{dof}")
+        torque = _float(request.get("torque"), "torque")
+        level = emu.controller.settings.collision_sensitivity
+        if emu.inject_collision(joint, torque):
+            return f"collision of {torque:g} N m on joint {joint} detected at sensitivity {level}: C31"
+        return f"collision of {torque:g} N m on joint {joint} not detected (sensitivity {level})"
     if cmd == "report-pause":
         secs = _seconds(request.get("seconds"))
         server.pause_reports(secs)
@@ -201,18 +225,11 @@ def _set_input(server: EmulatorServer, request: dict[str, Any]) -> str:
     if kind not in INPUT_KINDS:
         raise AdminError(f"unknown input kind {kind!r}; known: {', '.join(INPUT_KINDS)}")
     index = _int(request.get("index"), "index")
-    value = request.get("value")
-    if isinstance(value, str):
-        try:
-            value = float(value)
-        except ValueError:
-            raise AdminError(f"value must be a number, got {value!r}") from None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise AdminError(f"value must be a number, got {value!r}")
+    value = _float(request.get("value"), "value")
     if kind in ("cgpio", "tgpio") and value not in (0, 1):
         raise AdminError(f"digital input value must be 0 or 1, got {value!r}")
     try:
-        server.emulator.set_input(kind, index, float(value))
+        server.emulator.set_input(kind, index, value)
     except Exception as exc:  # noqa: BLE001 - the IO module's own range checks
         raise AdminError(f"{kind} input {index}: {exc}") from None
     return f"{kind} input {index} = {value:g}"
