@@ -86,7 +86,7 @@ def _problems(model: RobotModel, n: int, spread: float, seed: int) -> list[tuple
 
 
 def run() -> list[str]:
-    """Measure and return the report lines (also printed)."""
+    """Measure and return the report lines (``python -m bench`` prints them)."""
     model = XARM6
     ref = ReferenceKinematics(model)
     rng = np.random.default_rng(0)
@@ -121,10 +121,8 @@ def run() -> list[str]:
                 ok += 1
         lines.append(f"  IK success {m.name}: {ok / len(probs):6.1%} of {len(probs)}"
                      " from seeds within 0.5 rad (target >= 99 %)")
-    for line in lines:
-        print(line)
     return lines
 
 
 if __name__ == "__main__":
-    run()
+    print("\n".join(run()))
