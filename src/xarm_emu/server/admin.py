@@ -133,6 +133,13 @@ def _int(value: Any, name: str) -> int:
     return value
 
 
+def _joint(request: dict[str, Any], dof: int) -> int:
+    joint = _int(request.get("joint"), "joint")
+    if not 1 <= joint <= dof:
+        raise AdminError(f"joint {joint} out of range 1..{dof}")
+    return joint
+
+
 def _float(value: Any, name: str) -> float:
     if isinstance(value, bool):
         raise AdminError(f"{name} must be a number, got {value!r}")
@@ -164,10 +171,7 @@ def execute(server: EmulatorServer, request: dict[str, Any]) -> str:
         emu.inject_warning(entry.code)
         return f"injected warning {entry.code} {entry.name}"
     if cmd == "servo-error":
-        dof = emu.model.dof
-        joint = _int(request.get("joint"), "joint")
-        if not 1 <= joint <= dof:
-            raise AdminError(f"joint {joint} out of range 1..{dof}")
+        joint = _joint(request, emu.model.dof)
         entry = _label(request.get("code"), "S")
         emu.inject_servo_error(joint, entry.code)
         return f"injected {entry.label} {entry.name} on joint {joint} (C{10 + joint})"
@@ -179,10 +183,7 @@ def execute(server: EmulatorServer, request: dict[str, Any]) -> str:
         emu.inject_end_module_lost()
         return "end module lost: C28"
     if cmd == "collision":
-        dof = emu.model.dof
-        joint = _int(request.get("joint"), "joint")
-        if not 1 <= joint <= dof:
-            raise AdminError(f"joint {joint} out of range 1..{dof}")
+        joint = _joint(request, emu.model.dof)
         torque = _float(request.get("torque"), "torque")
         level = emu.controller.settings.collision_sensitivity
         if emu.inject_collision(joint, torque):
