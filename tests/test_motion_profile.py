@@ -159,3 +159,13 @@ def test_sample_is_cheap():
         p.sample(i * 1e-4)
     per_call = (time.perf_counter() - t0) / 20000
     assert per_call < 20e-6
+
+
+def test_moving_profile_without_a_solution_is_a_planning_error() -> None:
+    """A blend into an absurdly slow move: ruckig's refusal becomes C25's PlanningError, not a crash."""
+    from xarm_emu.controller.motion import MovingProfile, PlanningError
+
+    with pytest.raises(PlanningError, match="ruckig"):
+        MovingProfile(100.0, 1e-30, 0.0, 1e-30, 1e-30, 10.0)
+    long = MovingProfile(100.0, 0.0, 0.0, 1e-5, 1e-5, 10.0)  # slow but solvable: about 1e7 s
+    assert long.duration == pytest.approx(1e7, rel=1e-3)

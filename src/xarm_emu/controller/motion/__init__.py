@@ -3,7 +3,7 @@ profiles, joint moves (ruckig), Cartesian paths (line, arc blend, circle) and
 servo tracking. Pure math: no controller state, no kinematics."""
 
 from .cartesian import CartesianMove, MoveChain, plan_blended, plan_line
-from .joint import JointTrajectory, PlanningError, plan_joint_move, plan_joint_stop
+from .joint import JointTrajectory, plan_joint_move, plan_joint_stop
 from .paths import (
     ROT_MM_PER_RAD,
     BlendArc,
@@ -14,7 +14,7 @@ from .paths import (
     Path,
     blend_runs,
 )
-from .profile import JerkProfile, MovingProfile, SCurve, resume_profile, stop_profile
+from .profile import JerkProfile, MovingProfile, PlanningError, SCurve, resume_profile, stop_profile
 from .servo import ServoTracker
 
 __all__ = [

@@ -23,13 +23,9 @@ from typing import Protocol
 import numpy as np
 from ruckig import ControlInterface, InputParameter, Result, Ruckig, RuckigError, Synchronization, Trajectory
 
-from .profile import SCurve
+from .profile import PlanningError, SCurve
 
 Limit = float | Sequence[float] | np.ndarray
-
-
-class PlanningError(RuntimeError):
-    """No trajectory for the given state and limits (the controller raises C25, planning error)."""
 
 
 class _Samples(Protocol):

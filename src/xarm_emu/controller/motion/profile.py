@@ -88,6 +88,10 @@ def _accel_phase(v: float, amax: float, jmax: float) -> tuple[float, float]:
     return tj, 2.0 * tj
 
 
+class PlanningError(RuntimeError):
+    """No trajectory for the given state and limits (the controller raises C25, planning error)."""
+
+
 def _check_limits(vmax: float, amax: float, jmax: float) -> None:
     for name, x in (("vmax", vmax), ("amax", amax), ("jmax", jmax)):
         if not (x > 0.0 and math.isfinite(x)):
@@ -183,7 +187,7 @@ class MovingProfile:
     __slots__ = ("duration", "distance", "_traj", "_end")
 
     def __init__(self, distance: float, v0: float, a0: float, vmax: float, amax: float, jmax: float) -> None:
-        from ruckig import InputParameter, Result, Ruckig, Trajectory
+        from ruckig import InputParameter, Result, Ruckig, RuckigError, Trajectory
 
         _check_limits(vmax, amax, jmax)
         inp = InputParameter(1)
@@ -197,8 +201,12 @@ class MovingProfile:
         inp.max_acceleration = [max(amax, abs(a0))]
         inp.max_jerk = [jmax]
         traj = Trajectory(1)
-        if Ruckig(1).calculate(inp, traj) not in (Result.Working, Result.Finished):
-            raise ValueError("no jerk-limited profile from this moving state")
+        try:
+            result = Ruckig(1).calculate(inp, traj)
+        except (RuckigError, ValueError) as exc:  # ValueError: a result code the binding does not name
+            raise PlanningError(f"ruckig: {exc}".strip()) from exc
+        if result not in (Result.Working, Result.Finished):
+            raise PlanningError("no jerk-limited profile from this moving state")
         self._traj = traj
         self.duration = float(traj.duration)
         self.distance = distance
