@@ -104,12 +104,12 @@ def test_saved_settings_a_register_would_refuse_keep_their_defaults(tmp_path: Pa
     data = store.load()
     assert data is not None
     data.update(tcp_load=[5.6e14, 0.0, 0.0, 0.0], tcp_offset=[0.0, 0.0, "x", 0.0, 0.0, 0.0],
-                world_offset=[1.0, 2.0], boundary_on="yes", teach_sensitivity=9)
+                world_offset=[1.0, 2.0], boundary_on="yes", teach_sensitivity=9, joint_jerk=0.0)
     store.save(data)
     again = Emulator(6, config_dir=tmp_path)
     s, defaults = again.controller.settings, Settings.for_model(again.model)
     assert s.collision_sensitivity == 4  # the valid value is kept
-    for name in ("tcp_load", "tcp_offset", "world_offset", "boundary_on", "teach_sensitivity"):
+    for name in ("tcp_load", "tcp_offset", "world_offset", "boundary_on", "teach_sensitivity", "joint_jerk"):
         assert getattr(s, name) == getattr(defaults, name), name
     assert all(math.isfinite(t) for t in call(again, 55)[1]["torques"])
 
@@ -121,3 +121,23 @@ def test_float_too_large_for_fp32_is_a_layout_error() -> None:
     with pytest.raises(LayoutError, match="'x'"):
         layout.encode(x=1e39)
     assert layout.encode(x=3.0e38) == struct.pack("<f", 3.0e38)
+
+
+@pytest.mark.parametrize("code, key, name", [(31, "jerk", "tcp_jerk"), (32, "maxacc", "tcp_maxacc"),
+                                             (33, "jerk", "joint_jerk"), (34, "maxacc", "joint_maxacc")])
+def test_zero_jerk_or_acceleration_limit_is_refused_and_motion_still_plans(code: int, key: str,
+                                                                           name: str) -> None:
+    """Table 1.2 starts at 0, but a zero limit leaves nothing to plan: warning 12 (a fuzzer found a
+    zero joint jerk followed by a home move)."""
+    emu = Emulator(6)
+    emu.controller.strict = True
+    ready(emu)
+    before = getattr(emu.controller.settings, name)
+    state, _ = call(emu, code, **{key: 0.0})
+    assert bits(state)[1] and warning(emu) == 12
+    assert getattr(emu.controller.settings, name) == before
+    call(emu, 17)
+    call(emu, 23, joints=joints7(0.3), speed=1.0, acc=5.0, mvtime=0.0)
+    call(emu, 21, pose=(300.0, 0.0, 200.0, math.pi, 0.0, 0.0), speed=200.0, acc=2000.0, mvtime=0.0)
+    emu.advance(4.0)
+    assert emu.controller.error_code == 0 and emu.controller.state == 2

@@ -57,10 +57,13 @@ class SettingCommands(ControllerCore):
 
     # parameters
     def _setter(self, name: str, key: str, hi: float) -> Handler:
+        """Registers 31-34: a jerk or maximum acceleration within Table 1.2 (manual 1.3), above 0:
+        the table's lower bound 0 would leave no motion to plan, so it is refused like any value out
+        of range (warning 12)."""
         def set_value(v: Values) -> dict[str, Any]:
             value = v[key]
-            if not in_range(value, hi):
-                raise ParameterError(f"{name} outside Table 1.2")
+            if not (in_range(value, hi) and value > 0.0):
+                raise ParameterError(f"{name} outside Table 1.2 or zero")
             setattr(self.settings, name, float(value))
             return {"cmdnum": self.executor.cmdnum}
 

@@ -98,6 +98,10 @@ def _plausible(key: str, value: Any, model: RobotModel) -> bool:
     if key == "tcp_load":
         return (0.0 <= value[0] <= model.rated_payload
                 and all(abs(c) <= model.payload_com_limit for c in value[1:]))
+    limits = {"tcp_jerk": model.max_tcp_jerk, "tcp_maxacc": model.max_tcp_acc,
+              "joint_jerk": model.max_joint_jerk, "joint_maxacc": model.max_joint_acc}
+    if key in limits:
+        return 0.0 < value <= limits[key]
     if key == "collision_sensitivity":
         return in_range(value, COLLISION_SENSITIVITY_RANGE[1], COLLISION_SENSITIVITY_RANGE[0])
     if key == "teach_sensitivity":
