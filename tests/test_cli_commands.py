@@ -3,11 +3,17 @@ CliRunner: status, inject, clear, set-input, and serve's messages for privileged
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import math
 import os
 import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
@@ -149,35 +155,27 @@ def test_serve_rejects_bad_speed(tmp_path) -> None:
     assert code == 2 and "--speed" in out
 
 
-def test_serve_subprocess_with_admin(tmp_path) -> None:
-    """`xarm-emu serve --admin` end to end: the banner names the admin port; inject reaches it."""
-    import subprocess
-    import sys
-    import time
-
-    ports = []
-    socks = []
-    for _ in range(5):
-        s = socket.socket()
+def free_ports(n: int) -> list[int]:
+    socks = [socket.socket() for _ in range(n)]
+    for s in socks:
         s.bind(("127.0.0.1", 0))
-        socks.append(s)
-        ports.append(s.getsockname()[1])
+    ports = [s.getsockname()[1] for s in socks]
     for s in socks:
         s.close()
-    cmd, normal, rich, develop, admin = ports
+    return ports
+
+
+@contextlib.contextmanager
+def serve_subprocess(tmp_path: Path, cmd: int, normal: int, rich: int, develop: int,
+                     *extra: str) -> Iterator[subprocess.Popen[str]]:
+    """`xarm-emu serve` in a child process on the given ports, terminated on exit."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "xarm_emu.cli", "serve", "--port", str(cmd), "--normal-port", str(normal),
-         "--rich-port", str(rich), "--develop-port", str(develop), "--admin", "--admin-port", str(admin),
+         "--rich-port", str(rich), "--develop-port", str(develop), *extra,
          "--config-dir", str(tmp_path), "--log-level", "WARNING"],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "COLUMNS": "500"})
     try:
-        assert proc.stdout is not None
-        banner = proc.stdout.readline() + proc.stdout.readline()
-        assert f"admin channel (fault injection) on 127.0.0.1:{admin}" in " ".join(banner.split()), banner
-        code, out = run("inject", "error", "C31", "--port", str(cmd), "--admin-port", str(admin))
-        assert code == 0, out
-        code, out = run("status", "--json", "--port", str(cmd), "--report-port", str(develop))
-        assert code == 0 and json.loads(out)["error"] == 31
+        yield proc
     finally:
         proc.terminate()
         try:
@@ -187,4 +185,30 @@ def test_serve_subprocess_with_admin(tmp_path) -> None:
             proc.wait()
         if proc.stdout is not None:
             proc.stdout.close()
-        time.sleep(0)
+
+
+def test_status_wait_is_a_readiness_probe(tmp_path: Path) -> None:
+    """`serve &` then `status --wait`: returns once the protocol answers, not before; exit 1 if never."""
+    (free,) = free_ports(1)
+    t0 = time.monotonic()
+    code, out = run("status", "--port", str(free), "--wait", "0.5")
+    assert code == 1 and "cannot reach the control box" in out and time.monotonic() - t0 >= 0.5
+    cmd, normal, rich, develop = free_ports(4)
+    with serve_subprocess(tmp_path, cmd, normal, rich, develop):
+        code, out = run("status", "--json", "--wait", "30", "--port", str(cmd), "--report-port", str(develop))
+        assert code == 0, out
+        assert json.loads(out)["version"].startswith("6,6,")
+
+
+def test_serve_subprocess_with_admin(tmp_path: Path) -> None:
+    """`xarm-emu serve --admin` end to end: the banner names the admin port; inject reaches it."""
+    cmd, normal, rich, develop, admin = free_ports(5)
+    admin_args = ("--admin", "--admin-port", str(admin))
+    with serve_subprocess(tmp_path, cmd, normal, rich, develop, *admin_args) as proc:
+        assert proc.stdout is not None
+        banner = proc.stdout.readline() + proc.stdout.readline()
+        assert f"admin channel (fault injection) on 127.0.0.1:{admin}" in " ".join(banner.split()), banner
+        code, out = run("inject", "error", "C31", "--port", str(cmd), "--admin-port", str(admin))
+        assert code == 0, out
+        code, out = run("status", "--json", "--port", str(cmd), "--report-port", str(develop))
+        assert code == 0 and json.loads(out)["error"] == 31

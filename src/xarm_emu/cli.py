@@ -7,6 +7,7 @@ import errno
 import json
 import logging
 import math
+import time
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -139,20 +140,33 @@ def status(
     port: Annotated[int, typer.Option(help="Command port.")] = 502,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     report_port: Annotated[int, typer.Option(help="Develop report port, read for the mode.")] = 30003,
+    wait: Annotated[float, typer.Option(
+        help="Readiness probe: retry for up to this many seconds until the control box answers on "
+             "its command port (a protocol reply, not just an open port).")] = 0.0,
 ) -> None:
-    """Print version, state, mode, error, warning, joints and pose of a control box."""
+    """Print version, state, mode, error, warning, joints and pose of a control box.
+
+    Exit status 1 when it cannot be reached (after ``--wait`` seconds of retries), so
+    ``xarm-emu serve & xarm-emu status --wait 10`` is a CI readiness probe.
+    """
     from .client import Client, ClientError, subscribe
 
-    try:
-        with Client(host, port, timeout=3.0) as c:
-            version = c.get_version()
-            state = c.get_state()
-            error, warning = c.get_err_warn()
-            joints = c.get_joints()
-            pose = c.get_position()
-    except (OSError, ClientError) as exc:
-        err_console.print(f"cannot reach the control box at {host}:{port}: {exc}")
-        raise typer.Exit(1) from None
+    deadline = time.monotonic() + max(0.0, wait)
+    while True:
+        try:
+            with Client(host, port, timeout=3.0) as c:
+                version = c.get_version()
+                state = c.get_state()
+                error, warning = c.get_err_warn()
+                joints = c.get_joints()
+                pose = c.get_position()
+            break
+        except (OSError, ClientError) as exc:
+            if time.monotonic() < deadline:
+                time.sleep(0.1)
+                continue
+            err_console.print(f"cannot reach the control box at {host}:{port}: {exc}")
+            raise typer.Exit(1) from None
     mode: int | None = None
     try:  # no register reads the mode (manual 2.1.3): the report's state byte carries it
         mode = next(iter(subscribe("develop", host, report_port, timeout=2.0))).mode
