@@ -1,11 +1,18 @@
-"""Test helpers: encode requests and decode replies through the register table."""
+"""Test helpers: encode requests and decode replies through the register table; free ports and
+`xarm-emu serve` in a child process."""
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import socket
+import subprocess
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -87,3 +94,45 @@ def ry(a: float) -> np.ndarray:
 def rz(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def free_ports(n: int) -> list[int]:
+    socks = [socket.socket() for _ in range(n)]
+    for s in socks:
+        s.bind(("127.0.0.1", 0))
+    ports = [s.getsockname()[1] for s in socks]
+    for s in socks:
+        s.close()
+    return ports
+
+
+@contextlib.contextmanager
+def serve_subprocess(tmp_path: Path, cmd: int, normal: int, rich: int, develop: int,
+                     *extra: str) -> Iterator[subprocess.Popen[str]]:
+    """`xarm-emu serve` in a child process on the given ports, terminated on exit."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "xarm_emu.cli", "serve", "--port", str(cmd), "--normal-port", str(normal),
+         "--rich-port", str(rich), "--develop-port", str(develop), *extra,
+         "--config-dir", str(tmp_path), "--log-level", "WARNING"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "COLUMNS": "500"})
+    try:
+        yield proc
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        if proc.stdout is not None:
+            proc.stdout.close()
+
+
+def run_cli(*args: str) -> tuple[int, str]:
+    """``xarm-emu ARGS`` through typer's CliRunner: (exit code, output)."""
+    from typer.testing import CliRunner
+
+    from xarm_emu import cli
+
+    result = CliRunner().invoke(cli.app, list(args))
+    return result.exit_code, result.output

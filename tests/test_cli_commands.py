@@ -3,30 +3,19 @@ CliRunner: status, inject, clear, set-input, and serve's messages for privileged
 
 from __future__ import annotations
 
-import contextlib
 import errno
 import json
 import math
-import os
 import socket
-import subprocess
-import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
+from helpers import free_ports, serve_subprocess
+from helpers import run_cli as run
 
 from xarm_emu import cli
 from xarm_emu.server.app import ServerThread
-
-runner = CliRunner()
-
-
-def run(*args: str) -> tuple[int, str]:
-    result = runner.invoke(cli.app, list(args))
-    return result.exit_code, result.output
 
 
 def addr(st: ServerThread) -> list[str]:
@@ -153,38 +142,6 @@ def test_serve_port_in_use_message(monkeypatch: pytest.MonkeyPatch, tmp_path) ->
 def test_serve_rejects_bad_speed(tmp_path) -> None:
     code, out = run("serve", "--speed", "0", "--config-dir", str(tmp_path))
     assert code == 2 and "--speed" in out
-
-
-def free_ports(n: int) -> list[int]:
-    socks = [socket.socket() for _ in range(n)]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return ports
-
-
-@contextlib.contextmanager
-def serve_subprocess(tmp_path: Path, cmd: int, normal: int, rich: int, develop: int,
-                     *extra: str) -> Iterator[subprocess.Popen[str]]:
-    """`xarm-emu serve` in a child process on the given ports, terminated on exit."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "xarm_emu.cli", "serve", "--port", str(cmd), "--normal-port", str(normal),
-         "--rich-port", str(rich), "--develop-port", str(develop), *extra,
-         "--config-dir", str(tmp_path), "--log-level", "WARNING"],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "COLUMNS": "500"})
-    try:
-        yield proc
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-        if proc.stdout is not None:
-            proc.stdout.close()
 
 
 def test_status_wait_is_a_readiness_probe(tmp_path: Path) -> None:

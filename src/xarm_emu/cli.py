@@ -57,10 +57,14 @@ def serve(
                                                             "by `xarm-emu step` (needs --admin).")] = False,
     loop: Annotated[str, typer.Option(help="Event loop: asyncio (default: the steadiest 100 Hz report in "
                                            "`make bench`) or uvloop.")] = "asyncio",
+    fleet: Annotated[Path | None, typer.Option(help="Serve the arms a TOML fleet file lists, in this one "
+                                                    "process (see src/xarm_emu/server/fleet.py); the "
+                                                    "per-arm options above then come from the file.")] = None,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .controller.emulator import Emulator
     from .server.app import EmulatorServer, ServerConfig
+    from .server.fleet import FleetError, load_fleet
 
     logging.basicConfig(level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if loop not in ("asyncio", "uvloop"):
@@ -70,31 +74,47 @@ def serve(
         err_console.print("--speed must be a positive number")
         raise typer.Exit(2)
     cdir = config_dir if config_dir is not None else _default_config_dir()
-    emu = Emulator(model, config_dir=cdir)
-    if emu.config_message:
-        err_console.print(f"[yellow]{emu.config_message}[/yellow]")
-    cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
-                       develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                       view=view, view_host=view_host, view_port=view_port, stepped=stepped)
-    server = EmulatorServer(emu, cfg)
+    if fleet is not None:
+        if view or stepped:
+            err_console.print("--view and --stepped serve one arm; they do not combine with --fleet")
+            raise typer.Exit(2)
+        try:
+            spec = load_fleet(fleet)
+        except FleetError as exc:
+            err_console.print(str(exc))
+            raise typer.Exit(2) from None
+        cdir = spec.config_dir if spec.config_dir is not None else cdir
+        servers = [EmulatorServer(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir), a.server)
+                   for a in spec.arms]
+    else:
+        cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
+                           develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
+                           view=view, view_host=view_host, view_port=view_port, stepped=stepped)
+        servers = [EmulatorServer(Emulator(model, config_dir=cdir), cfg)]
+    for srv in servers:
+        if srv.emulator.config_message:
+            err_console.print(f"[yellow]{srv.emulator.config_message}[/yellow]")
 
     async def main() -> None:
-        await server.start()
-        console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
-                      f"on {host}: command {server.ports['command']}, normal {server.ports['normal']}, "
-                      f"rich {server.ports['rich']}, develop {server.ports['develop']}; "
-                      + ("lockstep time (xarm-emu step)" if stepped else f"speed x{speed:g}")
-                      + f"; config {cdir}")
-        if "admin" in server.ports:
-            console.print(f"admin channel (fault injection) on 127.0.0.1:{server.ports['admin']}")
-        if "view" in server.ports:
-            console.print(f"3D view on http://{view_host}:{server.ports['view']}/")
-        await server.serve_forever()
+        for srv in servers:
+            await srv.start()
+            emu, cfg = srv.emulator, srv.config
+            console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
+                          f"on {cfg.host}: command {srv.ports['command']}, normal {srv.ports['normal']}, "
+                          f"rich {srv.ports['rich']}, develop {srv.ports['develop']}; "
+                          + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
+                          + f"; config {cdir}")
+            if "admin" in srv.ports:
+                console.print(f"admin channel (fault injection) on 127.0.0.1:{srv.ports['admin']}")
+            if "view" in srv.ports:
+                console.print(f"3D view on http://{cfg.view_host}:{srv.ports['view']}/")
+        await asyncio.gather(*(srv.serve_forever() for srv in servers))
 
     try:
         _run(main(), loop)
     except PermissionError:
-        err_console.print(_PRIVILEGED.format(port=port, host=host))
+        err_console.print(_PRIVILEGED.format(port=port if fleet is None else "(a fleet port below 1024)",
+                                             host=host if fleet is None else "its address"))
         raise typer.Exit(1) from None
     except ValueError as exc:  # no default admin port for this command port
         err_console.print(str(exc))
@@ -108,7 +128,8 @@ def serve(
             raise typer.Exit(1) from None
         if exc.errno == errno.EADDRINUSE:
             err_console.print(f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
-                              "choose other ports with --port/--normal-port/--rich-port/--develop-port")
+                              "choose other ports with --port/--normal-port/--rich-port/--develop-port"
+                              + (" (in the fleet file)" if fleet is not None else ""))
             raise typer.Exit(1) from None
         raise
     except KeyboardInterrupt:

@@ -1,0 +1,158 @@
+"""A fleet file: several emulated arms served by one process (``xarm-emu serve --fleet FILE``).
+
+The SDK's ports are fixed (502, 30001-30003), so arms usually differ by loopback address
+(127.0.0.0/8 on Linux), each with the standard ports; they may also differ by port. A TOML file
+lists them; top-level keys are defaults for every arm::
+
+    speed = 1.0                  # time scale shared by every arm
+    config_dir = "fleet-config"  # saved configurations, one file per robot serial number
+
+    [[arm]]
+    model = 6
+    host = "127.0.0.1"
+
+    [[arm]]
+    model = 7
+    host = "127.0.0.2"
+    robot_sn = "XS1302"
+    admin = true                 # fault injection on 127.0.0.1:10502 (see xarm-emu inject)
+    admin_port = 10512
+
+Arm keys: ``model`` (5, 6, 7), ``host``, ``port``, ``normal_port``, ``rich_port``, ``develop_port``,
+``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
+``admin``, ``admin_port``. Arms without ``robot_sn`` get their model's default serial number,
+counted up when an earlier arm has it, so that no two arms share a saved configuration.
+Everything is checked before any port is opened; a bad file gives one message naming the arm and
+the key.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from ..model.robots import MODELS
+from .admin import derive_admin_port
+from .app import ServerConfig
+
+_SN = re.compile(r"[A-Z]{2}[0-9]{4}")
+_DEFAULT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
+_PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
+ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin")
+TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k != "robot_sn"))
+
+
+class FleetError(ValueError):
+    """The fleet file cannot be used; the message says where and why."""
+
+
+@dataclass(frozen=True)
+class ArmSpec:
+    """One arm of a fleet: its model, serial number and server configuration."""
+
+    model: int
+    robot_sn: str
+    server: ServerConfig = field(default_factory=ServerConfig)
+
+
+@dataclass(frozen=True)
+class Fleet:
+    arms: tuple[ArmSpec, ...]
+    config_dir: Path | None = None
+
+
+def load_fleet(path: Path) -> Fleet:
+    """Read and check a fleet file (module docstring); raises :class:`FleetError`."""
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise FleetError(f"cannot read the fleet file {path}: {exc.strerror or exc}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise FleetError(f"{path} is not valid TOML: {exc}") from None
+    return parse_fleet(data, base=path.parent)
+
+
+def parse_fleet(data: dict[str, Any], base: Path = Path(".")) -> Fleet:
+    """Check fleet data already read from TOML; relative ``config_dir`` is taken from ``base``."""
+    _unknown(data, TOP_KEYS, "the fleet file")
+    arms_data = data.get("arm")
+    if not isinstance(arms_data, list) or not arms_data or not all(isinstance(a, dict) for a in arms_data):
+        raise FleetError("the fleet file needs at least one [[arm]] table")
+    speed = data.get("speed", 1.0)
+    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed)
+                                                                               and speed > 0):
+        raise FleetError(f"speed must be a positive number, got {speed!r}")
+    config_dir = data.get("config_dir")
+    if config_dir is not None and not isinstance(config_dir, str):
+        raise FleetError(f"config_dir must be a path string, got {config_dir!r}")
+    defaults = {k: v for k, v in data.items() if k in ARM_KEYS}
+    arms: list[ArmSpec] = []
+    for i, raw in enumerate(arms_data, start=1):
+        where = f"arm {i}"
+        _unknown(raw, ARM_KEYS, where)
+        arms.append(_arm({**defaults, **raw}, float(speed), where, [a.robot_sn for a in arms]))
+    _distinct([a.server for a in arms])
+    cdir = None if config_dir is None else (base / config_dir)
+    return Fleet(tuple(arms), cdir)
+
+
+def _unknown(table: dict[str, Any], known: tuple[str, ...], where: str) -> None:
+    extra = sorted(set(table) - set(known))
+    if extra:
+        raise FleetError(f"{where}: unknown key {extra[0]!r}; known: {', '.join(known)}")
+
+
+def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str]) -> ArmSpec:
+    model = values.get("model", 6)
+    if model not in MODELS or isinstance(model, bool):
+        raise FleetError(f"{where}: model is 5, 6 or 7, got {model!r}")
+    host = values.get("host", "127.0.0.1")
+    if not isinstance(host, str) or not host:
+        raise FleetError(f"{where}: host must be an address string, got {host!r}")
+    ports: dict[str, Any] = {}
+    for key in _PORT_KEYS:
+        if key not in values:
+            continue
+        p = values[key]
+        if isinstance(p, bool) or not isinstance(p, int) or not 0 <= p <= 0xFFFF:
+            raise FleetError(f"{where}: {key} must be a port number 0..65535, got {p!r}")
+        ports[key] = p
+    admin = values.get("admin", False)
+    if not isinstance(admin, bool):
+        raise FleetError(f"{where}: admin is true or false, got {admin!r}")
+    sn = values.get("robot_sn")
+    if sn is None:
+        sn = _DEFAULT_SN[model]
+        while sn in taken:
+            sn = f"{sn[:2]}{int(sn[2:]) + 1:04d}"
+    elif not isinstance(sn, str) or not _SN.fullmatch(sn):
+        raise FleetError(f"{where}: robot_sn is two capital letters and four digits, got {sn!r}")
+    if sn in taken:
+        raise FleetError(f"{where}: robot_sn {sn} is already another arm's (they would share a "
+                         "saved configuration)")
+    cfg = replace(ServerConfig(host=host, speed=speed, admin=admin), **ports)
+    return ArmSpec(int(model), sn, cfg)
+
+
+def _distinct(configs: list[ServerConfig]) -> None:
+    """No two arms may listen on the same address and port (the admin channel is on loopback)."""
+    seen: dict[tuple[str, int], int] = {}
+    for i, c in enumerate(configs, start=1):
+        addrs = [(c.host, p) for p in (c.port, c.normal_port, c.rich_port, c.develop_port)]
+        if c.admin:
+            try:
+                admin = c.admin_port if c.admin_port is not None else derive_admin_port(c.port)
+            except ValueError as exc:
+                raise FleetError(f"arm {i}: {exc}") from None
+            addrs.append(("127.0.0.1", admin))
+        for host, p in addrs:
+            if p == 0:
+                continue  # any free port
+            if seen.get((host, p), i) != i:
+                hint = " (give admin_port)" if c.admin and (host, p) == addrs[-1] else ""
+                raise FleetError(f"arm {i}: {host}:{p} is already arm {seen[(host, p)]}'s{hint}")
+            seen[(host, p)] = i

@@ -1,0 +1,87 @@
+"""Fleet files (`xarm-emu serve --fleet`): several arms in one process, checked before any port opens."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from helpers import free_ports, serve_subprocess
+from helpers import run_cli as run
+
+from xarm_emu.server.fleet import FleetError, load_fleet, parse_fleet
+
+
+def fleet(*arms: dict[str, Any], **top: Any) -> dict[str, Any]:
+    return {**top, "arm": list(arms)}
+
+
+def test_defaults_and_serial_numbers_counted_up() -> None:
+    f = parse_fleet(fleet({"model": 6}, {"model": 6, "host": "127.0.0.2"}, {"model": 7, "host": "127.0.0.3"},
+                          speed=2.0))
+    assert [a.robot_sn for a in f.arms] == ["XI1300", "XI1301", "XS1300"]
+    assert [a.server.host for a in f.arms] == ["127.0.0.1", "127.0.0.2", "127.0.0.3"]
+    assert all(a.server.port == 502 and a.server.develop_port == 30003 and a.server.speed == 2.0
+               for a in f.arms)
+    assert not any(a.server.admin for a in f.arms) and f.config_dir is None
+
+
+def test_top_level_keys_are_defaults_and_config_dir_is_relative_to_the_file() -> None:
+    f = parse_fleet(fleet({"port": 5020}, {"port": 5021, "model": 5, "host": "127.0.0.2"}, model=7,
+                          config_dir="cfg"),
+                    base=Path("/srv/fleets"))
+    assert [(a.model, a.server.port) for a in f.arms] == [(7, 5020), (5, 5021)]
+    assert f.config_dir == Path("/srv/fleets/cfg")
+
+
+@pytest.mark.parametrize("data, fragment", [
+    ({}, "at least one [[arm]]"),
+    (fleet({"model": 8}), "arm 1: model is 5, 6 or 7"),
+    (fleet({"model": 6, "colour": "red"}), "arm 1: unknown key 'colour'"),
+    ({"arm": [{}], "robot_sn": "XI0001"}, "the fleet file: unknown key 'robot_sn'"),
+    (fleet({}, {"robot_sn": "xi12"}), "arm 2: robot_sn is two capital letters and four digits"),
+    (fleet({"robot_sn": "XI1300"}, {"robot_sn": "XI1300", "host": "127.0.0.2"}), "already another arm's"),
+    (fleet({}, {}), "arm 2: 127.0.0.1:502 is already arm 1's"),
+    (fleet({"port": 70000}), "arm 1: port must be a port number"),
+    (fleet({"admin": True}, {"admin": True, "host": "127.0.0.2"}),
+     "127.0.0.1:10502 is already arm 1's (give admin_port)"),
+    (fleet({"admin": "yes"}), "admin is true or false"),
+    (fleet({}, speed=0), "speed must be a positive number"),
+    (fleet({}, config_dir=3), "config_dir must be a path string"),
+])
+def test_bad_fleets_are_refused_with_one_clear_message(data: dict[str, Any], fragment: str) -> None:
+    with pytest.raises(FleetError) as info:
+        parse_fleet(data)
+    assert fragment in str(info.value)
+
+
+def test_unreadable_or_invalid_files(tmp_path: Path) -> None:
+    with pytest.raises(FleetError, match="cannot read the fleet file"):
+        load_fleet(tmp_path / "missing.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[[arm]\nmodel = 6\n")
+    with pytest.raises(FleetError, match="not valid TOML"):
+        load_fleet(bad)
+    code, out = run("serve", "--fleet", str(bad))
+    assert code == 2 and "not valid TOML" in " ".join(out.split())
+
+
+def test_serve_fleet_runs_every_arm_in_one_process(tmp_path: Path) -> None:
+    a, b = free_ports(4), free_ports(4)
+    text = "config_dir = \"cfg\"\n"
+    for model, ports in ((6, a), (7, b)):
+        cmd, normal, rich, develop = ports
+        text += (f"[[arm]]\nmodel = {model}\nport = {cmd}\nnormal_port = {normal}\nrich_port = {rich}\n"
+                 f"develop_port = {develop}\n")
+    path = tmp_path / "fleet.toml"
+    path.write_text(text)
+    with serve_subprocess(tmp_path, *free_ports(4), "--fleet", str(path)) as proc:
+        answers = []
+        for ports in (a, b):
+            code, out = run("status", "--json", "--wait", "30", "--port", str(ports[0]), "--report-port",
+                            str(ports[3]))
+            assert code == 0, out
+            answers.append(json.loads(out)["version"])
+        assert proc.poll() is None
+    assert answers[0].startswith("6,6,XI1300,") and answers[1].startswith("7,7,XS1300,")
