@@ -52,6 +52,20 @@ def test_admin_binds_loopback_even_when_host_is_any(make_server) -> None:
     assert admin_addr and admin_addr[0][0] == "127.0.0.1"
 
 
+def test_admin_binds_the_arms_own_loopback_address(make_server) -> None:
+    """Arms on 127.0.0.2, 127.0.0.3, ... each have their admin channel on their own address."""
+    try:
+        with socket.socket() as s:
+            s.bind(("127.0.0.2", 0))
+    except OSError:
+        pytest.skip("this system routes only 127.0.0.1")
+    st = make_server(host="127.0.0.2", admin=True)
+    bound = st.call(lambda: [s.sockets[0].getsockname() for s in st.server._servers])
+    assert ("127.0.0.2", st.ports["admin"]) in [tuple(a[:2]) for a in bound]
+    with AdminClient("127.0.0.2", st.ports["admin"]) as a:
+        assert "C31" in a.request("error", code="C31")
+
+
 def test_admin_port_derivation() -> None:
     assert derive_admin_port(502) == 10502
     assert admin_port(5020) == 15020

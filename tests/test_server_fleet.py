@@ -44,8 +44,13 @@ def test_top_level_keys_are_defaults_and_config_dir_is_relative_to_the_file() ->
     (fleet({"robot_sn": "XI1300"}, {"robot_sn": "XI1300", "host": "127.0.0.2"}), "already another arm's"),
     (fleet({}, {}), "arm 2: 127.0.0.1:502 is already arm 1's"),
     (fleet({"port": 70000}), "arm 1: port must be a port number"),
-    (fleet({"admin": True}, {"admin": True, "host": "127.0.0.2"}),
-     "127.0.0.1:10502 is already arm 1's (give admin_port)"),
+    (fleet({"admin": True, "host": "127.0.0.2"},
+           {"admin": True, "host": "127.0.0.2", "port": 503, "normal_port": 31001, "rich_port": 31002,
+            "develop_port": 31003, "admin_port": 10502}),
+     "arm 2: 127.0.0.2:10502 is already arm 1's (give admin_port)"),
+    (fleet({"admin": True, "host": "0.0.0.0", "port": 600},
+           {"admin": True, "host": "10.0.0.1", "admin_port": 10600}),
+     "arm 2: 127.0.0.1:10600 is already arm 1's (give admin_port)"),
     (fleet({"admin": "yes"}), "admin is true or false"),
     (fleet({}, speed=0), "speed must be a positive number"),
     (fleet({}, config_dir=3), "config_dir must be a path string"),
@@ -54,6 +59,11 @@ def test_bad_fleets_are_refused_with_one_clear_message(data: dict[str, Any], fra
     with pytest.raises(FleetError) as info:
         parse_fleet(data)
     assert fragment in str(info.value)
+
+
+def test_arms_on_their_own_loopback_addresses_have_admin_channels_on_the_same_port() -> None:
+    f = parse_fleet(fleet({"admin": True}, {"admin": True, "host": "127.0.0.2"}))
+    assert [a.server.admin for a in f.arms] == [True, True]
 
 
 def test_unreadable_or_invalid_files(tmp_path: Path) -> None:

@@ -63,6 +63,7 @@ def serve(
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .controller.emulator import Emulator
+    from .protocol.admin import admin_host
     from .server.app import EmulatorServer, ServerConfig
     from .server.fleet import FleetError, load_fleet
 
@@ -105,7 +106,8 @@ def serve(
                           + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
                           + f"; config {cdir}")
             if "admin" in srv.ports:
-                console.print(f"admin channel (fault injection) on 127.0.0.1:{srv.ports['admin']}")
+                where = f"{admin_host(cfg.host)}:{srv.ports['admin']}"
+                console.print(f"admin channel (fault injection) on {where}")
             if "view" in srv.ports:
                 console.print(f"3D view on http://{cfg.view_host}:{srv.ports['view']}/")
         await asyncio.gather(*(srv.serve_forever() for srv in servers))
@@ -284,12 +286,14 @@ def _admin(host: str, port: int, admin_port: int | None, cmd: str, **args: Any) 
     from .client import ClientError
     from .client.admin import AdminClient, AdminRefused
     from .client.admin import admin_port as derive
+    from .protocol.admin import admin_host
 
     try:
         aport = derive(port, admin_port)
     except ValueError as exc:
         err_console.print(str(exc))
         raise typer.Exit(2) from None
+    host = admin_host(host)  # the admin channel is on loopback (protocol/admin.py)
     try:
         with AdminClient(host, aport, timeout=3.0) as a:
             message = a.request(cmd, **args)

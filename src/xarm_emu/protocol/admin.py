@@ -8,6 +8,8 @@ side is :mod:`xarm_emu.server.admin` (commands and their effects), the client si
 
 from __future__ import annotations
 
+import ipaddress
+
 #: The admin port is the command port plus this offset unless given explicitly.
 ADMIN_PORT_OFFSET = 10000
 #: Admin request lines longer than this are refused and the connection closed.
@@ -27,3 +29,20 @@ def derive_admin_port(command_port: int) -> int:
     if not 0 < port <= 0xFFFF:
         raise ValueError(f"no default admin port for command port {command_port}: give --admin-port")
     return port
+
+
+def is_loopback(host: str) -> bool:
+    """True for a loopback address (127.0.0.0/8, ::1, IPv4-mapped loopback); names are not resolved."""
+    try:
+        addr = ipaddress.ip_address(host.split("%", 1)[0])
+    except ValueError:
+        return False
+    if isinstance(addr, ipaddress.IPv6Address) and addr.ipv4_mapped is not None:
+        addr = addr.ipv4_mapped
+    return addr.is_loopback
+
+
+def admin_host(host: str) -> str:
+    """Where the admin channel of an arm served on ``host`` listens: that address when it is a loopback
+    one (so arms on 127.0.0.1, 127.0.0.2, ... each have theirs on the same port), else 127.0.0.1."""
+    return host if is_loopback(host) else "127.0.0.1"

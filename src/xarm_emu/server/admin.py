@@ -1,7 +1,9 @@
 """Admin channel: fault injection and sensor play from outside the emulator (issue 5, item 5).
 
 Off unless ``xarm-emu serve --admin`` (``ServerConfig.admin``). It listens on the loopback
-interface only, whatever ``--host`` says, and refuses any peer that is not a loopback address.
+interface only: on ``--host`` when that is a loopback address (127.0.0.2, so that arms on their
+own loopback addresses each have one on the same port), else on 127.0.0.1; it refuses any peer
+that is not a loopback address.
 
 Port: ``--admin-port`` if given, else the command port + :data:`ADMIN_PORT_OFFSET` (502 -> 10502).
 The ``inject``/``clear``/``set-input`` CLI commands derive it the same way from ``--port``.
@@ -43,7 +45,6 @@ A refused request changes nothing.
 from __future__ import annotations
 
 import asyncio
-import ipaddress
 import json
 import logging
 import math
@@ -56,23 +57,15 @@ from ..protocol.admin import (  # noqa: F401 - re-exported for the server's user
     INPUT_KINDS,
     MAX_LINE,
     MAX_SECONDS,
+    admin_host,
     derive_admin_port,
+    is_loopback,
 )
 
 if TYPE_CHECKING:
     from .app import EmulatorServer
 
 log = logging.getLogger("xarm_emu.admin")
-
-
-def is_loopback(host: str) -> bool:
-    try:
-        addr = ipaddress.ip_address(host.split("%", 1)[0])
-    except ValueError:
-        return False
-    if isinstance(addr, ipaddress.IPv6Address) and addr.ipv4_mapped is not None:
-        addr = addr.ipv4_mapped
-    return addr.is_loopback
 
 
 class AdminError(ValueError):

@@ -38,7 +38,7 @@ from ..protocol.frame import (
     encode_modbus_exception,
     encode_reply,
 )
-from .admin import AdminProtocol, derive_admin_port
+from .admin import AdminProtocol, admin_host, derive_admin_port
 from .clock import ScaledClock, Ticker
 
 if TYPE_CHECKING:
@@ -216,8 +216,9 @@ class EmulatorServer:
             admin_port = cfg.admin_port
             if admin_port is None:
                 admin_port = 0 if cfg.port == 0 else derive_admin_port(self.ports["command"])
-            # Loopback only, whatever ``host`` is (the protocol also refuses non-loopback peers).
-            a = await loop.create_server(lambda: AdminProtocol(self), "127.0.0.1", admin_port,
+            # Loopback only, whatever ``host`` is (the protocol also refuses non-loopback peers): the
+            # arm's own address when that is a loopback one, else 127.0.0.1.
+            a = await loop.create_server(lambda: AdminProtocol(self), admin_host(cfg.host), admin_port,
                                          reuse_address=True)
             self._servers.append(a)
             self.ports["admin"] = a.sockets[0].getsockname()[1]

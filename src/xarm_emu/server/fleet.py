@@ -15,8 +15,7 @@ lists them; top-level keys are defaults for every arm::
     model = 7
     host = "127.0.0.2"
     robot_sn = "XS1302"
-    admin = true                 # fault injection on 127.0.0.1:10502 (see xarm-emu inject)
-    admin_port = 10512
+    admin = true                 # fault injection on 127.0.0.2:10502 (see xarm-emu inject)
 
 Arm keys: ``model`` (5, 6, 7), ``host``, ``port``, ``normal_port``, ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
@@ -36,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from ..model.robots import MODELS
-from .admin import derive_admin_port
+from .admin import admin_host, derive_admin_port
 from .app import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
@@ -148,7 +147,7 @@ def _distinct(configs: list[ServerConfig]) -> None:
                 admin = c.admin_port if c.admin_port is not None else derive_admin_port(c.port)
             except ValueError as exc:
                 raise FleetError(f"arm {i}: {exc}") from None
-            addrs.append(("127.0.0.1", admin))
+            addrs.append((admin_host(c.host), admin))
         for host, p in addrs:
             if p == 0:
                 continue  # any free port
