@@ -236,3 +236,39 @@ def test_reset_outputs_when_stop(make_server, sdk_arm) -> None:
     ready(arm)
     assert arm.config_cgpio_reset_when_stop(False) == 0
     assert wait_for(lambda: arm.gpio_reset_config[0] == 0)
+
+
+# -- vacuum gripper -----------------------------------------------------------------------------
+
+def test_vacuum_gripper_through_the_sdk(make_server, sdk_arm) -> None:
+    """`set_vacuum_gripper(True, wait=True)` returns once the pressure switch (TI0) reports normal."""
+    from xarm_emu.controller.emulator import Emulator
+    from xarm_emu.controller.vacuum import PRESSURE_BUILD
+
+    st = make_server(emulator=Emulator(6, vacuum=True), speed=1.0)
+    arm = sdk_arm(st)
+    ready(arm)
+    assert arm.get_vacuum_gripper() == (0, -1)  # the SDK answers -1 while the pump outputs are off
+    t0 = time.monotonic()
+    assert arm.set_vacuum_gripper(True, wait=True) == 0
+    assert time.monotonic() - t0 >= 0.9 * PRESSURE_BUILD  # waited for the pressure, not the reply
+    assert arm.get_vacuum_gripper() == (0, 1)
+    assert arm.get_tgpio_output_digital()[1][:2] == [1, 0]  # pump on, release off
+    assert arm.set_vacuum_gripper(False, wait=True) == 0
+    assert arm.get_vacuum_gripper() == (0, -1)
+    assert arm.get_tgpio_digital(0) == (0, 0)
+    # a missed pick: no object at the cup, the pressure never becomes normal (SDK code 41)
+    st.call(lambda: st.emulator.set_input("vacuum-object", 0, 0))
+    assert arm.set_vacuum_gripper(True, wait=True, timeout=0.6) == 41
+    # the part arrives, then drops while held
+    st.call(lambda: st.emulator.set_input("vacuum-object", 0, 1))
+    assert wait_for(lambda: arm.get_vacuum_gripper() == (0, 1))
+    st.call(lambda: st.emulator.set_input("vacuum-object", 0, 0))
+    assert wait_for(lambda: arm.get_vacuum_gripper() == (0, 0), timeout=0.5)
+
+
+def test_without_a_vacuum_gripper_the_pressure_never_rises(make_server, sdk_arm) -> None:
+    arm, st = connect(make_server, sdk_arm, speed=5.0)
+    assert arm.set_vacuum_gripper(True, wait=True, timeout=0.5) == 41
+    with pytest.raises(ValueError, match="no vacuum gripper"):
+        st.call(lambda: st.emulator.set_input("vacuum-object", 0, 1))

@@ -227,6 +227,8 @@ def test_set_input(srv: ServerThread, admin: AdminClient) -> None:
     ({"cmd": "set-input", "kind": "cgpio", "index": 1, "value": 2}, "0 or 1"),
     ({"cmd": "set-input", "kind": "laser", "index": 1, "value": 1}, "unknown input kind"),
     ({"cmd": "collision", "joint": 7, "torque": 50}, "joint 7 out of range"),
+    ({"cmd": "set-input", "kind": "vacuum-object", "index": 0, "value": 0}, "no vacuum gripper"),
+    ({"cmd": "set-input", "kind": "vacuum-object", "index": 0, "value": 2}, "must be 0 or 1"),
     ({"cmd": "collision", "joint": 2, "torque": "hard"}, "torque must be a number"),
     ({"cmd": "collision", "joint": 2, "torque": "nan"}, "torque must be finite"),
     ({"cmd": "set-input", "kind": "analog", "index": 5, "value": 1.0}, "analog input 5"),

@@ -24,7 +24,8 @@ def test_defaults_and_serial_numbers_counted_up() -> None:
     assert [a.server.host for a in f.arms] == ["127.0.0.1", "127.0.0.2", "127.0.0.3"]
     assert all(a.server.port == 502 and a.server.develop_port == 30003 and a.server.speed == 2.0
                for a in f.arms)
-    assert not any(a.server.admin for a in f.arms) and f.config_dir is None
+    assert not any(a.server.admin or a.vacuum for a in f.arms) and f.config_dir is None
+    assert parse_fleet(fleet({"vacuum": True})).arms[0].vacuum is True
 
 
 def test_top_level_keys_are_defaults_and_config_dir_is_relative_to_the_file() -> None:
@@ -52,6 +53,7 @@ def test_top_level_keys_are_defaults_and_config_dir_is_relative_to_the_file() ->
            {"admin": True, "host": "10.0.0.1", "admin_port": 10600}),
      "arm 2: 127.0.0.1:10600 is already arm 1's (give admin_port)"),
     (fleet({"admin": "yes"}), "admin is true or false"),
+    (fleet({"vacuum": 1}), "vacuum is true or false"),
     (fleet({}, speed=0), "speed must be a positive number"),
     (fleet({}, config_dir=3), "config_dir must be a path string"),
 ])

@@ -57,6 +57,8 @@ def serve(
                                                             "by `xarm-emu step` (needs --admin).")] = False,
     loop: Annotated[str, typer.Option(help="Event loop: asyncio (default: the steadiest 100 Hz report in "
                                            "`make bench`) or uvloop.")] = "asyncio",
+    vacuum: Annotated[bool, typer.Option("--vacuum", help="Attach the xArm Vacuum Gripper: its pressure "
+                                                           "switch answers on tool input 0.")] = False,
     fleet: Annotated[Path | None, typer.Option(help="Serve the arms a TOML fleet file lists, in this one "
                                                     "process (see src/xarm_emu/server/fleet.py); the "
                                                     "per-arm options above then come from the file.")] = None,
@@ -85,13 +87,13 @@ def serve(
             err_console.print(str(exc))
             raise typer.Exit(2) from None
         cdir = spec.config_dir if spec.config_dir is not None else cdir
-        servers = [EmulatorServer(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir), a.server)
-                   for a in spec.arms]
+        servers = [EmulatorServer(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum),
+                                  a.server) for a in spec.arms]
     else:
         cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
                            develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
                            view=view, view_host=view_host, view_port=view_port, stepped=stepped)
-        servers = [EmulatorServer(Emulator(model, config_dir=cdir), cfg)]
+        servers = [EmulatorServer(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
     for srv in servers:
         if srv.emulator.config_message:
             err_console.print(f"[yellow]{srv.emulator.config_message}[/yellow]")
@@ -391,7 +393,8 @@ def clear(host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPor
 
 @app.command("set-input")
 def set_input(
-    kind: Annotated[str, typer.Argument(help="cgpio, tgpio, analog or tool-analog.")],
+    kind: Annotated[str, typer.Argument(help="cgpio, tgpio, analog, tool-analog or vacuum-object (with "
+                                             "serve --vacuum: 1 an object seals the cup, 0 none).")],
     index: Annotated[int, typer.Argument(help="Input number.")],
     value: Annotated[float, typer.Argument(help="0/1 for digital inputs, volts for analog ones.")],
     host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None,

@@ -24,6 +24,7 @@ from .controller import Controller
 from .gripper import GripperModule
 from .io import IOModule
 from .thermal import ThermalModel
+from .vacuum import VacuumGripper
 
 #: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
 THERMAL_EVERY = 250
@@ -43,7 +44,7 @@ class Emulator:
     """One emulated xArm control box (controller, peripherals, configuration)."""
 
     def __init__(self, model: int | RobotModel = 6, *, robot_sn: str | None = None, box_sn: str = "AC1300",
-                 config_dir: Path | None = None, load_config: bool = True) -> None:
+                 config_dir: Path | None = None, load_config: bool = True, vacuum: bool = False) -> None:
         self.model = get_model(model) if isinstance(model, int) else model
         sn = robot_sn or {5: "XF1300", 6: "XI1300", 7: "XS1300"}.get(self.model.dof, "XI1300")
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD)
@@ -54,6 +55,11 @@ class Emulator:
         self.controller.add_component(self.io)
         self.controller.add_component(self.gripper)
         self.controller.tool_error = lambda: self.gripper.gripper.error
+        #: The vacuum gripper's pressure switch on TI0 (controller/vacuum.py), when attached.
+        self.vacuum: VacuumGripper | None = None
+        if vacuum:
+            self.vacuum = VacuumGripper(self.io.tool)
+            self.controller.add_component(self.vacuum)
         self.thermal = ThermalModel(self.model.dof)
         self.config_dir = config_dir
         self.config_message: str | None = None
@@ -234,5 +240,12 @@ class Emulator:
 
     def set_input(self, kind: str, index: int, value: float) -> None:
         """Play a sensor: ``cgpio``/``tgpio`` digital inputs (0/1), ``analog`` (control box, V),
-        ``tool-analog`` (V)."""
+        ``tool-analog`` (V), or ``vacuum-object`` 0 (1: an object seals the vacuum cup, 0: none)."""
+        if kind == "vacuum-object":
+            if self.vacuum is None:
+                raise ValueError("no vacuum gripper is attached (Emulator(vacuum=True), serve --vacuum)")
+            if index != 0:
+                raise ValueError(f"the vacuum gripper has one cup: index 0, not {index}")
+            self.vacuum.object_present = bool(value)
+            return
         self.io.set_input(kind, index, value)

@@ -20,7 +20,7 @@ MAX_SECONDS = 3600.0
 COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "end-module-lost",
             "collision", "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status",
             "step")
-INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog")
+INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object")
 
 
 def derive_admin_port(command_port: int) -> int:

@@ -220,7 +220,7 @@ def _set_input(server: EmulatorServer, request: dict[str, Any]) -> str:
         raise AdminError(f"unknown input kind {kind!r}; known: {', '.join(INPUT_KINDS)}")
     index = _int(request.get("index"), "index")
     value = _float(request.get("value"), "value")
-    if kind in ("cgpio", "tgpio") and value not in (0, 1):
+    if kind in ("cgpio", "tgpio", "vacuum-object") and value not in (0, 1):
         raise AdminError(f"digital input value must be 0 or 1, got {value!r}")
     try:
         server.emulator.set_input(kind, index, value)

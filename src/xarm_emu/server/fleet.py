@@ -19,8 +19,9 @@ lists them; top-level keys are defaults for every arm::
 
 Arm keys: ``model`` (5, 6, 7), ``host``, ``port``, ``normal_port``, ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
-``admin``, ``admin_port``. Arms without ``robot_sn`` get their model's default serial number,
-counted up when an earlier arm has it, so that no two arms share a saved configuration.
+``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``). Arms
+without ``robot_sn`` get their model's default serial number, counted up when an earlier arm has
+it, so that no two arms share a saved configuration.
 Everything is checked before any port is opened; a bad file gives one message naming the arm and
 the key.
 """
@@ -41,7 +42,7 @@ from .app import ServerConfig
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _DEFAULT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
-ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin")
+ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum")
 TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k != "robot_sn"))
 
 
@@ -56,6 +57,7 @@ class ArmSpec:
     model: int
     robot_sn: str
     server: ServerConfig = field(default_factory=ServerConfig)
+    vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
 
 
 @dataclass(frozen=True)
@@ -120,9 +122,10 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str]) -> 
         if isinstance(p, bool) or not isinstance(p, int) or not 0 <= p <= 0xFFFF:
             raise FleetError(f"{where}: {key} must be a port number 0..65535, got {p!r}")
         ports[key] = p
-    admin = values.get("admin", False)
-    if not isinstance(admin, bool):
-        raise FleetError(f"{where}: admin is true or false, got {admin!r}")
+    admin, vacuum = values.get("admin", False), values.get("vacuum", False)
+    for key, flag in (("admin", admin), ("vacuum", vacuum)):
+        if not isinstance(flag, bool):
+            raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
     sn = values.get("robot_sn")
     if sn is None:
         sn = _DEFAULT_SN[model]
@@ -134,7 +137,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str]) -> 
         raise FleetError(f"{where}: robot_sn {sn} is already another arm's (they would share a "
                          "saved configuration)")
     cfg = replace(ServerConfig(host=host, speed=speed, admin=admin), **ports)
-    return ArmSpec(int(model), sn, cfg)
+    return ArmSpec(int(model), sn, cfg, vacuum)
 
 
 def _distinct(configs: list[ServerConfig]) -> None:
