@@ -31,3 +31,18 @@ def test_sdk_against_an_emulator_on_free_ports_and_restored_after() -> None:
     assert XCONF.SocketConf.TCP_CONTROL_PORT == 502
     assert XCONF.SocketConf.TCP_REPORT_RICH_PORT == 30002
     assert ReportDataStructure.__dict__["create"] is create
+
+
+def test_running_emulator_with_a_vacuum_gripper() -> None:
+    from xarm.wrapper import XArmAPI
+
+    with running_emulator(speed=5.0, vacuum=True) as st, sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1", forbid_uds=True)
+        try:
+            arm.motion_enable(True)
+            arm.set_mode(0)
+            arm.set_state(0)
+            assert arm.set_vacuum_gripper(True, wait=True, timeout=2) == 0
+            assert st.call(lambda: st.emulator.vacuum is not None and st.emulator.vacuum.pressure_normal)
+        finally:
+            arm.disconnect()
