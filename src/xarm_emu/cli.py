@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import errno
 import json
 import logging
 import math
+import signal
 import time
 from pathlib import Path
 from typing import Annotated, Any
@@ -59,6 +61,8 @@ def serve(
                                            "`make bench`) or uvloop.")] = "asyncio",
     vacuum: Annotated[bool, typer.Option("--vacuum", help="Attach the xArm Vacuum Gripper: its pressure "
                                                            "switch answers on tool input 0.")] = False,
+    trace: Annotated[Path | None, typer.Option(help="Append every command-port request and reply to "
+                                                    "this JSON-lines file (see server/trace.py).")] = None,
     fleet: Annotated[Path | None, typer.Option(help="Serve the arms a TOML fleet file lists, in this one "
                                                     "process (see src/xarm_emu/server/fleet.py); the "
                                                     "per-arm options above then come from the file.")] = None,
@@ -78,8 +82,9 @@ def serve(
         raise typer.Exit(2)
     cdir = config_dir if config_dir is not None else _default_config_dir()
     if fleet is not None:
-        if view or stepped:
-            err_console.print("--view and --stepped serve one arm; they do not combine with --fleet")
+        if view or stepped or trace is not None:
+            err_console.print("--view, --stepped and --trace serve one arm; they do not combine with --fleet "
+                              "(the fleet file has a trace key per arm)")
             raise typer.Exit(2)
         try:
             spec = load_fleet(fleet)
@@ -92,7 +97,8 @@ def serve(
     else:
         cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
                            develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                           view=view, view_host=view_host, view_port=view_port, stepped=stepped)
+                           view=view, view_host=view_host, view_port=view_port, stepped=stepped,
+                           trace=trace)
         servers = [EmulatorServer(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
     for srv in servers:
         if srv.emulator.config_message:
@@ -112,6 +118,18 @@ def serve(
                 console.print(f"admin channel (fault injection) on {where}")
             if "view" in srv.ports:
                 console.print(f"3D view on http://{cfg.view_host}:{srv.ports['view']}/")
+        # SIGTERM (docker stop, CI teardown) and Ctrl-C close every arm cleanly: connections end,
+        # traces and logs are flushed, and the process exits 0.
+        loop = asyncio.get_running_loop()
+        closing: list[asyncio.Task[Any]] = []
+
+        def shut_down() -> None:
+            if not closing:
+                closing.extend(asyncio.ensure_future(srv.close()) for srv in servers)
+
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):  # not on Windows
+                loop.add_signal_handler(sig, shut_down)
         await asyncio.gather(*(srv.serve_forever() for srv in servers))
 
     try:

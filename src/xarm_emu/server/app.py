@@ -23,6 +23,7 @@ import threading
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..controller.base import PERIOD
@@ -40,6 +41,7 @@ from ..protocol.frame import (
 )
 from .admin import AdminProtocol, admin_host, derive_admin_port
 from .clock import ScaledClock, Ticker
+from .trace import CommandTrace
 
 if TYPE_CHECKING:
     from ..viewer.app import Viewer
@@ -69,6 +71,8 @@ class ServerConfig:
     view: bool = False  # the 3D view in the browser (viewer/app.py), off by default
     view_host: str = "127.0.0.1"
     view_port: int = 8080
+    #: Append every command-port request and reply to this JSON-lines file (server/trace.py).
+    trace: Path | None = None
     report_rates: dict[str, float] = field(default_factory=lambda: {
         "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE})
 
@@ -94,6 +98,7 @@ class _CommandProtocol(asyncio.Protocol):
         self.server = server
         self.decoder = FrameDecoder()
         self.transport: asyncio.Transport | None = None
+        self.peer = ""
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         self.transport = transport  # type: ignore[assignment]  # uvloop's transports are not subclasses
@@ -101,10 +106,16 @@ class _CommandProtocol(asyncio.Protocol):
         if sock is not None:
             with contextlib.suppress(OSError):
                 sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        peer = transport.get_extra_info("peername")
+        self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) and len(peer) >= 2 else str(peer)
         self.server.command_clients.add(self)
+        if self.server.trace is not None:
+            self.server.trace.event(self.server.emulator.time, self.peer, "connect")
 
     def connection_lost(self, exc: Exception | None) -> None:
         self.server.command_clients.discard(self)
+        if self.server.trace is not None:
+            self.server.trace.event(self.server.emulator.time, self.peer, "close")
 
     def data_received(self, data: bytes) -> None:
         transport = self.transport
@@ -115,7 +126,7 @@ class _CommandProtocol(asyncio.Protocol):
         if n >= 7 and not self.decoder.pending:
             tid, prot, length = _HEADER.unpack_from(data)
             if length + 6 == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS:
-                self._reply(transport, self.server.answer(tid, prot, data[6], data[7:]))
+                self._reply(transport, self.server.answer(tid, prot, data[6], data[7:], self.peer))
                 return
         try:
             frames = self.decoder.feed(data)
@@ -128,7 +139,7 @@ class _CommandProtocol(asyncio.Protocol):
         for req in frames:
             prot = req.protocol  # type: ignore[union-attr]
             if prot in PRIVATE_PROTOCOLS:
-                out.append(answer(req.tid, prot, req.register, req.params))  # type: ignore[union-attr]
+                out.append(answer(req.tid, prot, req.register, req.params, self.peer))  # type: ignore[union-attr]
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
@@ -196,6 +207,7 @@ class EmulatorServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._ticker: Ticker | None = None
         self.viewer: Viewer | None = None
+        self.trace: CommandTrace | None = None  # opened by start() when ``config.trace`` is set
         self._client_tasks: set[asyncio.Task[None]] = set()
         self.admin_clients: set[AdminProtocol] = set()
 
@@ -204,6 +216,11 @@ class EmulatorServer:
         cfg = self.config
         if cfg.stepped and not cfg.admin:
             raise ValueError("lockstep (stepped) time is driven through the admin channel: add --admin")
+        if cfg.trace is not None and self.trace is None:
+            try:
+                self.trace = CommandTrace(cfg.trace)
+            except OSError as exc:
+                raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
         srv = await loop.create_server(lambda: _CommandProtocol(self), cfg.host, cfg.port, reuse_address=True)
         self._servers.append(srv)
         self.ports["command"] = srv.sockets[0].getsockname()[1]
@@ -279,7 +296,7 @@ class EmulatorServer:
             self.emulator.step(n)
         return n
 
-    def answer(self, tid: int, protocol: int, register: int, params: bytes) -> bytes:
+    def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "") -> bytes:
         """The reply frame to one private-protocol request (manual 2.1.2)."""
         self.catch_up()
         cache = self._read_cache
@@ -289,10 +306,14 @@ class EmulatorServer:
                 state, reply = self.emulator.handle(register, params)
                 tail = encode_reply(0, 0, register, state, reply)[4:]
                 cache[register] = tail
-            return _TID_PROT.pack(tid & 0xFFFF, protocol) + tail
-        cache.clear()
-        state, reply = self.emulator.handle(register, params)
-        return encode_reply(tid, protocol, register, state, reply)
+            frame = _TID_PROT.pack(tid & 0xFFFF, protocol) + tail
+        else:
+            cache.clear()
+            state, reply = self.emulator.handle(register, params)
+            frame = encode_reply(tid, protocol, register, state, reply)
+        if self.trace is not None:
+            self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
+        return frame
 
     def advance(self, seconds: float) -> int:
         """Lockstep: run ``seconds`` of controller time now (whole control periods); returns the
@@ -310,6 +331,8 @@ class EmulatorServer:
         """Keep controller time up with the wall clock while nobody asks (see :meth:`catch_up`)."""
         while True:
             backlog = self.catch_up() == MAX_CATCH_UP  # more is due: yield to clients, then go on
+            if self.trace is not None:
+                self.trace.flush()
             await asyncio.sleep(0.0 if backlog else IDLE_WAKE)
 
     async def _report_loop(self, kind: str) -> None:
@@ -405,6 +428,9 @@ class EmulatorServer:
         self._servers.clear()
         for _ in range(3):  # let connection_lost callbacks close the sockets
             await asyncio.sleep(0)
+        if self.trace is not None:
+            self.trace.close()
+            self.trace = None
         self._stopped.set()
 
     async def serve_forever(self) -> None:

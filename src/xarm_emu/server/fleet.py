@@ -19,7 +19,8 @@ lists them; top-level keys are defaults for every arm::
 
 Arm keys: ``model`` (5, 6, 7), ``host``, ``port``, ``normal_port``, ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
-``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``). Arms
+``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``trace``
+(a command trace file for this arm, as ``serve --trace``; relative to the fleet file). Arms
 without ``robot_sn`` get their model's default serial number, counted up when an earlier arm has
 it, so that no two arms share a saved configuration.
 Everything is checked before any port is opened; a bad file gives one message naming the arm and
@@ -42,8 +43,8 @@ from .app import ServerConfig
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _DEFAULT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
-ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum")
-TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k != "robot_sn"))
+ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "trace")
+TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k not in ("robot_sn", "trace")))
 
 
 class FleetError(ValueError):
@@ -95,8 +96,11 @@ def parse_fleet(data: dict[str, Any], base: Path = Path(".")) -> Fleet:
     for i, raw in enumerate(arms_data, start=1):
         where = f"arm {i}"
         _unknown(raw, ARM_KEYS, where)
-        arms.append(_arm({**defaults, **raw}, float(speed), where, [a.robot_sn for a in arms]))
+        arms.append(_arm({**defaults, **raw}, float(speed), where, [a.robot_sn for a in arms], base))
     _distinct([a.server for a in arms])
+    traces = [a.server.trace for a in arms if a.server.trace is not None]
+    if len(set(traces)) != len(traces):
+        raise FleetError("two arms write the same trace file")
     cdir = None if config_dir is None else (base / config_dir)
     return Fleet(tuple(arms), cdir)
 
@@ -107,7 +111,7 @@ def _unknown(table: dict[str, Any], known: tuple[str, ...], where: str) -> None:
         raise FleetError(f"{where}: unknown key {extra[0]!r}; known: {', '.join(known)}")
 
 
-def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str]) -> ArmSpec:
+def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], base: Path) -> ArmSpec:
     model = values.get("model", 6)
     if model not in MODELS or isinstance(model, bool):
         raise FleetError(f"{where}: model is 5, 6 or 7, got {model!r}")
@@ -136,7 +140,11 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str]) -> 
     if sn in taken:
         raise FleetError(f"{where}: robot_sn {sn} is already another arm's (they would share a "
                          "saved configuration)")
-    cfg = replace(ServerConfig(host=host, speed=speed, admin=admin), **ports)
+    trace = values.get("trace")
+    if trace is not None and not isinstance(trace, str):
+        raise FleetError(f"{where}: trace must be a path string, got {trace!r}")
+    cfg = replace(ServerConfig(host=host, speed=speed, admin=admin,
+                               trace=None if trace is None else base / trace), **ports)
     return ArmSpec(int(model), sn, cfg, vacuum)
 
 
