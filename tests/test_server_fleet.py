@@ -34,6 +34,12 @@ def test_top_level_keys_are_defaults_and_config_dir_is_relative_to_the_file() ->
                     base=Path("/srv/fleets"))
     assert [(a.model, a.server.port) for a in f.arms] == [(7, 5020), (5, 5021)]
     assert f.config_dir == Path("/srv/fleets/cfg")
+    g = parse_fleet(fleet({"trace": "a.jsonl"}, {"host": "127.0.0.2", "trace": "b.jsonl"}, faults="f.toml"),
+                    base=Path("/srv"))
+    assert [a.server.faults for a in g.arms] == [Path("/srv/f.toml")] * 2
+    assert [a.server.trace for a in g.arms] == [Path("/srv/a.jsonl"), Path("/srv/b.jsonl")]
+    with pytest.raises(FleetError, match="same trace file"):
+        parse_fleet(fleet({"trace": "a.jsonl"}, {"host": "127.0.0.2", "trace": "a.jsonl"}))
 
 
 @pytest.mark.parametrize("data, fragment", [

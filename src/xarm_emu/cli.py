@@ -63,6 +63,9 @@ def serve(
                                                            "switch answers on tool input 0.")] = False,
     trace: Annotated[Path | None, typer.Option(help="Append every command-port request and reply to "
                                                     "this JSON-lines file (see server/trace.py).")] = None,
+    faults: Annotated[Path | None, typer.Option(help="Inject the faults and inputs this TOML schedule "
+                                                     "lists at their controller times (server/faults.py).")
+                      ] = None,
     fleet: Annotated[Path | None, typer.Option(help="Serve the arms a TOML fleet file lists, in this one "
                                                     "process (see src/xarm_emu/server/fleet.py); the "
                                                     "per-arm options above then come from the file.")] = None,
@@ -82,9 +85,9 @@ def serve(
         raise typer.Exit(2)
     cdir = config_dir if config_dir is not None else _default_config_dir()
     if fleet is not None:
-        if view or stepped or trace is not None:
-            err_console.print("--view, --stepped and --trace serve one arm; they do not combine with --fleet "
-                              "(the fleet file has a trace key per arm)")
+        if view or stepped or trace is not None or faults is not None:
+            err_console.print("--view, --stepped, --trace and --faults serve one arm; they do not combine "
+                              "with --fleet (the fleet file has trace and faults keys per arm)")
             raise typer.Exit(2)
         try:
             spec = load_fleet(fleet)
@@ -98,7 +101,7 @@ def serve(
         cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
                            develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
                            view=view, view_host=view_host, view_port=view_port, stepped=stepped,
-                           trace=trace)
+                           trace=trace, faults=faults)
         servers = [EmulatorServer(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
     for srv in servers:
         if srv.emulator.config_message:

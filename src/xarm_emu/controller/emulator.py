@@ -8,8 +8,10 @@ as the CPU allows, deterministically).
 
 from __future__ import annotations
 
+import heapq
 import logging
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +63,8 @@ class Emulator:
             self.vacuum = VacuumGripper(self.io.tool)
             self.controller.add_component(self.vacuum)
         self.thermal = ThermalModel(self.model.dof)
+        self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
+        self._schedule_seq = 0
         self.config_dir = config_dir
         self.config_message: str | None = None
         self._store: Any = None
@@ -107,6 +111,26 @@ class Emulator:
             ctl.step()
             if ctl.steps % THERMAL_EVERY == 0:
                 self.thermal.step(THERMAL_EVERY * ctl.period, np.abs(ctl.joint_currents()))
+            if self._scheduled and self._scheduled[0][0] <= ctl.time + 1e-9:
+                self._run_scheduled()
+
+    def at(self, seconds: float, action: Callable[[], object]) -> None:
+        """Run ``action`` right after the first control period that ends at or after controller time
+        ``seconds`` (a fault schedule, server/faults.py). Actions due at the same time run in the order
+        given; one that raises is logged and the others still run."""
+        if not math.isfinite(seconds):
+            raise ValueError(f"time must be finite, got {seconds!r}")
+        self._schedule_seq += 1
+        heapq.heappush(self._scheduled, (float(seconds), self._schedule_seq, action))
+
+    def _run_scheduled(self) -> None:
+        now = self.controller.time + 1e-9
+        while self._scheduled and self._scheduled[0][0] <= now:
+            _, _, action = heapq.heappop(self._scheduled)
+            try:
+                action()
+            except Exception:  # noqa: BLE001 - a scheduled action must not stop the control loop
+                log.exception("scheduled action at t = %.3f s failed", self.controller.time)
 
     def advance(self, seconds: float) -> None:
         """Run ``seconds`` of controller time now (stepped clock)."""

@@ -48,6 +48,7 @@ import asyncio
 import json
 import logging
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from ..protocol import codes
@@ -150,71 +151,123 @@ def execute(server: EmulatorServer, request: dict[str, Any]) -> str:
 
     Every argument is checked before anything changes, so a refused request changes nothing.
     """
+    return prepare(server, request)()
+
+
+#: Admin commands a fault schedule may hold (server/faults.py): the faults and inputs, not the
+#: queries or the lockstep clock.
+SCHEDULABLE = frozenset(COMMANDS) - {"status", "step"}
+
+
+def prepare(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], str]:
+    """Check one admin request now and return the action that carries it out (a message back).
+
+    Raises AdminError for a bad request. The action may still refuse an input index the IO module
+    does not have (its own range check), also with AdminError.
+    """
     emu = server.emulator
     cmd = request.get("cmd")
     if cmd == "estop":
-        emu.inject_estop()
-        return "emergency stop: C1"
-    if cmd == "error":
-        entry = _label(request.get("code"), "C")
-        emu.inject_error(entry.code)
-        return f"injected {entry.label} {entry.name}"
-    if cmd == "warning":
-        entry = _label(request.get("code"), "W")
-        emu.inject_warning(entry.code)
-        return f"injected warning {entry.code} {entry.name}"
+
+        def estop() -> str:
+            emu.inject_estop()
+            return "emergency stop: C1"
+
+        return estop
+    if cmd in ("error", "warning", "gripper-error"):
+        prefix = {"error": "C", "warning": "W", "gripper-error": "G"}[cmd]
+        entry = _label(request.get("code"), prefix)
+
+        def inject() -> str:
+            if cmd == "error":
+                emu.inject_error(entry.code)
+                return f"injected {entry.label} {entry.name}"
+            if cmd == "warning":
+                emu.inject_warning(entry.code)
+                return f"injected warning {entry.code} {entry.name}"
+            emu.inject_gripper_error(entry.code)
+            return f"injected gripper {entry.label} {entry.name}"
+
+        return inject
     if cmd == "servo-error":
         joint = _joint(request, emu.model.dof)
-        entry = _label(request.get("code"), "S")
-        emu.inject_servo_error(joint, entry.code)
-        return f"injected {entry.label} {entry.name} on joint {joint} (C{10 + joint})"
-    if cmd == "gripper-error":
-        entry = _label(request.get("code"), "G")
-        emu.inject_gripper_error(entry.code)
-        return f"injected gripper {entry.label} {entry.name}"
+        servo = _label(request.get("code"), "S")
+
+        def inject_servo() -> str:
+            emu.inject_servo_error(joint, servo.code)
+            return f"injected {servo.label} {servo.name} on joint {joint} (C{10 + joint})"
+
+        return inject_servo
     if cmd == "end-module-lost":
-        emu.inject_end_module_lost()
-        return "end module lost: C28"
+
+        def lose_end_module() -> str:
+            emu.inject_end_module_lost()
+            return "end module lost: C28"
+
+        return lose_end_module
     if cmd == "collision":
         joint = _joint(request, emu.model.dof)
         torque = _float(request.get("torque"), "torque")
-        level = emu.controller.settings.collision_sensitivity
-        if emu.inject_collision(joint, torque):
-            return f"collision of {torque:g} N m on joint {joint} detected at sensitivity {level}: C31"
-        return f"collision of {torque:g} N m on joint {joint} not detected (sensitivity {level})"
+
+        def push() -> str:
+            level = emu.controller.settings.collision_sensitivity
+            if emu.inject_collision(joint, torque):
+                return f"collision of {torque:g} N m on joint {joint} detected at sensitivity {level}: C31"
+            return f"collision of {torque:g} N m on joint {joint} not detected (sensitivity {level})"
+
+        return push
     if cmd == "report-pause":
-        secs = _seconds(request.get("seconds"))
-        server.pause_reports(secs)
-        return f"reports paused for {secs:g} s"
+        pause = _seconds(request.get("seconds"))
+
+        def pause_reports() -> str:
+            server.pause_reports(pause)
+            return f"reports paused for {pause:g} s"
+
+        return pause_reports
     if cmd == "reply-delay":
-        secs = _seconds(request.get("seconds"))
-        server.reply_delay = secs
-        return f"reply delay {secs * 1e3:g} ms" if secs else "reply delay off"
+        delay = _seconds(request.get("seconds"))
+
+        def set_delay() -> str:
+            server.reply_delay = delay
+            return f"reply delay {delay * 1e3:g} ms" if delay else "reply delay off"
+
+        return set_delay
     if cmd == "drop-clients":
-        n = server.drop_clients()
-        return f"dropped {n} client connections"
+        return lambda: f"dropped {server.drop_clients()} client connections"
     if cmd == "clear":
-        emu.clear_faults()
-        server.reply_delay = 0.0
-        server.report_pause_until = 0.0
-        return "faults, reply delay and report pause cleared"
+
+        def clear() -> str:
+            emu.clear_faults()
+            server.reply_delay = 0.0
+            server.report_pause_until = 0.0
+            return "faults, reply delay and report pause cleared"
+
+        return clear
     if cmd == "set-input":
         return _set_input(server, request)
     if cmd == "step":
         if not server.config.stepped:
             raise AdminError("step needs lockstep time: start the emulator with --stepped")
         secs = _seconds(request.get("seconds"))
-        n = server.advance(secs)
-        return f"advanced {n} control periods to t = {emu.time:.3f} s"
+
+        def advance() -> str:
+            n = server.advance(secs)
+            return f"advanced {n} control periods to t = {emu.time:.3f} s"
+
+        return advance
     if cmd == "status":
-        ctl = emu.controller
-        return json.dumps({"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
-                           "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
-                           "reports_paused": server.reports_paused()})
+
+        def status() -> str:
+            ctl = emu.controller
+            return json.dumps({"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
+                               "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
+                               "reports_paused": server.reports_paused()})
+
+        return status
     raise AdminError(f"unknown command {cmd!r}; known: {', '.join(COMMANDS)}")
 
 
-def _set_input(server: EmulatorServer, request: dict[str, Any]) -> str:
+def _set_input(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], str]:
     kind = request.get("kind")
     if kind not in INPUT_KINDS:
         raise AdminError(f"unknown input kind {kind!r}; known: {', '.join(INPUT_KINDS)}")
@@ -222,11 +275,15 @@ def _set_input(server: EmulatorServer, request: dict[str, Any]) -> str:
     value = _float(request.get("value"), "value")
     if kind in ("cgpio", "tgpio", "vacuum-object") and value not in (0, 1):
         raise AdminError(f"digital input value must be 0 or 1, got {value!r}")
-    try:
-        server.emulator.set_input(kind, index, value)
-    except Exception as exc:  # noqa: BLE001 - the IO module's own range checks
-        raise AdminError(f"{kind} input {index}: {exc}") from None
-    return f"{kind} input {index} = {value:g}"
+
+    def play() -> str:
+        try:
+            server.emulator.set_input(kind, index, value)
+        except Exception as exc:  # noqa: BLE001 - the IO module's own range checks
+            raise AdminError(f"{kind} input {index}: {exc}") from None
+        return f"{kind} input {index} = {value:g}"
+
+    return play
 
 
 class AdminProtocol(asyncio.Protocol):

@@ -73,6 +73,8 @@ class ServerConfig:
     view_port: int = 8080
     #: Append every command-port request and reply to this JSON-lines file (server/trace.py).
     trace: Path | None = None
+    #: Faults and inputs at given controller times, from this TOML file (server/faults.py).
+    faults: Path | None = None
     report_rates: dict[str, float] = field(default_factory=lambda: {
         "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE})
 
@@ -216,6 +218,11 @@ class EmulatorServer:
         cfg = self.config
         if cfg.stepped and not cfg.admin:
             raise ValueError("lockstep (stepped) time is driven through the admin channel: add --admin")
+        if cfg.faults is not None:  # checked whole before any port opens
+            from .faults import read_schedule, schedule
+
+            n = schedule(self, read_schedule(cfg.faults))
+            log.info("fault schedule %s: %d entries", cfg.faults, n)
         if cfg.trace is not None and self.trace is None:
             try:
                 self.trace = CommandTrace(cfg.trace)

@@ -20,7 +20,8 @@ lists them; top-level keys are defaults for every arm::
 Arm keys: ``model`` (5, 6, 7), ``host``, ``port``, ``normal_port``, ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
 ``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``trace``
-(a command trace file for this arm, as ``serve --trace``; relative to the fleet file). Arms
+and ``faults`` (a command trace file and a fault schedule, as ``serve --trace`` and ``--faults``;
+relative to the fleet file; ``faults`` may be a top-level default). Arms
 without ``robot_sn`` get their model's default serial number, counted up when an earlier arm has
 it, so that no two arms share a saved configuration.
 Everything is checked before any port is opened; a bad file gives one message naming the arm and
@@ -43,7 +44,7 @@ from .app import ServerConfig
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _DEFAULT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
-ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "trace")
+ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "trace", "faults")
 TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k not in ("robot_sn", "trace")))
 
 
@@ -140,11 +141,14 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     if sn in taken:
         raise FleetError(f"{where}: robot_sn {sn} is already another arm's (they would share a "
                          "saved configuration)")
-    trace = values.get("trace")
-    if trace is not None and not isinstance(trace, str):
-        raise FleetError(f"{where}: trace must be a path string, got {trace!r}")
-    cfg = replace(ServerConfig(host=host, speed=speed, admin=admin,
-                               trace=None if trace is None else base / trace), **ports)
+    paths: dict[str, Path | None] = {}
+    for key in ("trace", "faults"):
+        value = values.get(key)
+        if value is not None and not isinstance(value, str):
+            raise FleetError(f"{where}: {key} must be a path string, got {value!r}")
+        paths[key] = None if value is None else base / value
+    cfg = replace(ServerConfig(host=host, speed=speed, admin=admin, trace=paths["trace"],
+                               faults=paths["faults"]), **ports)
     return ArmSpec(int(model), sn, cfg, vacuum)
 
 

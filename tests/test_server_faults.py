@@ -1,0 +1,106 @@
+"""Fault schedules (`serve --faults`): admin requests at controller times, landing on the control
+period, checked whole before the emulator starts."""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from pathlib import Path
+
+import pytest
+from helpers import free_ports, ready, run_cli, serve_subprocess
+
+from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.server.faults import FaultScheduleError
+
+SCHEDULE = """
+[[fault]]
+at = 0.5
+do = "set-input"
+kind = "cgpio"
+index = 3
+value = 0
+
+[[fault]]
+at = 1.0
+do = "error"
+code = "C31"
+
+[[fault]]
+at = 1.0
+do = "report-pause"
+seconds = "2s"
+"""
+
+
+def test_emulator_at_runs_actions_after_the_period_that_reaches_their_time(caplog) -> None:
+    emu = Emulator(6)
+    seen: list[tuple[str, float]] = []
+    emu.at(0.1, lambda: seen.append(("a", emu.time)))
+    emu.at(0.0101, lambda: seen.append(("b", emu.time)))
+    emu.at(0.1, lambda: seen.append(("c", emu.time)))
+    emu.at(0.05, lambda: 1 / 0)  # logged, the others still run
+    with caplog.at_level(logging.ERROR):
+        emu.advance(0.2)
+    assert [name for name, _ in seen] == ["b", "a", "c"]
+    assert seen[0][1] == pytest.approx(3 * PERIOD)  # 0.0101 s falls in the third period
+    assert seen[1][1] == pytest.approx(0.1) and seen[2][1] == pytest.approx(0.1)
+    assert "scheduled action" in caplog.text
+    with pytest.raises(ValueError):
+        emu.at(float("nan"), lambda: None)
+
+
+def test_schedule_lands_on_controller_time_in_lockstep(make_server, tmp_path: Path) -> None:
+    path = tmp_path / "faults.toml"
+    path.write_text(SCHEDULE)
+    st = make_server(stepped=True, admin=True, faults=path)
+    emu = st.emulator
+    st.call(lambda: ready(emu))
+    st.call(lambda: st.server.advance(0.496))
+    assert st.call(lambda: (emu.io.cgpio.digital_inputs >> 3) & 1) == 1  # inputs idle high
+    st.call(lambda: st.server.advance(PERIOD))
+    assert st.call(lambda: (emu.io.cgpio.digital_inputs >> 3) & 1) == 0
+    st.call(lambda: st.server.advance(0.496))
+    assert st.call(lambda: emu.controller.error_code) == 0
+    st.call(lambda: st.server.advance(PERIOD))
+    assert st.call(lambda: (emu.controller.error_code, emu.controller.state)) == (31, 4)
+    assert st.call(st.server.reports_paused) is True
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ('[[fault]]\nat = 1\ndo = "step"\nseconds = 1\n', "fault 1: do is one of"),
+    ('[[fault]]\nat = -1\ndo = "estop"\n', "fault 1: at is controller seconds >= 0"),
+    ('[[fault]]\nat = 1\ndo = "estop"\n[[fault]]\nat = 2\ndo = "error"\ncode = "C99"\n',
+     "fault 2 (error at 2 s): C99"),
+    ('[[fault]]\nat = 1\ndo = "servo-error"\njoint = 9\ncode = "S23"\n', "joint 9 out of range"),
+    ('[fault]\nat = 1\n', "list of [[fault]] tables"),
+    ('[[fault]\n', "not valid TOML"),
+])
+def test_bad_schedules_stop_the_start(make_server, tmp_path: Path, text: str, fragment: str) -> None:
+    path = tmp_path / "faults.toml"
+    path.write_text(text)
+    with pytest.raises(FaultScheduleError) as info:
+        make_server(faults=path)
+    assert fragment in str(info.value)
+
+
+def test_serve_faults_from_the_cli(tmp_path: Path) -> None:
+    path = tmp_path / "faults.toml"
+    path.write_text('[[fault]]\nat = 0.2\ndo = "warning"\ncode = 11\n')
+    cmd, normal, rich, develop = free_ports(4)
+    with serve_subprocess(tmp_path, cmd, normal, rich, develop, "--faults", str(path), "--speed", "4"):
+        code, out = run_cli("status", "--json", "--wait", "30", "--port", str(cmd), "--report-port",
+                            str(develop))
+        assert code == 0, out
+        deadline = time.monotonic() + 10
+        while json.loads(out)["warning"] != 11 and time.monotonic() < deadline:
+            time.sleep(0.05)
+            out = run_cli("status", "--json", "--port", str(cmd), "--report-port", str(develop))[1]
+        assert json.loads(out)["warning"] == 11
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[fault]]\nat = 1\ndo = "explode"\n')
+    ports = ("--port", "0", "--normal-port", "0", "--rich-port", "0", "--develop-port", "0")
+    code, out = run_cli("serve", "--faults", str(bad), *ports, "--config-dir", str(tmp_path))
+    assert code == 2 and "do is one of" in " ".join(out.split())
