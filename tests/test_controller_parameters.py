@@ -15,13 +15,23 @@ from xarm_emu.controller.config import ConfigStore
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.controller.settings import Settings
 from xarm_emu.model.robots import MODELS
-from xarm_emu.protocol.layouts import LayoutError, fp32
+from xarm_emu.protocol import reports
+from xarm_emu.protocol.layouts import Layout, LayoutError, fp32
 from xarm_emu.protocol.registers import REGISTERS, Flag
+
+
+def float_layout(code: int) -> Layout | None:
+    """The first request layout of a register (each option of a multi-form one) with an fp32 field."""
+    request = REGISTERS[code].request
+    for layout in getattr(request, "options", None) or (request,):
+        if any(f.kind == "fp32" for f in layout.fields):
+            return layout
+    return None
+
 
 FLOAT_REGISTERS = sorted(
     code for code, reg in REGISTERS.items()
-    if any(f.kind == "fp32" for f in reg.request.fields) and not reg.flags & Flag.ANY_FLOAT
-    and code not in (10, 39, 40))
+    if float_layout(code) is not None and not reg.flags & Flag.ANY_FLOAT and code not in (10, 39, 40))
 
 
 def warning(emu: Emulator) -> int:
@@ -36,9 +46,11 @@ def test_out_of_range_float_is_warning_12_on_every_register(code: int, value: fl
     ready(emu)
     before = emu.controller.settings.to_dict()
     reg = REGISTERS[code]
+    layout = float_layout(code)
+    assert layout is not None
     raw = b"".join(
         struct.pack("<" + "f" * f.count, *([value] * f.count)) if f.kind == "fp32" else bytes(f.size)
-        for f in reg.request.fields)
+        for f in layout.fields)
     state, reply = emu.handle(code, raw)
     assert bits(state)[1], code
     assert warning(emu) == 12
@@ -104,19 +116,23 @@ def test_saved_settings_a_register_would_refuse_keep_their_defaults(tmp_path: Pa
     data = store.load()
     assert data is not None
     data.update(tcp_load=[5.6e14, 0.0, 0.0, 0.0], tcp_offset=[0.0, 0.0, "x", 0.0, 0.0, 0.0],
-                world_offset=[1.0, 2.0], boundary_on="yes", teach_sensitivity=9, joint_jerk=0.0)
+                world_offset=[1.0, 2.0], boundary_on="yes", teach_sensitivity=9, joint_jerk=0.0,
+                gravity_direction=[0.0, 0.0, 0.0], boundary=[0, 100, 0, -100, 100, -100])
+    data["collision_sensitivity"] = 4.0  # an integral float is taken, as the int it stands for
     store.save(data)
     again = Emulator(6, config_dir=tmp_path)
     s, defaults = again.controller.settings, Settings.for_model(again.model)
     assert s.collision_sensitivity == 4  # the valid value is kept
-    for name in ("tcp_load", "tcp_offset", "world_offset", "boundary_on", "teach_sensitivity", "joint_jerk"):
+    for name in ("tcp_load", "tcp_offset", "world_offset", "boundary_on", "teach_sensitivity", "joint_jerk",
+                 "gravity_direction", "boundary"):
         assert getattr(s, name) == getattr(defaults, name), name
+    assert type(s.collision_sensitivity) is int
+    reports.encode_normal(again.snapshot())
+    reports.encode_rich(again.snapshot())
     assert all(math.isfinite(t) for t in call(again, 55)[1]["torques"])
 
 
 def test_float_too_large_for_fp32_is_a_layout_error() -> None:
-    from xarm_emu.protocol.layouts import Layout
-
     layout = Layout((fp32("x"),))
     with pytest.raises(LayoutError, match="'x'"):
         layout.encode(x=1e39)

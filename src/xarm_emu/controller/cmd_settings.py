@@ -22,6 +22,8 @@ from .settings import (
     COLLISION_SENSITIVITY_RANGE,
     TEACH_SENSITIVITY_RANGE,
     Settings,
+    boundary_ok,
+    gravity_ok,
     in_range,
 )
 
@@ -130,15 +132,14 @@ class SettingCommands(ControllerCore):
 
     # other settings
     def _h_gravity(self, v: Values) -> None:
-        g = np.asarray(v["direction"], dtype=float)
-        if not np.all(np.isfinite(g)) or float(np.linalg.norm(g)) == 0.0:
+        if not gravity_ok(v["direction"]):
             raise ParameterError("gravity direction must be a non-zero finite vector")
-        self.settings.gravity_direction = [float(x) for x in g]
+        self.settings.gravity_direction = [float(x) for x in v["direction"]]
         return None
 
     def _h_boundary(self, v: Values) -> None:
         b = [int(x) for x in v["boundary"]]
-        if b[0] < b[1] or b[2] < b[3] or b[4] < b[5]:
+        if not boundary_ok(b):
             raise ParameterError("boundary maxima must not be below minima")
         self.settings.boundary = b
         return None

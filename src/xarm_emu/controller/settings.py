@@ -70,8 +70,9 @@ class Settings:
         for key, value in data.items():
             if key not in names:
                 continue
-            if _same_shape(getattr(base, key), value) and _plausible(key, value, model):
-                setattr(base, key, value)
+            default = getattr(base, key)
+            if _same_shape(default, value) and _plausible(key, value, model):
+                setattr(base, key, _as_type_of(default, value))
             else:
                 log.warning("saved setting %s=%r is not valid here; keeping the default", key, value)
         return base
@@ -93,6 +94,27 @@ def _same_shape(default: Any, value: Any) -> bool:
     return False
 
 
+def _as_type_of(default: Any, value: Any) -> Any:
+    """``value`` converted to the types of ``default`` (a saved 3.0 for an int field is 3)."""
+    if isinstance(default, bool) or not isinstance(default, (int, float, list)):
+        return value
+    if isinstance(default, list):
+        return [_as_type_of(d, v) for d, v in zip(default, value, strict=True)]
+    return type(default)(value)
+
+
+def gravity_ok(direction: Any) -> bool:
+    """Register 51: a finite, non-zero gravity direction."""
+    v = [float(x) for x in direction]
+    return len(v) == 3 and all(math.isfinite(x) for x in v) and any(x != 0.0 for x in v)
+
+
+def boundary_ok(boundary: Any) -> bool:
+    """Register 52: x max, x min, y max, y min, z max, z min (mm), no maximum below its minimum."""
+    b = list(boundary)
+    return len(b) == 6 and b[0] >= b[1] and b[2] >= b[3] and b[4] >= b[5]
+
+
 def _plausible(key: str, value: Any, model: RobotModel) -> bool:
     """The ranges the setting registers enforce that a shape check cannot see."""
     if key == "tcp_load":
@@ -106,4 +128,8 @@ def _plausible(key: str, value: Any, model: RobotModel) -> bool:
         return in_range(value, COLLISION_SENSITIVITY_RANGE[1], COLLISION_SENSITIVITY_RANGE[0])
     if key == "teach_sensitivity":
         return in_range(value, TEACH_SENSITIVITY_RANGE[1], TEACH_SENSITIVITY_RANGE[0])
+    if key == "gravity_direction":
+        return gravity_ok(value)
+    if key == "boundary":
+        return boundary_ok(value)
     return True
