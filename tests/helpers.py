@@ -106,13 +106,17 @@ def free_ports(n: int) -> list[int]:
     return ports
 
 
+def port_args(cmd: int, normal: int, rich: int, develop: int) -> tuple[str, ...]:
+    """`serve` options for a command port and the three report ports."""
+    return ("--port", str(cmd), "--normal-port", str(normal), "--rich-port", str(rich),
+            "--develop-port", str(develop))
+
+
 @contextlib.contextmanager
-def serve_subprocess(tmp_path: Path, cmd: int, normal: int, rich: int, develop: int,
-                     *extra: str) -> Iterator[subprocess.Popen[str]]:
-    """`xarm-emu serve` in a child process on the given ports, terminated on exit."""
+def serve_subprocess(tmp_path: Path, *args: str) -> Iterator[subprocess.Popen[str]]:
+    """`xarm-emu serve ARGS` in a child process (configuration in ``tmp_path``), terminated on exit."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "xarm_emu.cli", "serve", "--port", str(cmd), "--normal-port", str(normal),
-         "--rich-port", str(rich), "--develop-port", str(develop), *extra,
+        [sys.executable, "-m", "xarm_emu.cli", "serve", *args,
          "--config-dir", str(tmp_path), "--log-level", "WARNING"],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "COLUMNS": "500"})
     try:

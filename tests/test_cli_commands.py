@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import free_ports, serve_subprocess
+from helpers import free_ports, port_args, serve_subprocess
 from helpers import run_cli as run
 
 from xarm_emu import cli
@@ -151,7 +151,7 @@ def test_status_wait_is_a_readiness_probe(tmp_path: Path) -> None:
     code, out = run("status", "--port", str(free), "--wait", "0.5")
     assert code == 1 and "cannot reach the control box" in out and time.monotonic() - t0 >= 0.5
     cmd, normal, rich, develop = free_ports(4)
-    with serve_subprocess(tmp_path, cmd, normal, rich, develop):
+    with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop)):
         code, out = run("status", "--json", "--wait", "30", "--port", str(cmd), "--report-port", str(develop))
         assert code == 0, out
         assert json.loads(out)["version"].startswith("6,6,")
@@ -161,7 +161,7 @@ def test_serve_subprocess_with_admin(tmp_path: Path) -> None:
     """`xarm-emu serve --admin` end to end: the banner names the admin port; inject reaches it."""
     cmd, normal, rich, develop, admin = free_ports(5)
     admin_args = ("--admin", "--admin-port", str(admin))
-    with serve_subprocess(tmp_path, cmd, normal, rich, develop, *admin_args) as proc:
+    with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop), *admin_args) as proc:
         assert proc.stdout is not None
         banner = proc.stdout.readline() + proc.stdout.readline()
         assert f"admin channel (fault injection) on 127.0.0.1:{admin}" in " ".join(banner.split()), banner

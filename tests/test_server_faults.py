@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import free_ports, ready, run_cli, serve_subprocess
+from helpers import free_ports, port_args, ready, run_cli, serve_subprocess
 
 from xarm_emu.controller.base import PERIOD
 from xarm_emu.controller.emulator import Emulator
@@ -76,6 +76,10 @@ def test_schedule_lands_on_controller_time_in_lockstep(make_server, tmp_path: Pa
      "fault 2 (error at 2 s): C99"),
     ('[[fault]]\nat = 1\ndo = "servo-error"\njoint = 9\ncode = "S23"\n', "joint 9 out of range"),
     ('[fault]\nat = 1\n', "list of [[fault]] tables"),
+    ('[[fault]]\nat = 1\ndo = ["estop"]\n', "fault 1: do is one of"),
+    ('[[fault]]\nat = 1\ndo = "set-input"\nkind = "cgpio"\nindex = 99\nvalue = 1\n', "cgpio input 99"),
+    ('[[fault]]\nat = 1\ndo = "set-input"\nkind = "vacuum-object"\nindex = 0\nvalue = 0\n',
+     "no vacuum gripper"),
     ('[[fault]\n', "not valid TOML"),
 ])
 def test_bad_schedules_stop_the_start(make_server, tmp_path: Path, text: str, fragment: str) -> None:
@@ -90,7 +94,8 @@ def test_serve_faults_from_the_cli(tmp_path: Path) -> None:
     path = tmp_path / "faults.toml"
     path.write_text('[[fault]]\nat = 0.2\ndo = "warning"\ncode = 11\n')
     cmd, normal, rich, develop = free_ports(4)
-    with serve_subprocess(tmp_path, cmd, normal, rich, develop, "--faults", str(path), "--speed", "4"):
+    with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop), "--faults", str(path),
+                          "--speed", "4"):
         code, out = run_cli("status", "--json", "--wait", "30", "--port", str(cmd), "--report-port",
                             str(develop))
         assert code == 0, out

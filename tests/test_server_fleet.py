@@ -10,6 +10,7 @@ import pytest
 from helpers import free_ports, serve_subprocess
 from helpers import run_cli as run
 
+from xarm_emu.protocol.admin import admin_host, derive_admin_port
 from xarm_emu.server.fleet import FleetError, load_fleet, parse_fleet
 
 
@@ -55,9 +56,14 @@ def test_top_level_keys_are_defaults_and_config_dir_is_relative_to_the_file() ->
            {"admin": True, "host": "127.0.0.2", "port": 503, "normal_port": 31001, "rich_port": 31002,
             "develop_port": 31003, "admin_port": 10502}),
      "arm 2: 127.0.0.2:10502 is already arm 1's (give admin_port)"),
-    (fleet({"admin": True, "host": "0.0.0.0", "port": 600},
+    (fleet({"admin": True, "host": "0.0.0.0", "port": 600, "normal_port": 31001, "rich_port": 31002,
+            "develop_port": 31003},
            {"admin": True, "host": "10.0.0.1", "admin_port": 10600}),
      "arm 2: 127.0.0.1:10600 is already arm 1's (give admin_port)"),
+    (fleet({"host": "0.0.0.0"}, {"host": "127.0.0.2"}), "arm 2: 127.0.0.2:502 is already arm 1's"),
+    (fleet({"host": "127.0.0.1"}, {"host": "localhost"}), "arm 2: localhost:502 is already arm 1's"),
+    (fleet({"port": 30001}), "arm 1: 127.0.0.1:30001 is this arm's too"),
+    (fleet({"model": [6]}), "arm 1: model is 5, 6 or 7"),
     (fleet({"admin": "yes"}), "admin is true or false"),
     (fleet({"vacuum": 1}), "vacuum is true or false"),
     (fleet({}, speed=0), "speed must be a positive number"),
@@ -70,8 +76,13 @@ def test_bad_fleets_are_refused_with_one_clear_message(data: dict[str, Any], fra
 
 
 def test_arms_on_their_own_loopback_addresses_have_admin_channels_on_the_same_port() -> None:
+    """Accepted: each admin channel is on its own arm's loopback address (admin_host), port 10502;
+    and with port 0 every listener, the admin channel's too, takes any free port."""
     f = parse_fleet(fleet({"admin": True}, {"admin": True, "host": "127.0.0.2"}))
-    assert [a.server.admin for a in f.arms] == [True, True]
+    assert [(admin_host(a.server.host), derive_admin_port(a.server.port)) for a in f.arms] == [
+        ("127.0.0.1", 10502), ("127.0.0.2", 10502)]
+    zero = {"port": 0, "normal_port": 0, "rich_port": 0, "develop_port": 0, "admin": True}
+    assert len(parse_fleet(fleet(zero, zero)).arms) == 2
 
 
 def test_unreadable_or_invalid_files(tmp_path: Path) -> None:
@@ -94,7 +105,7 @@ def test_serve_fleet_runs_every_arm_in_one_process(tmp_path: Path) -> None:
                  f"develop_port = {develop}\n")
     path = tmp_path / "fleet.toml"
     path.write_text(text)
-    with serve_subprocess(tmp_path, *free_ports(4), "--fleet", str(path)) as proc:
+    with serve_subprocess(tmp_path, "--fleet", str(path)) as proc:
         answers = []
         for ports in (a, b):
             code, out = run("status", "--json", "--wait", "30", "--port", str(ports[0]), "--report-port",
@@ -103,3 +114,16 @@ def test_serve_fleet_runs_every_arm_in_one_process(tmp_path: Path) -> None:
             answers.append(json.loads(out)["version"])
         assert proc.poll() is None
     assert answers[0].startswith("6,6,XI1300,") and answers[1].startswith("7,7,XS1300,")
+
+
+def test_a_bad_fault_schedule_of_any_arm_stops_the_fleet_before_any_port_opens(tmp_path: Path) -> None:
+    (tmp_path / "bad.toml").write_text('[[fault]]\nat = 1\ndo = "error"\ncode = "C99"\n')
+    cmd, normal, rich, develop = free_ports(4)
+    (tmp_path / "fleet.toml").write_text(
+        f"[[arm]]\nport = {cmd}\nnormal_port = {normal}\nrich_port = {rich}\ndevelop_port = {develop}\n"
+        'trace = "a1.jsonl"\n[[arm]]\nhost = "127.0.0.2"\nfaults = "bad.toml"\n')
+    code, out = run("serve", "--fleet", str(tmp_path / "fleet.toml"), "--config-dir", str(tmp_path))
+    assert code == 2 and "fault 1" in out and "C99" in out
+    assert not (tmp_path / "a1.jsonl").exists()  # arm 1 never started
+    code, out = run("serve", "--fleet", str(tmp_path / "fleet.toml"), "--admin")
+    assert code == 2 and "--admin" in out

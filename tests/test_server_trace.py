@@ -10,15 +10,20 @@ import struct
 from pathlib import Path
 
 import pytest
-from helpers import free_ports, run_cli, serve_subprocess
+from helpers import free_ports, port_args, run_cli, serve_subprocess
 
 from xarm_emu.client import Client
 from xarm_emu.protocol.frame import encode_request
 from xarm_emu.server.app import ServerThread
 
 
+def _no_constants(name: str) -> None:
+    raise AssertionError(f"{name} is not strict JSON")
+
+
 def lines(path: Path) -> list[dict]:
-    return [json.loads(line) for line in path.read_text().splitlines()]
+    """The trace's records, parsed as strict JSON (no bare NaN or Infinity)."""
+    return [json.loads(line, parse_constant=_no_constants) for line in path.read_text().splitlines()]
 
 
 def test_every_request_and_reply_is_traced(make_server, tmp_path: Path) -> None:
@@ -33,18 +38,21 @@ def test_every_request_and_reply_is_traced(make_server, tmp_path: Path) -> None:
         assert s.recv(64)[7] & 0x20  # an 8-byte reply: header, register, state
         s.sendall(encode_request(0x1235, 36, struct.pack("<f", math.nan)))  # malformed: warning 12
         assert s.recv(64)[7] & 0x20
+        s.sendall(encode_request(0x1236, 44, struct.pack("<7f", math.nan, math.inf, -math.inf, 0, 0, 0, 0)))
+        assert s.recv(64)[7] & 0x20  # NaN joints: warning 12
     st.stop()
     recs = lines(path)
     events = [r["event"] for r in recs if "event" in r]
     assert events == ["connect", "close", "connect", "close"]
     cmds = [r for r in recs if "register" in r]
-    assert [r["register"] for r in cmds] == [13, 13, 36, 250, 36]
+    assert [r["register"] for r in cmds] == [13, 13, 36, 250, 36, 44]
     assert cmds[0]["name"] == "GET_STATE" and cmds[0]["values"] == {"state": 4}
     load = cmds[2]
     assert load["params"] == "0000803f0000c843000000000000484" + "3"
     assert load["request"] == {"mass": 1.0, "center": [400.0, 0.0, 200.0]} and load["state"] == 0x10
     assert cmds[3]["name"] is None and cmds[3]["tid"] == 0x1234 and cmds[3]["state"] & 0x20
     assert "request_error" in cmds[4]
+    assert cmds[5]["request"]["joints"][:4] == ["NaN", "Infinity", "-Infinity", 0.0]
     assert all(r["peer"].startswith("127.0.0.1:") for r in recs)
     ts = [r["t"] for r in recs]
     assert ts == sorted(ts)
@@ -65,7 +73,7 @@ def test_trace_appends_and_a_bad_path_is_a_clear_error(make_server, tmp_path: Pa
 def test_serve_trace_from_the_cli(tmp_path: Path) -> None:
     path = tmp_path / "t.jsonl"
     cmd, normal, rich, develop = free_ports(4)
-    with serve_subprocess(tmp_path, cmd, normal, rich, develop, "--trace", str(path)) as proc:
+    with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop), "--trace", str(path)) as proc:
         code, out = run_cli("status", "--json", "--wait", "30", "--port", str(cmd), "--report-port",
                             str(develop))
         assert code == 0, out

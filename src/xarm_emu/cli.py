@@ -85,24 +85,31 @@ def serve(
         raise typer.Exit(2)
     cdir = config_dir if config_dir is not None else _default_config_dir()
     if fleet is not None:
-        if view or stepped or trace is not None or faults is not None:
-            err_console.print("--view, --stepped, --trace and --faults serve one arm; they do not combine "
-                              "with --fleet (the fleet file has trace and faults keys per arm)")
+        per_arm = {"--model": model != 6, "--host": host != "127.0.0.1", "--port": port != 502,
+                   "--normal-port": normal_port != 30001, "--rich-port": rich_port != 30002,
+                   "--develop-port": develop_port != 30003, "--speed": speed != 1.0, "--admin": admin,
+                   "--admin-port": admin_port is not None, "--vacuum": vacuum, "--view": view,
+                   "--stepped": stepped, "--trace": trace is not None, "--faults": faults is not None}
+        given = [name for name, on in per_arm.items() if on]
+        if given:
+            err_console.print(f"{', '.join(given)}: with --fleet every arm's options come from the fleet "
+                              "file (see src/xarm_emu/server/fleet.py)")
             raise typer.Exit(2)
-        try:
+    try:
+        if fleet is not None:
             spec = load_fleet(fleet)
-        except FleetError as exc:
-            err_console.print(str(exc))
-            raise typer.Exit(2) from None
-        cdir = spec.config_dir if spec.config_dir is not None else cdir
-        servers = [EmulatorServer(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum),
-                                  a.server) for a in spec.arms]
-    else:
-        cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
-                           develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                           view=view, view_host=view_host, view_port=view_port, stepped=stepped,
-                           trace=trace, faults=faults)
-        servers = [EmulatorServer(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
+            cdir = spec.config_dir if spec.config_dir is not None else cdir
+            servers = [EmulatorServer(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir,
+                                               vacuum=a.vacuum), a.server) for a in spec.arms]
+        else:
+            cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
+                               develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
+                               view=view, view_host=view_host, view_port=view_port, stepped=stepped,
+                               trace=trace, faults=faults)
+            servers = [EmulatorServer(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
+    except (FleetError, ValueError) as exc:  # a bad fleet file or fault schedule: nothing has started
+        err_console.print(str(exc))
+        raise typer.Exit(2) from None
     for srv in servers:
         if srv.emulator.config_message:
             err_console.print(f"[yellow]{srv.emulator.config_message}[/yellow]")
@@ -138,8 +145,9 @@ def serve(
     try:
         _run(main(), loop)
     except PermissionError:
-        err_console.print(_PRIVILEGED.format(port=port if fleet is None else "(a fleet port below 1024)",
-                                             host=host if fleet is None else "its address"))
+        err_console.print(_PRIVILEGED.format(port=port, host=host) if fleet is None else
+                          "cannot bind a port below 1024 of the fleet file: this process lacks the "
+                          "privilege; use ports from 1024 up or grant cap_net_bind_service")
         raise typer.Exit(1) from None
     except ValueError as exc:  # no default admin port for this command port
         err_console.print(str(exc))
@@ -149,12 +157,14 @@ def serve(
         raise typer.Exit(2) from None
     except OSError as exc:
         if exc.errno == errno.EACCES:
-            err_console.print(_PRIVILEGED.format(port=port, host=host))
+            err_console.print(_PRIVILEGED.format(port=port, host=host) if fleet is None else
+                              f"cannot bind a port of the fleet file: {exc.strerror}")
             raise typer.Exit(1) from None
         if exc.errno == errno.EADDRINUSE:
             err_console.print(f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
                               "choose other ports with --port/--normal-port/--rich-port/--develop-port"
-                              + (" (in the fleet file)" if fleet is not None else ""))
+                              if fleet is None else
+                              f"a port of the fleet file is already in use ({exc.strerror}): {exc}")
             raise typer.Exit(1) from None
         raise
     except KeyboardInterrupt:

@@ -265,11 +265,19 @@ class Emulator:
     def set_input(self, kind: str, index: int, value: float) -> None:
         """Play a sensor: ``cgpio``/``tgpio`` digital inputs (0/1), ``analog`` (control box, V),
         ``tool-analog`` (V), or ``vacuum-object`` 0 (1: an object seals the vacuum cup, 0: none)."""
+        self.check_input(kind, index)
+        if kind == "vacuum-object":
+            assert self.vacuum is not None
+            self.vacuum.object_present = bool(value)
+            return
+        self.io.set_input(kind, index, value)
+
+    def check_input(self, kind: str, index: int) -> None:
+        """Raise ValueError (or ParameterError) unless :meth:`set_input` can play ``kind`` ``index``."""
         if kind == "vacuum-object":
             if self.vacuum is None:
                 raise ValueError("no vacuum gripper is attached (Emulator(vacuum=True), serve --vacuum)")
             if index != 0:
                 raise ValueError(f"the vacuum gripper has one cup: index 0, not {index}")
-            self.vacuum.object_present = bool(value)
             return
-        self.io.set_input(kind, index, value)
+        self.io.check_input(kind, index)

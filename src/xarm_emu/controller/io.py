@@ -281,28 +281,34 @@ class IOModule:
 
     # --- inputs from outside (tests, admin channel) ------------------------------------------------
 
+    def check_input(self, kind: str, index: int) -> None:
+        """Raise (ParameterError, ValueError) unless ``kind`` ``index`` is an input this box has."""
+        if kind == "cgpio":
+            self.cgpio._check_index(index)
+        elif kind == "tgpio":
+            if not 0 <= index < 4:
+                raise ParameterError(f"tool input {index} (0-3)")
+        elif kind in ("analog", "tool-analog", "tool_analog", "tanalog"):
+            self._analog_index(index)
+        else:
+            raise ValueError(f"unknown input kind {kind!r} (cgpio, tgpio, analog, tool-analog)")
+
     def set_input(self, kind: str, index: int, value: float) -> None:
         """Play a sensor: ``cgpio`` / ``tgpio`` digital (0/1), ``analog`` (control box, V) or
         ``tool-analog`` (V)."""
+        self.check_input(kind, index)
         if kind == "cgpio":
-            self.cgpio._check_index(index)
             bit = 1 << index
             self.cgpio.digital_inputs = (self.cgpio.digital_inputs | bit) if value else (
                 self.cgpio.digital_inputs & ~bit)
         elif kind == "tgpio":
-            if not 0 <= index < 4:
-                raise ParameterError(f"tool input {index}")
             bit = 1 << index
             self.tool.digital_inputs = (self.tool.digital_inputs | bit) if value else (
                 self.tool.digital_inputs & ~bit)
         elif kind == "analog":
-            self._analog_index(index)
             self.cgpio.analog_inputs[index] = _volts_to_raw(value, CGPIO_AI_FULL_SCALE)
-        elif kind in ("tool-analog", "tool_analog", "tanalog"):
-            self._analog_index(index)
-            self.tool.analog_inputs[index] = _volts_to_raw(value, TOOL_AI_FULL_SCALE)
         else:
-            raise ValueError(f"unknown input kind {kind!r} (cgpio, tgpio, analog, tool-analog)")
+            self.tool.analog_inputs[index] = _volts_to_raw(value, TOOL_AI_FULL_SCALE)
 
     @staticmethod
     def _analog_index(index: int) -> None:

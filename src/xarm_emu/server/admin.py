@@ -51,6 +51,7 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from ..controller.base import CommandWarning
 from ..protocol import codes
 from ..protocol.admin import (  # noqa: F401 - re-exported for the server's users
     ADMIN_PORT_OFFSET,
@@ -162,8 +163,7 @@ SCHEDULABLE = frozenset(COMMANDS) - {"status", "step"}
 def prepare(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], str]:
     """Check one admin request now and return the action that carries it out (a message back).
 
-    Raises AdminError for a bad request. The action may still refuse an input index the IO module
-    does not have (its own range check), also with AdminError.
+    Raises AdminError for a bad request; the action it returns does not refuse.
     """
     emu = server.emulator
     cmd = request.get("cmd")
@@ -275,12 +275,13 @@ def _set_input(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], 
     value = _float(request.get("value"), "value")
     if kind in ("cgpio", "tgpio", "vacuum-object") and value not in (0, 1):
         raise AdminError(f"digital input value must be 0 or 1, got {value!r}")
+    try:
+        server.emulator.check_input(kind, index)
+    except (ValueError, CommandWarning) as exc:  # the IO module's own range checks
+        raise AdminError(f"{kind} input {index}: {exc}") from None
 
     def play() -> str:
-        try:
-            server.emulator.set_input(kind, index, value)
-        except Exception as exc:  # noqa: BLE001 - the IO module's own range checks
-            raise AdminError(f"{kind} input {index}: {exc}") from None
+        server.emulator.set_input(kind, index, value)
         return f"{kind} input {index} = {value:g}"
 
     return play

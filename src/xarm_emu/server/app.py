@@ -212,17 +212,17 @@ class EmulatorServer:
         self.trace: CommandTrace | None = None  # opened by start() when ``config.trace`` is set
         self._client_tasks: set[asyncio.Task[None]] = set()
         self.admin_clients: set[AdminProtocol] = set()
+        if self.config.faults is not None:  # checked whole here, before any port opens
+            from .faults import read_schedule, schedule
+
+            n = schedule(self, read_schedule(self.config.faults))
+            log.info("fault schedule %s: %d entries", self.config.faults, n)
 
     async def start(self) -> None:
         loop = asyncio.get_running_loop()
         cfg = self.config
         if cfg.stepped and not cfg.admin:
             raise ValueError("lockstep (stepped) time is driven through the admin channel: add --admin")
-        if cfg.faults is not None:  # checked whole before any port opens
-            from .faults import read_schedule, schedule
-
-            n = schedule(self, read_schedule(cfg.faults))
-            log.info("fault schedule %s: %d entries", cfg.faults, n)
         if cfg.trace is not None and self.trace is None:
             try:
                 self.trace = CommandTrace(cfg.trace)

@@ -66,7 +66,8 @@ def read_schedule(path: Path) -> list[dict[str, Any]]:
         at = e.get("at")
         if isinstance(at, bool) or not isinstance(at, (int, float)) or not (math.isfinite(at) and at >= 0):
             raise FaultScheduleError(f"fault {i}: at is controller seconds >= 0, got {at!r}")
-        if e.get("do") not in SCHEDULABLE:
+        do = e.get("do")
+        if not isinstance(do, str) or do not in SCHEDULABLE:
             raise FaultScheduleError(f"fault {i}: do is one of {', '.join(sorted(SCHEDULABLE))}, "
                                      f"got {e.get('do')!r}")
     return entries

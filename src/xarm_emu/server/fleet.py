@@ -114,7 +114,7 @@ def _unknown(table: dict[str, Any], known: tuple[str, ...], where: str) -> None:
 
 def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], base: Path) -> ArmSpec:
     model = values.get("model", 6)
-    if model not in MODELS or isinstance(model, bool):
+    if isinstance(model, bool) or not isinstance(model, int) or model not in MODELS:
         raise FleetError(f"{where}: model is 5, 6 or 7, got {model!r}")
     host = values.get("host", "127.0.0.1")
     if not isinstance(host, str) or not host:
@@ -152,21 +152,30 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     return ArmSpec(int(model), sn, cfg, vacuum)
 
 
+_WILDCARD = frozenset({"", "0.0.0.0", "::"})
+
+
 def _distinct(configs: list[ServerConfig]) -> None:
-    """No two arms may listen on the same address and port (the admin channel is on loopback)."""
-    seen: dict[tuple[str, int], int] = {}
+    """No two listeners of the fleet (within an arm or across arms) may share an address and port.
+    A wildcard address (0.0.0.0, ::) takes the port on every address; the admin channel listens on
+    loopback (protocol/admin.py); port 0 means any free port and never clashes."""
+    seen: list[tuple[str, int, int]] = []  # (host, port, arm)
     for i, c in enumerate(configs, start=1):
         addrs = [(c.host, p) for p in (c.port, c.normal_port, c.rich_port, c.develop_port)]
         if c.admin:
-            try:
-                admin = c.admin_port if c.admin_port is not None else derive_admin_port(c.port)
+            try:  # as EmulatorServer.start: port 0 gives the admin channel any free port too
+                admin = c.admin_port if c.admin_port is not None else (
+                    0 if c.port == 0 else derive_admin_port(c.port))
             except ValueError as exc:
                 raise FleetError(f"arm {i}: {exc}") from None
             addrs.append((admin_host(c.host), admin))
-        for host, p in addrs:
+        for n, (host, p) in enumerate(addrs):
             if p == 0:
-                continue  # any free port
-            if seen.get((host, p), i) != i:
-                hint = " (give admin_port)" if c.admin and (host, p) == addrs[-1] else ""
-                raise FleetError(f"arm {i}: {host}:{p} is already arm {seen[(host, p)]}'s{hint}")
-            seen[(host, p)] = i
+                continue
+            h = "127.0.0.1" if host == "localhost" else host
+            for other_h, other_p, arm in seen:
+                if other_p == p and (other_h == h or h in _WILDCARD or other_h in _WILDCARD):
+                    hint = " (give admin_port)" if c.admin and n == len(addrs) - 1 else ""
+                    owner = "this arm's too" if arm == i else f"already arm {arm}'s"
+                    raise FleetError(f"arm {i}: {host}:{p} is {owner}{hint}")
+            seen.append((h, p, i))

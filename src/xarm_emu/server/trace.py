@@ -7,7 +7,9 @@ One JSON object per line, appended to ``FILE``:
 - ``{"t": ..., "wall": ..., "peer": ..., "tid": 5, "protocol": 2, "register": 21, "name":
   "MOVE_LINE", "params": "<hex>", "request": {...}, "state": 0, "reply": "<hex>", "values": {...}}``
   for each private-protocol request (manual 2.1.2): the raw parameter bytes and, where the register
-  table can decode them, their values; the reply's state byte, its raw parameters and their values.
+  table can decode them, their values (NaN and infinities as the strings "NaN", "Infinity",
+  "-Infinity", so every line is strict JSON); the reply's state byte, its raw parameters and their
+  values.
 
 ``t`` is controller time in seconds (the clock the motion runs on, scaled or stepped), ``wall`` the
 Unix time. Lines are buffered and written at least every control-loop wake-up (20 ms) and on close,
@@ -17,6 +19,7 @@ so a trace read while the emulator runs may lag by that much; a killed emulator 
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 from typing import IO, Any
@@ -25,17 +28,21 @@ from ..protocol import registers as regs
 from ..protocol.layouts import LayoutError
 
 
+def _json_value(v: Any) -> Any:
+    """One decoded value as strict JSON: bytes as hex, tuples as lists, NaN and infinities as the
+    strings "NaN", "Infinity", "-Infinity" (the raw bytes stay in ``params``)."""
+    if isinstance(v, (bytes, bytearray)):
+        return bytes(v).hex()
+    if isinstance(v, (tuple, list)):
+        return [_json_value(x) for x in v]
+    if isinstance(v, float) and not math.isfinite(v):
+        return "NaN" if math.isnan(v) else ("Infinity" if v > 0 else "-Infinity")
+    return v
+
+
 def _plain(values: dict[str, Any]) -> dict[str, Any]:
-    """Decoded layout values as JSON: tuples as lists, bytes as hex, floats as themselves."""
-    out: dict[str, Any] = {}
-    for k, v in values.items():
-        if isinstance(v, (bytes, bytearray)):
-            out[k] = bytes(v).hex()
-        elif isinstance(v, tuple):
-            out[k] = list(v)
-        else:
-            out[k] = v
-    return out
+    """Decoded layout values as strict JSON."""
+    return {k: _json_value(v) for k, v in values.items()}
 
 
 class CommandTrace:
@@ -47,8 +54,7 @@ class CommandTrace:
 
     def _write(self, record: dict[str, Any]) -> None:
         if self._file is not None:
-            # allow_nan: NaN parameters are legal bytes on the wire; the line says so plainly
-            self._file.write(json.dumps(record, allow_nan=True) + "\n")
+            self._file.write(json.dumps(record, allow_nan=False) + "\n")  # strict JSON: _json_value
 
     def event(self, t: float, peer: str, what: str) -> None:
         self._write({"event": what, "t": round(t, 6), "wall": time.time(), "peer": peer})
