@@ -19,6 +19,8 @@ from rich.table import Table
 
 from . import __version__
 from .protocol import codes
+from .protocol.frame import COMMAND_PORT
+from .protocol.reports import DEVELOP_PORT, NORMAL_PORT, RICH_PORT
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Emulator of the UFACTORY xArm 5/6/7 control box (Developer Manual V1.6.0).")
@@ -39,10 +41,10 @@ def _default_config_dir() -> Path:
 def serve(
     model: Annotated[int, typer.Option(help="Arm model: 5, 6 or 7 axes.", min=5, max=7)] = 6,
     host: Annotated[str, typer.Option(help="Address to bind (loopback by default).")] = "127.0.0.1",
-    port: Annotated[int, typer.Option(help="Command port.")] = 502,
-    normal_port: Annotated[int, typer.Option(help="Normal report port (5 Hz).")] = 30001,
-    rich_port: Annotated[int, typer.Option(help="Rich report port (5 Hz).")] = 30002,
-    develop_port: Annotated[int, typer.Option(help="Develop report port (100 Hz).")] = 30003,
+    port: Annotated[int, typer.Option(help="Command port.")] = COMMAND_PORT,
+    normal_port: Annotated[int, typer.Option(help="Normal report port (5 Hz).")] = NORMAL_PORT,
+    rich_port: Annotated[int, typer.Option(help="Rich report port (5 Hz).")] = RICH_PORT,
+    develop_port: Annotated[int, typer.Option(help="Develop report port (100 Hz).")] = DEVELOP_PORT,
     config_dir: Annotated[Path | None, typer.Option(help="Directory of saved configurations "
                                                          "(default: per-user config directory).")] = None,
     speed: Annotated[float, typer.Option(help="Time scale: 10 runs ten times faster than real time.")] = 1.0,
@@ -85,11 +87,14 @@ def serve(
         raise typer.Exit(2)
     cdir = config_dir if config_dir is not None else _default_config_dir()
     if fleet is not None:
-        per_arm = {"--model": model != 6, "--host": host != "127.0.0.1", "--port": port != 502,
-                   "--normal-port": normal_port != 30001, "--rich-port": rich_port != 30002,
-                   "--develop-port": develop_port != 30003, "--speed": speed != 1.0, "--admin": admin,
-                   "--admin-port": admin_port is not None, "--vacuum": vacuum, "--view": view,
-                   "--stepped": stepped, "--trace": trace is not None, "--faults": faults is not None}
+        given_cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
+                                 develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
+                                 view=view, stepped=stepped, trace=trace, faults=faults)
+        defaults = ServerConfig()
+        per_arm = {"--model": model != 6, "--vacuum": vacuum,
+                   **{"--" + k.replace("_", "-"): getattr(given_cfg, k) != getattr(defaults, k)
+                      for k in ("host", "port", "normal_port", "rich_port", "develop_port", "speed", "admin",
+                                "admin_port", "view", "stepped", "trace", "faults")}}
         given = [name for name, on in per_arm.items() if on]
         if given:
             err_console.print(f"{', '.join(given)}: with --fleet every arm's options come from the fleet "
@@ -193,9 +198,9 @@ def _run(coro: Any, loop: str) -> None:
 @app.command()
 def status(
     host: Annotated[str, typer.Option(help="Control box address.")] = "127.0.0.1",
-    port: Annotated[int, typer.Option(help="Command port.")] = 502,
+    port: Annotated[int, typer.Option(help="Command port.")] = COMMAND_PORT,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
-    report_port: Annotated[int, typer.Option(help="Develop report port, read for the mode.")] = 30003,
+    report_port: Annotated[int, typer.Option(help="Develop report port, read for the mode.")] = DEVELOP_PORT,
     wait: Annotated[float, typer.Option(
         help="Readiness probe: retry for up to this many seconds until the control box answers on "
              "its command port (a protocol reply, not just an open port).")] = 0.0,
@@ -341,21 +346,24 @@ def _admin(host: str, port: int, admin_port: int | None, cmd: str, **args: Any) 
 
 
 @inject_app.command("estop")
-def inject_estop(host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None) -> None:
+def inject_estop(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
+                 admin_port: AdminPortOpt = None) -> None:
     """Press the emergency stop (error C1)."""
     _admin(host, port, admin_port, "estop")
 
 
 @inject_app.command("error")
 def inject_error(code: Annotated[str, typer.Argument(help="Control box error, e.g. C31 (manual 3.2.1).")],
-                 host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None) -> None:
+                 host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
+                 admin_port: AdminPortOpt = None) -> None:
     """Raise a control box error."""
     _admin(host, port, admin_port, "error", code=code)
 
 
 @inject_app.command("warning")
 def inject_warning(code: Annotated[str, typer.Argument(help="Warning code, e.g. 11 (manual 3.2.2).")],
-                   host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None) -> None:
+                   host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
+                   admin_port: AdminPortOpt = None) -> None:
     """Raise a control box warning."""
     _admin(host, port, admin_port, "warning", code=code)
 
@@ -363,7 +371,7 @@ def inject_warning(code: Annotated[str, typer.Argument(help="Warning code, e.g. 
 @inject_app.command("servo-error")
 def inject_servo_error(code: Annotated[str, typer.Argument(help="Servo error, e.g. S23 (manual 3.1).")],
                        joint: Annotated[int, typer.Option(help="Joint number, 1..axis.")],
-                       host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                       host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
                        admin_port: AdminPortOpt = None) -> None:
     """Raise a joint (servo) error on one joint (error C10 + joint)."""
     _admin(host, port, admin_port, "servo-error", joint=joint, code=code)
@@ -371,14 +379,14 @@ def inject_servo_error(code: Annotated[str, typer.Argument(help="Servo error, e.
 
 @inject_app.command("gripper-error")
 def inject_gripper_error(code: Annotated[str, typer.Argument(help="Gripper error, e.g. G11 (manual 3.3).")],
-                         host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                         host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
                          admin_port: AdminPortOpt = None) -> None:
     """Raise a gripper error."""
     _admin(host, port, admin_port, "gripper-error", code=code)
 
 
 @inject_app.command("end-module-lost")
-def inject_end_module_lost(host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+def inject_end_module_lost(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
                            admin_port: AdminPortOpt = None) -> None:
     """The end module stops answering (error C28)."""
     _admin(host, port, admin_port, "end-module-lost")
@@ -387,7 +395,7 @@ def inject_end_module_lost(host: HostOpt = "127.0.0.1", port: PortOpt = 502,
 @inject_app.command("collision")
 def inject_collision(joint: Annotated[int, typer.Option(help="Joint number, 1..axis.")],
                      torque: Annotated[float, typer.Option(help="External torque on that joint, N m.")],
-                     host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                     host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
                      admin_port: AdminPortOpt = None) -> None:
     """Push on a joint: error C31 when the collision sensitivity (register 37) detects the torque."""
     _admin(host, port, admin_port, "collision", joint=joint, torque=torque)
@@ -395,7 +403,7 @@ def inject_collision(joint: Annotated[int, typer.Option(help="Joint number, 1..a
 
 @inject_app.command("report-pause")
 def inject_report_pause(duration: Annotated[str, typer.Argument(help="e.g. 2s, 500ms.")],
-                        host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                        host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
                         admin_port: AdminPortOpt = None) -> None:
     """Stop the report streams for a while (wall time)."""
     _admin(host, port, admin_port, "report-pause", seconds=duration)
@@ -403,21 +411,21 @@ def inject_report_pause(duration: Annotated[str, typer.Argument(help="e.g. 2s, 5
 
 @inject_app.command("reply-delay")
 def inject_reply_delay(duration: Annotated[str, typer.Argument(help="e.g. 50ms; 0 switches it off.")],
-                       host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+                       host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
                        admin_port: AdminPortOpt = None) -> None:
     """Delay every command reply."""
     _admin(host, port, admin_port, "reply-delay", seconds=duration)
 
 
 @inject_app.command("drop-clients")
-def inject_drop_clients(host: HostOpt = "127.0.0.1", port: PortOpt = 502,
+def inject_drop_clients(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
                         admin_port: AdminPortOpt = None) -> None:
     """Close every command and report connection."""
     _admin(host, port, admin_port, "drop-clients")
 
 
 @app.command()
-def clear(host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None) -> None:
+def clear(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT, admin_port: AdminPortOpt = None) -> None:
     """Clear every injected fault, the reply delay and the report pause (admin channel)."""
     _admin(host, port, admin_port, "clear")
 
@@ -428,7 +436,7 @@ def set_input(
                                              "serve --vacuum: 1 an object seals the cup, 0 none).")],
     index: Annotated[int, typer.Argument(help="Input number.")],
     value: Annotated[float, typer.Argument(help="0/1 for digital inputs, volts for analog ones.")],
-    host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None,
+    host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT, admin_port: AdminPortOpt = None,
 ) -> None:
     """Play a sensor input: `set-input cgpio 3 1`, `set-input tgpio 0 1`, `set-input analog 1 5.0`."""
     _admin(host, port, admin_port, "set-input", kind=kind, index=index, value=value)
@@ -437,7 +445,7 @@ def set_input(
 @app.command()
 def step(
     duration: Annotated[str, typer.Argument(help="Controller time to run, e.g. 0.5s, 40ms.")],
-    host: HostOpt = "127.0.0.1", port: PortOpt = 502, admin_port: AdminPortOpt = None,
+    host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT, admin_port: AdminPortOpt = None,
 ) -> None:
     """Lockstep: run an emulator started with `serve --stepped --admin` for this much controller time."""
     _admin(host, port, admin_port, "step", seconds=duration)

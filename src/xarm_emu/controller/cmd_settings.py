@@ -20,6 +20,7 @@ from .core import (
 )
 from .settings import (
     COLLISION_SENSITIVITY_RANGE,
+    MOTION_LIMITS,
     TEACH_SENSITIVITY_RANGE,
     Settings,
     boundary_ok,
@@ -33,13 +34,12 @@ class SettingCommands(ControllerCore):
 
     def register_handlers(self) -> dict[int, Handler]:
         h = super().register_handlers()
-        model = self.model
         h.update({
             5: lambda v: {"tau_or_i": int(self.settings.report_current)},
-            31: self._setter("tcp_jerk", "jerk", model.max_tcp_jerk),
-            32: self._setter("tcp_maxacc", "maxacc", model.max_tcp_acc),
-            33: self._setter("joint_jerk", "jerk", model.max_joint_jerk),
-            34: self._setter("joint_maxacc", "maxacc", model.max_joint_acc),
+            31: self._setter("tcp_jerk", "jerk"),
+            32: self._setter("tcp_maxacc", "maxacc"),
+            33: self._setter("joint_jerk", "jerk"),
+            34: self._setter("joint_maxacc", "maxacc"),
             35: self._h_tcp_offset,
             36: self._h_tcp_load,
             37: self._sensitivity("collision_sensitivity", COLLISION_SENSITIVITY_RANGE),
@@ -58,10 +58,12 @@ class SettingCommands(ControllerCore):
         return h
 
     # parameters
-    def _setter(self, name: str, key: str, hi: float) -> Handler:
+    def _setter(self, name: str, key: str) -> Handler:
         """Registers 31-34: a jerk or maximum acceleration within Table 1.2 (manual 1.3), above 0:
         the table's lower bound 0 would leave no motion to plan, so it is refused like any value out
         of range (warning 12)."""
+        hi = getattr(self.model, MOTION_LIMITS[name])
+
         def set_value(v: Values) -> dict[str, Any]:
             value = v[key]
             if not (in_range(value, hi) and value > 0.0):

@@ -207,7 +207,7 @@ class ControllerCore:
                 values = reg.request.decode(params)
             except LayoutError as exc:
                 raise ParameterError(str(exc)) from exc
-            if not (reg.flags & regs.Flag.ANY_FLOAT or all_within(values, PARAMETER_LIMIT)):
+            if code in regs.FLOAT_CHECKED and not all_within(values, PARAMETER_LIMIT):
                 raise ParameterError(f"a float parameter is not finite or exceeds {PARAMETER_LIMIT:g}")
             result = handler(values)
             if result is not None:

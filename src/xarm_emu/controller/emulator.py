@@ -42,13 +42,19 @@ def _bits(flags: list[bool]) -> int:
     return out
 
 
+#: Robot serial number of each model unless one is given: two letters and four digits, as the
+#: version string of register 1 carries it (research note section 5.1; the digits >= 1300 matter to
+#: the SDK only for the control box).
+DEFAULT_ROBOT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
+
+
 class Emulator:
     """One emulated xArm control box (controller, peripherals, configuration)."""
 
     def __init__(self, model: int | RobotModel = 6, *, robot_sn: str | None = None, box_sn: str = "AC1300",
                  config_dir: Path | None = None, load_config: bool = True, vacuum: bool = False) -> None:
         self.model = get_model(model) if isinstance(model, int) else model
-        sn = robot_sn or {5: "XF1300", 6: "XI1300", 7: "XS1300"}.get(self.model.dof, "XI1300")
+        sn = robot_sn or DEFAULT_ROBOT_SN.get(self.model.dof, DEFAULT_ROBOT_SN[6])
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD)
         box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
         # Control boxes with SN >= 1300 have 16 digital IO (research note section 5.1).

@@ -21,6 +21,12 @@ COLLISION_SENSITIVITY_RANGE = (0, 5)  # section 1.5
 TEACH_SENSITIVITY_RANGE = (1, 5)
 
 
+#: The settings of registers 31-34 and the model maximum each starts at and may not exceed
+#: (manual 1.3 Table 1.2).
+MOTION_LIMITS = {"tcp_jerk": "max_tcp_jerk", "tcp_maxacc": "max_tcp_acc",
+                 "joint_jerk": "max_joint_jerk", "joint_maxacc": "max_joint_acc"}
+
+
 def in_range(value: float, hi: float, lo: float = 0.0) -> bool:
     """True when value is finite and within [lo, hi]."""
     return math.isfinite(value) and lo <= value <= hi
@@ -51,8 +57,7 @@ class Settings:
     @classmethod
     def for_model(cls, model: RobotModel) -> Settings:
         """Defaults of a freshly configured control box for ``model``."""
-        return cls(tcp_jerk=model.max_tcp_jerk, tcp_maxacc=model.max_tcp_acc,
-                   joint_jerk=model.max_joint_jerk, joint_maxacc=model.max_joint_acc)
+        return cls(**{name: getattr(model, limit) for name, limit in MOTION_LIMITS.items()})
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -120,10 +125,8 @@ def _plausible(key: str, value: Any, model: RobotModel) -> bool:
     if key == "tcp_load":
         return (0.0 <= value[0] <= model.rated_payload
                 and all(abs(c) <= model.payload_com_limit for c in value[1:]))
-    limits = {"tcp_jerk": model.max_tcp_jerk, "tcp_maxacc": model.max_tcp_acc,
-              "joint_jerk": model.max_joint_jerk, "joint_maxacc": model.max_joint_acc}
-    if key in limits:
-        return 0.0 < value <= limits[key]
+    if key in MOTION_LIMITS:
+        return 0.0 < value <= getattr(model, MOTION_LIMITS[key])
     if key == "collision_sensitivity":
         return in_range(value, COLLISION_SENSITIVITY_RANGE[1], COLLISION_SENSITIVITY_RANGE[0])
     if key == "teach_sensitivity":

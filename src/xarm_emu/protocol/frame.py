@@ -17,6 +17,8 @@ HEADER_SIZE = HEADER.size  # 6
 
 PROTOCOL_STANDARD = 0  # standard Modbus TCP (SDK section 3.9)
 PROTOCOL_HEARTBEAT = 1  # SDK heartbeat, never answered
+#: The control box command port (manual section 2.1.1).
+COMMAND_PORT = 502
 PROTOCOL_PRIVATE = 2  # manual section 2.1.2: "0x00 0x02 Control"
 PROTOCOL_PRIVATE_V3 = 3  # SDK after its report thread starts (firmware >= 1.8.6)
 PRIVATE_PROTOCOLS = frozenset({PROTOCOL_PRIVATE, PROTOCOL_PRIVATE_V3})

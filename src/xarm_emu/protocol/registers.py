@@ -321,5 +321,16 @@ BY_NAME: dict[str, Register] = {r.name: r for r in _TABLE}
 assert len(REGISTERS) == len(_TABLE) and len(BY_NAME) == len(_TABLE), "duplicate register code or name"
 
 
+def _has_floats(layout: Layout) -> bool:
+    options = getattr(layout, "options", None) or (layout,)
+    return any(f.kind == "fp32" for opt in options for f in opt.fields)
+
+
+#: Registers whose float parameters the controller checks for NaN, infinities and absurd magnitudes:
+#: every register with an fp32 request field unless it is flagged ANY_FLOAT.
+FLOAT_CHECKED: frozenset[int] = frozenset(
+    r.code for r in _TABLE if _has_floats(r.request) and not r.flags & Flag.ANY_FLOAT)
+
+
 def get(code: int) -> Register | None:
     return REGISTERS.get(code)

@@ -322,32 +322,29 @@ def _unpack_rich(data: bytes, s: ReportSnapshot) -> None:
     s.output_functions = f[8:16] + f[24:32]
 
 
+def _decode(data: bytes, size: int, kind: str,
+            parts: tuple[Callable[[bytes, ReportSnapshot], None], ...]) -> ReportSnapshot:
+    _check(data, size, kind)
+    s = ReportSnapshot()
+    for unpack in parts:
+        unpack(data, s)
+    return s
+
+
 def decode_develop(data: bytes) -> ReportSnapshot:
     """Read a REPORT_TCP_DEVELOP frame (or the develop prefix of a longer frame whose
     length field matches its size). Fields the frame lacks keep their defaults."""
-    _check(data, DEVELOP_SIZE, "develop")
-    s = ReportSnapshot()
-    _unpack_develop(data, s)
-    return s
+    return _decode(data, DEVELOP_SIZE, "develop", (_unpack_develop,))
 
 
 def decode_normal(data: bytes) -> ReportSnapshot:
     """Read a REPORT_TCP_NORMAL frame (section 2.1.6)."""
-    _check(data, NORMAL_SIZE, "normal")
-    s = ReportSnapshot()
-    _unpack_develop(data, s)
-    _unpack_normal(data, s)
-    return s
+    return _decode(data, NORMAL_SIZE, "normal", (_unpack_develop, _unpack_normal))
 
 
 def decode_rich(data: bytes) -> ReportSnapshot:
     """Read a REPORT_TCP_RICH frame of at least 433 bytes (section 2.1.6); bytes beyond are ignored."""
-    _check(data, RICH_SIZE, "rich")
-    s = ReportSnapshot()
-    _unpack_develop(data, s)
-    _unpack_normal(data, s)
-    _unpack_rich(data, s)
-    return s
+    return _decode(data, RICH_SIZE, "rich", (_unpack_develop, _unpack_normal, _unpack_rich))
 
 
 #: Report port -> encoder, for the server.

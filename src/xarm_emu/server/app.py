@@ -30,6 +30,7 @@ from ..controller.base import PERIOD
 from ..controller.emulator import Emulator
 from ..protocol import reports
 from ..protocol.frame import (
+    COMMAND_PORT,
     MAX_LENGTH,
     PRIVATE_PROTOCOLS,
     PROTOCOL_HEARTBEAT,
@@ -58,7 +59,7 @@ REPORT_SNDBUF = 32 * 1024
 @dataclass
 class ServerConfig:
     host: str = "127.0.0.1"
-    port: int = 502
+    port: int = COMMAND_PORT
     normal_port: int = reports.NORMAL_PORT
     rich_port: int = reports.RICH_PORT
     develop_port: int = reports.DEVELOP_PORT

@@ -37,12 +37,12 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from ..controller.emulator import DEFAULT_ROBOT_SN
 from ..model.robots import MODELS
 from .admin import admin_host, derive_admin_port
 from .app import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
-_DEFAULT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
 ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "trace", "faults")
 TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k not in ("robot_sn", "trace")))
@@ -133,7 +133,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
             raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
     sn = values.get("robot_sn")
     if sn is None:
-        sn = _DEFAULT_SN[model]
+        sn = DEFAULT_ROBOT_SN[model]
         while sn in taken:
             sn = f"{sn[:2]}{int(sn[2:]) + 1:04d}"
     elif not isinstance(sn, str) or not _SN.fullmatch(sn):
