@@ -74,6 +74,10 @@ class Emulator:
         self.config_dir = config_dir
         self.config_message: str | None = None
         self._store: Any = None
+        #: Changes whenever anything a register or a report could show may have changed (every
+        #: command, control period and change from outside the protocol), so readers can key
+        #: derived values on it instead of being told to forget them.
+        self.generation = 0
         if config_dir is not None:
             self._attach_store(Path(config_dir), load_config)
 
@@ -109,10 +113,16 @@ class Emulator:
 
     # -- protocol ------------------------------------------------------------------------------
     def handle(self, code: int, params: bytes) -> tuple[int, bytes]:
+        self.generation += 1
         return self.controller.handle(code, params)
+
+    def touch(self) -> None:
+        """Mark the state as changed from outside a command or a step (injection, test code)."""
+        self.generation += 1
 
     def step(self, n: int = 1) -> None:
         ctl = self.controller
+        self.generation += 1
         for _ in range(n):
             ctl.step()
             if ctl.steps % THERMAL_EVERY == 0:
@@ -209,22 +219,26 @@ class Emulator:
     # -- fault injection and inputs from outside (issue 5; the admin channel calls these) ----
     def inject_error(self, code: int) -> None:
         """Raise control box error C<code> exactly as the natural cause would (section 3.2.1)."""
+        self.generation += 1
         if not 1 <= code <= 255:
             raise ValueError(f"error code {code} out of range 1..255")
         self.controller.raise_error(code)
 
     def inject_estop(self) -> None:
         """The emergency stop button: error C1, joints disabled until re-enabled."""
+        self.generation += 1
         self.controller.raise_error(C_ESTOP)
 
     def inject_warning(self, code: int) -> None:
         """Set warning ``code`` (section 3.2.2); nothing else changes."""
+        self.generation += 1
         if not 1 <= code <= 255:
             raise ValueError(f"warning code {code} out of range 1..255")
         self.controller.raise_warning(code)
 
     def inject_servo_error(self, joint: int, code: int) -> None:
         """A joint (servo) error S<code> on ``joint`` (1-based, section 3.1): error C10+joint."""
+        self.generation += 1
         ctl = self.controller
         if not 1 <= joint <= ctl.dof:
             raise ValueError(f"joint {joint} out of range 1..{ctl.dof}")
@@ -235,10 +249,12 @@ class Emulator:
 
     def inject_gripper_error(self, code: int) -> None:
         """A gripper error G<code> (section 3.3), read through the gripper's error register."""
+        self.generation += 1
         self.gripper.gripper.inject_error(code)
 
     def inject_end_module_lost(self) -> None:
         """The end module stops answering: error C28 (end module communication)."""
+        self.generation += 1
         self.controller.raise_error(C_END_MODULE)
 
     def inject_collision(self, joint: int, torque: float) -> bool:
@@ -248,6 +264,7 @@ class Emulator:
         threshold of the collision sensitivity (register 37; ``safety.COLLISION_THRESHOLDS``);
         sensitivity 0 switches detection off. Returns whether it was detected.
         """
+        self.generation += 1
         ctl = self.controller
         if not 1 <= joint <= ctl.dof:
             raise ValueError(f"joint {joint} out of range 1..{ctl.dof}")
@@ -262,6 +279,7 @@ class Emulator:
 
     def clear_faults(self) -> None:
         """Clear every injected fault at once (errors, warnings, servo and gripper errors)."""
+        self.generation += 1
         ctl = self.controller
         ctl.error_code = 0
         ctl.warning_code = 0
@@ -271,6 +289,7 @@ class Emulator:
     def set_input(self, kind: str, index: int, value: float) -> None:
         """Play a sensor: ``cgpio``/``tgpio`` digital inputs (0/1), ``analog`` (control box, V),
         ``tool-analog`` (V), or ``vacuum-object`` 0 (1: an object seals the vacuum cup, 0: none)."""
+        self.generation += 1
         self.check_input(kind, index)
         if kind == "vacuum-object":
             assert self.vacuum is not None

@@ -334,8 +334,6 @@ class AdminProtocol(asyncio.Protocol):
             message = execute(self.server, request)
         except AdminError as exc:
             return {"ok": False, "error": str(exc)}
-        finally:
-            self.server.invalidate()
         log.info("admin: %s", message)
         return {"ok": True, "message": message}
 

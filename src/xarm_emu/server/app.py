@@ -206,7 +206,8 @@ class EmulatorServer:
         # Set to a dict to record each report frame's send time (time.perf_counter(); benchmarks).
         self.frame_times: dict[str, list[float]] | None = None
         self._stopped = asyncio.Event()
-        self._read_cache: dict[int, bytes] = {}  # register -> reply frame after tid and protocol
+        #: register -> (emulator generation, reply frame after tid and protocol)
+        self._read_cache: dict[int, tuple[int, bytes]] = {}
         self._loop: asyncio.AbstractEventLoop | None = None
         self._ticker: Ticker | None = None
         self.viewer: Viewer | None = None
@@ -300,24 +301,24 @@ class EmulatorServer:
             return 0
         n = self.clock.due(loop.time(), MAX_CATCH_UP)
         if n:
-            self._read_cache.clear()
             self.emulator.step(n)
         return n
 
     def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "") -> bytes:
         """The reply frame to one private-protocol request (manual 2.1.2)."""
         self.catch_up()
-        cache = self._read_cache
+        emu = self.emulator
         if not params and register in PURE_READS:
-            tail = cache.get(register)
-            if tail is None:
-                state, reply = self.emulator.handle(register, params)
+            hit = self._read_cache.get(register)
+            if hit is not None and hit[0] == emu.generation:
+                tail = hit[1]
+            else:
+                state, reply = emu.handle(register, params)
                 tail = encode_reply(0, 0, register, state, reply)[4:]
-                cache[register] = tail
+                self._read_cache[register] = (emu.generation, tail)
             frame = _TID_PROT.pack(tid & 0xFFFF, protocol) + tail
         else:
-            cache.clear()
-            state, reply = self.emulator.handle(register, params)
+            state, reply = emu.handle(register, params)
             frame = encode_reply(tid, protocol, register, state, reply)
         if self.trace is not None:
             self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
@@ -328,12 +329,7 @@ class EmulatorServer:
         number of periods run."""
         n = max(0, round(seconds / PERIOD))
         self.emulator.step(n)
-        self._read_cache.clear()
         return n
-
-    def invalidate(self) -> None:
-        """Forget cached reads: call after changing the emulator outside a command (injection)."""
-        self._read_cache.clear()
 
     async def _control_loop(self) -> None:
         """Keep controller time up with the wall clock while nobody asks (see :meth:`catch_up`)."""
@@ -508,7 +504,7 @@ class ServerThread:
             try:
                 return fn()
             finally:
-                self.server.invalidate()
+                self.server.emulator.touch()
 
         return asyncio.run_coroutine_threadsafe(wrapper(), self.loop).result(10)
 

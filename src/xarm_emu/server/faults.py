@@ -95,7 +95,6 @@ def _logged(server: EmulatorServer, i: int, action: Any) -> Any:
         except AdminError as exc:
             log.warning("fault %d at t = %.3f s refused: %s", i, server.emulator.time, exc)
             return
-        server.invalidate()
         log.info("fault %d at t = %.3f s: %s", i, server.emulator.time, message)
 
     return run
