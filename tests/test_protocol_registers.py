@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from xarm_emu.protocol import frame
-from xarm_emu.protocol.layouts import Layout, LayoutError, OneOf
+from xarm_emu.protocol.layouts import Field, Layout, LayoutError, OneOf
 from xarm_emu.protocol.registers import BY_NAME, CMDNUM_REPLY, REGISTERS, Flag, get
 
 PI = math.pi
@@ -512,9 +512,20 @@ def test_layout_roundtrip_random_bytes(name: str, layout: Layout, size: int, dat
         assert out == raw
 
 
-def test_one_of_options_do_not_overlap() -> None:
-    for reg in REGISTERS.values():
-        for layout in (reg.request, reg.reply):
-            if isinstance(layout, OneOf):
-                sizes = [n for o in layout.options for n in o.sizes()]
-                assert len(sizes) == len(set(sizes)), reg.code
+def test_one_of_refuses_options_that_overlap_in_size() -> None:
+    """A OneOf tells its options apart by byte count, so two options of one size are refused when
+    the layout is built, whether the clash is a full size or the size an optional tail leaves."""
+    one_word = Layout((Field("a", "fp32"),))
+    two_words = Layout((Field("a", "fp32"), Field("b", "fp32")))
+    optional_second = Layout((Field("a", "fp32"), Field("b", "fp32")), required=1)
+    with pytest.raises(ValueError, match=r"overlap in size: \[4\]"):
+        OneOf(options=(one_word, one_word))
+    with pytest.raises(ValueError, match=r"overlap in size: \[8\]"):
+        OneOf(options=(two_words, optional_second, one_word))
+    with pytest.raises(ValueError, match=r"overlap in size: \[4\]"):
+        OneOf(options=(optional_second, one_word))
+    with pytest.raises(ValueError, match="raw tail"):
+        OneOf(options=(one_word, Layout((Field("a", "u8"),), rest="data")))
+    apart = OneOf(options=(one_word, Layout((Field("a", "u8"), Field("b", "fp32"), Field("c", "fp32")))))
+    assert apart.sizes() == [4, 9]
+    assert apart.option_for(4) is one_word and not apart.accepts(8)
