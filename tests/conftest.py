@@ -152,7 +152,9 @@ def server(make_server: ServerFactory) -> ServerThread:
 @pytest.fixture
 def sdk_arm() -> Iterator[Callable[..., Any]]:
     """``sdk_arm(server, report_type='rich', **kwargs)``: the official XArmAPI connected to ``server``
-    through :func:`xarm_emu.testing.sdk_pointed_at`; disconnected and restored at teardown."""
+    through :func:`xarm_emu.testing.sdk_pointed_at`; disconnected (in the background) and the SDK's
+    configuration restored at teardown. For SDK test modules only: their leak check waits at the
+    module's end for the disconnects to finish."""
     from xarm.wrapper import XArmAPI
 
     from xarm_emu.testing import sdk_pointed_at
@@ -169,8 +171,15 @@ def sdk_arm() -> Iterator[Callable[..., Any]]:
 
         yield factory
         for arm in arms:
-            with contextlib.suppress(Exception):
-                arm.disconnect()
+            # The SDK's disconnect closes its sockets, then joins its threads, which notice the
+            # close about a second later; that wait runs in the background while the next test
+            # does, and the end-of-module leak check makes sure it finished.
+            threading.Thread(target=_disconnect, args=(arm,), name="sdk-disconnect", daemon=True).start()
+
+
+def _disconnect(arm: Any) -> None:
+    with contextlib.suppress(Exception):
+        arm.disconnect()
 
 
 SharedArm = Callable[..., tuple[Any, ServerThread]]
