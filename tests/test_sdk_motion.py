@@ -1,9 +1,9 @@
-"""The official SDK's motion calls against the emulator server (issue 4, "What must be true").
+"""The official SDK's motion calls against the emulator server.
 
 Moves end on their targets with ``wait=True`` and ``wait=False``; durations match an ideal jerk-limited
 profile (ruckig with the same limits); lines, blended corners and circles keep their geometry in the
 develop report (manual 2.1.6, port 30003, 100 Hz); states 3 and 4 (register 12), go home (25), servo
-mode (19, 29), bad input and errors (manual 2.1.3, chapter 3; research note section 4.2).
+mode (19, 29), bad input and errors (manual 2.1.3, chapter 3; the SDK's codes for the reply state bits).
 
 Timing: the server runs ``speed`` controller seconds per wall second; controller time = wall time x speed.
 """
@@ -476,7 +476,7 @@ def _nothing_queued_nothing_moves(st: ServerThread, arm: Any) -> None:
 
 
 def test_nan_speed_and_negative_acceleration_refused(make_server, sdk_arm) -> None:
-    """Warning 12 (parameter error), nothing queued, nothing moves (issue 4, Table 1.2)."""
+    """Warning 12 (parameter error), nothing queued, nothing moves (manual Table 1.2)."""
     st = make_server(speed=5.0)
     arm = sdk_arm(st, report_type="real")
     ready(arm)
