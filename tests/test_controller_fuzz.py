@@ -1,4 +1,4 @@
-"""Every register with random parameters (issue 2, "bad input"): the controller answers each with
+"""Every register with random parameters (bad input): the controller answers each with
 a well-formed reply and a clear warning or state, never an unexpected exception, and keeps
 stepping. ``strict`` makes any unexpected exception fail the test instead of being logged."""
 
@@ -77,9 +77,17 @@ def test_wrong_length_of_every_register_is_warning_12(code: int) -> None:
     assert call(emu, 15)[1]["warning"] == 12
 
 
-@pytest.mark.parametrize("code", CODES)
+# Left out of the sweep: register 10 (system control) shuts the box down or reboots it, and
+# registers 39/40 remove or write the saved configuration files; test_controller_config.py and the
+# server tests cover them with a configuration directory of their own.
+SWEPT = [code for code in CODES if code not in (10, 39, 40)]
+
+
+@pytest.mark.parametrize("code", SWEPT)
 def test_every_accepted_size_of_every_register_with_random_values(code: int) -> None:
-    """Deterministic sweep: each accepted parameter size, 20 random payloads, from a ready arm."""
+    """Deterministic sweep: each accepted parameter size, 20 random payloads, from a ready arm. Each
+    reply has a size the register's reply layout accepts, the warning bit (0x20) is set exactly
+    when the controller holds a warning code (register 15), and the arm still reports a state."""
     import random
 
     rng = random.Random(code)
@@ -95,9 +103,9 @@ def test_every_accepted_size_of_every_register_with_random_values(code: int) -> 
                 raw = struct.pack(f"<{len(floats)}f", *floats) + tail
             else:
                 raw = bytes(rng.randrange(256) for _ in range(size))
-            if code in (10, 39, 40):
-                continue
             state, reply = emu.handle(code, raw)
-            if reply:
-                assert REGISTERS[code].reply.accepts(len(reply)), (code, size, raw)
+            assert REGISTERS[code].reply.accepts(len(reply)), (code, size, raw)
+            warning = call(emu, 15)[1]["warning"]
+            assert bool(state & 0x20) == (warning != 0), (code, size, raw, state, warning)
             emu.step(3)
+            assert call(emu, 13)[1]["state"] in (1, 2, 3, 4, 5), (code, size, raw)

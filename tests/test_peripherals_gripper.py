@@ -1,4 +1,4 @@
-"""The simulated xArm Gripper through register 124 PDUs as the SDK sends them (research note 3.4),
+"""The simulated xArm Gripper through register 124 PDUs as the SDK sends them (manual section 3.3),
 and the Modbus-RTU codec's handling of malformed data."""
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ from xarm_emu.controller.gripper import (
     G_POSITION_DEVIATION,
     G_SOFT_LIMIT,
     G_SPEED_OVERLIMIT,
-    SPEED_TO_PULSES,
     GripperModule,
     XArmGripper,
 )
@@ -62,12 +61,14 @@ def test_enable_speed_move_reaches_target_in_predicted_time() -> None:
     write(mod, 0x0303, 5000)
     assert set_position(mod, 400) == bytes.fromhex("08 10 07 00 00 02")
     assert read(mod, 0x000F) == (0,)
-    predicted = 400 / (5000 * SPEED_TO_PULSES)  # s; 0.4706 with 0.17 pulse/s per r/min
-    assert predicted == pytest.approx(400 / 850)
-    view, t, steps = View(), 0.0, 0
+    # Speed 5000 r/min crosses the whole 0..850 stroke in 1 s, so 400 pulses take 400/850 s.
+    predicted = 400 / 850
+    view, t, steps, last = View(), 0.0, 0, -1
     assert read(mod, 0x0000)[0] & 0x03 == 1  # moving
     while read(mod, 0x0000)[0] & 0x03 == 1:  # arrival = the status leaves "moving"
-        assert position(mod) < 400 or mod.gripper.position < 400
+        now = position(mod)
+        assert last < now < 400  # short of the target and advancing on every period
+        last = now
         mod.step(PERIOD, view)
         t += PERIOD
         steps += 1
@@ -84,7 +85,7 @@ def test_enable_speed_move_reaches_target_in_predicted_time() -> None:
         mod.step(PERIOD, view)
         n += 1
     assert position(mod) == 0
-    assert n == math.ceil(400 / (1500 * SPEED_TO_PULSES) / PERIOD)
+    assert n == math.ceil(400 / 850 * (5000 / 1500) / PERIOD)  # the time scales as 1 / speed
 
 
 def test_full_range_at_speed_5000_takes_a_second() -> None:
@@ -220,7 +221,7 @@ def test_fuzzed_rtu_always_answers(pdu: bytes) -> None:
 
 
 def test_position_without_a_speed_first_moves_at_the_power_on_speed() -> None:
-    from xarm_emu.controller.gripper import DEFAULT_SPEED, SPEED_TO_PULSES, XArmGripper
+    from xarm_emu.controller.gripper import DEFAULT_SPEED, XArmGripper
 
     g = XArmGripper()
     g.set_enable(1)
@@ -230,4 +231,4 @@ def test_position_without_a_speed_first_moves_at_the_power_on_speed() -> None:
         g.step(0.004)
         steps += 1
     assert g.position == 500
-    assert steps * 0.004 == pytest.approx(500 / (DEFAULT_SPEED * SPEED_TO_PULSES), abs=0.008)
+    assert steps * 0.004 == pytest.approx(500 / 850 * (5000 / DEFAULT_SPEED), abs=0.008)

@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from xarm_emu.protocol import frame
-from xarm_emu.protocol.layouts import Layout, LayoutError, OneOf
+from xarm_emu.protocol.layouts import Field, Layout, LayoutError, OneOf
 from xarm_emu.protocol.registers import BY_NAME, CMDNUM_REPLY, REGISTERS, Flag, get
 
 PI = math.pi
@@ -202,8 +202,8 @@ EXAMPLES: list[Example] = [
     # ---- 2.1.4: peripherals ---------------------------------------------------------------------
     # Register 124's reply tables in the manual have no State byte, and their lengths do not count
     # one (e.g. 0x0008 = register + 7 RTU bytes). Every other reply of the manual carries a state
-    # byte, and the SDK parses 124's replies the same way (state byte, then host id and RTU data:
-    # research note 3.1 and 3.4). The test trusts the SDK: it inserts state 0x00 and adds 1 to the
+    # byte, and the SDK parses 124's replies the same way (state byte, then host id and RTU data).
+    # The test trusts the SDK: it inserts state 0x00 and adds 1 to the
     # length. The RTU bytes are opaque to the register table (rtu.py interprets them), including the
     # manual's RTU misprints (mode reply echoing 0x0100, position read with function code 0x10).
     Example("124-enable", 124, "0001 0002 000B 7C 09 0810 0100 0001 02 0001",
@@ -317,7 +317,7 @@ def test_manual_example_reply(ex: Example) -> None:
 
 def test_manual_example_1_version_reply_length_is_a_misprint() -> None:
     # The manual prints register 1's reply with length 0x0002, i.e. no version string at all. The
-    # SDK needs 40 NUL-padded bytes (research note 3.2), so the table trusts the SDK: the manual's
+    # SDK needs 40 NUL-padded bytes (it slices the reply), so the table trusts the SDK: the manual's
     # reply does not fit, the request does, and a 40-byte version reply encodes to length 0x002A.
     assert frame.decode_request(h("0001 0002 0001 01")).register == 1
     reg = REGISTERS[1]
@@ -334,8 +334,8 @@ def test_manual_example_44_fk_reply() -> None:
     # Register 44's reply labels z=112 mm and yaw=-pi/3, but its bytes are z=80.002 and yaw=+pi/3.
     # z: the label is right (joint 1 alone cannot change z; register 41's example shows z=112 at
     # the zero pose), so the z bytes are a misprint. yaw: the bytes are right (rotating joint 1 by
-    # +pi/3 turns the tool by +pi/3; the vendor's own float32 result is +1.0471976, research note
-    # kinematics.md). The test checks the request exactly, the reply bytes round-trip, the
+    # +pi/3 turns the tool by +pi/3; the vendor's own float32 result is +1.0471976).
+    # The test checks the request exactly, the reply bytes round-trip, the
     # trustworthy fields match, and the labelled z encodes to 112's bytes.
     req = frame.decode_request(h("0001 0002 001D 2C 920A863F" + ZJ6))
     assert REGISTERS[44].request.decode(req.params) == {"joints": pytest.approx(J_PI3)}
@@ -411,7 +411,7 @@ def test_robot_sn_reply_keeps_both_serials() -> None:
     (43, P_400 + "00", {"pose": V_400, "limited": 0}),
     (127, "09 0A15 00808043 01", {"host": 9, "addr": 0x0A15, "value": 257.0, "sync": 1}),
     (134, "0404", {"digital": 0x0404}),
-    (134, "0404 01", {"digital": 0x0404, "sync": 1}),  # research note 3.5, verified bytes
+    (134, "0404 01", {"digital": 0x0404, "sync": 1}),  # the SDK's bytes
     (134, "0000 0101", {"digital": 0, "digital_hi": 0x0101}),  # ionum 8
     (134, "0000 0101 01", {"digital": 0, "digital_hi": 0x0101, "sync": 1}),
     (135, "0FFF 01", {"analog": 0x0FFF, "sync": 1}),
@@ -512,9 +512,20 @@ def test_layout_roundtrip_random_bytes(name: str, layout: Layout, size: int, dat
         assert out == raw
 
 
-def test_one_of_options_do_not_overlap() -> None:
-    for reg in REGISTERS.values():
-        for layout in (reg.request, reg.reply):
-            if isinstance(layout, OneOf):
-                sizes = [n for o in layout.options for n in o.sizes()]
-                assert len(sizes) == len(set(sizes)), reg.code
+def test_one_of_refuses_options_that_overlap_in_size() -> None:
+    """A OneOf tells its options apart by byte count, so two options of one size are refused when
+    the layout is built, whether the clash is a full size or the size an optional tail leaves."""
+    one_word = Layout((Field("a", "fp32"),))
+    two_words = Layout((Field("a", "fp32"), Field("b", "fp32")))
+    optional_second = Layout((Field("a", "fp32"), Field("b", "fp32")), required=1)
+    with pytest.raises(ValueError, match=r"overlap in size: \[4\]"):
+        OneOf(options=(one_word, one_word))
+    with pytest.raises(ValueError, match=r"overlap in size: \[8\]"):
+        OneOf(options=(two_words, optional_second, one_word))
+    with pytest.raises(ValueError, match=r"overlap in size: \[4\]"):
+        OneOf(options=(optional_second, one_word))
+    with pytest.raises(ValueError, match="raw tail"):
+        OneOf(options=(one_word, Layout((Field("a", "u8"),), rest="data")))
+    apart = OneOf(options=(one_word, Layout((Field("a", "u8"), Field("b", "fp32"), Field("c", "fp32")))))
+    assert apart.sizes() == [4, 9]
+    assert apart.option_for(4) is one_word and not apart.accepts(8)

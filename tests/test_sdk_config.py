@@ -1,4 +1,4 @@
-"""The official SDK's configuration and torque calls against the emulator (issue 7, "What must be true").
+"""The official SDK's configuration and torque calls against the emulator.
 
 ``set_tcp_load`` (36), ``set_gravity_direction`` (51), ``set_tcp_offset`` (35), ``set_collision_sensitivity``
 (37), ``save_conf`` (40) survive a restart on the same configuration directory and come back in the report
@@ -19,7 +19,7 @@ from helpers import wait_for
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerThread
 
-G = 9.81  # m/s2, the emulator's documented gravity (issue 7)
+G = 9.81  # m/s2, the emulator's documented gravity
 
 
 
@@ -102,7 +102,7 @@ def test_joint_torques_at_zero_pose_and_payload(make_server, sdk_arm, tmp_path: 
     """Register 55: gravity loads J2, J3 and J5 at the zero pose (J1, J4, J6 axes are vertical there).
 
     A 1 kg payload at the flange (centre of mass at the flange origin) adds m g times the horizontal
-    lever arm from each horizontal axis to the flange (manual 1.3 / research note: J2 axis at x = 0,
+    lever arm from each horizontal axis to the flange (manual 1.3 and the xArm6 geometry: J2 axis at x = 0,
     J3 at x = 53.5, J5 at x = 131 mm; flange at x = 207 mm): 2.0307, 1.5058 and 0.7456 N m.
     """
     arm, st = start(make_server, sdk_arm, tmp_path / "conf")

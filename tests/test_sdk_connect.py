@@ -1,11 +1,12 @@
-"""The unchanged official SDK (xarm-python-sdk 1.18.4) against the emulator server (issue 2, "What
-must be true"): connect with each report type, enable, read poses and codes, and the SDK's return
-codes for replies with the error, warning and not-ready bits (research note section 4.2)."""
+"""The unchanged official SDK (xarm-python-sdk 1.18.4) against the emulator server: connect with each
+report type, enable, read poses and codes, and the SDK's return codes for replies with the error,
+warning and not-ready bits of the reply state byte (manual section 2.1.2)."""
 
 from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import pytest
 from helpers import sdk_ready as ready
@@ -14,6 +15,22 @@ from helpers import wait_for
 from xarm_emu.server.app import ServerThread
 
 SDK_REPORT_TYPES = {"normal": "normal", "rich": "rich", "real": "develop"}
+
+
+@pytest.fixture
+def real_arm(shared_sdk_arm) -> tuple[Any, ServerThread]:
+    """The module's shared arm on 100 Hz reports at speed 5, as a fresh box leaves it: no fault,
+    joints at zero, at rest in state 2, mode 0 (the tests run the start sequence themselves)."""
+    arm, st = shared_sdk_arm(report_type="real", speed=5.0)
+    st.call(lambda: st.emulator.clear_faults())
+    assert arm.clean_warn() == 0 and arm.clean_error() == 0
+    ready(arm)
+    if st.call(lambda: any(st.emulator.joints)):
+        # register 23 through the SDK's command layer (its set_servo_angle skips a repeated target)
+        assert arm.arm.arm_cmd.move_joint([0.0] * 7, 2.0, 15.0, 0.0)[0] == 0
+    assert wait_for(lambda: st.call(lambda: [float(q) for q in st.emulator.joints]) == [0.0] * 6)
+    assert wait_for(lambda: arm.state == 2 and arm.mode == 0 and not any(arm.angles[:6]))
+    return arm, st
 
 
 
@@ -52,9 +69,8 @@ def test_sdk_version_and_serials(make_server, sdk_arm) -> None:
     assert arm.sn == version.split(",")[2]
 
 
-def test_sdk_angles_follow_the_report_after_a_move(make_server, sdk_arm) -> None:
-    st = make_server(speed=5.0)
-    arm = sdk_arm(st, report_type="real")  # 100 Hz reports: the SDK sees the end of the move quickly
+def test_sdk_angles_follow_the_report_after_a_move(real_arm) -> None:
+    arm, st = real_arm
     ready(arm)
     target = [30.0, -10.0, -20.0, 15.0, 25.0, -40.0]
     assert arm.set_servo_angle(angle=target, speed=120, mvacc=2000, wait=True) == 0
@@ -69,12 +85,11 @@ def test_sdk_angles_follow_the_report_after_a_move(make_server, sdk_arm) -> None
     assert wait_for(lambda: arm.state == 2)
 
 
-def test_sdk_return_codes_with_injected_error(make_server, sdk_arm) -> None:
-    st = make_server(speed=5.0)
-    arm = sdk_arm(st, report_type="real")
+def test_sdk_return_codes_with_injected_error(real_arm) -> None:
+    arm, st = real_arm
     ready(arm)
     st.call(lambda: st.emulator.inject_error(31))
-    # non-motion calls return 0 with the error bit set (note 4.2); the error reads back as C31
+    # non-motion calls return 0 with the error bit set (motion calls only map it); the error reads C31
     assert arm.get_err_warn_code() == (0, [31, 0])
     assert wait_for(lambda: arm.error_code == 31)
     assert arm.get_state() == (0, 4)
@@ -89,19 +104,19 @@ def test_sdk_return_codes_with_injected_error(make_server, sdk_arm) -> None:
     assert wait_for(lambda: arm.angles[0] == pytest.approx(10.0, abs=1e-3))
 
 
-def test_sdk_return_codes_with_injected_warning(make_server, sdk_arm) -> None:
-    st = make_server(speed=5.0)
-    arm = sdk_arm(st, report_type="real")
+def test_sdk_return_codes_with_injected_warning(real_arm) -> None:
+    arm, st = real_arm
     ready(arm)
     st.call(lambda: st.emulator.inject_warning(11))
     assert arm.get_err_warn_code() == (0, [0, 11])
-    # a warning changes nothing else: motion calls return 0 (note 4.2, 0x20 row)
+    # a warning changes nothing else: motion calls return 0 (the warning bit maps to no code)
     assert arm.set_servo_angle(angle=[5, 0, 0, 0, 0, 0], speed=100, wait=True) == 0
     assert arm.clean_warn() == 0
     assert arm.get_err_warn_code() == (0, [0, 0])
 
 
 def test_sdk_refuses_motion_while_not_ready(make_server, sdk_arm) -> None:
+    # an arm of its own: the SDK's code for a refused move depends on what its earlier calls left
     st = make_server(speed=5.0)
     arm = sdk_arm(st, report_type="real")
     ready(arm)
@@ -109,7 +124,7 @@ def test_sdk_refuses_motion_while_not_ready(make_server, sdk_arm) -> None:
     assert arm.arm.arm_cmd.state_is_ready
     # Disabling the motors makes the box not ready: replies carry 0x10 (the SDK's state_is_ready
     # goes False) and the state is 4 or 5, so the SDK refuses motion with NOT_READY (-2) itself. The
-    # code 9 of note 4.2 needs a 0x10 reply while the state is below 4, which this box never sends.
+    # SDK's code 9 needs a 0x10 reply while the state is below 4, which this box never sends.
     assert arm.motion_enable(False) == 0
     code, state = arm.get_state()
     assert code == 0 and state >= 4
@@ -120,9 +135,8 @@ def test_sdk_refuses_motion_while_not_ready(make_server, sdk_arm) -> None:
 
 
 
-def test_sdk_emergency_stop_leaves_state_4(make_server, sdk_arm) -> None:
-    st = make_server(speed=5.0)
-    arm = sdk_arm(st, report_type="real")
+def test_sdk_emergency_stop_leaves_state_4(real_arm) -> None:
+    arm, st = real_arm
     ready(arm)
     assert arm.set_servo_angle(angle=[90, 0, 0, 0, 0, 0], speed=20, wait=False) == 0
     assert wait_for(lambda: arm.state == 1)

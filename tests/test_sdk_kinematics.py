@@ -1,6 +1,6 @@
-"""The official SDK's kinematics calls against the emulator (issue 3, "What must be true": the SDK's
+"""The official SDK's kinematics calls against the emulator: the SDK's
 ``get_forward_kinematics``, ``get_inverse_kinematics``, ``is_joint_limit``, ``get_position_aa``,
-``set_tcp_offset`` and ``set_world_offset`` give the manual's answers; bad input never crashes the server).
+``set_tcp_offset`` and ``set_world_offset`` give the manual's answers; bad input never crashes the server.
 
 Manual sections: 2.1.3 registers 41, 42, 43 (IK example), 44 (FK example), 45, 35, 73, 91.
 """
@@ -20,9 +20,14 @@ SPEED = 5.0  # nothing here times motion; the factor only shortens settling
 
 
 @pytest.fixture
-def arm_st(make_server, sdk_arm) -> tuple[Any, ServerThread]:
-    st = make_server(speed=SPEED)
-    arm = sdk_arm(st, report_type="real")
+def arm_st(shared_sdk_arm) -> tuple[Any, ServerThread]:
+    """The module's shared arm, reset to the start state: no error or warning, TCP offset and world
+    offset zero (registers 35 and 73), then the start sequence."""
+    arm, st = shared_sdk_arm(report_type="real", speed=SPEED)
+    assert arm.clean_warn() == 0  # first: a reply carries the warning bit until the warning is gone
+    assert arm.clean_error() == 0
+    assert arm.set_tcp_offset([0] * 6, wait=False) == 0
+    assert arm.set_world_offset([0] * 6, wait=False) == 0
     assert arm.motion_enable(True) == 0
     assert arm.set_mode(0) == 0
     assert arm.set_state(0) == 0
@@ -154,11 +159,11 @@ def test_world_offset_changes_the_reported_pose(arm_st) -> None:
 
 
 def test_bad_input_does_not_crash_the_server(arm_st) -> None:
-    """NaN and infinite inputs: a warning or refusal, the server keeps answering (issue 3, bad input)."""
+    """NaN and infinite inputs: a warning or refusal, the server keeps answering (bad input)."""
     arm, st = arm_st
     nan = float("nan")
     code, _ = arm.get_forward_kinematics([nan, 0, 0, 0, 0, 0], input_is_radian=True, return_is_radian=True)
-    assert code == 0  # non-motion call: the warning bit still maps to 0 (research note 4.2)
+    assert code == 0  # non-motion call: the warning bit still maps to 0 (motion calls only)
     code, _ = arm.get_inverse_kinematics([nan, 0, 200, math.pi, 0, 0], input_is_radian=True,
                                          return_is_radian=True)
     assert code == 0

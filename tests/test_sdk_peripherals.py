@@ -1,4 +1,4 @@
-"""The official SDK's gripper and IO calls against the emulator (issue 6, "What must be true").
+"""The official SDK's gripper and IO calls against the emulator.
 
 Gripper over register 124 (Modbus-RTU to host 9, slave 8), tool IO (127/128), control box GPIO
 (131-139), delayed and position-triggered outputs (142-147), stop clearing (146); inputs played from

@@ -1,4 +1,4 @@
-"""Errors and safety through the official SDK (issue 5, "What must be true"): the safety boundary
+"""Errors and safety through the official SDK: the safety boundary
 stops the arm on it with C35, self-collision detection stops a folding move with C22 before links
 overlap, and injected C1, S23 on joint 3 and G11 show up where a real arm shows them."""
 
