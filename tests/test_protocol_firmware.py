@@ -318,3 +318,24 @@ def test_joint_states_reply_holds_three_blocks():
     assert 84 in reply.sizes() and 28 in reply.sizes()
     v = reply.decode(struct.pack("<21f", *range(21)))
     assert v["efforts"] == tuple(float(x) for x in range(14, 21))
+
+
+def test_protocol_ids():
+    from xarm_emu.protocol.frame import Request, answers, decode_reply, reply_for
+
+    assert [answers(p) for p in (0, 1, 2, 3, 4)] == [True, False, True, True, False]
+    for prot in (2, 3):
+        out = reply_for(Request(7, prot, 13, b""), 0, b"\x02")
+        assert out is not None and out.hex() == f"0007000{prot}0003" "0d0002"
+        assert decode_reply(out).protocol == prot
+    assert reply_for(Request(7, 1, 0, b""), 0) is None
+
+
+def test_float_rule_exempts_only_plus_inf():
+    from xarm_emu.protocol.layouts import all_within
+
+    v = R.registers_for(V2)[21].request.decode(struct.pack("<10f3B", 1, INF, 3, INF, INF, INF, 1, 1, 0, -1,
+                                                           0, 0, 0))
+    assert not all_within(v, 1e9) and all_within(v, 1e9, inf_unchanged=True)
+    for bad in (math.nan, -INF, 2e9):
+        assert not all_within({"pose": (bad, INF)}, 1e9, inf_unchanged=True)

@@ -11,6 +11,12 @@ big-endian. Replies are the parameters after the state byte.
 Where the SDK (claiming firmware v1.6.0) appends optional trailing bytes, the
 layout marks them optional with ``required=``; where the manual and the SDK use
 different shapes for one register, the layout is a :class:`~.layouts.OneOf`.
+
+:data:`REGISTERS` is what a box of manual V1.6.0 answers. :func:`registers_for` gives the table of
+another firmware profile: the registers the SDK sends that the manual lacks
+(:data:`EXTRA_REGISTERS`, each with the version it appears in) and the later layouts of 19-27
+(:data:`LATER_FORMS`: the "common" 21/27, the only-check byte of 23/24/25 with a 3-byte reply,
++inf as "unchanged" in 21/23/83).
 """
 
 from __future__ import annotations
