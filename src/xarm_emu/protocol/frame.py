@@ -84,6 +84,23 @@ class Reply(StateBits):
         return encode_reply(self.tid, self.protocol, self.register, self.state, self.params)
 
 
+def answers(protocol: int) -> bool:
+    """Whether a request frame of ``protocol`` gets a reply: ids 2 and 3 (private, echoed in the
+    reply; the SDK switches between them on one connection), 0 (standard Modbus); never id 1, the
+    SDK's heartbeat."""
+    return protocol in PRIVATE_PROTOCOLS or protocol == PROTOCOL_STANDARD
+
+
+def reply_for(request: Request, state: int, params: bytes = b"") -> bytes | None:
+    """The reply frame to a private-protocol request, echoing its tid and protocol id (2 or 3);
+    ``None`` for the heartbeat (id 1), which is never answered."""
+    if request.protocol == PROTOCOL_HEARTBEAT:
+        return None
+    if request.protocol not in PRIVATE_PROTOCOLS:
+        raise FrameError(f"protocol {request.protocol} is not the private protocol")
+    return encode_reply(request.tid, request.protocol, request.register, state, params)
+
+
 def encode_request(tid: int, register: int, params: bytes = b"", protocol: int = PROTOCOL_PRIVATE) -> bytes:
     return HEADER.pack(tid & 0xFFFF, protocol, 1 + len(params)) + bytes((register,)) + params
 

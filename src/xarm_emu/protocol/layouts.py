@@ -272,12 +272,18 @@ def _encode_field(f: Field, value: Any) -> bytes:
         raise LayoutError(f"field {f.name!r}: {exc}") from exc
 
 
-def all_within(values: Mapping[str, Any], limit: float) -> bool:
-    """True when every float in decoded values is finite and no larger than ``limit`` in magnitude."""
+def all_within(values: Mapping[str, Any], limit: float, *, inf_unchanged: bool = False) -> bool:
+    """True when every float in decoded values is finite and no larger than ``limit`` in magnitude.
+
+    ``inf_unchanged`` also lets +inf through (firmware >= 2.4.101: "keep this component" in
+    registers 21/23/83); NaN, -inf and finite values beyond ``limit`` are still refused.
+    """
     for v in values.values():
         seq = v if isinstance(v, tuple) else (v,)
         for x in seq:
             if isinstance(x, float) and not (math.isfinite(x) and abs(x) <= limit):
+                if inf_unchanged and x == math.inf:
+                    continue
                 return False
     return True
 

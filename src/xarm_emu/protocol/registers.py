@@ -11,14 +11,27 @@ big-endian. Replies are the parameters after the state byte.
 Where the SDK (claiming firmware v1.6.0) appends optional trailing bytes, the
 layout marks them optional with ``required=``; where the manual and the SDK use
 different shapes for one register, the layout is a :class:`~.layouts.OneOf`.
+
+:data:`REGISTERS` is what a box of manual V1.6.0 answers. :func:`registers_for` gives the table of
+another firmware profile: the registers the SDK sends that the manual lacks
+(:data:`EXTRA_REGISTERS`, each with the version it appears in) and the later layouts of 19-27
+(:data:`LATER_FORMS`: the "common" 21/27, the only-check byte of 23/24/25 with a 3-byte reply,
++inf as "unchanged" in 21/23/83).
 """
 
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from functools import lru_cache
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
 
 from .layouts import EMPTY, Field, Layout, fp32, i32, one_of, u8, u16
+
+if TYPE_CHECKING:
+    from .firmware import FirmwareProfile
 
 
 class Flag(enum.Flag):
@@ -34,6 +47,9 @@ class Flag(enum.Flag):
     #: Answers for any float value, NaN and infinities included (a check such as register 45);
     #: other registers refuse such values with warning 12.
     ANY_FLOAT = enum.auto()
+    #: +inf in a float field means "keep this component" (firmware >= 2.4.101, registers 21/23/83);
+    #: NaN, -inf and finite values beyond the limit are still refused with warning 12.
+    INF_UNCHANGED = enum.auto()
 
 
 @dataclass(frozen=True)
@@ -46,6 +62,8 @@ class Register:
     flags: Flag = Flag.NONE
     section: str = "2.1.3.2"
     doc: str = field(default="", compare=False)
+    #: The firmware version from which a box answers this register ("1.6.0": in the manual).
+    since: str = "1.6.0"
 
     @property
     def system_reset(self) -> bool:
@@ -334,3 +352,268 @@ FLOAT_CHECKED: frozenset[int] = frozenset(
 
 def get(code: int) -> Register | None:
     return REGISTERS.get(code)
+
+
+def float_checked(table: Mapping[int, Register]) -> frozenset[int]:
+    """:data:`FLOAT_CHECKED` for another table (for example ``registers_for(profile)``)."""
+    return frozenset(c for c, r in table.items() if _has_floats(r.request) and not r.flags & Flag.ANY_FLOAT)
+
+
+def inf_unchanged(table: Mapping[int, Register]) -> frozenset[int]:
+    """Registers of ``table`` whose float fields take +inf as "unchanged"."""
+    return frozenset(c for c, r in table.items() if r.flags & Flag.INF_UNCHANGED)
+
+
+# ---- registers newer than manual V1.6.0 ----------------------------------------------------------
+#: ``since`` of registers the SDK sends with no version named for them: they are not in manual
+#: V1.6.0, so a 1.6.0 profile does not answer them; every newer profile does.
+AFTER_MANUAL = "1.6.1"
+
+_S_SDK = "SDK"
+_PER_SDK = "Not in manual V1.6.0; layout as the SDK sends and reads it."
+
+CHECK_REPLY = Layout((u16("cmdnum", "number of commands in the buffer"),
+                      u8("check_result", "only-check moves: non-zero = collision found")), required=1)
+"""Reply of the 2.x 'common' moves: the buffer count, then the only-check result (3 bytes)."""
+
+_MOVE_TAIL_DOC = ("only_check_type 0 moves; 1-3 only checks for self-collision (no motion) and the "
+                  "reply's third byte is non-zero when a collision is found.")
+
+
+def _x(code: int, name: str, title: str, *, request: Layout = EMPTY, reply: Layout = EMPTY,
+       since: str = AFTER_MANUAL, flags: Flag = Flag.NONE, doc: str = _PER_SDK,
+       section: str = _S_SDK) -> Register:
+    return Register(code, name, title, request=request, reply=reply, flags=flags | Flag.EXTENSION,
+                    section=section, doc=doc, since=since)
+
+
+_RAW_TAIL = Layout((u8("type"),), rest="data")
+_HOST_RAW = Layout((u8("host", "9 end-effector, 11 control box"),), rest="data", rest_min=1)
+_SERVO_ADDR = _r(u8("axis", "1-7 joints, 8 F/T sensor"), u16("addr"))
+_S32_REPLY = _r(Field("value", "i32be", 1, "s32 BE"))
+_CALI_REPLY = _r(fp32("result", 3))
+_C_AXIS = Field("c_axis", "u8", 6, "compliant axes x, y, z, Rx, Ry, Rz (0/1)")
+
+#: Registers the SDK can send that manual V1.6.0 lacks, with the first version answering them.
+EXTRA_REGISTERS: tuple[Register, ...] = (
+    _x(3, "CHECK_VERIFY", "Check the verification", reply=_r(u8("result"))),
+    _x(4, "RELOAD_DYNAMICS", "Reload the dynamics parameters", doc="Sent only internally; no parameters."),
+    _x(6, "GET_TCP_ROTATION_RADIUS", "Get the TCP rotation radius",
+       request=_r(u8("joint")), reply=_r(fp32("radius", doc="mm"))),
+    _x(7, "GET_ALLOW_APPROX_MOTION", "Get whether approximate motion is allowed", since="1.9.0",
+       reply=_r(u8("on")), doc="The SDK takes the reply's last byte as the switch."),
+    _x(46, "IS_TCP_LIMIT", "Check the limit of the cartesian space",
+       request=_r(POSE), reply=_r(u8("limited", "non-zero outside the limits"))),
+    _x(47, "SET_REDUCED_TRSV", "Set the reduced-mode maximum TCP speed",
+       request=_r(fp32("speed", doc="mm/s"))),
+    _x(48, "SET_REDUCED_P2PV", "Set the reduced-mode maximum joint speed",
+       request=_r(fp32("speed", doc="rad/s"))),
+    _x(49, "GET_REDUCED_MODE", "Get whether reduced mode is on", reply=_r(u8("on"))),
+    _x(50, "SET_REDUCED_MODE", "Switch reduced mode", request=_r(u8("on"))),
+    _x(53, "GET_REDUCED_STATE", "Get the reduced-mode settings",
+       reply=_r(u8("on"), Field("boundary", "i16", 6, "x_max, x_min, y_max, y_min, z_max, z_min mm, s16 BE"),
+                fp32("tcp_speed", doc="mm/s"), fp32("joint_speed", doc="rad/s"),
+                fp32("joint_ranges", 14, "J1min, J1max, ... J7max rad"), u8("fence"), u8("rebound")),
+       doc="79 bytes (the SDK reads 21 only below firmware 1.2.11)."),
+    _x(58, "SET_REDUCED_JRANGE", "Set the reduced-mode joint ranges",
+       request=_r(fp32("joint_ranges", 14, "J1min, J1max, ... J7max rad"))),
+    _x(60, "SET_COLLIS_REB", "Switch collision rebound", request=_r(u8("on"))),
+    _x(61, "SET_TRAJ_RECORD", "Start or stop trajectory recording", request=_r(u8("on"))),
+    _x(62, "SAVE_TRAJ", "Save the recorded trajectory",
+       request=_r(Field("filename", "str", 81, "ASCII name, at most 80 characters, NUL padded")),
+       doc="Finishes with an OTHER_FINISH feedback frame when asked for (code 1 = failed)."),
+    _x(63, "LOAD_TRAJ", "Load a trajectory",
+       request=_r(Field("filename", "str", 81, "ASCII name, at most 80 characters, NUL padded")),
+       doc="Finishes with an OTHER_FINISH feedback frame when asked for (code 1 = failed)."),
+    _x(64, "PLAY_TRAJ", "Play back the loaded trajectory",
+       request=_r(i32("times", doc="-1 forever"), i32("speed", doc="speed factor 1, 2 or 4"), required=1),
+       doc="int32 LE. Mode 11 is reported during playback; OTHER_FINISH feedback at the end."),
+    _x(65, "GET_TRAJ_RW_STATUS", "Get the trajectory load/save status",
+       reply=_r(u8("status", "0 idle, 1 loading, 2 load ok, 3 load failed, 4 saving, 5 save ok, "
+                              "6 save failed"))),
+    _x(66, "SET_ALLOW_APPROX_MOTION", "Allow approximate motion", since="1.9.0", request=_r(u8("on"))),
+    _x(67, "GET_DH", "Get the D-H parameters", since="2.0.0",
+       reply=_r(fp32("dh", 28, "d, alpha, a, offset per joint"))),
+    _x(68, "SET_DH", "Set the D-H parameters", since="2.0.0",
+       request=_r(fp32("dh", 28, "d, alpha, a, offset per joint"), u8("flag", "0-4")),
+       reply=_r(u8("result"))),
+    _x(69, "GET_MOVEMENT", "Get the movement state", reply=_r(u8("moving")),
+       doc="Sent only internally; the SDK reads one byte."),
+    _x(71, "SET_TIMER", "Set a timer", request=_r(i32("params", 5)), doc="Sent only internally; int32 LE."),
+    _x(72, "CANCEL_TIMER", "Cancel a timer", request=_r(i32("timer_id")), doc="Sent only internally."),
+    _x(74, "CNTER_RESET", "Reset the counter", doc="The counter is reported in rich bytes 284..287."),
+    _x(75, "CNTER_PLUS", "Increase the counter by one"),
+    _x(80, "SET_CARTV_CONTINUE", "Switch continuous cartesian velocity", since="1.9.0", request=_r(u8("on"))),
+    _x(81, "VC_SET_JOINTV", "Joint velocity control (mode 4)",
+       request=_r(fp32("speeds", 7, "rad/s"), u8("is_sync"), fp32("duration", doc="s"), required=2),
+       doc="The SDK appends the duration for firmware >= 1.8.0 when it is >= 0."),
+    _x(82, "VC_SET_CARTV", "Cartesian velocity control (mode 5)",
+       request=_r(fp32("speeds", 6, "vx, vy, vz mm/s; wx, wy, wz rad/s"), u8("is_tool_coord"),
+                  fp32("duration", doc="s"), required=2),
+       doc="The SDK appends the duration for firmware >= 1.8.0 when it is >= 0."),
+    _x(83, "MOVE_RELATIVE", "Relative motion", since="1.8.100",
+       request=_r(fp32("deltas", 7, "dx, dy, dz mm, droll, dpitch, dyaw rad, 0; or dJ1..dJ7 rad"),
+                  fp32("speed"), fp32("acc"), fp32("mvtime"), fp32("radius", doc="-1 none"),
+                  u8("is_joint_motion", "0 TCP, 1 joint"), u8("is_axis_angle"),
+                  u8("only_check_type"), u8("motion_type"), required=7),
+       reply=CHECK_REPLY, flags=Flag.QUEUED, doc=_MOVE_TAIL_DOC),
+    _x(101, "SERVO_W16B", "Write a 16-bit servo register",
+       request=_r(u8("axis"), u16("addr"), fp32("value")), doc="Sent only internally (G-code H101)."),
+    _x(102, "SERVO_R16B", "Read a 16-bit servo register", request=_SERVO_ADDR, reply=_S32_REPLY,
+       doc="Servo versions (0x0801-0x0803), harmonic type (0x081F), F/T error (axis 8, 0x0010)."),
+    _x(103, "SERVO_W32B", "Write a 32-bit servo register",
+       request=_r(u8("axis"), u16("addr"), fp32("value")), doc="Sent only internally (G-code H103)."),
+    _x(104, "SERVO_R32B", "Read a 32-bit servo register", request=_SERVO_ADDR, reply=_S32_REPLY,
+       doc="Sent only internally (G-code H104)."),
+    _x(105, "SERVO_ZERO", "Set a servo's zero position", request=_r(u8("axis")),
+       doc="Sent only internally (G-code H105)."),
+    _x(107, "SERVO_ERROR", "Read a servo error register", request=_SERVO_ADDR, reply=_S32_REPLY,
+       doc="The SDK shifts the value right by 16."),
+    _x(111, "CALI_TCP_POSE", "Calibrate the TCP position offset", since="1.6.9",
+       request=_r(fp32("poses", 24, "4 poses")), reply=_CALI_REPLY),
+    _x(112, "CALI_TCP_ORIENT", "Calibrate the TCP orientation offset", since="1.6.9",
+       request=_r(fp32("rpy_be", 3), fp32("rpy_bt", 3)), reply=_CALI_REPLY),
+    _x(113, "CALI_WRLD_ORIENT", "Calibrate the user orientation offset", since="1.6.9",
+       request=_r(fp32("poses", 18, "3 poses"), u8("mode"), u8("trust_ind")), reply=_CALI_REPLY),
+    _x(114, "CALI_WRLD_POSE", "Calibrate the user position offset", since="1.6.9",
+       request=_r(fp32("rpy_ub", 3), fp32("xyz", 3)), reply=_CALI_REPLY),
+    _x(115, "IDEN_FRIC", "Identify the joint friction", since="1.9.0",
+       request=_r(Field("robot_sn", "str", 14, "the robot serial number")),
+       reply=_r(fp32("result", doc="0.0 success, -1.0 failure")),
+       doc="The SDK sends it with protocol id 2 and waits up to 500 s."),
+    _x(123, "TGPIO_MB_TIOUT", "Set the end RS-485 Modbus timeout", request=_r(u16("timeout", "ms"))),
+    _x(125, "TGPIO_ERR", "Get the gripper error code", reply=_r(u8("error"), u8("code"))),
+    _x(129, "TGPIO_W32B", "End-effector 32-bit register write",
+       request=_r(u8("host"), u16("addr"), fp32("value"))),
+    _x(130, "TGPIO_R32B", "End-effector 32-bit register read",
+       request=_r(u8("host"), u16("addr")), reply=_S32_REPLY),
+    _x(140, "GET_PWR_VERSION", "Get the power board version", reply=_r(Field("version", "bytes", 6)),
+       doc="Sent only internally."),
+    _x(141, "GET_HD_TYPES", "Get the hardware types", reply=_r(Field("types", "u8", 2))),
+    _x(150, "FTSENSOR_GET_DATA_OLD", "Get the F/T sensor data (old register)",
+       reply=_r(fp32("forces", 6, "Fx, Fy, Fz N; Tx, Ty, Tz N.m")),
+       doc="get_ft_sensor_data sends this below firmware 1.8.3, register 200 from then on."),
+    _x(200, "FTSENSOR_GET_DATA", "Get the F/T sensor data", since="1.8.3",
+       request=_r(u8("raw", "1 raw data (firmware >= 2.6.109)"), required=0),
+       reply=_r(fp32("forces", 6, "Fx, Fy, Fz N; Tx, Ty, Tz N.m"))),
+    _x(201, "FTSENSOR_ENABLE", "Switch the F/T sensor", since="1.8.3", request=_r(u8("on"))),
+    _x(202, "FTSENSOR_SET_MODE", "Set the F/T application mode", since="1.8.3",
+       request=_r(u8("app", "0 off, 1 impedance/admittance, 2 force control"))),
+    _x(203, "FTSENSOR_GET_MODE", "Get the F/T application mode", since="1.8.3", reply=_r(u8("app"))),
+    _x(204, "IDEN_LOAD", "Identify the payload or the F/T sensor load offset", since="1.8.0",
+       request=_r(u8("iden_type", "1 TCP load, 0 F/T load offset"), fp32("mass", doc="estimated kg"),
+                  required=1),
+       reply=_r(fp32("load", 4, "mass kg, centre x, y, z"), fp32("offsets", 6), required=1),
+       doc="TCP load: 4 fp32 back; F/T load offset: 10 fp32. Sent with protocol id 2, long timeouts."),
+    _x(205, "FTSENSOR_SET_LOAD_OFFSET", "Set the F/T sensor load and offsets", since="1.8.3",
+       request=_r(fp32("mass", doc="kg"), fp32("center", 3, "m"), fp32("offsets", 6))),
+    _x(206, "FTSENSOR_SET_ZERO", "Zero the F/T sensor", since="1.8.3"),
+    _x(207, "ADMITTANCE_CONFIG", "Set the admittance parameters", since="1.8.3",
+       request=_r(u8("coord"), _C_AXIS, fp32("M", 6), fp32("K", 6), fp32("B", 6))),
+    _x(208, "FORCE_CTRL_PID", "Set the force-control PID", since="1.8.3",
+       request=_r(fp32("kp", 6), fp32("ki", 6), fp32("kd", 6), fp32("xe_limit", 6))),
+    _x(209, "FORCE_CTRL_CONFIG", "Set the force-control configuration", since="1.8.3",
+       request=_r(u8("coord"), _C_AXIS, fp32("f_ref", 6), fp32("limits", 6))),
+    _x(210, "ADMITTANCE_CTRL_MKB", "Set the admittance M, K, B", since="1.8.3",
+       request=_r(fp32("M", 6), fp32("K", 6), fp32("B", 6))),
+    _x(211, "ADMITTANCE_CTRL_CONFIG", "Set the admittance frame and axes", since="1.8.3",
+       request=_r(u8("coord"), _C_AXIS)),
+    _x(212, "FTSENSOR_GET_CONFIG", "Get the F/T sensor configuration", since="1.8.3",
+       reply=_r(u8("app_status"), u8("started"), u8("type"), u8("id"), u16("freq"), fp32("mass"),
+                fp32("dir_bias"), fp32("centroid", 3), fp32("zero", 6),
+                u8("imp_coord"), Field("imp_c_axis", "u8", 6), fp32("M", 6), fp32("K", 6), fp32("B", 6),
+                u8("fc_coord"), Field("fc_c_axis", "u8", 6), fp32("f_ref", 6), fp32("limits", 6),
+                fp32("kp", 6), fp32("ki", 6), fp32("kd", 6), fp32("xe_limit", 6)),
+       doc="280 bytes."),
+    _x(230, "GET_TRAJ_SPEEDING", "Check the loaded trajectory's speed",
+       request=_r(u8("rate", "1, 2 or 4")),
+       reply=_r(Field("result", "i32be"), Field("servo_id", "i32be"), fp32("speed", doc="rad/s"))),
+    _x(231, "GET_MAX_JOINT_VELOCITY", "Get the maximum joint velocity",
+       request=_r(fp32("speeds", 8, "TCP speed, then 7 joints")), reply=_r(fp32("velocity")),
+       doc="Sent only internally."),
+    _x(232, "SET_COMMON_PARAM", "Set a generic parameter", since="2.3.0", request=_RAW_TAIL,
+       doc="[type] then the value by type (see COMMON_PARAM_LAYOUTS)."),
+    _x(233, "GET_COMMON_PARAM", "Get a generic parameter", since="2.3.0",
+       request=_r(u8("type")), reply=Layout(rest="data"),
+       doc="The value by type: fp32 LE, fp32 lists, or u32 BE integers."),
+    _x(234, "GET_COMMON_INFO", "Get generic information", since="2.3.0",
+       request=_r(u8("type")), reply=Layout(rest="data"),
+       doc="1 PoE status, 2 identification status, 50 record seconds, 101-107 error details."),
+    _x(240, "TGPIO_COM_TIOUT", "Set the transparent RS-485 timeout", request=_r(u16("timeout", "ms"))),
+    _x(241, "RS485_AGENT", "Transparent RS-485 transfer", request=_HOST_RAW,
+       reply=Layout((u8("host"),), rest="data")),
+    _x(253, "FEEDBACK_CHECK", "Ask for a feedback frame once every earlier task has finished",
+       since="2.0.102", doc="Answered at once; the MOTION_FINISH frame follows when the queue is done."),
+    _x(254, "SET_FEEDBACK_TYPE", "Set the feedback-type mask of this connection", since="2.0.102",
+       request=_r(u8("mask", "1 motion start, 2 motion finish, 4 trigger, 32 other start, 64 other finish"))),
+)
+
+#: Register 232's value layout by parameter type (the reply carries no parameters).
+COMMON_PARAM_LAYOUTS: Mapping[int, Layout] = MappingProxyType({
+    1: _r(fp32("factor")),
+    2: _r(i32("value")), 3: _r(i32("value")),
+    6: _r(fp32("thresholds", 6)),
+    7: _r(fp32("redundancy", 14)),
+    11: _r(i32("on")), 13: _r(i32("on")),
+    12: _r(fp32("thresholds", 6)), 14: _r(fp32("distances", 6)),
+    15: _r(i32("params", 2)), 16: _r(i32("params", 2)),
+    24: _r(i32("timeout", doc="ms")), 25: _r(i32("timeout", doc="ms")),
+    26: _r(u8("slave_id"), u8("baud_index"), u8("stop_bits"), u8("parity")),
+})
+
+_COMMON_21 = _r(POSE, fp32("speed", doc="mm/s"), fp32("acc", doc="mm/s^2"), fp32("mvtime"),
+                fp32("radius", doc="-1 plain line, >= 0 blended"), u8("coord", "0 base, 1 tool"),
+                u8("is_axis_angle"), u8("only_check_type"),
+                u8("motion_type", "1 linear or joint fallback, 2 joint planning"), required=8)
+_COMMON_27 = _r(fp32("pose1", 6), fp32("pose2", 6), fp32("speed"), fp32("acc"), fp32("mvtime"),
+                fp32("percent"), u8("coord"), u8("is_axis_angle"), u8("only_check_type"))
+_JOINT_MOVE_CHECK = _r(JOINTS, fp32("speed", doc="rad/s"), fp32("acc", doc="rad/s^2"), fp32("mvtime"),
+                       u8("only_check_type"), required=4)
+_JOINTB_CHECK = _r(JOINTS, fp32("speed"), fp32("acc"), fp32("radius"), u8("only_check_type"), required=4)
+_HOME_CHECK = _r(fp32("speed"), fp32("acc"), fp32("mvtime"), u8("only_check_type"), required=3)
+
+#: Later forms of registers, as (since, code, changed Register fields), oldest first.
+LATER_FORMS: tuple[tuple[str, int, Mapping[str, Any]], ...] = (
+    ("1.11.100", 21, {"request": one_of(REGISTERS[21].request, _COMMON_21), "reply": CHECK_REPLY,
+                      "doc": "36 bytes (manual) or the 'common' 43/44 bytes the SDK sends from firmware "
+                             "1.11.100; " + _MOVE_TAIL_DOC}),
+    ("1.11.100", 27, {"request": one_of(REGISTERS[27].request, _COMMON_27), "reply": CHECK_REPLY,
+                      "doc": "64 bytes (manual) or 67 with [coord, is_axis_angle, only_check_type]."}),
+    ("1.11.100", 23, {"request": _JOINT_MOVE_CHECK, "reply": CHECK_REPLY, "doc": _MOVE_TAIL_DOC}),
+    ("1.11.100", 24, {"request": one_of(_r(u8("tau_or_i")), _JOINTB_CHECK), "reply": CHECK_REPLY,
+                      "doc": "One byte (manual) or a blended joint move with an optional only-check byte."}),
+    ("1.11.100", 25, {"request": _HOME_CHECK, "reply": CHECK_REPLY, "doc": _MOVE_TAIL_DOC}),
+    ("2.4.101", 21, {"flags": REGISTERS[21].flags | Flag.INF_UNCHANGED}),
+    ("2.4.101", 23, {"flags": REGISTERS[23].flags | Flag.INF_UNCHANGED}),
+    ("2.4.101", 83, {"flags": Flag.QUEUED | Flag.EXTENSION | Flag.INF_UNCHANGED}),
+)
+
+
+def all_registers() -> Mapping[int, Register]:
+    """Every register of any profile, each in its newest form."""
+    return registers_for(_newest())
+
+
+def _newest() -> FirmwareProfile:
+    from .firmware import NEWEST_PROFILE
+
+    return NEWEST_PROFILE
+
+
+@lru_cache(maxsize=32)
+def registers_for(profile: FirmwareProfile) -> Mapping[int, Register]:
+    """The register table a box of ``profile``'s firmware answers (read-only).
+
+    Firmware 1.6.0 gives exactly :data:`REGISTERS`; newer versions add the registers of
+    :data:`EXTRA_REGISTERS` from their ``since`` version and replace layouts by their later forms
+    (:data:`LATER_FORMS`, newest applicable form wins).
+    """
+    table: dict[int, Register] = dict(REGISTERS)
+    v = profile.version
+    for reg in EXTRA_REGISTERS:
+        if v.at_least(reg.since):
+            table[reg.code] = reg
+    for since, code, change in LATER_FORMS:
+        if v.at_least(since) and code in table:
+            table[code] = replace(table[code], **change, since=table[code].since)
+    return MappingProxyType(table)

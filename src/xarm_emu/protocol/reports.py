@@ -27,6 +27,10 @@ import math
 import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .firmware import FirmwareProfile
 
 DEVELOP_SIZE = 87
 NORMAL_SIZE = 145
@@ -127,6 +131,31 @@ class ReportSnapshot:
     analog_outputs: Sequence[float] = (0.0, 0.0)  # V
     input_functions: Sequence[int] = (0,) * 16  # function number of digital inputs IO0..IO15
     output_functions: Sequence[int] = (0,) * 16  # function number of digital outputs IO0..IO15
+
+    # --- firmware 2.x tails: develop bytes 87..134, rich bytes 433..586 (0-based) ---
+    ft_ext_force: Sequence[float] = _Z6  # F/T filtered and compensated Fx..Tz (N, N*m)
+    ft_raw_force: Sequence[float] = _Z6  # F/T raw Fx..Tz
+    iden_progress: int = 0  # identification progress, %
+    pose_aa: Sequence[float] = (0.0, 0.0, 0.0)  # Rx, Ry, Rz rad (axis-angle orientation)
+    report_current: bool = False  # config bit 2 (register 70)
+    approx_motion: bool = False  # config bit 3 (register 66)
+    cart_continuous: bool = False  # config bit 4 (register 80)
+    reduced_mode: bool = False  # register 50
+    reduced_tcp_boundary: Sequence[int] = (0,) * 6  # x+, x-, y+, y-, z+, z- mm (register 52)
+    reduced_max_tcp_speed: float = 0.0  # mm/s (register 47)
+    reduced_max_joint_speed: float = 0.0  # rad/s (register 48)
+    reduced_joint_ranges: Sequence[float] = (0.0,) * 14  # J1min, J1max, ... J7max rad (register 58)
+    fence: bool = False  # safety boundary on (register 59)
+    collision_rebound: bool = False  # register 60
+    cgpio_alarm: int = 0  # u32, semantics not public
+    ft_enabled: bool = False  # register 201
+    monitor_device_type: int = 0  # external device monitored through register 232 type 15
+    monitor_device_state: int = 0
+    monitor_device_values: Sequence[int] = (0, 0, 0)  # position, speed, current (s16)
+    # --- real-time report (port 30000) only ---
+    timestamp_us: int = 0
+    joint_accelerations: Sequence[float] = _Z7  # rad/s^2
+    tcp_velocity: Sequence[float] = _Z6  # mm/s, rad/s
 
     @property
     def state_byte(self) -> int:
@@ -362,3 +391,184 @@ DECODERS: dict[int, Callable[[bytes], ReportSnapshot]] = {
     NORMAL_PORT: decode_normal,
     RICH_PORT: decode_rich,
 }
+
+
+# --- firmware 2.x reports -----------------------------------------------------------------------
+
+RICH2_SIZE = 587  # rich report with the 2.x tail (F/T, identification, axis-angle, reduced mode, monitor)
+DEVELOP2_SIZE = 135  # develop report with F/T external and raw forces
+REALTIME_SIZE = 804  # port 30000
+REALTIME_PORT = 30000
+REALTIME_RATE = 250.0  # Hz (200 with an F/T sensor)
+
+OFF_DEVELOP_FT = 87
+OFF_RICH_TAIL = 433
+OFF_CONFIG_BITS = 494
+OFF_REDUCED = 495
+OFF_ALARM = 574
+
+_FT2 = struct.Struct("<6f6f")  # 87 (develop) / 433 (rich): F/T external, raw
+_RICH_T1 = struct.Struct("<B3fB")  # 481: identification progress, axis-angle, config bits
+_RICH_REDUCED = struct.Struct(">B6h")  # 495: reduced mode on, TCP boundary s16 BE
+_RICH_REDUCED_F = struct.Struct("<2f14f2B")  # 508: max TCP/joint speed, joint ranges, fence, rebound
+_RICH_T2 = struct.Struct(">IBBB3h")  # 574: CGPIO alarm, F/T bits, monitored device type/state/values
+
+assert OFF_DEVELOP_FT + _FT2.size == DEVELOP2_SIZE
+assert OFF_RICH_TAIL + _FT2.size + _RICH_T1.size == OFF_REDUCED
+assert OFF_REDUCED + _RICH_REDUCED.size + _RICH_REDUCED_F.size == OFF_ALARM
+assert OFF_ALARM + _RICH_T2.size == RICH2_SIZE
+
+_RT_HEAD = struct.Struct(">IQBH")  # 0: length, timestamp us, state/mode, cmdnum
+_RT_JOINTS = struct.Struct("<56f")  # 32: 8 blocks of 7 joint values
+_RT_TCP = struct.Struct("<42f")  # 424: 7 blocks of 6 TCP values
+_RT_FT = struct.Struct("<12f")  # 688: F/T raw, filtered
+_RT_MON = struct.Struct(">BB3h")  # 736: monitored device
+_RT_IO = struct.Struct(">HH4hHH2h")  # 784: CGPIO DI, DO words, 2 AI, 2 AO (mV), tool DI, DO, 2 tool AI (mV)
+OFF_RT_JOINTS, OFF_RT_TCP, OFF_RT_FT, OFF_RT_MON, OFF_RT_IO = 32, 424, 688, 736, 784
+assert OFF_RT_IO + _RT_IO.size == REALTIME_SIZE
+
+
+def _config_bits(s: ReportSnapshot) -> int:
+    return (s.reduced_mode | s.fence << 1 | s.report_current << 2 | s.approx_motion << 3
+            | s.cart_continuous << 4)
+
+
+def _s16(x: float) -> int:
+    return min(max(int(round(x)), -0x8000), 0x7FFF) if math.isfinite(x) else 0
+
+
+def _pack_rich_tail(buf: bytearray, s: ReportSnapshot) -> None:
+    _FT2.pack_into(buf, OFF_RICH_TAIL, *_n(s.ft_ext_force, 6), *_n(s.ft_raw_force, 6))
+    _RICH_T1.pack_into(buf, 481, s.iden_progress & 0xFF, *_n(s.pose_aa, 3), _config_bits(s))
+    bound = [_s16(v) for v in _n(s.reduced_tcp_boundary, 6, 0)]
+    _RICH_REDUCED.pack_into(buf, OFF_REDUCED, s.reduced_mode, *bound)
+    _RICH_REDUCED_F.pack_into(buf, 508, s.reduced_max_tcp_speed, s.reduced_max_joint_speed,
+                              *_n(s.reduced_joint_ranges, 14), s.fence, s.collision_rebound)
+    _RICH_T2.pack_into(buf, OFF_ALARM, s.cgpio_alarm & 0xFFFFFFFF, int(s.ft_enabled),
+                       s.monitor_device_type & 0xFF, s.monitor_device_state & 0xFF,
+                       *[_s16(v) for v in _n(s.monitor_device_values, 3, 0)])
+
+
+def encode_develop2(s: ReportSnapshot) -> bytes:
+    """Firmware 2.x develop frame (port 30003), 135 bytes: the manual's 87 then F/T external and raw."""
+    buf = bytearray(DEVELOP2_SIZE)
+    _pack_develop(buf, s, DEVELOP2_SIZE)
+    _FT2.pack_into(buf, OFF_DEVELOP_FT, *_n(s.ft_ext_force, 6), *_n(s.ft_raw_force, 6))
+    return bytes(buf)
+
+
+def encode_rich2(s: ReportSnapshot) -> bytes:
+    """Firmware 2.x rich frame (port 30002), 587 bytes: the manual's 433 then bytes 433..586."""
+    buf = bytearray(RICH2_SIZE)
+    _pack_develop(buf, s, RICH2_SIZE)
+    _pack_normal(buf, s)
+    _pack_rich(buf, s)
+    _pack_rich_tail(buf, s)
+    return bytes(buf)
+
+
+def encode_realtime(s: ReportSnapshot) -> bytes:
+    """Real-time report (port 30000, firmware >= 2.1.0), 804 bytes.
+
+    Targets and actual values are the same snapshot values; accelerations, currents and torques
+    fill their blocks, reserved blocks are zero. IO values are in mV.
+    """
+    buf = bytearray(REALTIME_SIZE)
+    _RT_HEAD.pack_into(buf, 0, REALTIME_SIZE, s.timestamp_us & 0xFFFFFFFFFFFFFFFF,
+                       _state_byte(s.state, s.mode), s.cmdnum)
+    j, v, a = _n(s.joints, 7), _n(s.joint_speeds, 7), _n(s.joint_accelerations, 7)
+    _RT_JOINTS.pack_into(buf, OFF_RT_JOINTS, *j, *v, *a, *j, *v, *a, *_n(s.joint_currents, 7),
+                         *_n(s.torques, 7))
+    pose = [*_n(s.pose, 6)[:3], *_n(s.pose_aa, 3)]
+    vel = _n(s.tcp_velocity, 6)
+    _RT_TCP.pack_into(buf, OFF_RT_TCP, *pose, *vel, *pose, *vel, *_n(s.ft_ext_force, 6), *_Z6, *_Z6)
+    _RT_FT.pack_into(buf, OFF_RT_FT, *_n(s.ft_raw_force, 6), *_n(s.ft_ext_force, 6))
+    _RT_MON.pack_into(buf, OFF_RT_MON, s.monitor_device_type & 0xFF, s.monitor_device_state & 0xFF,
+                      *[_s16(x) for x in _n(s.monitor_device_values, 3, 0)])
+    ai = [_s16(x * 1000.0) for x in _n(s.analog_inputs, 2)]
+    ao = [_s16(x * 1000.0) for x in _n(s.analog_outputs, 2)]
+    _RT_IO.pack_into(buf, OFF_RT_IO, s.cgpio_input_config & 0xFFFF, s.cgpio_output_config & 0xFFFF,
+                     *ai, *ao, 0, 0, 0, 0)
+    return bytes(buf)
+
+
+def _unpack_develop_ft(data: bytes, s: ReportSnapshot) -> None:
+    v = _FT2.unpack_from(data, OFF_DEVELOP_FT)
+    s.ft_ext_force, s.ft_raw_force = v[0:6], v[6:12]
+
+
+def _unpack_rich_tail(data: bytes, s: ReportSnapshot) -> None:
+    v = _FT2.unpack_from(data, OFF_RICH_TAIL)
+    s.ft_ext_force, s.ft_raw_force = v[0:6], v[6:12]
+    p, *aa, bits = _RICH_T1.unpack_from(data, 481)
+    s.iden_progress, s.pose_aa = p, tuple(aa)
+    s.report_current, s.approx_motion, s.cart_continuous = bool(bits & 4), bool(bits & 8), bool(bits & 16)
+    on, *bound = _RICH_REDUCED.unpack_from(data, OFF_REDUCED)
+    s.reduced_mode, s.reduced_tcp_boundary = bool(on), tuple(bound)
+    f = _RICH_REDUCED_F.unpack_from(data, 508)
+    s.reduced_max_tcp_speed, s.reduced_max_joint_speed = f[0], f[1]
+    s.reduced_joint_ranges, s.fence, s.collision_rebound = f[2:16], bool(f[16]), bool(f[17])
+    t = _RICH_T2.unpack_from(data, OFF_ALARM)
+    s.cgpio_alarm, s.ft_enabled = t[0], bool(t[1] & 1)
+    s.monitor_device_type, s.monitor_device_state, s.monitor_device_values = t[2], t[3], t[4:7]
+
+
+def decode_develop2(data: bytes) -> ReportSnapshot:
+    """Read a 135-byte firmware 2.x develop frame."""
+    return _decode(data, DEVELOP2_SIZE, "develop (2.x)", (_unpack_develop, _unpack_develop_ft))
+
+
+def decode_rich2(data: bytes) -> ReportSnapshot:
+    """Read a 587-byte firmware 2.x rich frame."""
+    return _decode(data, RICH2_SIZE, "rich (2.x)", (_unpack_develop, _unpack_normal, _unpack_rich,
+                                                    _unpack_rich_tail))
+
+
+def decode_realtime(data: bytes) -> ReportSnapshot:
+    """Read an 804-byte real-time frame: state, mode, counter, timestamp, actual joints, pose, F/T."""
+    _check(data, REALTIME_SIZE, "real-time")
+    s = ReportSnapshot()
+    _, s.timestamp_us, sm, s.cmdnum = _RT_HEAD.unpack_from(data, 0)
+    s.state, s.mode = sm & 0x0F, sm >> 4
+    j = _RT_JOINTS.unpack_from(data, OFF_RT_JOINTS)
+    s.joints, s.joint_speeds, s.joint_accelerations = j[21:28], j[28:35], j[35:42]
+    s.joint_currents, s.torques = j[42:49], j[49:56]
+    t = _RT_TCP.unpack_from(data, OFF_RT_TCP)
+    s.pose_aa, s.tcp_velocity = t[15:18], t[18:24]
+    s.pose = (*t[12:15], *s.pose[3:])
+    f = _RT_FT.unpack_from(data, OFF_RT_FT)
+    s.ft_raw_force, s.ft_ext_force = f[0:6], f[6:12]
+    m = _RT_MON.unpack_from(data, OFF_RT_MON)
+    s.monitor_device_type, s.monitor_device_state, s.monitor_device_values = m[0], m[1], m[2:5]
+    return s
+
+
+def encoders_for(profile: FirmwareProfile) -> dict[int, Callable[[ReportSnapshot], bytes]]:
+    """Report port -> encoder for a box of ``profile``'s firmware: the manual's frames for 1.x,
+    the 135/145/587-byte frames plus port 30000 for 2.x."""
+    if profile.version.major < 2:
+        return dict(ENCODERS)
+    out: dict[int, Callable[[ReportSnapshot], bytes]] = {
+        DEVELOP_PORT: encode_develop2, NORMAL_PORT: encode_normal, RICH_PORT: encode_rich2}
+    if profile.realtime_report:
+        out[REALTIME_PORT] = encode_realtime
+    return out
+
+
+def decoders_for(profile: FirmwareProfile) -> dict[int, Callable[[bytes], ReportSnapshot]]:
+    """Report port -> decoder matching :func:`encoders_for`."""
+    if profile.version.major < 2:
+        return dict(DECODERS)
+    out: dict[int, Callable[[bytes], ReportSnapshot]] = {
+        DEVELOP_PORT: decode_develop2, NORMAL_PORT: decode_normal, RICH_PORT: decode_rich2}
+    if profile.realtime_report:
+        out[REALTIME_PORT] = decode_realtime
+    return out
+
+
+def rates_for(profile: FirmwareProfile) -> dict[int, float]:
+    """Report port -> default frequency in Hz for ``profile``."""
+    out = dict(RATES)
+    if profile.realtime_report:
+        out[REALTIME_PORT] = REALTIME_RATE
+    return out
