@@ -30,7 +30,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from .robots import RobotModel
+from .robots import RobotModel, joint_values
 from .rotations import invert_transform, matrix_to_axis_angle, pose_to_matrix
 
 POS_TOL = 1e-6  # mm
@@ -255,24 +255,13 @@ def _rotvec(e00: float, e01: float, e02: float, e10: float, e11: float, e12: flo
     return vx * k, vy * k, vz * k
 
 
-def _joints(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
-    qs = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
-    if len(qs) < model.dof:
-        raise ValueError(f"{model.name} needs {model.dof} joint values, got {len(qs)}")
-    qs = qs[: model.dof]
-    for v in qs:
-        if not math.isfinite(v):
-            raise ValueError(f"non-finite joint value {v!r}")
-    return qs
-
-
 # --------------------------------------------------------------------------------------------------------
 # Forward kinematics, frames, Jacobian
 
 
 def fk(model: RobotModel, q: Sequence[float] | np.ndarray) -> np.ndarray:
     """4x4 flange pose in the base frame (mm). Extra joint values (wire J7 on xArm6) are ignored."""
-    r = _chain_fn(model, "fk")(*_joints(model, q))
+    r = _chain_fn(model, "fk")(*joint_values(model, q))
     return np.array(
         ((r[0], r[1], r[2], r[9]), (r[3], r[4], r[5], r[10]), (r[6], r[7], r[8], r[11]), (0.0, 0.0, 0.0, 1.0))
     )
@@ -283,7 +272,7 @@ def joint_frames(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[np.
 
     The last one is the flange. Plain numpy chain, independent of the unrolled ``fk``.
     """
-    qs = _joints(model, q)
+    qs = joint_values(model, q)
     T = np.eye(4)
     frames = []
     for j, qi in zip(model.joints, qs, strict=True):
@@ -294,14 +283,14 @@ def joint_frames(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[np.
 
 def jacobian(model: RobotModel, q: Sequence[float] | np.ndarray) -> np.ndarray:
     """Geometric Jacobian (6 x dof) of the flange in the base frame: rows vx, vy, vz (mm/rad), wx, wy, wz."""
-    r = _chain_fn(model, "jac")(*_joints(model, q))
+    r = _chain_fn(model, "jac")(*joint_values(model, q))
     return np.array(r[12:]).reshape(6, model.dof)
 
 
 def within_limits(model: RobotModel, q: Sequence[float] | np.ndarray) -> bool:
     """True when every joint is finite and inside its limits (manual 1.3; register 45)."""
     try:
-        qs = _joints(model, q)
+        qs = joint_values(model, q)
     except (ValueError, TypeError):
         return False
     return all(j.lower <= v <= j.upper for j, v in zip(model.joints, qs, strict=True))
@@ -438,7 +427,7 @@ def ik(
         return sol
     try:
         target = np.asarray(T_target, dtype=float)
-        base = np.zeros(model.dof) if seed is None else np.asarray(_joints(model, seed), dtype=float)
+        base = np.zeros(model.dof) if seed is None else np.asarray(joint_values(model, seed), dtype=float)
         heading = math.atan2(float(target[1, 3]), float(target[0, 3]))
     except (ValueError, TypeError, IndexError):
         return None
@@ -475,7 +464,7 @@ def _ik_once(
         rows = target.tolist()
         if not math.isfinite(sum(map(sum, rows))):  # NaN or inf anywhere
             return None
-        qs = [0.0] * model.dof if seed is None else _joints(model, seed)
+        qs = [0.0] * model.dof if seed is None else joint_values(model, seed)
     except (ValueError, TypeError, OverflowError):
         return None
     if model.fixed_roll_pitch:

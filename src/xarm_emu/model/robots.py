@@ -12,6 +12,7 @@ manual's tables (manual 1.3 Table 1.1, 4.2-4.4). The Cartesian range is the manu
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -75,6 +76,19 @@ class RobotModel:
     def zero_joints(self) -> np.ndarray:
         """All-zero joint vector of length ``dof``."""
         return np.zeros(self.dof)
+
+
+def joint_values(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
+    """The first ``dof`` values of ``q`` as floats (extra values, such as the wire J7 of a 6-axis arm, are
+    ignored); ``ValueError`` when there are fewer than ``dof`` or one is not finite."""
+    qs = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
+    if len(qs) < model.dof:
+        raise ValueError(f"{model.name} needs {model.dof} joint values, got {len(qs)}")
+    qs = qs[: model.dof]
+    for v in qs:
+        if not math.isfinite(v):
+            raise ValueError(f"non-finite joint value {v!r}")
+    return qs
 
 
 def _j(name: str, xyz: tuple[float, float, float], roll: float, lo: float, hi: float) -> JointSpec:
