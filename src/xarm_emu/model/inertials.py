@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from xarm_emu.model.robots import RobotModel
+from .robots import RobotModel
 
 
 @dataclass(frozen=True)
