@@ -1,6 +1,6 @@
 """Forward and inverse kinematics, Jacobian, joint limits, TCP offset and user coordinate offset.
 
-Frames (research note kinematics.md sections 2.3 and 3): each joint is ``Trans(xyz) . R(rpy) . Rz(q)`` on
+Frames (the vendor URDF's joint origins): each joint is ``Trans(xyz) . R(rpy) . Rz(q)`` on
 its parent, the flange (default TCP) is the frame after the last joint, lengths in mm, angles in rad.
 
 Speed: the joint chain of each model is unrolled on first use into straight-line scalar Python code, with
@@ -8,7 +8,7 @@ zero offsets and the exact +/-pi/2 origin rotations folded away (the code genera
 its functions are cached here per model object). ``joint_frames`` keeps a plain numpy 4x4 chain, which
 the tests use as an independent check of the unrolled code.
 
-Inverse kinematics (manual register 43; research note section 5):
+Inverse kinematics (manual register 43):
 - xArm6/xArm7: Levenberg-Marquardt from the seed (the current joints or the SDK's ``ref_angles``), so
   the posture follows the seed; xArm7 takes the minimum-norm step, keeping the elbow near the seed.
   Converged means |dp| <= 1e-6 mm and |d theta| <= 1e-7 rad; otherwise there is no solution (None).
@@ -146,7 +146,7 @@ def _fit_limits(model: RobotModel, q: list[float], limited: bool) -> np.ndarray 
 
 
 def _ik_xarm5(model: RobotModel, target: np.ndarray, seed: list[float], limited: bool) -> np.ndarray | None:
-    """Closed form for a 5-axis arm whose tool stays vertical (research note section 5)."""
+    """Closed form for a 5-axis arm whose tool stays vertical."""
     R = target[:3, :3]
     tol = XARM5_LEVEL_TOL
     if not (R[2, 2] < 0.0 and abs(R[0, 2]) < tol and abs(R[1, 2]) < tol and abs(R[2, 0]) < tol

@@ -3,7 +3,7 @@
 Manual 1.5 "Roll/Pitch/Yaw": fixed X-Y-Z angles, R = Rz(yaw) Ry(pitch) Rx(roll). Manual 1.5 "Axis-Angle":
 [Rx, Ry, Rz] = unit axis * phi with phi >= 0.
 
-Vendor canonical form of matrix_to_rpy (research note kinematics.md section 3; manual register 44 example):
+Vendor canonical form of matrix_to_rpy (what the vendor controller reports; manual register 44 example):
 - each angle lies in [-pi, pi]; on the roll seam (|r21| < 1e-12 with r22 < 0) roll is reported as -pi;
 - a pitch with |pitch| < 1e-12 is reported as -0.0 (register 44 example bytes 00 00 00 80);
 - a yaw with |yaw| < 1e-12 (outside gimbal lock) is reported as +0.0;
@@ -207,7 +207,7 @@ def snap_seam(angle: float, tol: float = 1e-6) -> float:
     """+/-pi for an angle within ``tol`` of +/-pi, else the angle unchanged.
 
     Wire angles are float32: float32(pi) = pi + 8.7e-8. The vendor's register 43 answer shows the
-    controller treats it as pi exactly (research note section 3), so the register layer applies this to
+    controller treats it as pi exactly, so the register layer applies this to
     incoming roll/pitch/yaw.
     """
     if abs(abs(angle) - math.pi) <= tol:
