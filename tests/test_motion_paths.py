@@ -1,5 +1,5 @@
 """Cartesian paths and timed moves: line (register 21), circle (27), arc-blended
-lines (22), suspend/resume along the path (manual 1.3 notes 1-2, 2.1.3.2)."""
+lines (22) (manual 1.3 notes 1-2, 2.1.3.2)."""
 
 from __future__ import annotations
 
@@ -190,26 +190,6 @@ def test_blended_chain_with_several_corners_is_continuous():
     np.testing.assert_allclose(T[-1], poses[-1], atol=1e-9)
 
 
-def test_suspend_then_resume_follows_same_path():
-    t0, t1, t2 = pose(300, 0, 200), pose(450, 0, 200), pose(450, 150, 200)
-    mv = plan_blended([t0, t1, t2], [30.0], 120.0, 1200.0, 12000.0)
-    t_stop = 0.6 * mv.duration
-    stopped = mv.stop(t_stop)
-    T_end, v_end = stopped.at(stopped.duration)
-    assert v_end == 0.0
-    _, v_stop_start = stopped.at(0.0)
-    assert v_stop_start == pytest.approx(mv.at(t_stop)[1], abs=1e-9)
-    resumed = stopped.resume()
-    np.testing.assert_allclose(resumed.at(0.0)[0], T_end, atol=1e-12)
-    np.testing.assert_allclose(resumed.at(resumed.duration)[0], t2, atol=1e-9)
-    # Stop and resume stay on the original path: every point is a point of the undisturbed move.
-    ref = run(mv, 0.0005)[1][:, :3, 3]
-    for part in (stopped, resumed):
-        pts = run(part)[1][:, :3, 3]
-        d = np.min(np.linalg.norm(pts[:, None, :] - ref[None, :, :], axis=2), axis=1)
-        assert d.max() < 0.06 + 1e-6  # spacing of the reference samples
-
-
 def test_at_is_cheap():
     poses = [pose(300, 0, 200), pose(400, 0, 200, 0, 0, 0.3), pose(400, 100, 200)]
     mv = plan_blended(poses, [20.0], 100.0, 1000.0, 10000.0)
@@ -239,17 +219,3 @@ def test_random_blended_chains_stay_near_corners_and_end_exactly(seed):
     # One run (all corners blended): the TCP only rests at both ends.
     assert isinstance(mv, CartesianMove)
     assert np.all(np.linalg.norm(np.diff(xyz, axis=0), axis=1)[1:-1] > 0.0)
-
-
-def test_stop_in_first_run_of_chain_resumes_through_the_rest():
-    poses = [pose(0, 0, 0), pose(100, 0, 0), pose(100, 100, 0), pose(0, 100, 0)]
-    mv = plan_blended(poses, [None, 20.0], 100.0, 1000.0, 10000.0)
-    assert isinstance(mv, MoveChain) and len(mv.moves) == 2
-    stopped = mv.stop(0.5 * mv.moves[0].duration)
-    assert stopped.at(stopped.duration)[1] == 0.0
-    resumed = stopped.resume()
-    assert isinstance(resumed, MoveChain) and len(resumed.moves) == 2
-    np.testing.assert_allclose(resumed.at(resumed.moves[0].duration)[0], poses[1], atol=1e-9)
-    np.testing.assert_allclose(resumed.at(resumed.duration)[0], poses[-1], atol=1e-9)
-    # Stopped chain is shorter than the rest of the original by the time already travelled.
-    assert resumed.duration < mv.duration

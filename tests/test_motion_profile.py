@@ -1,6 +1,5 @@
 """Jerk-limited 1-D profiles (manual 1.3, Table 1.2): limits, exact arrival,
-time optimality (hand-computed cases and ruckig as an independent oracle),
-jerk-limited stop and resume."""
+time optimality (hand-computed cases and ruckig as an independent oracle)."""
 
 from __future__ import annotations
 
@@ -10,9 +9,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from ruckig import ControlInterface, InputParameter, Ruckig, Trajectory
+from ruckig import InputParameter, Ruckig, Trajectory
 
-from xarm_emu.controller.motion.profile import SCurve, resume_profile, stop_profile
+from xarm_emu.controller.motion.profile import SCurve
 
 
 def _samples(prof, n=1201):
@@ -98,56 +97,6 @@ def test_zero_distance_and_bad_limits():
     for bad in ((10.0, 0.0, 1.0), (float("nan"), 1.0, 1.0), (1.0, -1.0, 1.0), (1.0, 1.0, math.inf)):
         with pytest.raises(ValueError):
             SCurve(1.0, *bad)
-
-
-def test_stop_hand_computed_short_stop():
-    # From 30 mm/s, a=0, with a=200 and j=1000: v < a^2/j, so two jerk ramps of sqrt(v/j).
-    s = stop_profile(30.0, 0.0, 200.0, 1000.0)
-    assert s.duration == pytest.approx(2 * math.sqrt(30.0 / 1000.0), abs=1e-9)
-    assert s.distance == pytest.approx(30.0 * s.duration / 2, abs=1e-9)
-    assert s.sample(s.duration) == (s.distance, 0.0, 0.0)
-
-
-def _ruckig_stop_duration(v0, a0, amax, jmax):
-    inp = InputParameter(1)
-    inp.control_interface = ControlInterface.Velocity
-    inp.current_velocity, inp.current_acceleration = [v0], [a0]
-    inp.target_velocity = [0.0]
-    inp.max_velocity, inp.max_acceleration, inp.max_jerk = [abs(v0) + 1.0], [amax], [jmax]
-    tr = Trajectory(1)
-    Ruckig(1).calculate(inp, tr)
-    return tr.duration
-
-
-@settings(max_examples=40, deadline=None)
-@given(v0=st.floats(-500.0, 500.0), frac=st.floats(-1.0, 1.0), amax=st.floats(10.0, 5000.0),
-       jmax=st.floats(100.0, 50000.0))
-def test_stop_comes_to_rest_within_limits_as_fast_as_ruckig(v0, frac, amax, jmax):
-    a0 = frac * amax
-    s = stop_profile(v0, a0, amax, jmax)
-    assert s.sample(s.duration)[1:] == (0.0, 0.0)
-    if abs(v0) > 1e-12 or abs(a0) > 1e-12:
-        assert s.sample(0.0) == (0.0, v0, a0)
-    dt_end = s.duration * 1e-12  # just before the end: a = jmax * dt_end there at most
-    _, vend, aend = s.sample(s.duration - dt_end)
-    assert abs(vend) < 1e-6 and abs(aend) < 1e-6 + jmax * dt_end
-    # Speed may still grow while a positive acceleration is released: by a0^2 / (2 jmax) at most.
-    _assert_limits(s, abs(v0) + a0 * a0 / (2 * jmax) + 1e-9, amax, jmax, v0, a0)
-    if abs(v0) > 1e-9 or abs(a0) > 1e-9:
-        assert s.duration == pytest.approx(_ruckig_stop_duration(v0, a0, amax, jmax), abs=1e-6)
-
-
-def test_suspend_mid_move_then_resume_reaches_target():
-    d, v, a, j = 300.0, 100.0, 500.0, 5000.0
-    p = SCurve(d, v, a, j)
-    for t_stop in (0.05, 0.5, p.duration - 0.05):
-        s0, v0, a0 = p.sample(t_stop)
-        stop = stop_profile(v0, a0, a, j)
-        at_rest = s0 + stop.distance
-        assert s0 <= at_rest <= d + 1e-9  # the stop never runs past the target
-        r = resume_profile(d - at_rest, v, a, j)
-        assert at_rest + r.sample(r.duration)[0] == pytest.approx(d, abs=1e-12)
-        _assert_limits(r, v, a, j)
 
 
 def test_sample_is_cheap():

@@ -21,17 +21,14 @@ sensitivity (:func:`collision_detected`). Level 0 switches detection off.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from xarm_emu.model.collision import NO_TOOL, ToolModel, self_collision
-from xarm_emu.model.kinematics import fk
-from xarm_emu.model.robots import RobotModel
-from xarm_emu.model.rotations import pose_to_matrix
-
+from ..model.collision import NO_TOOL, ToolModel, self_collision
+from ..model.kinematics import tcp_pose
+from ..model.robots import RobotModel
 from .base import C_BOUNDARY, C_SELF_COLLISION
 
 #: External joint torque (N m) that collision sensitivity 1..5 detects (C31). The vendor publishes
@@ -101,10 +98,7 @@ def first_boundary_crossing(
 def tcp_position(model: RobotModel, q: Sequence[float] | np.ndarray, tcp_offset: Sequence[float] = (0.0,) * 6
                  ) -> np.ndarray:
     """TCP position in the base frame (mm): flange pose times the TCP offset (register 35, manual 1.5)."""
-    T = fk(model, q)
-    if any(tcp_offset):
-        T = T @ pose_to_matrix(tcp_offset)
-    return T[:3, 3]
+    return tcp_pose(model, q, tcp_offset)[:3, 3]
 
 
 def _lerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
@@ -197,9 +191,3 @@ def check_path_step(
     if not stops:
         return None
     return min(stops, key=lambda st: st.fraction)
-
-
-def is_finite_boundary(boundary: Sequence[float]) -> bool:
-    """True when the six values are finite and each maximum is not below its minimum (register 52)."""
-    return (len(boundary) == 6 and all(math.isfinite(float(v)) for v in boundary)
-            and boundary[0] >= boundary[1] and boundary[2] >= boundary[3] and boundary[4] >= boundary[5])

@@ -3,15 +3,18 @@
 Each link is one or more capsules (a segment fixed in a joint frame plus a radius, mm); the end tool of
 register 78 is a capsule (built-in tools, cylinder 21) or a box (cuboid 22) in the flange frame.
 
-Link geometry. Segments follow the joint frames of ``robots.py`` (URDF joint origins, research note
-kinematics.md section 2.3): the upper arm runs J2 -> J3 (53.5, 284.5 mm), the elbow J3 -> forearm axis
-(77.5 mm), the forearm down to the wrist (342.5 mm), the wrist to the tool axis (76 mm) and the last
-motor down to the flange (97 mm). xArm7 adds the 293 mm upper arm and 52.5 mm elbow offset. Radii are
-estimates of the joint modules' housings (no vendor collision model is published in a form we can read):
-base column and shoulder 60, upper arm 55, elbow module 50, forearm tube 42, wrist module 40, last
-module and flange 35. Where a module's housing is a cylinder about its own joint axis the capsule lies on
-that axis, which makes it invariant to that joint. Parts of a link that always touch a neighbour through
-the joint are left to the neighbour (adjacent bodies are never checked).
+Link geometry. Segments follow the joint frames of ``robots.py`` and take their lengths from its joint
+origins (``_link_capsules``): the base column up to J1's origin, the upper arm from J2 to J3 (xArm7: to J3,
+then the elbow offset to J4), the elbow offset and the forearm (x and y of the origin of the joint at the
+wrist end of the forearm), the wrist module about the axis of the last but one joint and the last module
+down to the flange (y of the last joint's origin). The only collision data are the radii, estimates of
+the joint modules' housings (no vendor collision model is published in a form we can read): base column
+and shoulder 60, upper arm 46, elbow module 50, forearm tube 38, wrist module 40, last module and flange
+35 mm; and three splits: the top 110 mm of the forearm belong to the elbow body, the forearm capsule stops
+45 mm above the wrist axis, the wrist module is 90 mm long. Where a module's housing is a cylinder about
+its own joint axis the capsule lies on that axis, which makes it invariant to that joint. Parts of a link
+that always touch a neighbour through the joint are left to the neighbour (adjacent bodies are never
+checked).
 
 Checked pairs. Every pair of bodies at least two apart in the chain, except pairs that can never meet
 (elbow vs wrist, kept apart by the forearm) and the forearm vs the last module, which the J5 (xArm5: J4,
@@ -39,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .robots import RobotModel
+from .robots import RobotModel, joint_values
 
 Vec = tuple[float, float, float]
 
@@ -50,13 +53,18 @@ TOOL_CUBOID = 22
 
 @dataclass(frozen=True)
 class Capsule:
-    """Segment ``a``-``b`` swept by a sphere of ``radius`` (mm). ``body`` is its index in the chain."""
+    """Segment ``a``-``b`` swept by a sphere of ``radius`` (mm). ``body`` is its index in the chain.
+
+    ``frame`` is where ``a`` and ``b`` are given: -1 the base frame (world, what ``link_shapes`` returns),
+    k the frame after joint k+1 (``joint_frames`` index: how the link geometry is laid out).
+    """
 
     a: Vec
     b: Vec
     radius: float
     name: str
     body: int
+    frame: int = -1
 
 
 @dataclass(frozen=True)
@@ -71,16 +79,6 @@ class Box:
 
 
 Shape = Capsule | Box
-
-
-@dataclass(frozen=True)
-class _LocalCapsule:
-    frame: int  # -1: base frame, k: frame after joint k+1 (``joint_frames`` index)
-    a: Vec
-    b: Vec
-    radius: float
-    name: str
-    body: int
 
 
 @dataclass(frozen=True)
@@ -134,50 +132,81 @@ def tool_model(kind: int, params: Sequence[float] = ()) -> ToolModel:
 NO_TOOL = tool_model(TOOL_NONE)
 
 # --------------------------------------------------------------------------------------------------------
-# Link capsules per model (frame index, a, b, radius, name, body); see the module docstring.
+# Link capsules per model, derived from the joint origins of ``robots.py`` (see the module docstring).
+# Collision data proper is only the radii, the splits along the forearm and the wrist module's length.
 
 _R_BASE, _R_UPPER, _R_ELBOW, _R_FORE, _R_WRIST, _R_LAST = 60.0, 46.0, 50.0, 38.0, 40.0, 35.0
 _FORE_TOP = 110.0  # forearm split: the top 110 mm (J4 module side) belongs to the elbow body
 _FORE_LOW = 45.0  # the forearm capsule ends this far above the wrist axis (the wrist module covers below)
 _WRIST_HALF = 45.0  # wrist module half length along its axis
 
-
-def _c(frame: int, a: Vec, b: Vec, r: float, name: str, body: int) -> _LocalCapsule:
-    return _LocalCapsule(frame, a, b, r, name, body)
+_ORIGIN: Vec = (0.0, 0.0, 0.0)
 
 
-# Bodies: 1 base (+ J1 column and shoulder, axisymmetric about J1), 2 upper arm, 3 elbow (+ the top of
-# the forearm), 4 forearm, 5 wrist module, 6 last module and flange, 7 tool (xArm7: one more upper body).
-_LINKS: dict[int, tuple[_LocalCapsule, ...]] = {
-    5: (
-        _c(-1, (0, 0, 0), (0, 0, 267), _R_BASE, "base", 1),
-        _c(1, (0, 0, 0), (53.5, -284.5, 0), _R_UPPER, "upper arm", 2),
-        _c(2, (0, 0, 0), (77.5, 0, 0), _R_ELBOW, "elbow", 3),
-        _c(2, (77.5, 0, 0), (77.5, _FORE_TOP, 0), _R_FORE, "forearm top", 3),
-        _c(2, (77.5, _FORE_TOP, 0), (77.5, 342.5 - _FORE_LOW, 0), _R_FORE, "forearm", 4),
-        _c(3, (0, 0, -_WRIST_HALF), (0, 0, _WRIST_HALF), _R_WRIST, "wrist", 5),
-        _c(4, (0, 0, -97), (0, 0, 0), _R_LAST, "flange", 6),
-    ),
-    6: (
-        _c(-1, (0, 0, 0), (0, 0, 267), _R_BASE, "base", 1),
-        _c(1, (0, 0, 0), (53.5, -284.5, 0), _R_UPPER, "upper arm", 2),
-        _c(2, (0, 0, 0), (77.5, 0, 0), _R_ELBOW, "elbow", 3),
-        _c(2, (77.5, 0, 0), (77.5, _FORE_TOP, 0), _R_FORE, "forearm top", 3),
-        _c(3, (0, 0, -342.5 + _FORE_TOP), (0, 0, -_FORE_LOW), _R_FORE, "forearm", 4),
-        _c(4, (0, 0, -_WRIST_HALF), (0, 0, _WRIST_HALF), _R_WRIST, "wrist", 5),
-        _c(5, (0, 0, -97), (0, 0, 0), _R_LAST, "flange", 6),
-    ),
-    7: (
-        _c(-1, (0, 0, 0), (0, 0, 267), _R_BASE, "base", 1),
-        _c(1, (0, 0, 0), (0, -293, 0), _R_UPPER, "upper arm", 2),
-        _c(2, (0, 0, 0), (52.5, 0, 0), _R_ELBOW, "elbow J4 side", 3),
-        _c(3, (0, 0, 0), (77.5, 0, 0), _R_ELBOW, "elbow", 4),
-        _c(3, (77.5, 0, 0), (77.5, -_FORE_TOP, 0), _R_FORE, "forearm top", 4),
-        _c(4, (0, 0, -342.5 + _FORE_TOP), (0, 0, -_FORE_LOW), _R_FORE, "forearm", 5),
-        _c(5, (0, 0, -_WRIST_HALF), (0, 0, _WRIST_HALF), _R_WRIST, "wrist", 6),
-        _c(6, (0, 0, -97), (0, 0, 0), _R_LAST, "flange", 7),
-    ),
-}
+def _roll_code(roll: float) -> int:
+    """0, +1 or -1 for an origin roll of 0, +pi/2 or -pi/2 (the only ones the fast chain supports)."""
+    if abs(roll) < 1e-12:
+        return 0
+    if abs(roll - math.pi / 2) < 1e-12:
+        return 1
+    if abs(roll + math.pi / 2) < 1e-12:
+        return -1
+    raise ValueError("collision chain supports roll 0 or +/-pi/2 only")
+
+
+def _in_child(model: RobotModel, k: int, p: Vec) -> Vec:
+    """Point ``p`` of joint ``k``'s parent frame in joint ``k``'s own frame (at zero joint angle)."""
+    j = model.joints[k]
+    ox, oy, oz = j.origin_xyz
+    vx, vy, vz = p[0] - ox, p[1] - oy, p[2] - oz
+    code = _roll_code(j.origin_rpy[0])
+    if code == 1:  # Rx(+pi/2): child y = parent z, child z = -parent y
+        return (vx, vz, -vy)
+    if code == -1:  # Rx(-pi/2): child y = -parent z, child z = parent y
+        return (vx, -vz, vy)
+    return (vx, vy, vz)
+
+
+def _link_capsules(model: RobotModel) -> tuple[Capsule, ...]:
+    """The link capsules of ``model`` in its joint frames (``Capsule.frame``), bodies numbered from 1.
+
+    Layout: base column (J1 origin), upper arm (origin of the joint after the shoulder, xArm7: two joints
+    with the elbow J4 side offset), elbow offset and forearm (origin of the joint at the wrist end of the
+    forearm: x is the elbow offset, y the forearm length), wrist module (about the axis of the last but
+    one joint) and last module (the last joint origin's y, down to the flange).
+    """
+    dof = model.dof
+    if dof not in (5, 6, 7):
+        raise ValueError(f"no self-collision layout for {dof} axes")
+    j = model.joints
+    b = 1 if dof == 7 else 0  # xArm7: one more upper body (J3), so later bodies shift by one
+    wrist_j = 4 if dof == 7 else 3  # joint whose origin ends the forearm
+    ex, fy, _ = j[wrist_j].origin_xyz
+    top = math.copysign(_FORE_TOP, fy)
+    caps = [
+        Capsule(_ORIGIN, j[0].origin_xyz, _R_BASE, "base", 1, -1),
+        Capsule(_ORIGIN, j[2].origin_xyz, _R_UPPER, "upper arm", 2, 1),
+    ]
+    if dof == 7:
+        caps.append(Capsule(_ORIGIN, j[3].origin_xyz, _R_ELBOW, "elbow J4 side", 3, 2))
+    parent = wrist_j - 1  # frame of the elbow and the top of the forearm
+    fore_a, fore_b = (ex, top, 0.0), (ex, fy - math.copysign(_FORE_LOW, fy), 0.0)
+    if dof == 5:  # no joint turns about the forearm: it stays in the elbow frame
+        fore = Capsule(fore_a, fore_b, _R_FORE, "forearm", 4, parent)
+    else:  # it lies on the axis of the joint at its end, in that joint's frame
+        fore = Capsule(_in_child(model, wrist_j, fore_a), _in_child(model, wrist_j, fore_b), _R_FORE,
+                       "forearm", 4 + b, wrist_j)
+    last = dof - 1
+    lx = j[last].origin_xyz[0]
+    caps += [
+        Capsule(_ORIGIN, (ex, 0.0, 0.0), _R_ELBOW, "elbow", 3 + b, parent),
+        Capsule((ex, 0.0, 0.0), (ex, top, 0.0), _R_FORE, "forearm top", 3 + b, parent),
+        fore,
+        Capsule((0.0, 0.0, -_WRIST_HALF), (0.0, 0.0, _WRIST_HALF), _R_WRIST, "wrist", 5 + b, last - 1),
+        Capsule(_in_child(model, last, (lx, 0.0, 0.0)), _ORIGIN, _R_LAST, "flange", 6 + b, last),
+    ]
+    return tuple(caps)
+
 
 # Body pairs two or more apart that are not checked (module docstring), per dof.
 _SKIP_56 = frozenset({(3, 5), (3, 6), (4, 6)})
@@ -186,6 +215,30 @@ _SKIP: dict[int, frozenset[tuple[int, int]]] = {
     6: _SKIP_56,
     7: frozenset({(1, 3), (2, 4), (4, 6), (4, 7), (5, 7)}),
 }
+
+
+class _Layout:
+    """What the checks need of one model, computed once: link rows, origin codes, checked pairs."""
+
+    __slots__ = ("model", "links", "codes", "pairs")
+
+    def __init__(self, model: RobotModel) -> None:
+        self.model = model
+        self.links: list[tuple] = [("c", c.frame, c.a, c.b, c.radius, c.name, c.body)
+                                   for c in _link_capsules(model)]
+        self.codes = _origin_codes(model)
+        self.pairs: dict[tuple[int, bool], list[tuple[int, int]]] = {}
+
+
+_LAYOUTS: dict[int, _Layout] = {}
+
+
+def _layout(model: RobotModel) -> _Layout:
+    """The cached layout of ``model`` (keyed by the object itself: an edited copy gets its own)."""
+    lay = _LAYOUTS.get(id(model))
+    if lay is None or lay.model is not model:
+        lay = _LAYOUTS[id(model)] = _Layout(model)
+    return lay
 
 
 def collision_pairs(model: RobotModel, tool: ToolModel = NO_TOOL) -> list[tuple[int, int]]:
@@ -204,7 +257,7 @@ def collision_pairs(model: RobotModel, tool: ToolModel = NO_TOOL) -> list[tuple[
 
 def _local_shapes(model: RobotModel, tool: ToolModel) -> list[tuple]:
     """(kind, frame, data..., name, body) rows; tool last, as body dof + 1."""
-    rows: list[tuple] = [("c", c.frame, c.a, c.b, c.radius, c.name, c.body) for c in _LINKS[model.dof]]
+    rows = list(_layout(model).links)
     flange, body = model.dof - 1, model.dof + 1
     if tool.capsule is not None:
         a, b, r = tool.capsule
@@ -225,27 +278,14 @@ def _origin_codes(model: RobotModel) -> tuple[tuple[int, float, float, float], .
         roll, pitch, yaw = j.origin_rpy
         if pitch != 0.0 or yaw != 0.0:
             raise ValueError("collision chain supports origin rotations about x only")
-        if abs(roll) < 1e-12:
-            code = 0
-        elif abs(roll - math.pi / 2) < 1e-12:
-            code = 1
-        elif abs(roll + math.pi / 2) < 1e-12:
-            code = -1
-        else:
-            raise ValueError("collision chain supports roll 0 or +/-pi/2 only")
         x, y, z = (float(v) for v in j.origin_xyz)
-        out.append((code, x, y, z))
+        out.append((_roll_code(roll), x, y, z))
     return tuple(out)
-
-
-_CODES: dict[str, tuple[tuple[int, float, float, float], ...]] = {}
 
 
 def frames_scalar(model: RobotModel, q: Sequence[float]) -> list[tuple[float, ...]]:
     """Joint frames as 12-tuples (x axis, y axis, z axis, origin), same frames as ``joint_frames``."""
-    codes = _CODES.get(model.name)
-    if codes is None:
-        codes = _CODES[model.name] = _origin_codes(model)
+    codes = _layout(model).codes
     xx, xy, xz, yx, yy, yz, zx, zy, zz = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
     px = py = pz = 0.0
     out: list[tuple[float, ...]] = []
@@ -273,16 +313,9 @@ def _xf(f: tuple[float, ...], v: Vec) -> Vec:
             f[11] + f[2] * x + f[5] * y + f[8] * z)
 
 
-def _joints(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
-    qs = [float(v) for v in q]
-    if len(qs) < model.dof:
-        raise ValueError(f"{model.name} needs {model.dof} joint values, got {len(qs)}")
-    return qs[: model.dof]
-
-
 def link_shapes(model: RobotModel, q: Sequence[float] | np.ndarray, tool: ToolModel = NO_TOOL) -> list[Shape]:
     """World-frame (base frame) shapes of the links and the tool at joints ``q`` (mm)."""
-    frames = frames_scalar(model, _joints(model, q))
+    frames = frames_scalar(model, joint_values(model, q))
     out: list[Shape] = []
     for row in _local_shapes(model, tool):
         f = _IDENT if row[1] < 0 else frames[row[1]]
@@ -403,9 +436,6 @@ def shape_distance(s1: Shape, s2: Shape) -> float:
     return max(segment_distance(s1.a, s1.b, s2.a, s2.b) - s1.radius - s2.radius, 0.0)
 
 
-_PAIRS: dict[tuple[str, int, bool], list[tuple[int, int]]] = {}
-
-
 def self_collision(
     model: RobotModel, q: Sequence[float] | np.ndarray, tool: ToolModel = NO_TOOL, margin: float = 0.0
 ) -> tuple[bool, float, tuple[int, int]]:
@@ -414,11 +444,12 @@ def self_collision(
     Collides when the minimum distance is below ``margin`` (mm); a distance of 0 means overlap.
     """
     rows = _local_shapes(model, tool)
-    key = (model.name, len(rows), tool.box is not None)
-    pairs = _PAIRS.get(key)
+    key = (len(rows), tool.box is not None)
+    cache = _layout(model).pairs
+    pairs = cache.get(key)
     if pairs is None:
-        pairs = _PAIRS[key] = collision_pairs(model, tool)
-    frames = frames_scalar(model, _joints(model, q))
+        pairs = cache[key] = collision_pairs(model, tool)
+    frames = frames_scalar(model, joint_values(model, q))
     world: list = []  # plain tuples (a, b, radius) for capsules; Box objects for a cuboid tool
     for row in rows:
         f = _IDENT if row[1] < 0 else frames[row[1]]

@@ -29,8 +29,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from xarm_emu.model.inertials import STANDARD_GRAVITY, get_inertials, torque_constants
-from xarm_emu.model.robots import RobotModel
+from .inertials import STANDARD_GRAVITY, get_inertials, torque_constants
+from .robots import RobotModel
+from .rotations import rpy_to_matrix
 
 Vec = tuple[float, float, float]
 Mat = tuple[Vec, Vec, Vec]
@@ -60,17 +61,6 @@ class _Link:
     inertia: Mat  # kg.m^2 about the COM
 
 
-def _rpy(roll: float, pitch: float, yaw: float) -> Mat:
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return (
-        (cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
-        (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
-        (-sp, cp * sr, cp * cr),
-    )
-
-
 @lru_cache(maxsize=32)
 def _chain(model: RobotModel) -> tuple[_Link, ...]:
     inertials = get_inertials(model)
@@ -80,7 +70,7 @@ def _chain(model: RobotModel) -> tuple[_Link, ...]:
     for joint, link in zip(model.joints, inertials.links, strict=True):
         im = link.inertia_matrix
         links.append(_Link(
-            rot=_rpy(*joint.origin_rpy),
+            rot=tuple(tuple(float(x) for x in row) for row in rpy_to_matrix(*joint.origin_rpy)),  # type: ignore[arg-type]
             pos=(joint.origin_xyz[0] / 1000.0, joint.origin_xyz[1] / 1000.0, joint.origin_xyz[2] / 1000.0),
             mass=link.mass,
             com=(link.com[0] / 1000.0, link.com[1] / 1000.0, link.com[2] / 1000.0),

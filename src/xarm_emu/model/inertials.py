@@ -3,7 +3,7 @@
 Source of the link tables: the vendor's published inertial sets ``xarm5_type5_HT_BR2``,
 ``xarm6_type6_HT_BR2`` and ``xarm7_type7_HT_BR2`` (xArm-Developer/xarm_ros2, ``xarm_description/config/
 link_inertial``; the "Model 3" tables of UFACTORY's "kinematic and dynamic parameters" article), which the
-vendor's URDF selects by default (research note kinematics.md section 6). The numbers were read from those
+vendor's URDF selects by default. The numbers were read from those
 sets and written here in the project's units: mass in kg, centre of mass (COM) in mm in the link frame,
 inertia tensor in kg.m^2 about the COM, axes of the link frame.
 
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from xarm_emu.model.robots import RobotModel
+from .robots import RobotModel
 
 
 @dataclass(frozen=True)

@@ -1,13 +1,14 @@
 """Forward and inverse kinematics, Jacobian, joint limits, TCP offset and user coordinate offset.
 
-Frames (research note kinematics.md sections 2.3 and 3): each joint is ``Trans(xyz) . R(rpy) . Rz(q)`` on
+Frames (the vendor URDF's joint origins): each joint is ``Trans(xyz) . R(rpy) . Rz(q)`` on
 its parent, the flange (default TCP) is the frame after the last joint, lengths in mm, angles in rad.
 
-Speed: the joint chain of each model is unrolled at import time into straight-line scalar Python code, with
-zero offsets and the exact +/-pi/2 origin rotations folded away (``_generate``). ``joint_frames`` keeps a
-plain numpy 4x4 chain, which the tests use as an independent check of the unrolled code.
+Speed: the joint chain of each model is unrolled on first use into straight-line scalar Python code, with
+zero offsets and the exact +/-pi/2 origin rotations folded away (the code generator is :mod:`._unroll`;
+its functions are cached here per model object). ``joint_frames`` keeps a plain numpy 4x4 chain, which
+the tests use as an independent check of the unrolled code.
 
-Inverse kinematics (manual register 43; research note section 5):
+Inverse kinematics (manual register 43):
 - xArm6/xArm7: Levenberg-Marquardt from the seed (the current joints or the SDK's ``ref_angles``), so
   the posture follows the seed; xArm7 takes the minimum-norm step, keeping the elbow near the seed.
   Converged means |dp| <= 1e-6 mm and |d theta| <= 1e-7 rad; otherwise there is no solution (None).
@@ -30,7 +31,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from .robots import RobotModel
+from ._unroll import generate
+from .robots import RobotModel, joint_values
 from .rotations import invert_transform, matrix_to_axis_angle, pose_to_matrix
 
 POS_TOL = 1e-6  # mm
@@ -41,229 +43,16 @@ _POS_SCALE = 1e-3  # IK weights position error in metres against rotation in rad
 LM_MU = 0.1
 MAX_STEP = 0.5  # rad
 
-# --------------------------------------------------------------------------------------------------------
-# Code generation of the unrolled chain
-
-
-def _snap(v: float) -> float:
-    if abs(v) < 1e-15:
-        return 0.0
-    if abs(abs(v) - 1.0) < 1e-15:
-        return math.copysign(1.0, v)
-    return v
-
-
-class _Gen:
-    """Tiny symbolic emitter: entries are float constants or variable names (optionally negated)."""
-
-    def __init__(self) -> None:
-        self.lines: list[str] = []
-        self.n = 0
-
-    def assign(self, expr: float | str) -> float | str:
-        if isinstance(expr, float):
-            return expr
-        bare = expr[1:] if expr.startswith("-") else expr
-        if bare.isidentifier():
-            return expr
-        self.n += 1
-        name = f"t{self.n}"
-        self.lines.append(f"    {name} = {expr}")
-        return name
-
-    @staticmethod
-    def scale(e: float | str, k: float | str) -> float | str:
-        """Product of a symbolic entry and a constant or a variable name."""
-        if isinstance(e, float) and isinstance(k, float):
-            return e * k
-        if isinstance(k, float):
-            e, k = k, e
-        assert isinstance(k, str)
-        if isinstance(e, float):
-            if e == 0.0:
-                return 0.0
-            if e == 1.0:
-                return k
-            if e == -1.0:
-                return k[1:] if k.startswith("-") else "-" + k
-            return f"{e!r}*{k}"
-        return f"{e}*{k}"
-
-    @staticmethod
-    def add(*terms: float | str) -> float | str:
-        const = sum(t for t in terms if isinstance(t, float))
-        syms = [t for t in terms if isinstance(t, str)]
-        if not syms:
-            return float(const)
-        parts = syms + ([repr(const)] if const != 0.0 else [])
-        out = parts[0]
-        for p in parts[1:]:
-            out += f" - {p[1:]}" if p.startswith("-") else f" + {p}"
-        return out
-
-
-    def raw(self, expr: str) -> str:
-        """Assign any expression (e.g. a function call) to a fresh variable."""
-        self.n += 1
-        name = f"t{self.n}"
-        self.lines.append(f"    {name} = {expr}")
-        return name
-
-    def dot(self, xs: Sequence[float | str], ys: Sequence[float | str]) -> float | str:
-        return self.add(*(self.scale(x, y) for x, y in zip(xs, ys, strict=True)))
-
-    def neg(self, e: float | str) -> float | str:
-        return self.scale(e, -1.0)
-
-
-Sym = float | str
-
-
-Axes = list[tuple[list[Sym], list[Sym]]]
-
-
-def _chain_code(g: _Gen, model: RobotModel, unit: float) -> tuple[list[list[Sym]], list[Sym], Axes]:
-    """Emit the chain; returns flange R (3x3), p (3) and each joint's (z axis, origin)."""
-    R: list[list[Sym]] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
-    p: list[Sym] = [0.0, 0.0, 0.0]
-    axes: list[tuple[list[Sym], list[Sym]]] = []
-    for i, j in enumerate(model.joints):
-        g.lines.append(f"    c{i} = cos(q{i}); s{i} = sin(q{i})")
-        po = [float(v) * unit for v in j.origin_xyz]
-        p = [g.assign(g.add(p[k], g.dot(R[k], po))) for k in range(3)]
-        Ro = pose_to_matrix((0.0, 0.0, 0.0, *j.origin_rpy))[:3, :3]
-        Rc = [[_snap(float(Ro[a][b])) for a in range(3)] for b in range(3)]  # columns of Ro
-        R = [[g.assign(g.dot(R[k], Rc[b])) for b in range(3)] for k in range(3)]
-        axes.append(([R[k][2] for k in range(3)], list(p)))
-        c, s = f"c{i}", f"s{i}"
-        new0 = [g.assign(g.add(g.scale(R[k][0], c), g.scale(R[k][1], s))) for k in range(3)]
-        new1 = [g.assign(g.add(g.scale(R[k][1], c), g.scale(g.neg(R[k][0]), s))) for k in range(3)]
-        R = [[new0[k], new1[k], R[k][2]] for k in range(3)]
-    return R, p, axes
-
-
-def _jac_rows(g: _Gen, axes: Axes, p: list[Sym]) -> list[list[Sym]]:
-    """Emit the geometric Jacobian rows (6 x dof): z_i x (p - o_i) over z_i."""
-    rows: list[list[Sym]] = [[] for _ in range(6)]
-    for z, o in axes:
-        d = [g.assign(g.add(p[k], g.neg(o[k]))) for k in range(3)]
-        cross = [
-            g.add(g.scale(z[1], d[2]), g.scale(g.neg(z[2]), d[1])),
-            g.add(g.scale(z[2], d[0]), g.scale(g.neg(z[0]), d[2])),
-            g.add(g.scale(z[0], d[1]), g.scale(g.neg(z[1]), d[0])),
-        ]
-        for k in range(3):
-            rows[k].append(g.assign(cross[k]))
-            rows[3 + k].append(z[k])
-    return rows
-
-
-def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], axes: Axes, n: int) -> list[Sym]:
-    """Emit one damped least-squares step (error, J J^T + lambda I, unrolled Cholesky, J^T x)."""
-    E = [[g.assign(g.dot([f"T{3 * a + k}" for k in range(3)], R[b])) for b in range(3)] for a in range(3)]
-    entries = ", ".join(str(E[a][b]) for a in range(3) for b in range(3))
-    g.lines.append(f"    wx, wy, wz = _rotvec({entries})")
-    g.lines.append(f"    px = tx - {p[0]}; py = ty - {p[1]}; pz = tz - {p[2]}")
-    g.lines.append("    pe = px*px + py*py + pz*pz; re = wx*wx + wy*wy + wz*wz")
-    g.lines.append("    if pe <= PTOL2 and re <= RTOL2: return (pe, re)")
-    g.lines.append("    lam = mu*(pe + re) + 1e-12")
-    J = _jac_rows(g, axes, p)  # only needed when not converged
-    e = ["px", "py", "pz", "wx", "wy", "wz"]
-    A = [[g.assign(g.add(g.dot(J[a], J[b]), *(["lam"] if a == b else []))) for b in range(a + 1)]
-         for a in range(6)]
-    L: list[list[Sym]] = [[0.0] * 6 for _ in range(6)]
-    dinv: list[str] = []
-    for i in range(6):
-        for j in range(i):
-            s = g.add(A[i][j], *(g.neg(g.scale(L[i][k], L[j][k])) for k in range(j)))
-            L[i][j] = g.assign(g.scale(g.assign(s), dinv[j]))
-        s = g.assign(g.add(A[i][i], *(g.neg(g.scale(L[i][k], L[i][k])) for k in range(i))))
-        L[i][i] = g.raw(f"sqrt({s})")
-        dinv.append(g.raw(f"1.0/{L[i][i]}"))
-    y: list[Sym] = []
-    for i in range(6):
-        s = g.assign(g.add(e[i], *(g.neg(g.scale(L[i][k], y[k])) for k in range(i))))
-        y.append(g.assign(g.scale(s, dinv[i])))
-    x: list[Sym] = [0.0] * 6
-    for i in range(5, -1, -1):
-        s = g.assign(g.add(y[i], *(g.neg(g.scale(L[k][i], x[k])) for k in range(i + 1, 6))))
-        x[i] = g.assign(g.scale(s, dinv[i]))
-    dq = [g.assign(g.dot([J[a][k] for a in range(6)], x)) for k in range(n)]
-    # step capped at MAX_STEP on any joint, then each joint clamped into its limits (projected step)
-    g.lines.append("    big = max(" + ", ".join(f"abs({d})" for d in dq) + ")")
-    g.lines.append("    k = MAX_STEP/big if big > MAX_STEP else 1.0")
-    out: list[Sym] = []
-    for i, d in enumerate(dq):
-        g.lines.append(f"    n{i} = q{i} + {d}*k")
-        g.lines.append(f"    n{i} = LO[{i}] if n{i} < LO[{i}] else (HI[{i}] if n{i} > HI[{i}] else n{i})")
-        out.append(f"n{i}")
-    return out
-
-
-def _generate(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
-    """Unrolled code of ``model`` as a Python function; mode is "fk", "jac" or "lm".
-
-    fk: (R row-major 9, p 3) in mm.  jac: the same plus the 6 x dof Jacobian row-major.
-    lm: args (q..., T0..T8, tx, ty, tz, mu) in metres; returns (|dp|^2, |dtheta|^2) when converged,
-    else (|dp|^2, |dtheta|^2, next q...) after one capped, limit-clamped step.
-    """
-    g = _Gen()
-    args = [f"q{i}" for i in range(model.dof)]
-    unit = 1e-3 if mode == "lm" else 1.0
-    R, p, axes = _chain_code(g, model, unit)
-    out: list[Sym] = [R[a][b] for a in range(3) for b in range(3)] + p
-    if mode == "jac":
-        out += [e for row in _jac_rows(g, axes, p) for e in row]
-    elif mode == "lm":
-        args += [f"T{k}" for k in range(9)] + ["tx", "ty", "tz", "mu"]
-        out = ["pe", "re", *_lm_code(g, R, p, axes, model.dof)]
-    src = f"def _chain({', '.join(args)}):\n" + "\n".join(g.lines)
-    src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
-    namespace: dict[str, object] = {
-        "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "_rotvec": _rotvec,
-        "PTOL2": (POS_TOL * 1e-3) ** 2, "RTOL2": ROT_TOL ** 2, "MAX_STEP": MAX_STEP,
-        "LO": tuple(j.lower for j in model.joints), "HI": tuple(j.upper for j in model.joints),
-    }
-    exec(compile(src, f"<kinematics {model.name} {mode}>", "exec"), namespace)  # noqa: S102
-    fn = namespace["_chain"]
-    fn.__doc__ = src  # type: ignore[union-attr]
-    return fn  # type: ignore[return-value]
-
-
 _CACHE: dict[int, tuple[RobotModel, dict[str, Callable[..., tuple[float, ...]]]]] = {}
 
 
 def _chain_fn(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
     entry = _CACHE.get(id(model))
     if entry is None or entry[0] is not model:
-        entry = _CACHE[id(model)] = (model, {m: _generate(model, m) for m in ("fk", "jac", "lm")})
+        ptol2, rtol2 = (POS_TOL * 1e-3) ** 2, ROT_TOL ** 2  # the LM step works in metres
+        fns = {m: generate(model, m, ptol2, rtol2, MAX_STEP) for m in ("fk", "jac", "lm")}
+        entry = _CACHE[id(model)] = (model, fns)
     return entry[1][mode]
-
-
-def _rotvec(e00: float, e01: float, e02: float, e10: float, e11: float, e12: float,
-            e20: float, e21: float, e22: float) -> tuple[float, float, float]:
-    """Rotation vector of a rotation matrix given entry by entry (the IK orientation error)."""
-    vx, vy, vz = e21 - e12, e02 - e20, e10 - e01
-    c = (e00 + e11 + e22 - 1.0) / 2.0
-    if c < -0.99:  # near pi: the skew part loses the axis
-        w = matrix_to_axis_angle(np.array(((e00, e01, e02), (e10, e11, e12), (e20, e21, e22))))
-        return float(w[0]), float(w[1]), float(w[2])
-    s2 = math.sqrt(vx * vx + vy * vy + vz * vz)
-    if s2 < 1e-300:
-        return 0.0, 0.0, 0.0
-    k = math.atan2(s2 / 2.0, c) / s2
-    return vx * k, vy * k, vz * k
-
-
-def _joints(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
-    qs = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
-    if len(qs) < model.dof:
-        raise ValueError(f"{model.name} needs {model.dof} joint values, got {len(qs)}")
-    qs = qs[: model.dof]
-    for v in qs:
-        if not math.isfinite(v):
-            raise ValueError(f"non-finite joint value {v!r}")
-    return qs
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -272,7 +61,7 @@ def _joints(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
 
 def fk(model: RobotModel, q: Sequence[float] | np.ndarray) -> np.ndarray:
     """4x4 flange pose in the base frame (mm). Extra joint values (wire J7 on xArm6) are ignored."""
-    r = _chain_fn(model, "fk")(*_joints(model, q))
+    r = _chain_fn(model, "fk")(*joint_values(model, q))
     return np.array(
         ((r[0], r[1], r[2], r[9]), (r[3], r[4], r[5], r[10]), (r[6], r[7], r[8], r[11]), (0.0, 0.0, 0.0, 1.0))
     )
@@ -283,7 +72,7 @@ def joint_frames(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[np.
 
     The last one is the flange. Plain numpy chain, independent of the unrolled ``fk``.
     """
-    qs = _joints(model, q)
+    qs = joint_values(model, q)
     T = np.eye(4)
     frames = []
     for j, qi in zip(model.joints, qs, strict=True):
@@ -294,14 +83,14 @@ def joint_frames(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[np.
 
 def jacobian(model: RobotModel, q: Sequence[float] | np.ndarray) -> np.ndarray:
     """Geometric Jacobian (6 x dof) of the flange in the base frame: rows vx, vy, vz (mm/rad), wx, wy, wz."""
-    r = _chain_fn(model, "jac")(*_joints(model, q))
+    r = _chain_fn(model, "jac")(*joint_values(model, q))
     return np.array(r[12:]).reshape(6, model.dof)
 
 
 def within_limits(model: RobotModel, q: Sequence[float] | np.ndarray) -> bool:
     """True when every joint is finite and inside its limits (manual 1.3; register 45)."""
     try:
-        qs = _joints(model, q)
+        qs = joint_values(model, q)
     except (ValueError, TypeError):
         return False
     return all(j.lower <= v <= j.upper for j, v in zip(model.joints, qs, strict=True))
@@ -357,7 +146,7 @@ def _fit_limits(model: RobotModel, q: list[float], limited: bool) -> np.ndarray 
 
 
 def _ik_xarm5(model: RobotModel, target: np.ndarray, seed: list[float], limited: bool) -> np.ndarray | None:
-    """Closed form for a 5-axis arm whose tool stays vertical (research note section 5)."""
+    """Closed form for a 5-axis arm whose tool stays vertical."""
     R = target[:3, :3]
     tol = XARM5_LEVEL_TOL
     if not (R[2, 2] < 0.0 and abs(R[0, 2]) < tol and abs(R[1, 2]) < tol and abs(R[2, 0]) < tol
@@ -438,7 +227,7 @@ def ik(
         return sol
     try:
         target = np.asarray(T_target, dtype=float)
-        base = np.zeros(model.dof) if seed is None else np.asarray(_joints(model, seed), dtype=float)
+        base = np.zeros(model.dof) if seed is None else np.asarray(joint_values(model, seed), dtype=float)
         heading = math.atan2(float(target[1, 3]), float(target[0, 3]))
     except (ValueError, TypeError, IndexError):
         return None
@@ -475,7 +264,7 @@ def _ik_once(
         rows = target.tolist()
         if not math.isfinite(sum(map(sum, rows))):  # NaN or inf anywhere
             return None
-        qs = [0.0] * model.dof if seed is None else _joints(model, seed)
+        qs = [0.0] * model.dof if seed is None else joint_values(model, seed)
     except (ValueError, TypeError, OverflowError):
         return None
     if model.fixed_roll_pitch:

@@ -1,17 +1,18 @@
 """Immutable descriptions of the xArm 5, 6 and 7 arms.
 
-Joint frames are the vendor URDF joint origins (research note kinematics.md section 2.3), with lengths
-converted to mm and the +/-1.5708 roll values replaced by exact +/-pi/2. Each joint turns about its local z
-axis after the fixed origin transform ``Trans(xyz) . Rz(yaw) Ry(pitch) Rx(roll)``; the flange (default TCP)
-is the frame after the last joint.
+Joint frames are the vendor URDF joint origins, with lengths converted to mm and the +/-1.5708 roll
+values replaced by exact +/-pi/2. Each joint turns about its local z axis after the fixed origin
+transform ``Trans(xyz) . Rz(yaw) Ry(pitch) Rx(roll)``; the flange (default TCP) is the frame after the
+last joint.
 
-Joint limits are those the SDK checks (research note section 4, type X4), which are the radian forms of the
+Joint limits are those the SDK checks for the xArm's joint limit tables, which are the radian forms of the
 manual's tables (manual 1.3 Table 1.1, 4.2-4.4). The Cartesian range is the manual's (4.1).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -48,7 +49,7 @@ class RobotModel:
         default=((-700.0, 700.0), (-700.0, 700.0), (-400.0, 951.5),
                  (-math.pi, math.pi), (-math.pi, math.pi), (-math.pi, math.pi))
     )
-    # xArm5 Cartesian targets must keep the flange level: roll = +/-pi, pitch = 0 (research note 4, 5).
+    # xArm5 Cartesian targets must keep the flange level: roll = +/-pi, pitch = 0 (as the SDK requires).
     fixed_roll_pitch: bool = False
     max_joint_acc: float = 20.0  # rad/s^2, manual 1.3 Table 1.2 (1145 deg/s^2)
     max_joint_jerk: float = 500.0  # rad/s^3, manual 1.3 Table 1.2 (28647 deg/s^3)
@@ -77,11 +78,24 @@ class RobotModel:
         return np.zeros(self.dof)
 
 
+def joint_values(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
+    """The first ``dof`` values of ``q`` as floats (extra values, such as the wire J7 of a 6-axis arm, are
+    ignored); ``ValueError`` when there are fewer than ``dof`` or one is not finite."""
+    qs = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
+    if len(qs) < model.dof:
+        raise ValueError(f"{model.name} needs {model.dof} joint values, got {len(qs)}")
+    qs = qs[: model.dof]
+    for v in qs:
+        if not math.isfinite(v):
+            raise ValueError(f"non-finite joint value {v!r}")
+    return qs
+
+
 def _j(name: str, xyz: tuple[float, float, float], roll: float, lo: float, hi: float) -> JointSpec:
     return JointSpec(name, (float(xyz[0]), float(xyz[1]), float(xyz[2])), (roll, 0.0, 0.0), lo, hi)
 
 
-# Limits in rad (research note 4; manual 1.3: +/-360, -118..120, -225..11, -97..180, -11..225 degrees).
+# Limits in rad (the SDK's values; manual 1.3: +/-360, -118..120, -225..11, -97..180, -11..225 degrees).
 _FULL = (-TWO_PI, TWO_PI)
 _SHOULDER = (-2.059488, 2.094395)
 _ELBOW = (-3.92699, 0.191986)

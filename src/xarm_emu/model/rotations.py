@@ -3,7 +3,7 @@
 Manual 1.5 "Roll/Pitch/Yaw": fixed X-Y-Z angles, R = Rz(yaw) Ry(pitch) Rx(roll). Manual 1.5 "Axis-Angle":
 [Rx, Ry, Rz] = unit axis * phi with phi >= 0.
 
-Vendor canonical form of matrix_to_rpy (research note kinematics.md section 3; manual register 44 example):
+Vendor canonical form of matrix_to_rpy (what the vendor controller reports; manual register 44 example):
 - each angle lies in [-pi, pi]; on the roll seam (|r21| < 1e-12 with r22 < 0) roll is reported as -pi;
 - a pitch with |pitch| < 1e-12 is reported as -0.0 (register 44 example bytes 00 00 00 80);
 - a yaw with |yaw| < 1e-12 (outside gimbal lock) is reported as +0.0;
@@ -27,6 +27,9 @@ ZERO_TOL = 1e-12
 # |cos(pitch)| below this counts as gimbal lock: covers any float32-rounded +/-pi/2 (6e-8 away).
 GIMBAL_TOL = 1e-6
 POSITION_SNAP = 1e-9  # mm; tidier output for numeric noise, e.g. y = 3.6e-14 at zero joints
+
+#: Unit quaternion ``(w, x, y, z)``.
+Quat = tuple[float, float, float, float]
 
 
 def _finite(*values: float) -> None:
@@ -204,9 +207,33 @@ def snap_seam(angle: float, tol: float = 1e-6) -> float:
     """+/-pi for an angle within ``tol`` of +/-pi, else the angle unchanged.
 
     Wire angles are float32: float32(pi) = pi + 8.7e-8. The vendor's register 43 answer shows the
-    controller treats it as pi exactly (research note section 3), so the register layer applies this to
+    controller treats it as pi exactly, so the register layer applies this to
     incoming roll/pitch/yaw.
     """
     if abs(abs(angle) - math.pi) <= tol:
         return math.copysign(math.pi, angle)
     return angle
+
+
+def quat_from_matrix(r: np.ndarray) -> Quat:
+    """Unit quaternion (w >= 0) of a 3x3 rotation matrix (Shepperd's method)."""
+    m00, m01, m02 = float(r[0, 0]), float(r[0, 1]), float(r[0, 2])
+    m10, m11, m12 = float(r[1, 0]), float(r[1, 1]), float(r[1, 2])
+    m20, m21, m22 = float(r[2, 0]), float(r[2, 1]), float(r[2, 2])
+    tr = m00 + m11 + m22
+    if tr > max(m00, m11, m22):
+        s = 2.0 * math.sqrt(1.0 + tr)
+        q = (0.25 * s, (m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s)
+    elif m00 >= m11 and m00 >= m22:
+        s = 2.0 * math.sqrt(max(1.0 + m00 - m11 - m22, 0.0))
+        q = ((m21 - m12) / s, 0.25 * s, (m01 + m10) / s, (m02 + m20) / s)
+    elif m11 >= m22:
+        s = 2.0 * math.sqrt(max(1.0 + m11 - m00 - m22, 0.0))
+        q = ((m02 - m20) / s, (m01 + m10) / s, 0.25 * s, (m12 + m21) / s)
+    else:
+        s = 2.0 * math.sqrt(max(1.0 + m22 - m00 - m11, 0.0))
+        q = ((m10 - m01) / s, (m02 + m20) / s, (m12 + m21) / s, 0.25 * s)
+    n = math.sqrt(sum(c * c for c in q))
+    if q[0] < 0.0:
+        n = -n
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)

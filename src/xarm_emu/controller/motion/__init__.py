@@ -2,8 +2,8 @@
 profiles, joint moves (ruckig), Cartesian paths (line, arc blend, circle) and
 servo tracking. Pure math: no controller state, no kinematics."""
 
-from .cartesian import CartesianMove, MoveChain, plan_blended, plan_line
-from .joint import JointTrajectory, plan_joint_move, plan_joint_stop
+from .cartesian import CartesianMove, MoveChain, plan_blended
+from .joint import JointTrajectory, plan_joint_move
 from .paths import (
     ROT_MM_PER_RAD,
     BlendArc,
@@ -14,13 +14,12 @@ from .paths import (
     Path,
     blend_runs,
 )
-from .profile import JerkProfile, MovingProfile, PlanningError, SCurve, resume_profile, stop_profile
+from .profile import JerkProfile, MovingProfile, PlanningError, SCurve
 from .servo import ServoTracker
 
 __all__ = [
     "ROT_MM_PER_RAD", "BlendArc", "CartesianMove", "CirclePath", "CollinearError", "CompositePath",
     "JerkProfile", "JointTrajectory",
     "MovingProfile", "LinePath", "MoveChain", "Path", "PlanningError", "SCurve",
-    "ServoTracker", "blend_runs", "plan_blended", "plan_joint_move", "plan_joint_stop", "plan_line",
-    "resume_profile", "stop_profile",
+    "ServoTracker", "blend_runs", "plan_blended", "plan_joint_move",
 ]

@@ -9,31 +9,9 @@ import math
 
 import numpy as np
 
-Quat = tuple[float, float, float, float]
+from ...model.rotations import Quat, quat_from_matrix
 
-
-def quat_from_matrix(r: np.ndarray) -> Quat:
-    """Unit quaternion (w >= 0) of a 3x3 rotation matrix (Shepperd's method)."""
-    m00, m01, m02 = float(r[0, 0]), float(r[0, 1]), float(r[0, 2])
-    m10, m11, m12 = float(r[1, 0]), float(r[1, 1]), float(r[1, 2])
-    m20, m21, m22 = float(r[2, 0]), float(r[2, 1]), float(r[2, 2])
-    tr = m00 + m11 + m22
-    if tr > max(m00, m11, m22):
-        s = 2.0 * math.sqrt(1.0 + tr)
-        q = (0.25 * s, (m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s)
-    elif m00 >= m11 and m00 >= m22:
-        s = 2.0 * math.sqrt(max(1.0 + m00 - m11 - m22, 0.0))
-        q = ((m21 - m12) / s, 0.25 * s, (m01 + m10) / s, (m02 + m20) / s)
-    elif m11 >= m22:
-        s = 2.0 * math.sqrt(max(1.0 + m11 - m00 - m22, 0.0))
-        q = ((m02 - m20) / s, (m01 + m10) / s, 0.25 * s, (m12 + m21) / s)
-    else:
-        s = 2.0 * math.sqrt(max(1.0 + m22 - m00 - m11, 0.0))
-        q = ((m10 - m01) / s, (m02 + m20) / s, (m12 + m21) / s, 0.25 * s)
-    n = math.sqrt(sum(c * c for c in q))
-    if q[0] < 0.0:
-        n = -n
-    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+__all__ = ["Quat", "Slerp", "pose_matrix", "quat_conj", "quat_from_matrix", "quat_mul"]
 
 
 def quat_mul(a: Quat, b: Quat) -> Quat:

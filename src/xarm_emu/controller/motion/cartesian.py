@@ -2,10 +2,8 @@
 profile along its length (manual 1.3, Table 1.2; registers 21, 22, 27, 28, 92).
 
 Every move offers the same small interface the controller samples every
-control period: ``duration``, ``at(t) -> (T 4x4, TCP speed mm/s)``,
-``stop(t)`` (a jerk-limited stop along the same path from the state at ``t``,
-for suspend and stop, register 12 states 3 and 4) and, on a stopped move,
-``resume()`` (from rest to the original end, through the same path).
+control period: ``duration`` and ``at(t) -> (T 4x4, TCP speed mm/s)``;
+a single move also gives ``state(t)`` (path coordinate, speed, acceleration).
 """
 
 from __future__ import annotations
@@ -16,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .paths import Path, blend_runs
-from .profile import JerkProfile, MovingProfile, SCurve, stop_profile
+from .profile import JerkProfile, MovingProfile, SCurve
 
 
 class CartesianMove:
@@ -26,16 +24,13 @@ class CartesianMove:
     coordinate (see :mod:`.paths` for how rotation counts).
     """
 
-    __slots__ = ("path", "speed", "acc", "jerk", "s0", "profile", "duration", "rest")
+    __slots__ = ("path", "speed", "acc", "jerk", "s0", "profile", "duration")
 
     def __init__(self, path: Path, speed: float, acc: float, jerk: float, *, s0: float = 0.0,
-                 profile: JerkProfile | MovingProfile | None = None,
-                 rest: Sequence[CartesianMove] = ()) -> None:
+                 profile: JerkProfile | MovingProfile | None = None) -> None:
         self.path, self.speed, self.acc, self.jerk, self.s0 = path, speed, acc, jerk, s0
         self.profile = profile if profile is not None else SCurve(path.length - s0, speed, acc, jerk)
         self.duration = self.profile.duration
-        #: Moves that follow this one once it is resumed (the rest of a blended chain).
-        self.rest = tuple(rest)
 
     def state(self, t: float) -> tuple[float, float, float]:
         """Path coordinate, path speed and path acceleration at ``t``."""
@@ -46,21 +41,6 @@ class CartesianMove:
         """Pose (4x4, mm) and TCP linear speed (mm/s) at ``t``."""
         s, v, _ = self.state(t)
         return self.path.pose(s), abs(v) * self.path.linear_ratio(s)
-
-    @property
-    def end_s(self) -> float:
-        return min(max(self.s0 + self.profile.distance, 0.0), self.path.length)
-
-    def stop(self, t: float) -> CartesianMove:
-        """Jerk-limited stop along the path from the state at ``t`` (the fastest the limits allow)."""
-        s, v, a = self.state(t)
-        prof = stop_profile(v, a, self.acc, self.jerk)
-        return CartesianMove(self.path, self.speed, self.acc, self.jerk, s0=s, profile=prof, rest=self.rest)
-
-    def resume(self) -> CartesianMove | MoveChain:
-        """From rest at the end of this move to the end of the path (and the rest of the chain)."""
-        first = CartesianMove(self.path, self.speed, self.acc, self.jerk, s0=self.end_s)
-        return MoveChain([first, *self.rest]) if self.rest else first
 
 
 class MoveChain:
@@ -85,18 +65,6 @@ class MoveChain:
             return self.moves[-1].at(self.moves[-1].duration)
         i = self._find(t)
         return self.moves[i].at(t - self._starts[i])
-
-    def stop(self, t: float) -> CartesianMove:
-        i = self._find(t)
-        m = self.moves[i]
-        stopped = m.stop(t - self._starts[i])
-        stopped.rest = tuple(self.moves[i + 1:]) + m.rest
-        return stopped
-
-
-def plan_line(path: Path, speed: float, acc: float, jerk: float) -> CartesianMove:
-    """A single move along ``path`` from rest to rest."""
-    return CartesianMove(path, speed, acc, jerk)
 
 
 def plan_blended(poses: Sequence[np.ndarray], radii: Sequence[float | None], speed: float, acc: float,

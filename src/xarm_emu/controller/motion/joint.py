@@ -6,8 +6,7 @@ no cloud features). Speeds in rad/s, accelerations rad/s2, jerks rad/s3
 (manual 1.4, Table 1.3); a scalar limit applies to every joint.
 
 Synchronisation is ruckig's *phase* synchronisation where possible (a move
-from rest is then a straight line in joint space, so a suspended move resumes
-on the same path) and *time* synchronisation otherwise; both give the same,
+from rest is then a straight line in joint space) and *time* synchronisation otherwise; both give the same,
 minimum duration from rest.
 
 ruckig bounds a trajectory's duration (about two hours). A slower move from rest,
@@ -21,7 +20,7 @@ from collections.abc import Sequence
 from typing import Protocol
 
 import numpy as np
-from ruckig import ControlInterface, InputParameter, Result, Ruckig, RuckigError, Synchronization, Trajectory
+from ruckig import InputParameter, Result, Ruckig, RuckigError, Synchronization, Trajectory
 
 from .profile import PlanningError, SCurve
 
@@ -76,7 +75,7 @@ class JointTrajectory:
     """A planned joint motion: ``duration`` and ``at(t) -> (q, qd, qdd)``.
 
     Outside ``[0, duration]`` the start and the exact end state are returned.
-    ``target`` is where the move (or the move it stops) is going.
+    ``target`` is where the move is going.
     """
 
     __slots__ = ("dof", "duration", "target", "limits", "_traj", "_start", "_end")
@@ -100,19 +99,6 @@ class JointTrajectory:
             return q.copy(), qd.copy(), qdd.copy()
         pos, vel, acc = self._traj.at_time(t)
         return np.array(pos), np.array(vel), np.array(acc)
-
-    def stop(self, t: float) -> JointTrajectory:
-        """Jerk-limited stop from the state at ``t`` (suspend / stop); ``resume()`` goes on to the target."""
-        q, qd, qdd = self.at(t)
-        vmax, amax, jmax = self.limits
-        stopped = plan_joint_stop(q, qd, qdd, amax, jmax, vmax=vmax)
-        stopped.target = self.target
-        return stopped
-
-    def resume(self) -> JointTrajectory:
-        """From rest at the end of this (stopped) move to its target."""
-        vmax, amax, jmax = self.limits
-        return plan_joint_move(self._end[0], self.target, vmax, amax, jmax)
 
 
 def _run(inp: InputParameter, dof: int) -> Trajectory:
@@ -157,33 +143,3 @@ def plan_joint_move(q0: Sequence[float] | np.ndarray, q1: Sequence[float] | np.n
             raise
         traj = StraightLine(start_q, target, limits)
     return JointTrajectory(traj, start, end, target, limits)
-
-
-def plan_joint_stop(q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray,
-                    qdd: Sequence[float] | np.ndarray, amax: Limit, jmax: Limit,
-                    vmax: Limit = 1e3) -> JointTrajectory:
-    """Bring the joints to rest, jerk-limited, as fast as the limits allow (all joints stop together).
-
-    ``target`` of the result is where the joints come to rest.
-    """
-    q = np.array(q, dtype=float)
-    dof = len(q)
-    v0, a0 = np.array(qd, dtype=float), np.array(qdd, dtype=float)
-    limits = (_limits(vmax, dof, "vmax"), _limits(amax, dof, "amax"), _limits(jmax, dof, "jmax"))
-    zero = np.zeros(dof)
-    if not v0.any() and not a0.any():
-        return JointTrajectory(None, (q, v0, a0), (q, zero, zero.copy()), q, limits)
-    inp = InputParameter(dof)
-    inp.control_interface = ControlInterface.Velocity
-    inp.current_position = q.tolist()
-    inp.current_velocity = v0.tolist()
-    inp.current_acceleration = a0.tolist()
-    inp.target_velocity = [0.0] * dof
-    inp.target_acceleration = [0.0] * dof
-    # Velocity limits only bound the stop if the state already exceeds them; keep them out of the way.
-    inp.max_velocity = [max(v, abs(x) + 1.0) for v, x in zip(limits[0], v0, strict=True)]
-    inp.max_acceleration, inp.max_jerk = limits[1], limits[2]
-    inp.synchronization = Synchronization.Phase
-    traj = _run(inp, dof)
-    rest_q = np.array(traj.at_time(traj.duration)[0])
-    return JointTrajectory(traj, (q, v0, a0), (rest_q, zero, zero.copy()), rest_q, limits)

@@ -2,11 +2,8 @@
 acceleration and jerk limits of TCP and joint motion).
 
 A profile is a chain of constant-jerk segments. :class:`SCurve` is the
-time-optimal 7-segment rest-to-rest profile over a distance; :func:`stop_profile`
-brings a moving state (v0, a0) to rest as fast as the limits allow (used by
-suspend, state 3, and stop, state 4, manual 2.1.3 register 12); a suspended move
-resumes with a fresh :class:`SCurve` over the remaining distance
-(:func:`resume_profile`).
+time-optimal 7-segment rest-to-rest profile over a distance;
+:class:`MovingProfile` goes from a moving state to rest at a distance.
 """
 
 from __future__ import annotations
@@ -138,42 +135,6 @@ class SCurve(JerkProfile):
         j = sign * jmax
         segs = [(tj, j), (tc, 0.0), (tj, -j), (tv, 0.0), (tj, -j), (tc, 0.0), (tj, j)]
         super().__init__(segs, end=(distance, 0.0, 0.0))
-
-
-def stop_profile(v0: float, a0: float, amax: float, jmax: float) -> JerkProfile:
-    """Fastest jerk-limited stop from speed ``v0`` and acceleration ``a0``.
-
-    The result starts at ``s=0`` and ends at rest (``v=0, a=0``) after
-    ``.duration`` seconds, having travelled ``.distance``. The acceleration is
-    first driven to the braking level (``amax``, or less when the stop is short),
-    held, then released so that speed and acceleration reach zero together. If
-    the current deceleration is already too strong to release without
-    reversing, the speed crosses zero briefly (the only jerk-limited way).
-    """
-    _check_limits(1.0, amax, jmax)
-    if abs(v0) <= _EPS and abs(a0) <= _EPS:
-        return JerkProfile([], end=(0.0, 0.0, 0.0))
-    # Mirror so that the speed is positive (or zero with positive acceleration).
-    sign = 1.0 if (v0 > 0.0 or (v0 == 0.0 and a0 > 0.0)) else -1.0
-    v, a, j = sign * v0, sign * a0, jmax
-    if a < 0.0 and a * a / (2.0 * j) >= v:
-        # Releasing the deceleration now already overshoots: a -> +ap -> 0.
-        ap = math.sqrt(max(a * a / 2.0 - j * v, 0.0))
-        segs = [((ap - a) / j, sign * j), (ap / j, -sign * j)]
-    else:
-        ap = amax
-        tc = (v + a * a / (2.0 * j) - ap * ap / j) / ap
-        if tc < 0.0:
-            ap = math.sqrt(j * v + a * a / 2.0)
-            tc = 0.0
-        segs = [((a + ap) / j, -sign * j), (tc, 0.0), (ap / j, sign * j)]
-    raw = JerkProfile(segs, v0, a0)  # integrate once, then pin the end exactly at rest
-    return JerkProfile(segs, v0, a0, end=(raw.distance, 0.0, 0.0))
-
-
-def resume_profile(remaining: float, vmax: float, amax: float, jmax: float) -> SCurve:
-    """Profile that resumes a suspended move from rest over the ``remaining`` distance."""
-    return SCurve(remaining, vmax, amax, jmax)
 
 
 class MovingProfile:

@@ -16,11 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..base import PERIOD
 from .joint import Limit
-
-#: Default step of :meth:`ServoTracker.step`: the control period.
-DEFAULT_DT = PERIOD
 
 
 class ServoTracker:
@@ -58,8 +54,8 @@ class ServoTracker:
     def at_target(self) -> bool:
         return bool(np.array_equal(self.q, self.target) and not self.qd.any())
 
-    def step(self, dt: float = DEFAULT_DT) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Advance one period toward the target; returns ``(q, qd, qdd)``."""
+    def step(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance one control period of ``dt`` seconds toward the target; returns ``(q, qd, qdd)``."""
         err = self.target - self.q
         # A new target within one period's reach is taken at once; so is a target already reached.
         direct = (np.abs(err) <= self.vmax * dt) if self._new else (err == 0.0)
@@ -76,10 +72,3 @@ class ServoTracker:
         self.qdd = (qd_new - self.qd) / dt
         self.q, self.qd = q_new, qd_new
         return self.q, self.qd, self.qdd
-
-    def hold(self) -> None:
-        """Stop tracking: the current position becomes the target, speed zero."""
-        self.target = self.q.copy()
-        self._new = False
-        self.qd = np.zeros_like(self.q)
-        self.qdd = np.zeros_like(self.q)
