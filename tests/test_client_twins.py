@@ -1,4 +1,4 @@
-"""The sync client and its asyncio twin (issue 2 item 7): call by register name and by code, typed
+"""The sync client and its asyncio twin: call by register name and by code, typed
 values, the reply's state bits, and report subscriptions as iterators."""
 
 from __future__ import annotations
