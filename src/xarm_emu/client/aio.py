@@ -1,31 +1,33 @@
-"""Asyncio twin of :mod:`xarm_emu.client.sync`."""
+"""Asyncio twin of :mod:`xarm_emu.client.sync`: asyncio streams around the same sans-IO
+:class:`~.session.Session` and :class:`~.session.ReportStream`, with the same methods."""
 
 from __future__ import annotations
 
 import asyncio
 import socket
-import struct
 from collections.abc import AsyncIterator
 from typing import Any
 
-from ..protocol.frame import FrameDecoder, Reply
+from ..protocol.frame import COMMAND_PORT
 from ..protocol.reports import ReportSnapshot
-from .common import REPORT_DECODERS, ClientError, Response, add_register_methods, build, parse
+from .common import Response
+from .helpers import Helpers, add_register_methods
+from .session import ReportStream, Session
+
+_READ = 65536
 
 
-class AsyncClient:
+class AsyncClient(Helpers):
     """Async connection to the command port; one request in flight at a time."""
 
     def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self._reader = reader
         self._writer = writer
-        self._decoder = FrameDecoder(replies=True)
-        self._pending: list[Reply] = []
-        self._tid = 0
+        self._session = Session()
         self._lock = asyncio.Lock()
 
     @classmethod
-    async def connect(cls, host: str = "127.0.0.1", port: int = 502) -> AsyncClient:
+    async def connect(cls, host: str = "127.0.0.1", port: int = COMMAND_PORT) -> AsyncClient:
         reader, writer = await asyncio.open_connection(host, port)
         sock = writer.get_extra_info("socket")
         if sock is not None:
@@ -46,62 +48,33 @@ class AsyncClient:
         await self.close()
 
     async def call(self, register: int | str, raw: bytes | None = None, **values: Any) -> Response:
+        """Send one request (register code or name; values by the request layout, or ``raw``
+        parameters) and wait for its reply."""
         async with self._lock:
-            self._tid = self._tid % 0xFFFF + 1
-            reg, frame = build(self._tid, register, values, raw)
+            tid, frame = self._session.request(register, values, raw)
             self._writer.write(frame)
             while True:
-                while self._pending:
-                    reply = self._pending.pop(0)
-                    if reply.tid == self._tid:
-                        return parse(reg, reply)
-                data = await self._reader.read(65536)
-                if not data:
-                    raise ClientError("connection closed by the control box")
-                self._pending.extend(self._decoder.feed(data))  # type: ignore[arg-type]
-
-    async def get_version(self) -> str:
-        return str((await self.call(1))["version"])
-
-    async def get_state(self) -> int:
-        return int((await self.call(13))["state"])
-
-    async def get_err_warn(self) -> tuple[int, int]:
-        r = await self.call(15)
-        return int(r["error"]), int(r["warning"])
-
-    async def get_position(self) -> tuple[float, ...]:
-        return tuple((await self.call(41))["pose"])
-
-    async def get_joints(self) -> tuple[float, ...]:
-        return tuple((await self.call(42))["joints"])
-
-    async def motion_enable(self, enable: bool = True, joint: int = 8) -> Response:
-        return await self.call(11, joint=joint, enable=int(enable))
-
-    async def set_mode(self, mode: int) -> Response:
-        return await self.call(19, mode=mode)
-
-    async def set_state(self, state: int) -> Response:
-        return await self.call(12, state=state)
+                response = self._session.next_response()
+                if response is None:
+                    self._session.receive_data(await self._reader.read(_READ))
+                elif response.tid == tid:
+                    return response
 
 
-add_register_methods(AsyncClient, asynchronous=True)
+add_register_methods(AsyncClient)
 
 
 async def subscribe(kind: str = "develop", host: str = "127.0.0.1",
                     port: int | None = None) -> AsyncIterator[ReportSnapshot]:
-    """Async iterator over decoded report frames of ``kind``."""
-    default_port, decode = REPORT_DECODERS[kind]
-    reader, writer = await asyncio.open_connection(host, port or default_port)
+    """Async iterator over decoded report frames of ``kind`` (section 2.1.6)."""
+    stream = ReportStream(kind)
+    reader, writer = await asyncio.open_connection(host, port or stream.port)
     try:
         while True:
-            try:
-                head = await reader.readexactly(4)
-                (size,) = struct.unpack(">I", head)
-                body = await reader.readexactly(size - 4)
-            except asyncio.IncompleteReadError as exc:
-                raise ClientError("report connection closed") from exc
-            yield decode(head + body)
+            snapshot = stream.next_report()
+            if snapshot is None:
+                stream.receive_data(await reader.read(_READ))
+            else:
+                yield snapshot
     finally:
         writer.close()

@@ -1,33 +1,36 @@
-"""Blocking client for the command port and the report ports."""
+"""Blocking client for the command port and the report ports: a socket around the sans-IO
+:class:`~.session.Session` and :class:`~.session.ReportStream`."""
 
 from __future__ import annotations
 
 import socket
-import struct
 from collections.abc import Iterator
 from typing import Any
 
-from ..protocol.frame import FrameDecoder, Reply
+from ..protocol.frame import COMMAND_PORT
 from ..protocol.reports import ReportSnapshot
-from .common import REPORT_DECODERS, ClientError, Response, add_register_methods, build, parse
+from .common import Response
+from .helpers import Helpers, add_register_methods
+from .session import ReportStream, Session
+
+_READ = 65536
 
 
-class Client:
+class Client(Helpers):
     """A connection to an xArm control box (real or emulated) on its command port.
 
     ``client.call("GET_STATE")`` or ``client.call(13)`` sends one request and returns a
-    :class:`Response`; helper methods cover the common registers.
+    :class:`Response`; the typed helpers and the per-register methods are shared with
+    :class:`~.aio.AsyncClient`.
     """
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 502, timeout: float = 5.0) -> None:
+    def __init__(self, host: str = "127.0.0.1", port: int = COMMAND_PORT, timeout: float = 5.0) -> None:
         self.host = host
         self.port = port
         self.timeout = timeout
         self._sock = socket.create_connection((host, port), timeout=timeout)
         self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self._decoder = FrameDecoder(replies=True)
-        self._pending: list[Reply] = []
-        self._tid = 0
+        self._session = Session()
 
     def close(self) -> None:
         self._sock.close()
@@ -39,75 +42,29 @@ class Client:
         self.close()
 
     def call(self, register: int | str, raw: bytes | None = None, **values: Any) -> Response:
-        self._tid = self._tid % 0xFFFF + 1
-        reg, frame = build(self._tid, register, values, raw)
+        """Send one request (register code or name; values by the request layout, or ``raw``
+        parameters) and wait for its reply."""
+        tid, frame = self._session.request(register, values, raw)
         self._sock.sendall(frame)
         while True:
-            while self._pending:
-                reply = self._pending.pop(0)
-                if reply.tid == self._tid:
-                    return parse(reg, reply)
-            data = self._sock.recv(65536)
-            if not data:
-                raise ClientError("connection closed by the control box")
-            self._pending.extend(self._decoder.feed(data))  # type: ignore[arg-type]
-
-    # -- common registers ---------------------------------------------------------------------
-    def get_version(self) -> str:
-        return str(self.call(1)["version"])
-
-    def get_state(self) -> int:
-        return int(self.call(13)["state"])
-
-    def get_cmdnum(self) -> int:
-        return int(self.call(14)["cmdnum"])
-
-    def get_err_warn(self) -> tuple[int, int]:
-        r = self.call(15)
-        return int(r["error"]), int(r["warning"])
-
-    def get_position(self) -> tuple[float, ...]:
-        return tuple(self.call(41)["pose"])
-
-    def get_joints(self) -> tuple[float, ...]:
-        return tuple(self.call(42)["joints"])
-
-    def motion_enable(self, enable: bool = True, joint: int = 8) -> Response:
-        return self.call(11, joint=joint, enable=int(enable))
-
-    def set_mode(self, mode: int) -> Response:
-        return self.call(19, mode=mode)
-
-    def set_state(self, state: int) -> Response:
-        return self.call(12, state=state)
-
-    def clean_error(self) -> Response:
-        return self.call(16)
-
-    def clean_warn(self) -> Response:
-        return self.call(17)
+            response = self._session.next_response()
+            if response is None:
+                self._session.receive_data(self._sock.recv(_READ))
+            elif response.tid == tid:
+                return response
 
 
-add_register_methods(Client, asynchronous=False)
+add_register_methods(Client)
 
 
 def subscribe(kind: str = "develop", host: str = "127.0.0.1", port: int | None = None,
               timeout: float = 5.0) -> Iterator[ReportSnapshot]:
-    """Iterate over decoded report frames of ``kind`` ('develop', 'normal' or 'rich')."""
-    default_port, decode = REPORT_DECODERS[kind]
-    with socket.create_connection((host, port or default_port), timeout=timeout) as sock:
+    """Iterate over decoded report frames of ``kind`` ('develop', 'normal' or 'rich'; section 2.1.6)."""
+    stream = ReportStream(kind)
+    with socket.create_connection((host, port or stream.port), timeout=timeout) as sock:
         while True:
-            head = _recv_exact(sock, 4)
-            (size,) = struct.unpack(">I", head)
-            body = _recv_exact(sock, size - 4)
-            yield decode(head + body)
-
-
-def _recv_exact(sock: socket.socket, n: int) -> bytes:
-    buf = bytearray()
-    while len(buf) < n:
-        chunk = sock.recv(n - len(buf))
-        if not chunk:
-            raise ClientError("report connection closed")
-        buf += chunk
-    return bytes(buf)
+            snapshot = stream.next_report()
+            if snapshot is None:
+                stream.receive_data(sock.recv(_READ))
+            else:
+                yield snapshot
