@@ -13,7 +13,9 @@ import pytest
 
 from xarm_emu.client import Client
 from xarm_emu.client.admin import AdminClient, AdminRefused, admin_port
-from xarm_emu.server.admin import AdminProtocol, derive_admin_port, is_loopback, parse_duration
+from xarm_emu.protocol.admin import derive_admin_port, is_loopback
+from xarm_emu.server.admin import parse_duration
+from xarm_emu.server.admin_port import AdminProtocol
 from xarm_emu.server.app import ServerConfig, ServerThread
 
 

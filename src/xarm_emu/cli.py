@@ -11,7 +11,7 @@ import math
 import signal
 import time
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
@@ -21,6 +21,9 @@ from . import __version__
 from .protocol import codes
 from .protocol.frame import COMMAND_PORT
 from .protocol.reports import DEVELOP_PORT, NORMAL_PORT, RICH_PORT
+
+if TYPE_CHECKING:
+    from .server.app import EmulatorServer, ServerConfig
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Emulator of the UFACTORY xArm 5/6/7 control box (Developer Manual V1.6.0).")
@@ -73,10 +76,7 @@ def serve(
                                                     "per-arm options above then come from the file.")] = None,
 ) -> None:
     """Run the emulator with its command port and report ports."""
-    from .controller.emulator import Emulator
-    from .protocol.admin import admin_host
-    from .server.app import EmulatorServer, ServerConfig
-    from .server.fleet import FleetError, load_fleet
+    from .server.app import ServerConfig
 
     logging.basicConfig(level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if loop not in ("asyncio", "uvloop"):
@@ -86,94 +86,127 @@ def serve(
         err_console.print("--speed must be a positive number")
         raise typer.Exit(2)
     cdir = config_dir if config_dir is not None else _default_config_dir()
+    cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
+                       develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
+                       view=view, view_host=view_host, view_port=view_port, stepped=stepped,
+                       trace=trace, faults=faults)
     if fleet is not None:
-        given_cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
-                                 develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                                 view=view, stepped=stepped, trace=trace, faults=faults)
-        defaults = ServerConfig()
-        per_arm = {"--model": model != 6, "--vacuum": vacuum,
-                   **{"--" + k.replace("_", "-"): getattr(given_cfg, k) != getattr(defaults, k)
-                      for k in ("host", "port", "normal_port", "rich_port", "develop_port", "speed", "admin",
-                                "admin_port", "view", "stepped", "trace", "faults")}}
-        given = [name for name, on in per_arm.items() if on]
-        if given:
-            err_console.print(f"{', '.join(given)}: with --fleet every arm's options come from the fleet "
-                              "file (see src/xarm_emu/server/fleet.py)")
-            raise typer.Exit(2)
+        _refuse_per_arm_flags(cfg, model != 6, vacuum)
     try:
-        if fleet is not None:
-            spec = load_fleet(fleet)
-            cdir = spec.config_dir if spec.config_dir is not None else cdir
-            servers = [EmulatorServer(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir,
-                                               vacuum=a.vacuum), a.server) for a in spec.arms]
-        else:
-            cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
-                               develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                               view=view, view_host=view_host, view_port=view_port, stepped=stepped,
-                               trace=trace, faults=faults)
-            servers = [EmulatorServer(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
-    except (FleetError, ValueError) as exc:  # a bad fleet file or fault schedule: nothing has started
+        servers, cdir = _compose_servers(cfg, fleet, model, vacuum, cdir)
+    except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
         err_console.print(str(exc))
         raise typer.Exit(2) from None
     for srv in servers:
         if srv.emulator.config_message:
             err_console.print(f"[yellow]{srv.emulator.config_message}[/yellow]")
-
-    async def main() -> None:
-        for srv in servers:
-            await srv.start()
-            emu, cfg = srv.emulator, srv.config
-            console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
-                          f"on {cfg.host}: command {srv.ports['command']}, normal {srv.ports['normal']}, "
-                          f"rich {srv.ports['rich']}, develop {srv.ports['develop']}; "
-                          + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
-                          + f"; config {cdir}")
-            if "admin" in srv.ports:
-                where = f"{admin_host(cfg.host)}:{srv.ports['admin']}"
-                console.print(f"admin channel (fault injection) on {where}")
-            if "view" in srv.ports:
-                console.print(f"3D view on http://{cfg.view_host}:{srv.ports['view']}/")
-        # SIGTERM (docker stop, CI teardown) and Ctrl-C close every arm cleanly: connections end,
-        # traces and logs are flushed, and the process exits 0.
-        loop = asyncio.get_running_loop()
-        closing: list[asyncio.Task[Any]] = []
-
-        def shut_down() -> None:
-            if not closing:
-                closing.extend(asyncio.ensure_future(srv.close()) for srv in servers)
-
-        for sig in (signal.SIGTERM, signal.SIGINT):
-            with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):  # not on Windows
-                loop.add_signal_handler(sig, shut_down)
-        await asyncio.gather(*(srv.serve_forever() for srv in servers))
-
     try:
-        _run(main(), loop)
-    except PermissionError:
-        err_console.print(_PRIVILEGED.format(port=port, host=host) if fleet is None else
-                          "cannot bind a port below 1024 of the fleet file: this process lacks the "
-                          "privilege; use ports from 1024 up or grant cap_net_bind_service")
-        raise typer.Exit(1) from None
-    except ValueError as exc:  # no default admin port for this command port
-        err_console.print(str(exc))
-        raise typer.Exit(2) from None
-    except RuntimeError as exc:  # the 3D view without its optional dependency
-        err_console.print(str(exc))
-        raise typer.Exit(2) from None
-    except OSError as exc:
-        if exc.errno == errno.EACCES:
-            err_console.print(_PRIVILEGED.format(port=port, host=host) if fleet is None else
-                              f"cannot bind a port of the fleet file: {exc.strerror}")
-            raise typer.Exit(1) from None
-        if exc.errno == errno.EADDRINUSE:
-            err_console.print(f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
-                              "choose other ports with --port/--normal-port/--rich-port/--develop-port"
-                              if fleet is None else
-                              f"a port of the fleet file is already in use ({exc.strerror}): {exc}")
-            raise typer.Exit(1) from None
-        raise
+        _run(_serve_all(servers, cdir), loop)
+    except (PermissionError, ValueError, RuntimeError, OSError) as exc:
+        message, code = _start_error(exc, host, port, fleet is not None)
+        if message is None:
+            raise
+        err_console.print(message)
+        raise typer.Exit(code) from None
     except KeyboardInterrupt:
         pass
+
+
+#: Options of ``serve`` that are per arm, so refused beside --fleet (the fleet file gives them).
+_PER_ARM = ("host", "port", "normal_port", "rich_port", "develop_port", "speed", "admin", "admin_port",
+            "view", "stepped", "trace", "faults")
+
+
+def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool) -> None:
+    """Exit 2 naming every per-arm option given beside --fleet."""
+    from .server.app import ServerConfig
+
+    defaults = ServerConfig()
+    per_arm = {"--model": model, "--vacuum": vacuum,
+               **{"--" + k.replace("_", "-"): getattr(given, k) != getattr(defaults, k) for k in _PER_ARM}}
+    named = [name for name, on in per_arm.items() if on]
+    if named:
+        err_console.print(f"{', '.join(named)}: with --fleet every arm's options come from the fleet "
+                          "file (see src/xarm_emu/server/fleet.py)")
+        raise typer.Exit(2)
+
+
+def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: int, vacuum: bool,
+                     cdir: Path) -> tuple[list[EmulatorServer], Path]:
+    """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
+    3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
+    port opens. Returns them and the configuration directory they use."""
+    from .controller.emulator import Emulator
+    from .server.app import EmulatorServer
+    from .server.faults import schedule_file
+    from .server.fleet import load_fleet
+    from .viewer.app import attach_viewer
+
+    if fleet is not None:
+        spec = load_fleet(fleet)
+        cdir = spec.config_dir if spec.config_dir is not None else cdir
+        arms = [(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum), a.server)
+                for a in spec.arms]
+    else:
+        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
+    servers = []
+    for emu, arm_cfg in arms:
+        srv = EmulatorServer(emu, arm_cfg)
+        schedule_file(srv, arm_cfg.faults)
+        attach_viewer(srv)
+        servers.append(srv)
+    return servers, cdir
+
+
+async def _serve_all(servers: list[EmulatorServer], cdir: Path) -> None:
+    """Start every server, print where it listens, and serve until SIGTERM or Ctrl-C."""
+    from .protocol.admin import admin_host
+
+    for srv in servers:
+        await srv.start()
+        emu, cfg = srv.emulator, srv.config
+        console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
+                      f"on {cfg.host}: command {srv.ports['command']}, normal {srv.ports['normal']}, "
+                      f"rich {srv.ports['rich']}, develop {srv.ports['develop']}; "
+                      + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
+                      + f"; config {cdir}")
+        if "admin" in srv.ports:
+            where = f"{admin_host(cfg.host)}:{srv.ports['admin']}"
+            console.print(f"admin channel (fault injection) on {where}")
+        if "view" in srv.ports:
+            console.print(f"3D view on http://{cfg.view_host}:{srv.ports['view']}/")
+    # SIGTERM (docker stop, CI teardown) and Ctrl-C close every arm cleanly: connections end,
+    # traces and logs are flushed, and the process exits 0.
+    loop = asyncio.get_running_loop()
+    closing: list[asyncio.Task[Any]] = []
+
+    def shut_down() -> None:
+        if not closing:
+            closing.extend(asyncio.ensure_future(srv.close()) for srv in servers)
+
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):  # not on Windows
+            loop.add_signal_handler(sig, shut_down)
+    await asyncio.gather(*(srv.serve_forever() for srv in servers))
+
+
+def _start_error(exc: Exception, host: str, port: int, fleet: bool) -> tuple[str | None, int]:
+    """The one-line message and exit status for a server that could not start (None: not ours)."""
+    if isinstance(exc, PermissionError):
+        return (_PRIVILEGED.format(port=port, host=host) if not fleet else
+                "cannot bind a port below 1024 of the fleet file: this process lacks the "
+                "privilege; use ports from 1024 up or grant cap_net_bind_service"), 1
+    if isinstance(exc, (ValueError, RuntimeError)):  # no default admin port; the view without viser
+        return str(exc), 2
+    if isinstance(exc, OSError) and exc.errno == errno.EACCES:
+        return (_PRIVILEGED.format(port=port, host=host) if not fleet else
+                f"cannot bind a port of the fleet file: {exc.strerror}"), 1
+    if isinstance(exc, OSError) and exc.errno == errno.EADDRINUSE:
+        return (f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
+                "choose other ports with --port/--normal-port/--rich-port/--develop-port"
+                if not fleet else
+                f"a port of the fleet file is already in use ({exc.strerror}): {exc}"), 1
+    return None, 0
 
 
 _PRIVILEGED = ("cannot bind port {port} on {host}: ports below 1024 need privileges this process lacks; "
