@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import errno
+import inspect
 import json
 import logging
 import math
@@ -338,7 +339,7 @@ def show_codes(
         console.print(t)
 
 
-# -- fault injection through the admin channel (issue 5 item 5) --------------------------------------
+# -- fault injection through the admin channel (server/admin.py) --------------------------------------
 inject_app = typer.Typer(no_args_is_help=True, help=(
     "Inject a fault into an emulator started with `xarm-emu serve --admin`. The emulator is addressed "
     "by --host and --port (its command port, as for `status`); the admin channel listens on loopback at "
@@ -352,8 +353,10 @@ AdminPortOpt = Annotated[int | None, typer.Option(help="Admin channel port, if t
                                                        "with --admin-port.")]
 
 
-def _admin(host: str, port: int, admin_port: int | None, cmd: str, **args: Any) -> None:
-    """Send one admin request, print the emulator's answer; exit 1 on refusal or no channel."""
+def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_exit: int = 1,
+           **args: Any) -> str:
+    """Send one admin request, print the emulator's answer and return it; exit ``refused_exit`` on
+    refusal, 1 when there is no channel."""
     from .client import ClientError
     from .client.admin import AdminClient, AdminRefused
     from .client.admin import admin_port as derive
@@ -370,91 +373,68 @@ def _admin(host: str, port: int, admin_port: int | None, cmd: str, **args: Any) 
             message = a.request(cmd, **args)
     except AdminRefused as exc:
         err_console.print(f"refused: {exc}")
-        raise typer.Exit(1) from None
+        raise typer.Exit(refused_exit) from None
     except (OSError, ClientError) as exc:
         err_console.print(f"cannot reach the admin channel at {host}:{aport} ({exc}); start the emulator "
                           "with `xarm-emu serve --admin` and run this on the same machine")
         raise typer.Exit(1) from None
-    console.print(message)
+    if cmd != "checkpoint-list":
+        console.print(message)
+    return message
 
 
-@inject_app.command("estop")
-def inject_estop(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                 admin_port: AdminPortOpt = None) -> None:
-    """Press the emergency stop (error C1)."""
-    _admin(host, port, admin_port, "estop")
+_CodeArg = typer.Argument
+_JointOpt = Annotated[int, typer.Option(help="Joint number, 1..axis.")]
+
+#: The ``inject`` commands, one per fault of the admin channel (protocol.admin.COMMANDS): name ->
+#: (help, its own parameters as (name, annotation), and the admin request's key for each).
+INJECT_COMMANDS: dict[str, tuple[str, tuple[tuple[str, Any, str], ...]]] = {
+    "estop": ("Press the emergency stop (error C1).", ()),
+    "error": ("Raise a control box error.", (
+        ("code", Annotated[str, _CodeArg(help="Control box error, e.g. C31 (manual 3.2.1).")], "code"),)),
+    "warning": ("Raise a control box warning.", (
+        ("code", Annotated[str, _CodeArg(help="Warning code, e.g. 11 (manual 3.2.2).")], "code"),)),
+    "servo-error": ("Raise a joint (servo) error on one joint (error C10 + joint).", (
+        ("code", Annotated[str, _CodeArg(help="Servo error, e.g. S23 (manual 3.1).")], "code"),
+        ("joint", _JointOpt, "joint"))),
+    "gripper-error": ("Raise a gripper error.", (
+        ("code", Annotated[str, _CodeArg(help="Gripper error, e.g. G11 (manual 3.3).")], "code"),)),
+    "end-module-lost": ("The end module stops answering (error C28).", ()),
+    "collision": ("Push on a joint: error C31 when the collision sensitivity (register 37) detects the "
+                  "torque.", (
+                      ("joint", _JointOpt, "joint"),
+                      ("torque", Annotated[float, typer.Option(help="External torque on that joint, N m.")],
+                       "torque"))),
+    "report-pause": ("Stop the report streams for a while (wall time).", (
+        ("duration", Annotated[str, _CodeArg(help="e.g. 2s, 500ms.")], "seconds"),)),
+    "reply-delay": ("Delay every command reply.", (
+        ("duration", Annotated[str, _CodeArg(help="e.g. 50ms; 0 switches it off.")], "seconds"),)),
+    "drop-clients": ("Close every command and report connection.", ()),
+}
 
 
-@inject_app.command("error")
-def inject_error(code: Annotated[str, typer.Argument(help="Control box error, e.g. C31 (manual 3.2.1).")],
-                 host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                 admin_port: AdminPortOpt = None) -> None:
-    """Raise a control box error."""
-    _admin(host, port, admin_port, "error", code=code)
+def _inject_command(cmd: str, doc: str, own: tuple[tuple[str, Any, str], ...]) -> Any:
+    """The ``inject <cmd>`` function: its own parameters, then --host, --port and --admin-port."""
+    keys = {name: key for name, _, key in own}
+
+    def command(**kw: Any) -> None:
+        _admin(kw.pop("host"), kw.pop("port"), kw.pop("admin_port"), cmd,
+               **{keys[name]: value for name, value in kw.items()})
+
+    kind = inspect.Parameter.KEYWORD_ONLY
+    params = [inspect.Parameter(name, kind, annotation=ann) for name, ann, _ in own]
+    params += [inspect.Parameter("host", kind, annotation=HostOpt, default="127.0.0.1"),
+               inspect.Parameter("port", kind, annotation=PortOpt, default=COMMAND_PORT),
+               inspect.Parameter("admin_port", kind, annotation=AdminPortOpt, default=None)]
+    command.__signature__ = inspect.Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+    command.__annotations__ = {p.name: p.annotation for p in params} | {"return": None}
+    command.__doc__ = doc
+    command.__name__ = command.__qualname__ = "inject_" + cmd.replace("-", "_")
+    return command
 
 
-@inject_app.command("warning")
-def inject_warning(code: Annotated[str, typer.Argument(help="Warning code, e.g. 11 (manual 3.2.2).")],
-                   host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                   admin_port: AdminPortOpt = None) -> None:
-    """Raise a control box warning."""
-    _admin(host, port, admin_port, "warning", code=code)
-
-
-@inject_app.command("servo-error")
-def inject_servo_error(code: Annotated[str, typer.Argument(help="Servo error, e.g. S23 (manual 3.1).")],
-                       joint: Annotated[int, typer.Option(help="Joint number, 1..axis.")],
-                       host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                       admin_port: AdminPortOpt = None) -> None:
-    """Raise a joint (servo) error on one joint (error C10 + joint)."""
-    _admin(host, port, admin_port, "servo-error", joint=joint, code=code)
-
-
-@inject_app.command("gripper-error")
-def inject_gripper_error(code: Annotated[str, typer.Argument(help="Gripper error, e.g. G11 (manual 3.3).")],
-                         host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                         admin_port: AdminPortOpt = None) -> None:
-    """Raise a gripper error."""
-    _admin(host, port, admin_port, "gripper-error", code=code)
-
-
-@inject_app.command("end-module-lost")
-def inject_end_module_lost(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                           admin_port: AdminPortOpt = None) -> None:
-    """The end module stops answering (error C28)."""
-    _admin(host, port, admin_port, "end-module-lost")
-
-
-@inject_app.command("collision")
-def inject_collision(joint: Annotated[int, typer.Option(help="Joint number, 1..axis.")],
-                     torque: Annotated[float, typer.Option(help="External torque on that joint, N m.")],
-                     host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                     admin_port: AdminPortOpt = None) -> None:
-    """Push on a joint: error C31 when the collision sensitivity (register 37) detects the torque."""
-    _admin(host, port, admin_port, "collision", joint=joint, torque=torque)
-
-
-@inject_app.command("report-pause")
-def inject_report_pause(duration: Annotated[str, typer.Argument(help="e.g. 2s, 500ms.")],
-                        host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                        admin_port: AdminPortOpt = None) -> None:
-    """Stop the report streams for a while (wall time)."""
-    _admin(host, port, admin_port, "report-pause", seconds=duration)
-
-
-@inject_app.command("reply-delay")
-def inject_reply_delay(duration: Annotated[str, typer.Argument(help="e.g. 50ms; 0 switches it off.")],
-                       host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                       admin_port: AdminPortOpt = None) -> None:
-    """Delay every command reply."""
-    _admin(host, port, admin_port, "reply-delay", seconds=duration)
-
-
-@inject_app.command("drop-clients")
-def inject_drop_clients(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                        admin_port: AdminPortOpt = None) -> None:
-    """Close every command and report connection."""
-    _admin(host, port, admin_port, "drop-clients")
+for _cmd, (_doc, _own) in INJECT_COMMANDS.items():
+    inject_app.command(_cmd)(_inject_command(_cmd, _doc, _own))
 
 
 @app.command()
@@ -482,6 +462,48 @@ def step(
 ) -> None:
     """Lockstep: run an emulator started with `serve --stepped --admin` for this much controller time."""
     _admin(host, port, admin_port, "step", seconds=duration)
+
+
+# -- checkpoints through the admin channel (an emulator feature; no real control box has it) -------
+checkpoint_app = typer.Typer(no_args_is_help=True, help=(
+    "Keep the whole state of an emulator started with `xarm-emu serve --admin` under a name, and go "
+    "back to it (in the emulator's memory, until it exits). Addressed as for `xarm-emu inject`."))
+app.add_typer(checkpoint_app, name="checkpoint")
+
+NameArg = Annotated[str, typer.Argument(help="Checkpoint name, e.g. before-pick.")]
+
+
+def _checkpoint_name(name: str) -> str:
+    from .protocol.admin import checkpoint_name
+
+    try:
+        return checkpoint_name(name)
+    except ValueError as exc:
+        err_console.print(str(exc))
+        raise typer.Exit(2) from None
+
+
+@checkpoint_app.command("save")
+def checkpoint_save(name: NameArg, host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
+                    admin_port: AdminPortOpt = None) -> None:
+    """Keep the emulator's whole state (motion, faults, IO, settings) under NAME."""
+    _admin(host, port, admin_port, "checkpoint-save", refused_exit=2, name=_checkpoint_name(name))
+
+
+@checkpoint_app.command("restore")
+def checkpoint_restore(name: NameArg, host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
+                       admin_port: AdminPortOpt = None) -> None:
+    """Put the emulator back to the state saved under NAME."""
+    _admin(host, port, admin_port, "checkpoint-restore", refused_exit=2, name=_checkpoint_name(name))
+
+
+@checkpoint_app.command("list")
+def checkpoint_list(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
+                    admin_port: AdminPortOpt = None) -> None:
+    """Print the saved checkpoint names, one per line."""
+    names = json.loads(_admin(host, port, admin_port, "checkpoint-list", refused_exit=2))
+    for name in names:
+        console.print(name, markup=False, highlight=False)
 
 
 @app.command()

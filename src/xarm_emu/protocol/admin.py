@@ -25,6 +25,8 @@ COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "end-mo
             "collision", "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status",
             "step",
             "checkpoint-save", "checkpoint-restore", "checkpoint-list")
+#: Longest checkpoint name (``checkpoint-save``/``checkpoint-restore``).
+MAX_NAME = 64
 INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object")
 
 
@@ -51,6 +53,17 @@ def admin_host(host: str) -> str:
     """Where the admin channel of an arm served on ``host`` listens: that address when it is a loopback
     one (so arms on 127.0.0.1, 127.0.0.2, ... each have theirs on the same port), else 127.0.0.1."""
     return host if is_loopback(host) else "127.0.0.1"
+
+
+def checkpoint_name(value: Any) -> str:
+    """A checkpoint name as sent (stripped); ValueError unless a non-empty string of at most
+    :data:`MAX_NAME` characters."""
+    if not isinstance(value, str) or not value.strip():
+        raise ValueError(f"checkpoint name must be a non-empty string, got {value!r}")
+    name = value.strip()
+    if len(name) > MAX_NAME:
+        raise ValueError(f"checkpoint name longer than {MAX_NAME} characters")
+    return name
 
 
 class LineTooLong(ValueError):

@@ -59,10 +59,7 @@ from typing import Any, Protocol, cast
 from ..controller.base import CommandWarning
 from ..controller.emulator import Emulator
 from ..protocol import codes
-from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS
-
-#: Longest checkpoint name accepted.
-MAX_NAME = 64
+from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS, checkpoint_name
 
 
 class Checkpointing(Protocol):
@@ -303,12 +300,10 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
 
 
 def _name(value: Any) -> str:
-    if not isinstance(value, str) or not value.strip():
-        raise AdminError(f"name must be a non-empty string, got {value!r}")
-    name = value.strip()
-    if len(name) > MAX_NAME:
-        raise AdminError(f"name longer than {MAX_NAME} characters")
-    return name
+    try:
+        return checkpoint_name(value)
+    except ValueError as exc:
+        raise AdminError(str(exc)) from None
 
 
 def _checkpoint(server: AdminTarget, cmd: str, request: dict[str, Any]) -> Callable[[], str]:
