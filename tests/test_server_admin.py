@@ -1,4 +1,4 @@
-"""Admin channel (issue 5 item 5): off by default, loopback only, JSON lines; each injected fault shows
+"""Admin channel: off by default, loopback only, JSON lines; each injected fault shows
 on the command port as the natural one would; bad input is refused and changes nothing."""
 
 from __future__ import annotations
