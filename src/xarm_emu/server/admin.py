@@ -313,6 +313,8 @@ def _checkpoint(server: AdminTarget, cmd: str, request: dict[str, Any]) -> Calla
         return lambda: json.dumps(sorted(kept))
     name = _name(request.get("name"))
     emu = server.emulator
+    if not (callable(getattr(emu, "checkpoint", None)) and callable(getattr(emu, "restore", None))):
+        raise AdminError("this emulator keeps no checkpoints")
     keeper = cast(Checkpointing, emu)  # Emulator.checkpoint() and Emulator.restore()
     if cmd == "checkpoint-save":
 
