@@ -26,6 +26,7 @@ from hypothesis import settings
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerConfig, ServerThread
+from xarm_emu.viewer.app import attach_viewer
 
 # `make test` is deterministic: the same examples on every run, so CI never fails on a draw a developer
 # could not see. `make fuzz` explores new random examples (HYPOTHESIS_PROFILE=explore).
@@ -117,7 +118,7 @@ def make_server(tmp_path: Path) -> Iterator[ServerFactory]:
         emu = emulator or Emulator(model, config_dir=tmp_path / f"config{len(started)}")
         cfg = ServerConfig(**{"host": "127.0.0.1", "port": 0, "normal_port": 0, "rich_port": 0,
                               "develop_port": 0, **config})
-        st = ServerThread(emu, cfg, use_uvloop=use_uvloop).start()
+        st = ServerThread(emu, cfg, use_uvloop=use_uvloop, compose=(attach_viewer,)).start()
         started.append(st)
         return st
 

@@ -1,4 +1,4 @@
-"""`xarm-emu codes`: the code tables of manual chapter 3 with their names and handling (issue 5 item 1)."""
+"""`xarm-emu codes`: the code tables of manual chapter 3 with their names and handling."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The ``xarm-emu`` CLI (issue 2 item 8, issue 5 item 5) against a ServerThread, through typer's
+"""The ``xarm-emu`` CLI against a ServerThread, through typer's
 CliRunner: status, inject, clear, set-input, and serve's messages for privileged or busy ports."""
 
 from __future__ import annotations

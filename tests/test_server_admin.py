@@ -1,4 +1,4 @@
-"""Admin channel (issue 5 item 5): off by default, loopback only, JSON lines; each injected fault shows
+"""Admin channel: off by default, loopback only, JSON lines; each injected fault shows
 on the command port as the natural one would; bad input is refused and changes nothing."""
 
 from __future__ import annotations
@@ -13,7 +13,9 @@ import pytest
 
 from xarm_emu.client import Client
 from xarm_emu.client.admin import AdminClient, AdminRefused, admin_port
-from xarm_emu.server.admin import AdminProtocol, derive_admin_port, is_loopback, parse_duration
+from xarm_emu.protocol.admin import derive_admin_port, is_loopback
+from xarm_emu.server.admin import parse_duration
+from xarm_emu.server.admin_port import AdminProtocol
 from xarm_emu.server.app import ServerConfig, ServerThread
 
 

@@ -1,4 +1,4 @@
-"""Report ports (manual 2.1.6; issue 2 item 6): frame sizes with the u32 BE length, rates, fields from
+"""Report ports (manual 2.1.6): frame sizes with the u32 BE length, rates, fields from
 the live controller, slow readers, and scaled time."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Bytes on the command port (manual 2.1.2; research note sections 0.3-0.5, 3.9): replies echo the
+"""Bytes on the command port (manual 2.1.2, and the SDK's reading of it): replies echo the
 transaction and protocol ids, heartbeats get no reply, standard Modbus gets "illegal function",
 each reply is one write on a TCP_NODELAY socket, and bad input closes only the offending connection."""
 

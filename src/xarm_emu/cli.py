@@ -5,13 +5,14 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import errno
+import inspect
 import json
 import logging
 import math
 import signal
 import time
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
@@ -21,6 +22,9 @@ from . import __version__
 from .protocol import codes
 from .protocol.frame import COMMAND_PORT
 from .protocol.reports import DEVELOP_PORT, NORMAL_PORT, RICH_PORT
+
+if TYPE_CHECKING:
+    from .server.app import EmulatorServer, ServerConfig
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Emulator of the UFACTORY xArm 5/6/7 control box (Developer Manual V1.6.0).")
@@ -73,10 +77,7 @@ def serve(
                                                     "per-arm options above then come from the file.")] = None,
 ) -> None:
     """Run the emulator with its command port and report ports."""
-    from .controller.emulator import Emulator
-    from .protocol.admin import admin_host
-    from .server.app import EmulatorServer, ServerConfig
-    from .server.fleet import FleetError, load_fleet
+    from .server.app import ServerConfig
 
     logging.basicConfig(level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if loop not in ("asyncio", "uvloop"):
@@ -86,94 +87,127 @@ def serve(
         err_console.print("--speed must be a positive number")
         raise typer.Exit(2)
     cdir = config_dir if config_dir is not None else _default_config_dir()
+    cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
+                       develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
+                       view=view, view_host=view_host, view_port=view_port, stepped=stepped,
+                       trace=trace, faults=faults)
     if fleet is not None:
-        given_cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
-                                 develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                                 view=view, stepped=stepped, trace=trace, faults=faults)
-        defaults = ServerConfig()
-        per_arm = {"--model": model != 6, "--vacuum": vacuum,
-                   **{"--" + k.replace("_", "-"): getattr(given_cfg, k) != getattr(defaults, k)
-                      for k in ("host", "port", "normal_port", "rich_port", "develop_port", "speed", "admin",
-                                "admin_port", "view", "stepped", "trace", "faults")}}
-        given = [name for name, on in per_arm.items() if on]
-        if given:
-            err_console.print(f"{', '.join(given)}: with --fleet every arm's options come from the fleet "
-                              "file (see src/xarm_emu/server/fleet.py)")
-            raise typer.Exit(2)
+        _refuse_per_arm_flags(cfg, model != 6, vacuum)
     try:
-        if fleet is not None:
-            spec = load_fleet(fleet)
-            cdir = spec.config_dir if spec.config_dir is not None else cdir
-            servers = [EmulatorServer(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir,
-                                               vacuum=a.vacuum), a.server) for a in spec.arms]
-        else:
-            cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
-                               develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                               view=view, view_host=view_host, view_port=view_port, stepped=stepped,
-                               trace=trace, faults=faults)
-            servers = [EmulatorServer(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
-    except (FleetError, ValueError) as exc:  # a bad fleet file or fault schedule: nothing has started
+        servers, cdir = _compose_servers(cfg, fleet, model, vacuum, cdir)
+    except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
         err_console.print(str(exc))
         raise typer.Exit(2) from None
     for srv in servers:
         if srv.emulator.config_message:
             err_console.print(f"[yellow]{srv.emulator.config_message}[/yellow]")
-
-    async def main() -> None:
-        for srv in servers:
-            await srv.start()
-            emu, cfg = srv.emulator, srv.config
-            console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
-                          f"on {cfg.host}: command {srv.ports['command']}, normal {srv.ports['normal']}, "
-                          f"rich {srv.ports['rich']}, develop {srv.ports['develop']}; "
-                          + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
-                          + f"; config {cdir}")
-            if "admin" in srv.ports:
-                where = f"{admin_host(cfg.host)}:{srv.ports['admin']}"
-                console.print(f"admin channel (fault injection) on {where}")
-            if "view" in srv.ports:
-                console.print(f"3D view on http://{cfg.view_host}:{srv.ports['view']}/")
-        # SIGTERM (docker stop, CI teardown) and Ctrl-C close every arm cleanly: connections end,
-        # traces and logs are flushed, and the process exits 0.
-        loop = asyncio.get_running_loop()
-        closing: list[asyncio.Task[Any]] = []
-
-        def shut_down() -> None:
-            if not closing:
-                closing.extend(asyncio.ensure_future(srv.close()) for srv in servers)
-
-        for sig in (signal.SIGTERM, signal.SIGINT):
-            with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):  # not on Windows
-                loop.add_signal_handler(sig, shut_down)
-        await asyncio.gather(*(srv.serve_forever() for srv in servers))
-
     try:
-        _run(main(), loop)
-    except PermissionError:
-        err_console.print(_PRIVILEGED.format(port=port, host=host) if fleet is None else
-                          "cannot bind a port below 1024 of the fleet file: this process lacks the "
-                          "privilege; use ports from 1024 up or grant cap_net_bind_service")
-        raise typer.Exit(1) from None
-    except ValueError as exc:  # no default admin port for this command port
-        err_console.print(str(exc))
-        raise typer.Exit(2) from None
-    except RuntimeError as exc:  # the 3D view without its optional dependency
-        err_console.print(str(exc))
-        raise typer.Exit(2) from None
-    except OSError as exc:
-        if exc.errno == errno.EACCES:
-            err_console.print(_PRIVILEGED.format(port=port, host=host) if fleet is None else
-                              f"cannot bind a port of the fleet file: {exc.strerror}")
-            raise typer.Exit(1) from None
-        if exc.errno == errno.EADDRINUSE:
-            err_console.print(f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
-                              "choose other ports with --port/--normal-port/--rich-port/--develop-port"
-                              if fleet is None else
-                              f"a port of the fleet file is already in use ({exc.strerror}): {exc}")
-            raise typer.Exit(1) from None
-        raise
+        _run(_serve_all(servers, cdir), loop)
+    except (PermissionError, ValueError, RuntimeError, OSError) as exc:
+        message, code = _start_error(exc, host, port, fleet is not None)
+        if message is None:
+            raise
+        err_console.print(message)
+        raise typer.Exit(code) from None
     except KeyboardInterrupt:
         pass
+
+
+#: Options of ``serve`` that are per arm, so refused beside --fleet (the fleet file gives them).
+_PER_ARM = ("host", "port", "normal_port", "rich_port", "develop_port", "speed", "admin", "admin_port",
+            "view", "stepped", "trace", "faults")
+
+
+def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool) -> None:
+    """Exit 2 naming every per-arm option given beside --fleet."""
+    from .server.app import ServerConfig
+
+    defaults = ServerConfig()
+    per_arm = {"--model": model, "--vacuum": vacuum,
+               **{"--" + k.replace("_", "-"): getattr(given, k) != getattr(defaults, k) for k in _PER_ARM}}
+    named = [name for name, on in per_arm.items() if on]
+    if named:
+        err_console.print(f"{', '.join(named)}: with --fleet every arm's options come from the fleet "
+                          "file (see src/xarm_emu/server/fleet.py)")
+        raise typer.Exit(2)
+
+
+def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: int, vacuum: bool,
+                     cdir: Path) -> tuple[list[EmulatorServer], Path]:
+    """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
+    3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
+    port opens. Returns them and the configuration directory they use."""
+    from .controller.emulator import Emulator
+    from .server.app import EmulatorServer
+    from .server.faults import schedule_file
+    from .server.fleet import load_fleet
+    from .viewer.app import attach_viewer
+
+    if fleet is not None:
+        spec = load_fleet(fleet)
+        cdir = spec.config_dir if spec.config_dir is not None else cdir
+        arms = [(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum), a.server)
+                for a in spec.arms]
+    else:
+        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
+    servers = []
+    for emu, arm_cfg in arms:
+        srv = EmulatorServer(emu, arm_cfg)
+        schedule_file(srv, arm_cfg.faults)
+        attach_viewer(srv)
+        servers.append(srv)
+    return servers, cdir
+
+
+async def _serve_all(servers: list[EmulatorServer], cdir: Path) -> None:
+    """Start every server, print where it listens, and serve until SIGTERM or Ctrl-C."""
+    from .protocol.admin import admin_host
+
+    for srv in servers:
+        await srv.start()
+        emu, cfg = srv.emulator, srv.config
+        console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
+                      f"on {cfg.host}: command {srv.ports['command']}, normal {srv.ports['normal']}, "
+                      f"rich {srv.ports['rich']}, develop {srv.ports['develop']}; "
+                      + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
+                      + f"; config {cdir}")
+        if "admin" in srv.ports:
+            where = f"{admin_host(cfg.host)}:{srv.ports['admin']}"
+            console.print(f"admin channel (fault injection) on {where}")
+        if "view" in srv.ports:
+            console.print(f"3D view on http://{cfg.view_host}:{srv.ports['view']}/")
+    # SIGTERM (docker stop, CI teardown) and Ctrl-C close every arm cleanly: connections end,
+    # traces and logs are flushed, and the process exits 0.
+    loop = asyncio.get_running_loop()
+    closing: list[asyncio.Task[Any]] = []
+
+    def shut_down() -> None:
+        if not closing:
+            closing.extend(asyncio.ensure_future(srv.close()) for srv in servers)
+
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):  # not on Windows
+            loop.add_signal_handler(sig, shut_down)
+    await asyncio.gather(*(srv.serve_forever() for srv in servers))
+
+
+def _start_error(exc: Exception, host: str, port: int, fleet: bool) -> tuple[str | None, int]:
+    """The one-line message and exit status for a server that could not start (None: not ours)."""
+    if isinstance(exc, PermissionError):
+        return (_PRIVILEGED.format(port=port, host=host) if not fleet else
+                "cannot bind a port below 1024 of the fleet file: this process lacks the "
+                "privilege; use ports from 1024 up or grant cap_net_bind_service"), 1
+    if isinstance(exc, (ValueError, RuntimeError)):  # no default admin port; the view without viser
+        return str(exc), 2
+    if isinstance(exc, OSError) and exc.errno == errno.EACCES:
+        return (_PRIVILEGED.format(port=port, host=host) if not fleet else
+                f"cannot bind a port of the fleet file: {exc.strerror}"), 1
+    if isinstance(exc, OSError) and exc.errno == errno.EADDRINUSE:
+        return (f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
+                "choose other ports with --port/--normal-port/--rich-port/--develop-port"
+                if not fleet else
+                f"a port of the fleet file is already in use ({exc.strerror}): {exc}"), 1
+    return None, 0
 
 
 _PRIVILEGED = ("cannot bind port {port} on {host}: ports below 1024 need privileges this process lacks; "
@@ -305,7 +339,7 @@ def show_codes(
         console.print(t)
 
 
-# -- fault injection through the admin channel (issue 5 item 5) --------------------------------------
+# -- fault injection through the admin channel (server/admin.py) --------------------------------------
 inject_app = typer.Typer(no_args_is_help=True, help=(
     "Inject a fault into an emulator started with `xarm-emu serve --admin`. The emulator is addressed "
     "by --host and --port (its command port, as for `status`); the admin channel listens on loopback at "
@@ -319,8 +353,10 @@ AdminPortOpt = Annotated[int | None, typer.Option(help="Admin channel port, if t
                                                        "with --admin-port.")]
 
 
-def _admin(host: str, port: int, admin_port: int | None, cmd: str, **args: Any) -> None:
-    """Send one admin request, print the emulator's answer; exit 1 on refusal or no channel."""
+def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_exit: int = 1,
+           **args: Any) -> str:
+    """Send one admin request, print the emulator's answer and return it; exit ``refused_exit`` on
+    refusal, 1 when there is no channel."""
     from .client import ClientError
     from .client.admin import AdminClient, AdminRefused
     from .client.admin import admin_port as derive
@@ -337,91 +373,68 @@ def _admin(host: str, port: int, admin_port: int | None, cmd: str, **args: Any) 
             message = a.request(cmd, **args)
     except AdminRefused as exc:
         err_console.print(f"refused: {exc}")
-        raise typer.Exit(1) from None
+        raise typer.Exit(refused_exit) from None
     except (OSError, ClientError) as exc:
         err_console.print(f"cannot reach the admin channel at {host}:{aport} ({exc}); start the emulator "
                           "with `xarm-emu serve --admin` and run this on the same machine")
         raise typer.Exit(1) from None
-    console.print(message)
+    if cmd != "checkpoint-list":
+        console.print(message)
+    return message
 
 
-@inject_app.command("estop")
-def inject_estop(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                 admin_port: AdminPortOpt = None) -> None:
-    """Press the emergency stop (error C1)."""
-    _admin(host, port, admin_port, "estop")
+_CodeArg = typer.Argument
+_JointOpt = Annotated[int, typer.Option(help="Joint number, 1..axis.")]
+
+#: The ``inject`` commands, one per fault of the admin channel (protocol.admin.COMMANDS): name ->
+#: (help, its own parameters as (name, annotation), and the admin request's key for each).
+INJECT_COMMANDS: dict[str, tuple[str, tuple[tuple[str, Any, str], ...]]] = {
+    "estop": ("Press the emergency stop (error C1).", ()),
+    "error": ("Raise a control box error.", (
+        ("code", Annotated[str, _CodeArg(help="Control box error, e.g. C31 (manual 3.2.1).")], "code"),)),
+    "warning": ("Raise a control box warning.", (
+        ("code", Annotated[str, _CodeArg(help="Warning code, e.g. 11 (manual 3.2.2).")], "code"),)),
+    "servo-error": ("Raise a joint (servo) error on one joint (error C10 + joint).", (
+        ("code", Annotated[str, _CodeArg(help="Servo error, e.g. S23 (manual 3.1).")], "code"),
+        ("joint", _JointOpt, "joint"))),
+    "gripper-error": ("Raise a gripper error.", (
+        ("code", Annotated[str, _CodeArg(help="Gripper error, e.g. G11 (manual 3.3).")], "code"),)),
+    "end-module-lost": ("The end module stops answering (error C28).", ()),
+    "collision": ("Push on a joint: error C31 when the collision sensitivity (register 37) detects the "
+                  "torque.", (
+                      ("joint", _JointOpt, "joint"),
+                      ("torque", Annotated[float, typer.Option(help="External torque on that joint, N m.")],
+                       "torque"))),
+    "report-pause": ("Stop the report streams for a while (wall time).", (
+        ("duration", Annotated[str, _CodeArg(help="e.g. 2s, 500ms.")], "seconds"),)),
+    "reply-delay": ("Delay every command reply.", (
+        ("duration", Annotated[str, _CodeArg(help="e.g. 50ms; 0 switches it off.")], "seconds"),)),
+    "drop-clients": ("Close every command and report connection.", ()),
+}
 
 
-@inject_app.command("error")
-def inject_error(code: Annotated[str, typer.Argument(help="Control box error, e.g. C31 (manual 3.2.1).")],
-                 host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                 admin_port: AdminPortOpt = None) -> None:
-    """Raise a control box error."""
-    _admin(host, port, admin_port, "error", code=code)
+def _inject_command(cmd: str, doc: str, own: tuple[tuple[str, Any, str], ...]) -> Any:
+    """The ``inject <cmd>`` function: its own parameters, then --host, --port and --admin-port."""
+    keys = {name: key for name, _, key in own}
+
+    def command(**kw: Any) -> None:
+        _admin(kw.pop("host"), kw.pop("port"), kw.pop("admin_port"), cmd,
+               **{keys[name]: value for name, value in kw.items()})
+
+    kind = inspect.Parameter.KEYWORD_ONLY
+    params = [inspect.Parameter(name, kind, annotation=ann) for name, ann, _ in own]
+    params += [inspect.Parameter("host", kind, annotation=HostOpt, default="127.0.0.1"),
+               inspect.Parameter("port", kind, annotation=PortOpt, default=COMMAND_PORT),
+               inspect.Parameter("admin_port", kind, annotation=AdminPortOpt, default=None)]
+    command.__signature__ = inspect.Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+    command.__annotations__ = {p.name: p.annotation for p in params} | {"return": None}
+    command.__doc__ = doc
+    command.__name__ = command.__qualname__ = "inject_" + cmd.replace("-", "_")
+    return command
 
 
-@inject_app.command("warning")
-def inject_warning(code: Annotated[str, typer.Argument(help="Warning code, e.g. 11 (manual 3.2.2).")],
-                   host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                   admin_port: AdminPortOpt = None) -> None:
-    """Raise a control box warning."""
-    _admin(host, port, admin_port, "warning", code=code)
-
-
-@inject_app.command("servo-error")
-def inject_servo_error(code: Annotated[str, typer.Argument(help="Servo error, e.g. S23 (manual 3.1).")],
-                       joint: Annotated[int, typer.Option(help="Joint number, 1..axis.")],
-                       host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                       admin_port: AdminPortOpt = None) -> None:
-    """Raise a joint (servo) error on one joint (error C10 + joint)."""
-    _admin(host, port, admin_port, "servo-error", joint=joint, code=code)
-
-
-@inject_app.command("gripper-error")
-def inject_gripper_error(code: Annotated[str, typer.Argument(help="Gripper error, e.g. G11 (manual 3.3).")],
-                         host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                         admin_port: AdminPortOpt = None) -> None:
-    """Raise a gripper error."""
-    _admin(host, port, admin_port, "gripper-error", code=code)
-
-
-@inject_app.command("end-module-lost")
-def inject_end_module_lost(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                           admin_port: AdminPortOpt = None) -> None:
-    """The end module stops answering (error C28)."""
-    _admin(host, port, admin_port, "end-module-lost")
-
-
-@inject_app.command("collision")
-def inject_collision(joint: Annotated[int, typer.Option(help="Joint number, 1..axis.")],
-                     torque: Annotated[float, typer.Option(help="External torque on that joint, N m.")],
-                     host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                     admin_port: AdminPortOpt = None) -> None:
-    """Push on a joint: error C31 when the collision sensitivity (register 37) detects the torque."""
-    _admin(host, port, admin_port, "collision", joint=joint, torque=torque)
-
-
-@inject_app.command("report-pause")
-def inject_report_pause(duration: Annotated[str, typer.Argument(help="e.g. 2s, 500ms.")],
-                        host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                        admin_port: AdminPortOpt = None) -> None:
-    """Stop the report streams for a while (wall time)."""
-    _admin(host, port, admin_port, "report-pause", seconds=duration)
-
-
-@inject_app.command("reply-delay")
-def inject_reply_delay(duration: Annotated[str, typer.Argument(help="e.g. 50ms; 0 switches it off.")],
-                       host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                       admin_port: AdminPortOpt = None) -> None:
-    """Delay every command reply."""
-    _admin(host, port, admin_port, "reply-delay", seconds=duration)
-
-
-@inject_app.command("drop-clients")
-def inject_drop_clients(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
-                        admin_port: AdminPortOpt = None) -> None:
-    """Close every command and report connection."""
-    _admin(host, port, admin_port, "drop-clients")
+for _cmd, (_doc, _own) in INJECT_COMMANDS.items():
+    inject_app.command(_cmd)(_inject_command(_cmd, _doc, _own))
 
 
 @app.command()
@@ -449,6 +462,48 @@ def step(
 ) -> None:
     """Lockstep: run an emulator started with `serve --stepped --admin` for this much controller time."""
     _admin(host, port, admin_port, "step", seconds=duration)
+
+
+# -- checkpoints through the admin channel (an emulator feature; no real control box has it) -------
+checkpoint_app = typer.Typer(no_args_is_help=True, help=(
+    "Keep the whole state of an emulator started with `xarm-emu serve --admin` under a name, and go "
+    "back to it (in the emulator's memory, until it exits). Addressed as for `xarm-emu inject`."))
+app.add_typer(checkpoint_app, name="checkpoint")
+
+NameArg = Annotated[str, typer.Argument(help="Checkpoint name, e.g. before-pick.")]
+
+
+def _checkpoint_name(name: str) -> str:
+    from .protocol.admin import checkpoint_name
+
+    try:
+        return checkpoint_name(name)
+    except ValueError as exc:
+        err_console.print(str(exc))
+        raise typer.Exit(2) from None
+
+
+@checkpoint_app.command("save")
+def checkpoint_save(name: NameArg, host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
+                    admin_port: AdminPortOpt = None) -> None:
+    """Keep the emulator's whole state (motion, faults, IO, settings) under NAME."""
+    _admin(host, port, admin_port, "checkpoint-save", refused_exit=2, name=_checkpoint_name(name))
+
+
+@checkpoint_app.command("restore")
+def checkpoint_restore(name: NameArg, host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
+                       admin_port: AdminPortOpt = None) -> None:
+    """Put the emulator back to the state saved under NAME."""
+    _admin(host, port, admin_port, "checkpoint-restore", refused_exit=2, name=_checkpoint_name(name))
+
+
+@checkpoint_app.command("list")
+def checkpoint_list(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
+                    admin_port: AdminPortOpt = None) -> None:
+    """Print the saved checkpoint names, one per line."""
+    names = json.loads(_admin(host, port, admin_port, "checkpoint-list", refused_exit=2))
+    for name in names:
+        console.print(name, markup=False, highlight=False)
 
 
 @app.command()

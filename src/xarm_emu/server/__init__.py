@@ -1,1 +1,5 @@
-"""xarm-emu."""
+"""The emulator's network side (manual chapter 2): ``core`` (EmulatorServer, control loop),
+``command_port`` (2.1.2), ``report_ports`` (2.1.6), ``admin`` (requests on an AdminTarget) over
+``admin_port`` (socket), ``faults`` (schedules), ``thread`` (ServerThread), ``fleet``, ``trace``,
+``clock``; ``app`` gathers the names users import. Nothing here imports the viewer, the CLI or the
+client: the composers above (``xarm-emu serve``, ``xarm_emu.testing``) wire those."""

@@ -1,4 +1,4 @@
-"""Admin channel: fault injection and sensor play from outside the emulator (issue 5, item 5).
+"""Admin channel: fault injection, sensor play and checkpoints from outside the emulator.
 
 Off unless ``xarm-emu serve --admin`` (``ServerConfig.admin``). It listens on the loopback
 interface only: on ``--host`` when that is a loopback address (127.0.0.2, so that arms on their
@@ -37,37 +37,67 @@ set-input          kind cgpio/tgpio/analog/tool-analog,          a sensor input
                    index, value
 status             -                                             time, error, warning, delays
 step               seconds (controller time)                     lockstep (--stepped) only: run them
+checkpoint-save    name                                          keep the emulator's whole state
+checkpoint-restore name                                          back to a kept state
+checkpoint-list    -                                             the kept names
 =================  ===========================================  ===============================
 
-A refused request changes nothing.
+Checkpoints are an emulator feature (no real control box has them): they live in the server's
+memory only, named, until the process ends. A refused request changes nothing.
+
+This module is request checking and preparation only: it works on any :class:`AdminTarget` (the
+running server satisfies it structurally), and the socket side is :mod:`.admin_port`.
 """
 
 from __future__ import annotations
 
-import asyncio
 import json
-import logging
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol, cast
 
 from ..controller.base import CommandWarning
+from ..controller.emulator import Emulator
 from ..protocol import codes
-from ..protocol.admin import (  # noqa: F401 - re-exported for the server's users
-    ADMIN_PORT_OFFSET,
-    COMMANDS,
-    INPUT_KINDS,
-    MAX_LINE,
-    MAX_SECONDS,
-    admin_host,
-    derive_admin_port,
-    is_loopback,
-)
+from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS, checkpoint_name
 
-if TYPE_CHECKING:
-    from .app import EmulatorServer
 
-log = logging.getLogger("xarm_emu.admin")
+class Checkpointing(Protocol):
+    """The emulator's checkpoint pair: an opaque copy of its whole state, and back to one."""
+
+    def checkpoint(self) -> object: ...
+
+    def restore(self, saved: object) -> None: ...
+
+
+class AdminTarget(Protocol):
+    """What an admin request needs of a server: its emulator, its clock and its fault knobs."""
+
+    emulator: Emulator
+    #: Named checkpoints (``checkpoint-save``), opaque objects of ``Emulator.checkpoint()``.
+    checkpoints: dict[str, object]
+
+    @property
+    def stepped(self) -> bool:
+        """Lockstep time: controller time advances only by :meth:`advance`."""
+        ...
+
+    def advance(self, seconds: float) -> int: ...
+
+    def pause_reports(self, seconds: float) -> None: ...
+
+    def reports_paused(self) -> bool: ...
+
+    def set_reply_delay(self, seconds: float) -> None: ...
+
+    @property
+    def reply_delay(self) -> float: ...
+
+    def clear_delays(self) -> None:
+        """No reply delay and no report pause."""
+        ...
+
+    def drop_clients(self) -> int: ...
 
 
 class AdminError(ValueError):
@@ -147,7 +177,7 @@ def _float(value: Any, name: str) -> float:
     return x
 
 
-def execute(server: EmulatorServer, request: dict[str, Any]) -> str:
+def execute(server: AdminTarget, request: dict[str, Any]) -> str:
     """Run one admin request in the server's loop thread; returns a message or raises AdminError.
 
     Every argument is checked before anything changes, so a refused request changes nothing.
@@ -156,11 +186,12 @@ def execute(server: EmulatorServer, request: dict[str, Any]) -> str:
 
 
 #: Admin commands a fault schedule may hold (server/faults.py): the faults and inputs, not the
-#: queries or the lockstep clock.
-SCHEDULABLE = frozenset(COMMANDS) - {"status", "step"}
+#: queries, the lockstep clock or the checkpoints.
+SCHEDULABLE = frozenset(COMMANDS) - {"status", "step", "checkpoint-save", "checkpoint-restore",
+                                     "checkpoint-list"}
 
 
-def prepare(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], str]:
+def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
     """Check one admin request now and return the action that carries it out (a message back).
 
     Raises AdminError for a bad request; the action it returns does not refuse.
@@ -228,7 +259,7 @@ def prepare(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], str
         delay = _seconds(request.get("seconds"))
 
         def set_delay() -> str:
-            server.reply_delay = delay
+            server.set_reply_delay(delay)
             return f"reply delay {delay * 1e3:g} ms" if delay else "reply delay off"
 
         return set_delay
@@ -238,15 +269,14 @@ def prepare(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], str
 
         def clear() -> str:
             emu.clear_faults()
-            server.reply_delay = 0.0
-            server.report_pause_until = 0.0
+            server.clear_delays()
             return "faults, reply delay and report pause cleared"
 
         return clear
     if cmd == "set-input":
         return _set_input(server, request)
     if cmd == "step":
-        if not server.config.stepped:
+        if not server.stepped:
             raise AdminError("step needs lockstep time: start the emulator with --stepped")
         secs = _seconds(request.get("seconds"))
 
@@ -264,10 +294,48 @@ def prepare(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], str
                                "reports_paused": server.reports_paused()})
 
         return status
+    if cmd in ("checkpoint-save", "checkpoint-restore", "checkpoint-list"):
+        return _checkpoint(server, cmd, request)
     raise AdminError(f"unknown command {cmd!r}; known: {', '.join(COMMANDS)}")
 
 
-def _set_input(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], str]:
+def _name(value: Any) -> str:
+    try:
+        return checkpoint_name(value)
+    except ValueError as exc:
+        raise AdminError(str(exc)) from None
+
+
+def _checkpoint(server: AdminTarget, cmd: str, request: dict[str, Any]) -> Callable[[], str]:
+    """``checkpoint-save``/``-restore``/``-list``: the emulator's whole state kept under a name."""
+    kept = server.checkpoints
+    if cmd == "checkpoint-list":
+        return lambda: json.dumps(sorted(kept))
+    name = _name(request.get("name"))
+    emu = server.emulator
+    if not (callable(getattr(emu, "checkpoint", None)) and callable(getattr(emu, "restore", None))):
+        raise AdminError("this emulator keeps no checkpoints")
+    keeper = cast(Checkpointing, emu)  # Emulator.checkpoint() and Emulator.restore()
+    if cmd == "checkpoint-save":
+
+        def save() -> str:
+            kept[name] = keeper.checkpoint()
+            return f"checkpoint {name!r} saved at t = {emu.time:.3f} s"
+
+        return save
+    if name not in kept:
+        known = ", ".join(repr(k) for k in sorted(kept)) or "none"
+        raise AdminError(f"no checkpoint {name!r}; saved: {known}")
+    saved = kept[name]
+
+    def restore() -> str:
+        keeper.restore(saved)
+        return f"checkpoint {name!r} restored: t = {emu.time:.3f} s"
+
+    return restore
+
+
+def _set_input(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
     kind = request.get("kind")
     if kind not in INPUT_KINDS:
         raise AdminError(f"unknown input kind {kind!r}; known: {', '.join(INPUT_KINDS)}")
@@ -285,62 +353,3 @@ def _set_input(server: EmulatorServer, request: dict[str, Any]) -> Callable[[], 
         return f"{kind} input {index} = {value:g}"
 
     return play
-
-
-class AdminProtocol(asyncio.Protocol):
-    """One admin connection: JSON lines in, JSON lines out."""
-
-    def __init__(self, server: EmulatorServer) -> None:
-        self.server = server
-        self.transport: asyncio.Transport | None = None
-        self._buf = bytearray()
-
-    def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        self.transport = transport  # type: ignore[assignment]  # uvloop's transports are not subclasses
-        peer = transport.get_extra_info("peername")
-        host = str(peer[0]) if peer else ""
-        if not is_loopback(host):
-            log.warning("admin: refused non-loopback peer %s", host)
-            self._answer({"ok": False, "error": f"refused: the admin channel accepts loopback peers only, "
-                                                f"not {host or 'unknown'}"})
-            transport.close()
-            self.transport = None
-            return
-        self.server.admin_clients.add(self)
-
-    def data_received(self, data: bytes) -> None:
-        if self.transport is None:
-            return
-        self._buf += data
-        while self.transport is not None and b"\n" in self._buf:
-            line, _, rest = bytes(self._buf).partition(b"\n")
-            self._buf = bytearray(rest)
-            if line.strip():
-                self._answer(self.handle_line(line))
-        if self.transport is not None and len(self._buf) > MAX_LINE:
-            self._answer({"ok": False, "error": f"request line longer than {MAX_LINE} bytes"})
-            self.transport.close()
-            self.transport = None
-
-    def handle_line(self, line: bytes) -> dict[str, Any]:
-        try:
-            request = json.loads(line)
-        except (ValueError, UnicodeDecodeError):
-            return {"ok": False, "error": "not a JSON object line"}
-        if not isinstance(request, dict):
-            return {"ok": False, "error": "not a JSON object line"}
-        self.server.catch_up()  # the fault lands after every control period that has elapsed
-        try:
-            message = execute(self.server, request)
-        except AdminError as exc:
-            return {"ok": False, "error": str(exc)}
-        log.info("admin: %s", message)
-        return {"ok": True, "message": message}
-
-    def _answer(self, obj: dict[str, Any]) -> None:
-        if self.transport is not None and not self.transport.is_closing():
-            self.transport.write(json.dumps(obj).encode() + b"\n")
-
-    def connection_lost(self, exc: Exception | None) -> None:
-        self.transport = None
-        self.server.admin_clients.discard(self)

@@ -26,7 +26,9 @@ arguments::
 
 Each entry runs right after the first control period ending at or after ``at`` (Emulator.at) and
 acts exactly as the same admin request would. Every entry is checked when the emulator starts; a
-bad one stops the start with one message naming it.
+bad one stops the start with one message naming it. The code that composes a server (``xarm-emu
+serve``, :class:`~xarm_emu.server.thread.ServerThread`, :func:`~xarm_emu.testing.running_emulator`)
+calls :func:`schedule_file`; the server itself never reads the file.
 """
 
 from __future__ import annotations
@@ -35,12 +37,9 @@ import logging
 import math
 import tomllib
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from .admin import SCHEDULABLE, AdminError, prepare
-
-if TYPE_CHECKING:
-    from .app import EmulatorServer
+from .admin import SCHEDULABLE, AdminError, AdminTarget, prepare
 
 log = logging.getLogger("xarm_emu.faults")
 
@@ -73,7 +72,7 @@ def read_schedule(path: Path) -> list[dict[str, Any]]:
     return entries
 
 
-def schedule(server: EmulatorServer, entries: list[dict[str, Any]]) -> int:
+def schedule(server: AdminTarget, entries: list[dict[str, Any]]) -> int:
     """Check every entry against ``server`` and schedule it on its emulator; returns how many."""
     actions = []
     for i, e in enumerate(entries, start=1):
@@ -88,7 +87,7 @@ def schedule(server: EmulatorServer, entries: list[dict[str, Any]]) -> int:
     return len(actions)
 
 
-def _logged(server: EmulatorServer, i: int, action: Any) -> Any:
+def _logged(server: AdminTarget, i: int, action: Any) -> Any:
     def run() -> None:
         try:
             message = action()
@@ -98,3 +97,13 @@ def _logged(server: EmulatorServer, i: int, action: Any) -> Any:
         log.info("fault %d at t = %.3f s: %s", i, server.emulator.time, message)
 
     return run
+
+
+def schedule_file(server: AdminTarget, path: Path | None) -> int:
+    """Read the schedule at ``path`` (none: nothing) and schedule it on ``server``; returns how many
+    entries. Raises :class:`FaultScheduleError` naming a bad entry before anything is scheduled."""
+    if path is None:
+        return 0
+    n = schedule(server, read_schedule(path))
+    log.info("fault schedule %s: %d entries", path, n)
+    return n

@@ -39,8 +39,8 @@ from typing import Any
 
 from ..controller.emulator import DEFAULT_ROBOT_SN
 from ..model.robots import MODELS
-from .admin import admin_host, derive_admin_port
-from .app import ServerConfig
+from ..protocol.admin import admin_host, derive_admin_port
+from .core import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")

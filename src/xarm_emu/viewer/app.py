@@ -2,7 +2,8 @@
 the safety boundary when it is on, and in virtual robot mode (register 79) the physical arm as a
 ghost beside the commanded one.
 
-Started by ``xarm-emu serve --view``; it binds loopback unless ``--view-host`` says otherwise.
+Started by ``xarm-emu serve --view``, which attaches it beside the server (:func:`attach_viewer`);
+it binds loopback unless ``--view-host`` says otherwise.
 Updates run as a task of the server's event loop at :data:`RATE` Hz and only read the emulator.
 """
 
@@ -15,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..controller.emulator import Emulator
+from ..server.core import EmulatorServer
 from . import scene
 
 RATE = 30.0  # Hz
@@ -111,3 +113,11 @@ class Viewer:
             self._task = None
         with contextlib.suppress(Exception):
             self.server.stop()
+
+
+def attach_viewer(server: EmulatorServer) -> None:
+    """When ``server.config.view`` is set, have the server start a :class:`Viewer` of its emulator on
+    ``view_host``/``view_port`` once its ports are open (and stop it on close)."""
+    cfg = server.config
+    if cfg.view:
+        server.attach("view", lambda: Viewer(server.emulator, cfg.view_host, cfg.view_port))

@@ -1,0 +1,77 @@
+"""The admin channel's socket: moves bytes between a connection and :mod:`.admin`.
+
+Framing is :class:`~xarm_emu.protocol.admin.LineDecoder` (sans-IO); the requests are checked and
+carried out by :func:`.admin.execute`. Loopback peers only (:func:`~xarm_emu.protocol.admin.is_loopback`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Any, Protocol
+
+from ..protocol.admin import LineDecoder, LineTooLong, encode_answer, is_loopback, ok, refused
+from .admin import AdminError, AdminTarget, execute
+
+log = logging.getLogger("xarm_emu.admin")
+
+
+class AdminHost(AdminTarget, Protocol):
+    """An admin target that also keeps its admin connections and its clock up to date."""
+
+    admin_clients: set[AdminProtocol]
+
+    def catch_up(self) -> int: ...
+
+
+class AdminProtocol(asyncio.Protocol):
+    """One admin connection: JSON lines in, JSON lines out."""
+
+    def __init__(self, server: AdminHost) -> None:
+        self.server = server
+        self.transport: asyncio.Transport | None = None
+        self.decoder = LineDecoder()
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        self.transport = transport  # type: ignore[assignment]  # uvloop's transports are not subclasses
+        peer = transport.get_extra_info("peername")
+        host = str(peer[0]) if peer else ""
+        if not is_loopback(host):
+            log.warning("admin: refused non-loopback peer %s", host)
+            self._answer(refused(f"refused: the admin channel accepts loopback peers only, "
+                                 f"not {host or 'unknown'}"))
+            transport.close()
+            self.transport = None
+            return
+        self.server.admin_clients.add(self)
+
+    def data_received(self, data: bytes) -> None:
+        if self.transport is None:
+            return
+        for item in self.decoder.feed(data):
+            if self.transport is None:
+                return
+            if isinstance(item, LineTooLong):
+                self._answer(refused(str(item)))
+                self.transport.close()
+                self.transport = None
+                return
+            self._answer(refused(str(item)) if isinstance(item, ValueError) else self.handle(item))
+
+    def handle(self, request: dict[str, Any]) -> dict[str, Any]:
+        """The answer to one request object."""
+        self.server.catch_up()  # the fault lands after every control period that has elapsed
+        try:
+            message = execute(self.server, request)
+        except AdminError as exc:
+            return refused(str(exc))
+        log.info("admin: %s", message)
+        return ok(message)
+
+    def _answer(self, obj: dict[str, Any]) -> None:
+        if self.transport is not None and not self.transport.is_closing():
+            self.transport.write(encode_answer(obj))
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self.transport = None
+        self.server.admin_clients.discard(self)

@@ -1,0 +1,317 @@
+"""The server core: one arm's ports and the control loop that keeps its clock (:class:`EmulatorServer`).
+
+- Command port (502), :mod:`.command_port`: frames of manual section 2.1.2.
+- Report ports (30001-30003), :mod:`.report_ports`: section 2.1.6.
+- The admin channel (fault injection, :mod:`.admin` over :mod:`.admin_port`) listens on loopback
+  only, and only when ``ServerConfig.admin`` is set.
+- The control loop steps the controller on its period in real or scaled time; commands, report
+  frames and admin requests first run the periods that are due (:meth:`EmulatorServer.catch_up`).
+
+Extras beside the server (the 3D view) are attached by the code that composes it
+(:meth:`EmulatorServer.attach`); nothing here imports them.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+from ..controller.base import PERIOD
+from ..controller.emulator import Emulator
+from ..protocol import reports
+from ..protocol.admin import admin_host, derive_admin_port
+from ..protocol.frame import COMMAND_PORT, encode_reply
+from .admin_port import AdminProtocol
+from .clock import ScaledClock, Ticker
+from .command_port import PURE_READS, CommandProtocol, ReadCache
+from .report_ports import KIND_PORTS, ReportStreams
+from .trace import CommandTrace
+
+log = logging.getLogger("xarm_emu.server")
+
+
+@dataclass
+class ServerConfig:
+    host: str = "127.0.0.1"
+    port: int = COMMAND_PORT
+    normal_port: int = reports.NORMAL_PORT
+    rich_port: int = reports.RICH_PORT
+    develop_port: int = reports.DEVELOP_PORT
+    speed: float = 1.0  # controller seconds per wall second
+    admin: bool = False  # fault-injection channel (server/admin.py), off by default
+    admin_port: int | None = None  # None: command port + admin.ADMIN_PORT_OFFSET (0 if port is 0)
+    #: Lockstep: controller time advances only by the admin channel's ``step`` command (an outside
+    #: harness drives the clock); needs ``admin``.
+    stepped: bool = False
+    view: bool = False  # the 3D view in the browser, attached by its composer (xarm-emu serve)
+    view_host: str = "127.0.0.1"
+    view_port: int = 8080
+    #: Append every command-port request and reply to this JSON-lines file (server/trace.py).
+    trace: Path | None = None
+    #: Faults and inputs at given controller times, from this TOML file (server/faults.py); read by
+    #: the code that composes the server (faults.schedule_file), not by the server.
+    faults: Path | None = None
+    report_rates: dict[str, float] = field(default_factory=lambda: {
+        "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE})
+
+
+class Attachment(Protocol):
+    """Something served beside the arm (the 3D view): started in the server's loop, stopped with it."""
+
+    port: int
+
+    def start(self) -> None: ...
+
+    def stop(self) -> None: ...
+
+
+#: The control loop runs the due control periods at least this often (wall seconds); commands,
+#: report frames and admin actions run them before they act (EmulatorServer.catch_up).
+IDLE_WAKE = 0.02
+#: Most control periods one catch-up runs (1 s of controller time): beyond it the rest stays due for
+#: the next one, so at a --speed the machine cannot sustain the emulator runs slower, not stalled.
+MAX_CATCH_UP = 250
+
+
+
+
+class EmulatorServer:
+    """Runs one emulator on its ports (an :class:`~xarm_emu.server.admin.AdminTarget`)."""
+
+    def __init__(self, emulator: Emulator, config: ServerConfig | None = None) -> None:
+        self.emulator = emulator
+        self.config = config or ServerConfig()
+        self.clock = ScaledClock(PERIOD, self.config.speed)
+        self.command_clients: set[CommandProtocol] = set()
+        self.reports = ReportStreams(self._report_snapshot, self.reports_paused, self.config.report_rates)
+        self._servers: list[asyncio.AbstractServer] = []
+        self._tasks: list[asyncio.Task[None]] = []
+        self.ports: dict[str, int] = {}
+        self._reply_delay = 0.0  # fault injection: seconds before each reply
+        self._report_pause_until = 0.0  # fault injection: loop time until which reports pause
+        self._stopped = asyncio.Event()
+        self._read_cache = ReadCache()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._ticker: Ticker | None = None
+        #: name -> factory of what the composer attached; started by start() (:meth:`attach`).
+        self._attach: dict[str, Callable[[], Attachment]] = {}
+        self.attachments: dict[str, Attachment] = {}
+        self.trace: CommandTrace | None = None  # opened by start() when ``config.trace`` is set
+        self.admin_clients: set[AdminProtocol] = set()
+        #: Named checkpoints of the emulator (admin ``checkpoint-save``), in memory only.
+        self.checkpoints: dict[str, object] = {}
+
+    # -- what the admin channel needs (server/admin.py AdminTarget) ---------------------------------
+    @property
+    def stepped(self) -> bool:
+        """Lockstep time: controller time advances only by :meth:`advance` (admin ``step``)."""
+        return self.config.stepped
+
+    @property
+    def reply_delay(self) -> float:
+        """Seconds each command reply waits (fault injection ``reply-delay``; 0: none)."""
+        return self._reply_delay
+
+    def set_reply_delay(self, seconds: float) -> None:
+        self._reply_delay = float(seconds)
+
+    @property
+    def report_pause_until(self) -> float:
+        """Loop time until which no report frame goes out (fault injection ``report-pause``)."""
+        return self._report_pause_until
+
+    def clear_delays(self) -> None:
+        """No reply delay and no report pause (admin ``clear``)."""
+        self._reply_delay = 0.0
+        self._report_pause_until = 0.0
+
+    # -- the report streams' state, as before the split ---------------------------------------------
+    @property
+    def report_clients(self) -> dict[str, set[asyncio.StreamWriter]]:
+        return self.reports.clients
+
+    @property
+    def frames_sent(self) -> dict[str, int]:
+        return self.reports.frames_sent
+
+    @property
+    def frames_skipped(self) -> dict[str, int]:
+        return self.reports.frames_skipped
+
+    @property
+    def frame_times(self) -> dict[str, list[float]] | None:
+        """Set to a dict to record each report frame's send time (benchmarks)."""
+        return self.reports.frame_times
+
+    @frame_times.setter
+    def frame_times(self, value: dict[str, list[float]] | None) -> None:
+        self.reports.frame_times = value
+
+    @property
+    def viewer(self) -> Any:
+        """The attached 3D view, if any (``attach("view", ...)``)."""
+        return self.attachments.get("view")
+
+    def attach(self, name: str, factory: Callable[[], Attachment]) -> None:
+        """Have :meth:`start` build ``factory()`` after the ports are open, start it, and record its
+        port under ``name`` in :attr:`ports`; :meth:`close` stops it."""
+        self._attach[name] = factory
+
+    def _report_snapshot(self) -> reports.ReportSnapshot:
+        self.catch_up()
+        return self.emulator.snapshot()
+
+    async def start(self) -> None:
+        loop = asyncio.get_running_loop()
+        cfg = self.config
+        if cfg.stepped and not cfg.admin:
+            raise ValueError("lockstep (stepped) time is driven through the admin channel: add --admin")
+        if cfg.trace is not None and self.trace is None:
+            try:
+                self.trace = CommandTrace(cfg.trace)
+            except OSError as exc:
+                raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
+        srv = await loop.create_server(lambda: CommandProtocol(self), cfg.host, cfg.port, reuse_address=True)
+        self._servers.append(srv)
+        self.ports["command"] = srv.sockets[0].getsockname()[1]
+        report_ports = (("normal", cfg.normal_port), ("rich", cfg.rich_port), ("develop", cfg.develop_port))
+        for kind, port in report_ports:
+            s = await asyncio.start_server(self.reports.on_client(kind), cfg.host, port, reuse_address=True)
+            self._servers.append(s)
+            self.ports[kind] = s.sockets[0].getsockname()[1]
+        if cfg.admin:
+            admin_port = cfg.admin_port
+            if admin_port is None:
+                admin_port = 0 if cfg.port == 0 else derive_admin_port(self.ports["command"])
+            # Loopback only, whatever ``host`` is (the protocol also refuses non-loopback peers): the
+            # arm's own address when that is a loopback one, else 127.0.0.1.
+            a = await loop.create_server(lambda: AdminProtocol(self), admin_host(cfg.host), admin_port,
+                                         reuse_address=True)
+            self._servers.append(a)
+            self.ports["admin"] = a.sockets[0].getsockname()[1]
+        for name, factory in self._attach.items():
+            extra = factory()
+            self.attachments[name] = extra
+            extra.start()
+            self.ports[name] = extra.port
+        self._ticker = Ticker()
+        self._loop = loop
+        self.clock.start(loop.time())
+        self._tasks.append(asyncio.create_task(self._control_loop()))
+        for kind in KIND_PORTS:
+            self._tasks.append(asyncio.create_task(self.reports.run(kind, self._ticker)))
+
+    def catch_up(self) -> int:
+        """Run the control periods that are due by now (real or scaled time).
+
+        Returns the number of periods run. Called before every command, report frame and admin
+        action, so that whatever anyone observes is the state after every period that has elapsed:
+        stepping in batches this way is indistinguishable from stepping on every period, and the
+        control loop only has to wake up now and then (:data:`IDLE_WAKE`) when nobody is looking.
+        """
+        loop = self._loop
+        if loop is None or self.config.stepped:
+            return 0
+        n = self.clock.due(loop.time(), MAX_CATCH_UP)
+        if n:
+            self.emulator.step(n)
+        return n
+
+    def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "") -> bytes:
+        """The reply frame to one private-protocol request (manual 2.1.2)."""
+        self.catch_up()
+        emu = self.emulator
+        if not params and register in PURE_READS:
+            frame = self._read_cache.reply(emu, tid, protocol, register)
+        else:
+            state, reply = emu.handle(register, params)
+            frame = encode_reply(tid, protocol, register, state, reply)
+        if self.trace is not None:
+            self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
+        return frame
+
+    def advance(self, seconds: float) -> int:
+        """Lockstep: run ``seconds`` of controller time now (whole control periods); returns the
+        number of periods run."""
+        n = max(0, round(seconds / PERIOD))
+        self.emulator.step(n)
+        return n
+
+    async def _control_loop(self) -> None:
+        """Keep controller time up with the wall clock while nobody asks (see :meth:`catch_up`)."""
+        while True:
+            backlog = self.catch_up() == MAX_CATCH_UP  # more is due: yield to clients, then go on
+            if self.trace is not None:
+                self.trace.flush()
+            await asyncio.sleep(0.0 if backlog else IDLE_WAKE)
+
+    def drop_clients(self, abort: bool = False) -> int:
+        """Close every command and report connection (fault injection ``drop-clients``); returns
+        how many were closed. Admin connections stay. ``abort`` discards unsent data."""
+        n = 0
+        transports: list[asyncio.BaseTransport] = [c.transport for c in self.command_clients
+                                                   if c.transport is not None]
+        transports += self.reports.transports()
+        for t in transports:
+            if abort and hasattr(t, "abort"):  # uvloop's transports are not asyncio subclasses
+                t.abort()
+                n += 1
+            elif not t.is_closing():
+                t.close()
+                n += 1
+        return n
+
+    def pause_reports(self, seconds: float) -> None:
+        """No report frame goes out for ``seconds`` of wall time (fault injection ``report-pause``)."""
+        self._report_pause_until = asyncio.get_running_loop().time() + seconds
+
+    def reports_paused(self) -> bool:
+        """Whether an injected report pause is on now."""
+        return asyncio.get_running_loop().time() < self._report_pause_until
+
+    async def close(self) -> None:
+        for extra in self.attachments.values():
+            extra.stop()
+        self.attachments.clear()
+        for t in self._tasks:
+            t.cancel()
+        for t in self._tasks:
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await t
+        self._tasks.clear()
+        if self._ticker is not None:
+            self._ticker.close()
+            self._ticker = None
+        for s in self._servers:
+            s.close()
+        self.drop_clients(abort=True)
+        for a in tuple(self.admin_clients):
+            if a.transport is not None:
+                a.transport.abort()
+        handlers = tuple(self.reports.client_tasks)
+        if handlers:  # aborted transports end their handlers (EOF); cancel only stragglers
+            _, late = await asyncio.wait(handlers, timeout=1.0)
+            for t in late:
+                t.cancel()
+            await asyncio.gather(*late, return_exceptions=True)
+        for s in self._servers:
+            with contextlib.suppress(Exception):
+                await s.wait_closed()
+        self._servers.clear()
+        for _ in range(3):  # let connection_lost callbacks close the sockets
+            await asyncio.sleep(0)
+        if self.trace is not None:
+            self.trace.close()
+            self.trace = None
+        self._stopped.set()
+
+    async def serve_forever(self) -> None:
+        """Start (unless started) and serve until :meth:`close`."""
+        if not self._servers:
+            await self.start()
+        await self._stopped.wait()
