@@ -2,8 +2,8 @@
 
 - Command port (502): frames of section 2.1.2; each reply is one write on a
   TCP_NODELAY socket (research note section 0.5). Protocol 1 (SDK heartbeat)
-  gets no reply; protocol 0 (standard Modbus TCP) gets the exception
-  "illegal function"; a frame that cannot be framed closes that connection only.
+  gets no reply; protocol 0 (standard Modbus TCP) is answered by the standard map
+  (controller.modbus_map); a frame that cannot be framed closes that connection only.
 - Report ports (30001 normal 5 Hz, 30002 rich 5 Hz, 30003 develop 100 Hz), section
   2.1.6: each tick encodes one frame and writes it to every client whose socket is
   keeping up; a slow reader skips frames instead of slowing anyone down.
@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..controller import modbus_map
 from ..controller.base import PERIOD
 from ..controller.emulator import Emulator
 from ..protocol import reports
@@ -37,7 +38,6 @@ from ..protocol.frame import (
     PROTOCOL_STANDARD,
     FrameDecoder,
     FrameError,
-    encode_modbus_exception,
     encode_reply,
 )
 from .admin import AdminProtocol, admin_host, derive_admin_port
@@ -146,8 +146,7 @@ class _CommandProtocol(asyncio.Protocol):
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
-                function = req.params[0] if req.params else 0  # type: ignore[union-attr]
-                out.append(encode_modbus_exception(req.tid, req.register, function, 1))  # type: ignore[union-attr]
+                out.append(modbus_map.answer(self.server, req.tid, req.register, req.params))  # type: ignore[union-attr]
             else:
                 log.info("closing command connection: unknown protocol id %d", prot)
                 transport.close()
