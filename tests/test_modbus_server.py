@@ -55,6 +55,16 @@ def test_exception_frame_echoes_tid_and_unit(make_server: Any) -> None:
         assert recv_frame(s) == bytes.fromhex("BEEF0000000307" "8102")
 
 
+def test_user_registers_outlive_the_connection(make_server: Any) -> None:
+    srv: ServerThread = make_server()
+    with connect(srv.ports["command"]) as s:
+        s.sendall(adu(3, 1, bytes.fromhex("1001FF000102ABCD")))
+        assert recv_frame(s) == bytes.fromhex("00030000000601" "1001FF0001")
+    with connect(srv.ports["command"]) as s:
+        s.sendall(adu(4, 1, bytes.fromhex("0301FF0001")))
+        assert recv_frame(s) == bytes.fromhex("00040000000501" "0302ABCD")
+
+
 def test_pipelined_modbus_and_private_frames_in_one_write(make_server: Any) -> None:
     srv: ServerThread = make_server()
     with connect(srv.ports["command"]) as s:

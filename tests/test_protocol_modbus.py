@@ -180,3 +180,21 @@ def test_scaling_rounds_half_away_and_saturates(value: float, raw: int) -> None:
 def test_unsigned_points_saturate_at_zero() -> None:
     assert modbus.POINTS["tcp_speed"].encode(-1.0) == 0
     assert modbus.POINTS["tcp_speed"].encode(7000.0) == 0xFFFF
+
+
+def test_write_the_register_refuses_is_exception_3(tmp_path: Path) -> None:
+    emu = Emulator(6, box_sn="AC1200", config_dir=tmp_path / "conf")  # a box with 8 digital IO
+    store = EmulatorDatastore(emu)
+    assert handle_pdu(bytes.fromhex("050003FF00"), store) == bytes.fromhex("050003FF00")
+    assert handle_pdu(bytes.fromhex("050009FF00"), store) == bytes.fromhex("8503")  # DO1 is absent
+    assert emu.snapshot().cgpio_output_config & 0xFF == 1 << 3
+
+
+def test_user_storage_is_per_emulator_and_not_saved(tmp_path: Path) -> None:
+    emu = Emulator(6, config_dir=tmp_path / "conf")
+    first = EmulatorDatastore(emu)
+    handle_pdu(bytes.fromhex("06010A1234"), first)
+    call(emu, 40)  # save_conf
+    again = Emulator(6, config_dir=tmp_path / "conf")
+    assert handle_pdu(bytes.fromhex("03010A0001"), EmulatorDatastore(again)) == bytes.fromhex("03020000")
+    assert handle_pdu(bytes.fromhex("03010A0001"), first) == bytes.fromhex("03021234")

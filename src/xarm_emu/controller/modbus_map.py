@@ -4,7 +4,7 @@ Reads come from :meth:`Emulator.snapshot` (the values the reports carry, current
 period) and, for the tool IO the reports lack, register 128. Writes go through
 :meth:`Emulator.handle` with the private register each point names (134 for the control box digital
 outputs, 127 for the tool outputs, 135/136 analog outputs, 19 mode, 12 state), so each behaviour
-keeps one home. User storage and the Blockly / G-code trigger values live here only.
+keeps one home; a write the register refuses with a new warning gets exception 3. User storage and the Blockly / G-code trigger values live here only.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 from ..model.rotations import rpy_to_axis_angle
 from ..protocol import modbus
 from ..protocol import registers as regs
-from ..protocol.modbus import ModbusError, Point
+from ..protocol.modbus import ILLEGAL_DATA_VALUE, ModbusError, Point
 from ..protocol.reports import ReportSnapshot, volts_to_counts
 from .io import ADDR_TOOL_AI, ADDR_TOOL_DI, ADDR_TOOL_DO, ADDR_TOOL_DO_READ, TOOL_AI_FULL_SCALE, TOOL_HOST
 
@@ -59,8 +59,12 @@ class EmulatorDatastore:
     def _call(self, code: int, values: dict[str, Any]) -> bytes:
         reg = regs.get(code)
         assert reg is not None
+        before = self.snapshot().warning
         _, reply = self.emu.handle(code, reg.request.encode(values))
         self._snap = None
+        after = self.snapshot().warning
+        if after and after != before:  # the register refused the values (section 3.2.2)
+            raise ModbusError(ILLEGAL_DATA_VALUE, f"register {code} refused {values} (warning {after})")
         return reply
 
     def _tool_read(self, addr: int) -> int:
