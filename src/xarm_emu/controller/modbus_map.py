@@ -4,7 +4,8 @@ Reads come from :meth:`Emulator.snapshot` (the values the reports carry, current
 period) and, for the tool IO the reports lack, register 128. Writes go through
 :meth:`Emulator.handle` with the private register each point names (134 for the control box digital
 outputs, 127 for the tool outputs, 135/136 analog outputs, 19 mode, 12 state), so each behaviour
-keeps one home; a write the register refuses with a new warning gets exception 3. User storage and the Blockly / G-code trigger values live here only.
+keeps one home; a write the register refuses with a new warning gets exception 3. User storage
+and the Blockly / G-code trigger values live here only.
 """
 
 from __future__ import annotations
