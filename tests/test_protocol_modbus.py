@@ -3,6 +3,7 @@ address rules, scaling round trips against a live in-process emulator and writes
 
 from __future__ import annotations
 
+import logging
 import math
 import struct
 from pathlib import Path
@@ -198,3 +199,12 @@ def test_user_storage_is_per_emulator_and_not_saved(tmp_path: Path) -> None:
     again = Emulator(6, config_dir=tmp_path / "conf")
     assert handle_pdu(bytes.fromhex("03010A0001"), EmulatorDatastore(again)) == bytes.fromhex("03020000")
     assert handle_pdu(bytes.fromhex("03010A0001"), first) == bytes.fromhex("03021234")
+
+
+def test_malformed_requests_are_answered_quietly(store: EmulatorDatastore,
+                                                 caplog: pytest.LogCaptureFixture) -> None:
+    with caplog.at_level(logging.WARNING):
+        assert handle_pdu(bytes.fromhex("0100000000"), store) == bytes.fromhex("8103")  # quantity 0
+        assert handle_pdu(bytes.fromhex("0F000007D1"), store) == bytes.fromhex("8F03")  # short
+        assert handle_pdu(bytes.fromhex("1000000080FF"), store) == bytes.fromhex("9003")  # 128 registers
+    assert [r for r in caplog.records if r.levelno >= logging.WARNING] == []

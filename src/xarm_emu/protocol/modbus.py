@@ -345,8 +345,20 @@ def _count_ok(count: int, limit: int) -> None:
         raise ModbusError(ILLEGAL_DATA_VALUE, f"quantity {count} (1-{limit})")
 
 
+#: Shortest request PDU per function code, and the quantity limit at bytes 3-4 where there is one.
+_MIN_SIZE = {0x01: 5, 0x02: 5, 0x03: 5, 0x04: 5, 0x05: 5, 0x06: 5, 0x0F: 6, 0x10: 6, 0x16: 7, 0x17: 10}
+_QUANTITY = {0x01: MAX_READ_BITS, 0x02: MAX_READ_BITS, 0x03: MAX_READ_REGISTERS, 0x04: MAX_READ_REGISTERS,
+             0x0F: MAX_WRITE_BITS, 0x10: MAX_WRITE_REGISTERS}
+
+
 def _dispatch(pdu: bytes, store: Datastore) -> bytes:
     function = pdu[0]
+    # Sizes and quantities are checked before pymodbus decodes, so malformed requests get
+    # exception 3 here rather than a decoder failure.
+    if len(pdu) < _MIN_SIZE[function]:
+        raise ModbusError(ILLEGAL_DATA_VALUE, "short request")
+    if function in _QUANTITY:
+        _count_ok(struct.unpack_from(">H", pdu, 3)[0], _QUANTITY[function])
     req = _DECODER.decode(pdu)
     if req is None or req.function_code != function:
         raise ModbusError(ILLEGAL_DATA_VALUE, "malformed request")
