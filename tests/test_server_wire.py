@@ -1,6 +1,7 @@
 """Bytes on the command port (manual 2.1.2, and the SDK's reading of it): replies echo the
-transaction and protocol ids, heartbeats get no reply, standard Modbus gets "illegal function",
-each reply is one write on a TCP_NODELAY socket, and bad input closes only the offending connection."""
+transaction and protocol ids, heartbeats get no reply, an unsupported standard Modbus function gets
+"illegal function", each reply is one write on a TCP_NODELAY socket, and bad input closes only the
+offending connection."""
 
 from __future__ import annotations
 
@@ -95,10 +96,10 @@ def test_heartbeat_protocol_1_gets_no_reply(srv: ServerThread) -> None:
 
 def test_standard_modbus_gets_illegal_function(srv: ServerThread) -> None:
     with connect(srv.ports["command"]) as s:
-        # Modbus TCP read holding registers: unit 1, function 0x03, address 0, count 2
-        s.sendall(struct.pack(">HHHBBHH", 0x0102, 0, 6, 1, 0x03, 0, 2))
+        # Modbus TCP diagnostics (function 0x08, not in the box's map): unit 1, sub-function 0, data 2
+        s.sendall(struct.pack(">HHHBBHH", 0x0102, 0, 6, 1, 0x08, 0, 2))
         raw = recv_frame(s)
-    assert raw == struct.pack(">HHHBBB", 0x0102, 0, 3, 1, 0x83, 0x01)
+    assert raw == struct.pack(">HHHBBB", 0x0102, 0, 3, 1, 0x88, 0x01)
 
 
 def test_accepted_socket_has_nodelay_and_reply_is_one_segment(srv: ServerThread) -> None:

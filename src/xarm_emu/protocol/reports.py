@@ -218,6 +218,11 @@ def _u16(x: float) -> int:
     return min(max(int(x + 0.5), 0), 0xFFFF) if math.isfinite(x) else 0
 
 
+def volts_to_counts(v: float) -> int:
+    """Analog value in volts to the 12-bit count the report carries (4095 = 10 V)."""
+    return _u16(v * (ANALOG_COUNTS / ANALOG_FULL_SCALE))
+
+
 def counts_to_volts(c: int) -> float:
     return c * (ANALOG_FULL_SCALE / ANALOG_COUNTS)
 

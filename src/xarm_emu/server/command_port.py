@@ -1,8 +1,8 @@
 """The command port (502): frames of manual section 2.1.2 in, replies out.
 
 Each reply is one write on a TCP_NODELAY socket, so the SDK reads it in one piece. Protocol 1 (SDK
-heartbeat) gets no reply; protocol 0 (standard Modbus TCP) gets the exception "illegal function";
-a frame that cannot be framed closes that connection only. Decoding is
+heartbeat) gets no reply; protocol 0 (standard Modbus TCP) is answered by the standard map
+(:mod:`xarm_emu.protocol.modbus`); a frame that cannot be framed closes that connection only. Decoding is
 :class:`~xarm_emu.protocol.frame.FrameDecoder` (sans-IO); the answers come from the server's
 :meth:`CommandTarget.answer`.
 """
@@ -25,7 +25,6 @@ from ..protocol.frame import (
     PROTOCOL_STANDARD,
     FrameDecoder,
     FrameError,
-    encode_modbus_exception,
     encode_reply,
 )
 from .trace import CommandTrace
@@ -75,6 +74,8 @@ class CommandTarget(Protocol):
     def reply_delay(self) -> float: ...
 
     def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "") -> bytes: ...
+
+    def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
 
 
 class CommandProtocol(asyncio.Protocol):
@@ -126,8 +127,7 @@ class CommandProtocol(asyncio.Protocol):
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
-                function = req.params[0] if req.params else 0  # type: ignore[union-attr]
-                out.append(encode_modbus_exception(req.tid, req.register, function, 1))  # type: ignore[union-attr]
+                out.append(self.server.answer_modbus(req.tid, req.register, req.params))  # type: ignore[union-attr]
             else:
                 log.info("closing command connection: unknown protocol id %d", prot)
                 transport.close()

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from ..controller.base import PERIOD
+from ..controller import modbus_map
 from ..controller.emulator import Emulator
 from ..protocol import reports
 from ..protocol.admin import admin_host, derive_admin_port
@@ -234,6 +235,12 @@ class EmulatorServer:
         if self.trace is not None:
             self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
         return frame
+
+    def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes:
+        """The reply frame to one standard Modbus-TCP request (protocol id 0): the map of
+        :mod:`xarm_emu.protocol.modbus` over the live emulator, after the due control periods."""
+        self.catch_up()
+        return modbus_map.answer(self.emulator, tid, unit, pdu)
 
     def advance(self, seconds: float) -> int:
         """Lockstep: run ``seconds`` of controller time now (whole control periods); returns the
