@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from ..controller.base import PERIOD
 from ..controller import modbus_map
+from ..controller.base import PERIOD
 from ..controller.emulator import Emulator
 from ..protocol import reports
 from ..protocol.admin import admin_host, derive_admin_port
