@@ -13,9 +13,6 @@ from .base import (
     Values,
 )
 from .core import (
-    STATE_MOVING,
-    STATE_SLEEP,
-    STATE_SUSPEND,
     ControllerCore,
 )
 from .settings import (
@@ -27,6 +24,7 @@ from .settings import (
     gravity_ok,
     in_range,
 )
+from .states import Event, fire
 
 
 class SettingCommands(ControllerCore):
@@ -187,14 +185,13 @@ class SettingCommands(ControllerCore):
         if on and not self.simulation_robot:
             self._physical_q = self.q.copy()
         elif not on and self.simulation_robot:
-            self.executor.clear()
+            self.executor.discard()
             self.servo_target = None
             self.servo_tracker = None
             if self._physical_q is not None:
                 self.q = self._physical_q
             self._physical_q = None
-            if self._state in (STATE_MOVING, STATE_SUSPEND):
-                self._state = STATE_SLEEP
+            fire(self, Event.VIRTUAL_OFF)
         self.simulation_robot = on
         return None
 

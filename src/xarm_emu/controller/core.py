@@ -46,17 +46,19 @@ from .executor import Executor, Limits
 from .settings import (
     Settings,
 )
-
-STATE_MOVING = 1
-STATE_SLEEP = 2
-STATE_SUSPEND = 3
-STATE_STOP = 4
-STATE_SYSTEM_RESET = 5
-
-MODE_POSITION = 0
-MODE_SERVO = 1
-MODE_JOINT_TEACH = 2
-MODE_CARTESIAN_TEACH = 3
+from .states import (  # noqa: F401 - MODE_CARTESIAN_TEACH is part of the vocabulary re-exported
+    MODE_CARTESIAN_TEACH,
+    MODE_JOINT_TEACH,
+    MODE_POSITION,
+    MODE_SERVO,
+    STATE_MOVING,
+    STATE_SLEEP,
+    STATE_STOP,
+    STATE_SUSPEND,
+    STATE_SYSTEM_RESET,
+    Event,
+    fire,
+)
 
 #: Command buffer capacity; the SDK throttles itself at 512 (max_cmdnum).
 BUFFER_CAPACITY = 1024
@@ -71,6 +73,9 @@ log = logging.getLogger("xarm_emu.controller")
 class ControllerCore:
     """State and mechanisms shared by every command group."""
 
+    #: Motion state (register 13); only :func:`.states.fire` changes it.
+    motion_state: int = STATE_STOP
+
     def __init__(self, model: RobotModel, *, robot_sn: str = "XI1300", box_sn: str = "AC1300",
                  period: float = PERIOD) -> None:
         self.model = model
@@ -84,7 +89,6 @@ class ControllerCore:
         self.qd = np.zeros(self.dof)
         self.qdd = np.zeros(self.dof)
         self._torque_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
-        self._state = STATE_STOP
         self.mode = MODE_POSITION
         self.enabled = [True] * self.dof
         self.brakes = [True] * self.dof  # True: brake released (motor holds the joint)
@@ -105,7 +109,6 @@ class ControllerCore:
         self._handlers: dict[int, Handler] = self.register_handlers()
         self.on_save: Callable[[dict[str, Any]], None] | None = None
         self.on_clean_conf: Callable[[], None] | None = None
-        self.shutdown_requested = False
         self._code = 0  # register being handled
         #: Tests set this: unexpected exceptions in handlers or steps propagate instead of being
         #: logged and answered with warning 12 / error C29 (what a running server does).
@@ -127,11 +130,11 @@ class ControllerCore:
 
     @property
     def state(self) -> int:
-        return self._state
+        return self.motion_state
 
     @property
     def is_moving(self) -> bool:
-        return self._state == STATE_MOVING
+        return self.motion_state == STATE_MOVING
 
     @property
     def tcp_position(self) -> tuple[float, float, float]:
@@ -141,10 +144,10 @@ class ControllerCore:
     def raise_error(self, code: int) -> None:
         """Enter an error: stop at once, discard the buffer, state 4 (section 3.2.1)."""
         self.error_code = code
-        self.executor.clear()
+        self.executor.discard()
         self.servo_target = None
         self.qd[:] = 0.0
-        self._state = STATE_STOP
+        fire(self, Event.ERROR)
         self._enter_stop()
 
     def raise_warning(self, code: int) -> None:
@@ -155,7 +158,7 @@ class ControllerCore:
     @property
     def ready(self) -> bool:
         """Whether the arm can perform motion (reply bit 0x10 clear)."""
-        return (self.error_code == 0 and self._state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND)
+        return (self.error_code == 0 and self.motion_state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND)
                 and all(self.enabled) and all(self.brakes))
 
     def status_byte(self) -> int:
@@ -248,16 +251,17 @@ class ControllerCore:
         q_prev = self.q
         try:
             if self.error_code == 0:
-                if self.mode == MODE_SERVO and self.servo_target is not None and self._state in (
+                if self.mode == MODE_SERVO and self.servo_target is not None and self.motion_state in (
                         STATE_SLEEP, STATE_MOVING):
                     tracker = self._tracker()
                     tracker.set_target(self.servo_target)
                     q, _, _ = tracker.step(dt)
                     self.q = q.copy()
-                    self._state = STATE_SLEEP if tracker.at_target else STATE_MOVING
-                elif self.mode == MODE_POSITION and self._state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
+                    fire(self, Event.SERVO_AT_TARGET if tracker.at_target else Event.SERVO_MOVING)
+                elif self.mode == MODE_POSITION and self.motion_state in (
+                        STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
                     self._step_position(dt)
-                elif self._state == STATE_STOP and self.executor.stopping:
+                elif self.motion_state == STATE_STOP and self.executor.stopping:
                     self._step_position(dt)
                 if self.q is not q_prev:
                     self._check_safety(q_prev)
@@ -307,15 +311,10 @@ class ControllerCore:
     def _step_position(self, dt: float) -> None:
         ex = self.executor
         if not ex.active:
-            if self._state == STATE_MOVING:
-                self._state = STATE_SLEEP
+            fire(self, Event.IDLE)
             return
         self.q = ex.step(dt, self.q, self._limits(), self.flange_target, self.tcp_matrix)
-        if self._state != STATE_STOP:
-            if ex.active and not (self._state == STATE_SUSPEND):
-                self._state = STATE_MOVING
-            elif not ex.active:
-                self._state = STATE_SLEEP
+        fire(self, Event.PLAN_RUNNING if ex.active else Event.PLAN_FINISHED)
 
     def advance(self, seconds: float) -> None:
         """Step for ``seconds`` of controller time (in-process clock)."""
@@ -335,10 +334,10 @@ class ControllerCore:
     # -- state changes -------------------------------------------------------------------------
     def system_reset(self) -> None:
         """The manual's "System reset" (section 2.1.1): motion ends, buffer cleared, state 5."""
-        self.executor.clear()
+        self.executor.discard()
         self.servo_target = None
         self.servo_tracker = None
-        self._state = STATE_SYSTEM_RESET
+        fire(self, Event.SYSTEM_RESET)
         self._enter_stop()
 
     def _enter_stop(self) -> None:
@@ -359,9 +358,8 @@ class ControllerCore:
     def _queue(self, cmd: QueuedCommand) -> dict[str, Any]:
         if self.executor.cmdnum >= BUFFER_CAPACITY:
             raise CommandWarning(WARN_BUFFER_OVERFLOW)
-        self.executor.buffer.append(cmd)
-        if self._state == STATE_SLEEP:
-            self._state = STATE_MOVING
+        self.executor.queue(cmd)
+        fire(self, Event.QUEUED)
         return {"cmdnum": self.executor.cmdnum}
 
     # torques (issue 7 provides the dynamic model)
@@ -398,9 +396,9 @@ class ControllerCore:
         return self._code
 
 
-class NotReady(CommandWarning):
-    """A motion command while the arm cannot move: nothing queued, the reply shows 0x10."""
+class NotReady(Exception):
+    """A motion command while the arm cannot move: nothing queued, no warning, the reply shows 0x10."""
 
     def __init__(self) -> None:
-        super().__init__(0, "arm not ready for motion")
+        super().__init__("arm not ready for motion")
 

@@ -157,6 +157,35 @@ class Executor:
         self.tcp_speed = 0.0
         self.merged = 0
 
+    def queue(self, cmd: QueuedCommand) -> None:
+        """Append a validated command to the buffer."""
+        self.buffer.append(cmd)
+
+    @property
+    def running(self) -> bool:
+        """A command is being executed (planned and sampled)."""
+        return self.plan is not None
+
+    # -- intents (register 12, errors, system reset) -------------------------------------------
+    def suspend(self, limits: Limits) -> None:
+        """State 3: slow the path down to rest, keeping the buffer and the plan."""
+        self.ramp_to(0.0, limits)
+
+    def resume(self, limits: Limits) -> None:
+        """Leave state 3: speed the path up again from where it rests."""
+        self.ramp_to(1.0, limits)
+
+    def stop_smoothly(self, limits: Limits) -> None:
+        """State 4 while a command runs: the buffer is discarded at once, the running motion ramps to
+        rest on its path and then ends."""
+        self.buffer.clear()
+        self.stopping = True
+        self.ramp_to(0.0, limits)
+
+    def discard(self) -> None:
+        """Discard the buffer and the running motion at once (errors, system reset)."""
+        self.clear()
+
     # -- rate ramps (suspend, resume, stop) --------------------------------------------------
     def ramp_to(self, target: float, limits: Limits | None = None) -> None:
         """Ramp the path rate to ``target`` (0: suspend/stop, 1: resume) along the same path.
@@ -250,7 +279,7 @@ class Executor:
         run, t_run = found
         path = run.path
         s, v, a = run.state(t_run)
-        last_piece = path._starts[-1] if isinstance(path, motion.CompositePath) else 0.0
+        last_piece = path.starts[-1] if isinstance(path, motion.CompositePath) else 0.0
         target, radius, first = plan.blend_into
         if s < last_piece or path.length - s <= radius:
             return  # still before the last straight piece, or already inside the blend zone

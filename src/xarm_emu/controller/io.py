@@ -35,10 +35,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
+from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from .base import C_DELAYED_IO, CommandError, ControllerView, Handler, ParameterError
-
-TOOL_HOST = 9
-CONTROL_BOX_HOST = 11
+from .states import STATE_STOP
 
 # Tool board addresses (registers 127/128).
 ADDR_TOOL_DI = 0x0A14
@@ -69,7 +68,6 @@ FUN_MOVING = 2
 FUN_HAS_ERROR = 11  # SDK documentation
 FUN_HAS_WARNING = 12  # SDK documentation
 
-STATE_STOP = 4
 MAX_PENDING = 36
 ERR_TOO_MANY_PENDING = C_DELAYED_IO  # C36, manual section 3.2.1
 ZERO_RADIUS_EPS = 1e-3  # mm: a zero radius means "the TCP sample is on the point"
