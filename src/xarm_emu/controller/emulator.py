@@ -8,14 +8,17 @@ as the CPU allows, deterministically).
 
 from __future__ import annotations
 
+import copy
 import heapq
 import logging
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from ruckig import Trajectory
 
 from ..model.inertials import NOMINAL_JOINT_VOLTAGE
 from ..model.robots import RobotModel, get_model
@@ -46,6 +49,49 @@ def _bits(flags: list[bool]) -> int:
 #: version string of register 1 carries it (research note section 5.1; the digits >= 1300 matter to
 #: the SDK only for the control box).
 DEFAULT_ROBOT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
+
+
+#: Controller attributes that are machinery, not state: constant, wired at construction, or a test
+#: switch. A checkpoint leaves them as they are.
+_CONTROLLER_MACHINERY = frozenset({"model", "dof", "period", "robot_sn", "box_sn", "components", "_handlers",
+                                   "on_save", "on_clean_conf", "tool_error", "executor", "strict"})
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """The whole state of an emulator at one instant (:meth:`Emulator.checkpoint`): controller and
+    motion (buffer, plan, ramps), settings, IO, gripper, vacuum, thermal model and the clock. Actions
+    scheduled with :meth:`Emulator.at` are not part of it. Holds its own deep copy: restoring it
+    any number of times gives the same state."""
+
+    time: float
+    parts: dict[str, dict[str, Any]]
+
+
+def _shared_immutables(root: object) -> dict[int, object]:
+    """Planned ruckig trajectories under ``root``: they cannot be copied and never change once
+    planned, so a checkpoint shares them."""
+    found: dict[int, object] = {}
+    seen: set[int] = set()
+    stack = [root]
+    while stack:
+        obj = stack.pop()
+        if id(obj) in seen or isinstance(obj, (int, float, str, bytes, bool, np.ndarray)) or obj is None:
+            continue
+        seen.add(id(obj))
+        if isinstance(obj, Trajectory):
+            found[id(obj)] = obj
+        elif isinstance(obj, dict):
+            stack.extend(obj.values())
+        elif isinstance(obj, (list, tuple, set, frozenset)) or type(obj).__name__ == "deque":
+            stack.extend(obj)
+        else:
+            if hasattr(obj, "__dict__"):
+                stack.extend(vars(obj).values())
+            for slot in getattr(type(obj), "__slots__", ()):
+                if hasattr(obj, slot):
+                    stack.append(getattr(obj, slot))
+    return found
 
 
 class Emulator:
@@ -210,6 +256,49 @@ class Emulator:
             **self.io.snapshot_fields(),
         )
         return snap
+
+    # -- checkpoint and restore (no real control box has these) ---------------------------------
+    def _parts(self) -> dict[str, dict[str, Any]]:
+        ctl = self.controller
+        parts: dict[str, dict[str, Any]] = {
+            "controller": {k: v for k, v in vars(ctl).items() if k not in _CONTROLLER_MACHINERY},
+            "executor": {k: v for k, v in vars(ctl.executor).items() if k != "model"},
+            "io": dict(vars(self.io)),
+            "gripper": dict(vars(self.gripper.gripper)),
+            "thermal": dict(vars(self.thermal)),
+        }
+        if self.vacuum is not None:
+            parts["vacuum"] = {k: v for k, v in vars(self.vacuum).items() if k != "tool"}
+        return parts
+
+    def _memo(self, parts: object) -> dict[int, object]:
+        """Objects a copy shares instead of copying: the model, the controller and the emulator
+        (plans refer to the controller's pose functions) and the planned trajectories."""
+        memo = _shared_immutables(parts)
+        for shared in (self.model, self.controller, self):
+            memo[id(shared)] = shared
+        return memo
+
+    def checkpoint(self) -> Checkpoint:
+        """The whole emulator state as an independent deep copy (:class:`Checkpoint`)."""
+        parts = self._parts()
+        return Checkpoint(self.time, copy.deepcopy(parts, self._memo(parts)))
+
+    def restore(self, cp: Checkpoint) -> None:
+        """Put the state of ``cp`` back exactly; ``cp`` stays usable for further restores."""
+        self.generation += 1
+        if set(cp.parts) != set(self._parts()):
+            raise ValueError("checkpoint of an emulator with other components (vacuum gripper)")
+        parts = copy.deepcopy(cp.parts, self._memo(cp.parts))
+        ctl = self.controller
+        vars(ctl).update(parts["controller"])
+        vars(ctl.executor).update(parts["executor"])
+        vars(self.io).update(parts["io"])
+        vars(self.gripper.gripper).update(parts["gripper"])
+        vars(self.thermal).update(parts["thermal"])
+        if self.vacuum is not None:
+            vars(self.vacuum).update(parts["vacuum"])
+            self.vacuum.tool = self.io.tool
 
     # -- in-process API ------------------------------------------------------------------------
     @property
