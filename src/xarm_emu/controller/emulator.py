@@ -12,6 +12,7 @@ import copy
 import heapq
 import logging
 import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -83,7 +84,7 @@ def _shared_immutables(root: object) -> dict[int, object]:
             found[id(obj)] = obj
         elif isinstance(obj, dict):
             stack.extend(obj.values())
-        elif isinstance(obj, (list, tuple, set, frozenset)) or type(obj).__name__ == "deque":
+        elif isinstance(obj, (list, tuple, set, frozenset, deque)):
             stack.extend(obj)
         else:
             if hasattr(obj, "__dict__"):
