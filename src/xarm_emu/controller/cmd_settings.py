@@ -104,13 +104,13 @@ class SettingCommands(ControllerCore):
 
     def _h_clean_conf(self, v: Values) -> None:
         self.settings = Settings.for_model(self.model)
-        if self.on_clean_conf is not None:
-            self.on_clean_conf()
+        if self.hooks.on_clean_conf is not None:
+            self.hooks.on_clean_conf()
         return None
 
     def _h_save_conf(self, v: Values) -> None:
-        if self.on_save is not None:
-            self.on_save(self.config_values())
+        if self.hooks.on_save is not None:
+            self.hooks.on_save(self.config_values())
         return None
 
     def config_values(self) -> dict[str, Any]:

@@ -152,7 +152,7 @@ class StateCommands(ControllerCore):
         for i in range(self.dof):
             servos[2 * i] = 1 if self.servo_errors[i] else 0
             servos[2 * i + 1] = self.servo_errors[i] & 0xFF
-        tool = self.tool_error()
+        tool = self.hooks.tool_error()
         servos[14], servos[15] = (1 if tool else 0), tool & 0xFF
         return {"servos": tuple(servos)}
 

@@ -13,7 +13,6 @@ teaching (not available).
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -39,6 +38,7 @@ from .base import (
     CommandWarning,
     Component,
     Handler,
+    Hooks,
     ParameterError,
 )
 from .commands import QueuedCommand
@@ -99,16 +99,14 @@ class ControllerCore:
         self.simulation_robot = False  # register 79
         self._physical_q: np.ndarray | None = None
         self.collision_tool = collision.NO_TOOL
-        #: Error code of the end tool (gripper) for register 106; the emulator wires it up.
-        self.tool_error: Callable[[], int] = lambda: 0
+        #: Calls outside the controller; the emulator wires them up.
+        self.hooks = Hooks()
         self.executor = Executor(model)
         self.servo_target: np.ndarray | None = None
         self.servo_tracker: motion.ServoTracker | None = None
         self.components: list[Component] = []
         self._pose_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._handlers: dict[int, Handler] = self.register_handlers()
-        self.on_save: Callable[[dict[str, Any]], None] | None = None
-        self.on_clean_conf: Callable[[], None] | None = None
         self._code = 0  # register being handled
         #: Tests set this: unexpected exceptions in handlers or steps propagate instead of being
         #: logged and answered with warning 12 / error C29 (what a running server does).
@@ -117,6 +115,11 @@ class ControllerCore:
     def register_handlers(self) -> dict[int, Handler]:
         """Handlers by register code; each command group adds its own (cooperative ``super()``)."""
         return {}
+
+    @property
+    def handler_codes(self) -> frozenset[int]:
+        """Register codes with a handler, the controller's and its components'."""
+        return frozenset(self._handlers)
 
     # -- components ----------------------------------------------------------------------------
     def add_component(self, component: Component) -> None:

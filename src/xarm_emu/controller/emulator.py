@@ -55,7 +55,7 @@ DEFAULT_ROBOT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
 #: Controller attributes that are machinery, not state: constant, wired at construction, or a test
 #: switch. A checkpoint leaves them as they are.
 _CONTROLLER_MACHINERY = frozenset({"model", "dof", "period", "robot_sn", "box_sn", "components", "_handlers",
-                                   "on_save", "on_clean_conf", "tool_error", "executor", "strict"})
+                                   "hooks", "executor", "strict"})
 
 
 @dataclass(frozen=True)
@@ -109,7 +109,7 @@ class Emulator:
         self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9])
         self.controller.add_component(self.io)
         self.controller.add_component(self.gripper)
-        self.controller.tool_error = lambda: self.gripper.gripper.error
+        self.controller.hooks.tool_error = self._tool_error
         #: The vacuum gripper's pressure switch on TI0 (controller/vacuum.py), when attached.
         self.vacuum: VacuumGripper | None = None
         if vacuum:
@@ -128,14 +128,18 @@ class Emulator:
         if config_dir is not None:
             self._attach_store(Path(config_dir), load_config)
 
+    def _tool_error(self) -> int:
+        """The end tool's error code (register 106): the gripper's."""
+        return self.gripper.gripper.error
+
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
         from .config import ConfigStore
 
         self._store = ConfigStore(directory, self.controller.robot_sn)
         ctl = self.controller
-        ctl.on_save = self._save_config
-        ctl.on_clean_conf = self._clean_config
+        ctl.hooks.on_save = self._save_config
+        ctl.hooks.on_clean_conf = self._clean_config
         if load:
             data = self._store.load()
             if data is not None:
@@ -213,7 +217,7 @@ class Emulator:
         speeds = tuple(float(x) for x in c.qd) + (0.0,) * (7 - c.dof)
         servo = tuple((1 if e else 0, e) for e in c.servo_errors) + ((0, 0),) * (7 - c.dof)
         pad = (0.0,) * (7 - c.dof)
-        tool_error = c.tool_error()
+        tool_error = c.hooks.tool_error()
         currents = tuple(float(x) for x in c.joint_currents()) + pad
         temps = tuple(self.thermal.celsius_u8()) + (0,) * (7 - c.dof)
         snap = ReportSnapshot(
