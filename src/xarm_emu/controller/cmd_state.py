@@ -12,7 +12,6 @@ from .base import (
     Values,
 )
 from .core import (
-    FIRMWARE_VERSION,
     MODE_JOINT_TEACH,
     MODE_POSITION,
     MODE_SERVO,
@@ -51,11 +50,6 @@ class StateCommands(ControllerCore):
             106: self._h_servo_debug,
         })
         return h
-
-    # version and identity
-    def version_string(self) -> str:
-        """Register 1: ``<axis>,<type>,<robot SN>,<box SN>,v1.6.0`` (research note section 5.1)."""
-        return f"{self.model.axis},{self.model.robot_type},{self.robot_sn},{self.box_sn},{FIRMWARE_VERSION}"
 
     def _h_version(self, v: Values) -> dict[str, Any]:
         return {"version": self.version_string()}

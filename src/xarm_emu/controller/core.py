@@ -64,10 +64,15 @@ from .states import (  # noqa: F401 - MODE_CARTESIAN_TEACH is part of the vocabu
 BUFFER_CAPACITY = 1024
 
 #: Firmware version the emulator claims. v1.6.0 keeps the SDK on the manual's
-#: layouts (research note section 5.3).
+#: layouts (the SDK picks its reply layouts by firmware version).
 FIRMWARE_VERSION = "v1.6.0"
 
 log = logging.getLogger("xarm_emu.controller")
+
+
+def version_string(model: RobotModel, robot_sn: str, box_sn: str) -> str:
+    """Register 1: ``<axis>,<type>,<robot SN>,<box SN>,<firmware version>``."""
+    return f"{model.axis},{model.robot_type},{robot_sn},{box_sn},{FIRMWARE_VERSION}"
 
 
 class ControllerCore:
@@ -120,6 +125,10 @@ class ControllerCore:
     def handler_codes(self) -> frozenset[int]:
         """Register codes with a handler, the controller's and its components'."""
         return frozenset(self._handlers)
+
+    def version_string(self) -> str:
+        """Register 1's version string of this control box."""
+        return version_string(self.model, self.robot_sn, self.box_sn)
 
     # -- components ----------------------------------------------------------------------------
     def add_component(self, component: Component) -> None:
@@ -238,7 +247,7 @@ class ControllerCore:
     def _default_reply(self, reg: regs.Register) -> bytes:
         """Reply bytes of a refused command: the buffer count for queued commands, else zeros.
 
-        The SDK raises on short replies (research note section 0.4), so a refused getter still
+        The SDK raises on short replies, so a refused getter still
         answers with its full layout.
         """
         if reg.reply.fields and reg.reply.fields[0].name == "cmdnum" and len(reg.reply.fields) == 1:
@@ -365,7 +374,7 @@ class ControllerCore:
         fire(self, Event.QUEUED)
         return {"cmdnum": self.executor.cmdnum}
 
-    # torques (issue 7 provides the dynamic model)
+    # torques (the dynamic model, model/dynamics.py)
     def joint_torques(self) -> np.ndarray:
         """Theoretical joint torques (N m): gravity of the links and the payload of register 36
         with the gravity direction of register 51, plus the inertial terms of the planned motion

@@ -47,7 +47,7 @@ def _bits(flags: list[bool]) -> int:
 
 
 #: Robot serial number of each model unless one is given: two letters and four digits, as the
-#: version string of register 1 carries it (research note section 5.1; the digits >= 1300 matter to
+#: version string of register 1 carries it (the SDK reads the digits; >= 1300 matter to
 #: the SDK only for the control box).
 DEFAULT_ROBOT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
 
@@ -104,7 +104,7 @@ class Emulator:
         sn = robot_sn or DEFAULT_ROBOT_SN.get(self.model.dof, DEFAULT_ROBOT_SN[6])
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD)
         box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
-        # Control boxes with SN >= 1300 have 16 digital IO (research note section 5.1).
+        # Control boxes with SN >= 1300 have 16 digital IO, as the SDK expects.
         self.io = IOModule(n_digital=16 if box_number >= 1300 else 8)
         self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9])
         self.controller.add_component(self.io)
@@ -310,7 +310,7 @@ class Emulator:
     def joints(self) -> np.ndarray:
         return self.controller.q.copy()
 
-    # -- fault injection and inputs from outside (issue 5; the admin channel calls these) ----
+    # -- fault injection and inputs from outside (the admin channel calls these) -------------
     def inject_error(self, code: int) -> None:
         """Raise control box error C<code> exactly as the natural cause would (section 3.2.1)."""
         self.generation += 1
