@@ -77,3 +77,17 @@ def test_checkpoint_is_independent_of_the_running_emulator() -> None:
     emu.restore(cp)
     assert reports.encode_rich(emu.snapshot()) == before
     assert emu.vacuum is not None and emu.vacuum.tool is emu.io.tool
+
+
+def test_clear_faults_resets_the_fault_group_and_the_gripper_error() -> None:
+    emu = Emulator(6)
+    emu.inject_servo_error(2, 0x21)
+    emu.inject_warning(11)
+    emu.inject_gripper_error(0x19)
+    assert emu.controller.faults.error == 12 and emu.controller.faults.servo_errors[1] == 0x21
+    emu.clear_faults()
+    assert (emu.controller.error_code, emu.controller.warning_code) == (0, 0)
+    assert emu.controller.servo_errors == [0] * 6
+    assert emu.gripper.gripper.error == 0
+    status, reply = emu.handle(15, b"")
+    assert reply == b"\x00\x00" and status & 0x60 == 0

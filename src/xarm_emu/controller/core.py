@@ -43,6 +43,7 @@ from .base import (
 )
 from .commands import QueuedCommand
 from .executor import Executor, Limits
+from .faults import Faults
 from .settings import (
     Settings,
 )
@@ -97,9 +98,7 @@ class ControllerCore:
         self.mode = MODE_POSITION
         self.enabled = [True] * self.dof
         self.brakes = [True] * self.dof  # True: brake released (motor holds the joint)
-        self.error_code = 0
-        self.warning_code = 0
-        self.servo_errors = [0] * self.dof  # per-joint servo error codes (section 3.1)
+        self.faults = Faults.none(self.dof)
         self.settings = Settings.for_model(self.model)
         self.simulation_robot = False  # register 79
         self._physical_q: np.ndarray | None = None
@@ -120,6 +119,32 @@ class ControllerCore:
     def register_handlers(self) -> dict[int, Handler]:
         """Handlers by register code; each command group adds its own (cooperative ``super()``)."""
         return {}
+
+    # -- faults (chapter 3) ----------------------------------------------------------------------
+    @property
+    def error_code(self) -> int:
+        return self.faults.error
+
+    @error_code.setter
+    def error_code(self, code: int) -> None:
+        self.faults.error = code
+
+    @property
+    def warning_code(self) -> int:
+        return self.faults.warning
+
+    @warning_code.setter
+    def warning_code(self, code: int) -> None:
+        self.faults.warning = code
+
+    @property
+    def servo_errors(self) -> list[int]:
+        """Per-joint servo error codes (section 3.1)."""
+        return self.faults.servo_errors
+
+    @servo_errors.setter
+    def servo_errors(self, codes: list[int]) -> None:
+        self.faults.servo_errors = codes
 
     @property
     def handler_codes(self) -> frozenset[int]:
@@ -175,9 +200,10 @@ class ControllerCore:
 
     def status_byte(self) -> int:
         s = 0
-        if self.error_code:
+        f = self.faults
+        if f.error:
             s |= STATE_ERROR
-        if self.warning_code:
+        if f.warning:
             s |= STATE_WARNING
         if not self.ready:
             s |= STATE_NOT_READY

@@ -27,6 +27,7 @@ from ..protocol.reports import ReportSnapshot
 from . import safety
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
 from .controller import Controller
+from .faults import Faults
 from .gripper import GripperModule
 from .io import IOModule
 from .thermal import ThermalModel
@@ -93,6 +94,61 @@ def _shared_immutables(root: object) -> dict[int, object]:
                 if hasattr(obj, slot):
                     stack.append(getattr(obj, slot))
     return found
+
+
+def report_snapshot(c: Controller, io: IOModule, thermal: ThermalModel) -> ReportSnapshot:
+    """What the reports show (manual section 2.1.6) of controller ``c`` with its IO and thermal
+    model; reads only."""
+    s = c.settings
+    m = c.model
+    joints = c.joints7()
+    speeds = tuple(float(x) for x in c.qd) + (0.0,) * (7 - c.dof)
+    servo = tuple((1 if e else 0, e) for e in c.servo_errors) + ((0, 0),) * (7 - c.dof)
+    pad = (0.0,) * (7 - c.dof)
+    tool_error = c.hooks.tool_error()
+    currents = tuple(float(x) for x in c.joint_currents()) + pad
+    temps = tuple(thermal.celsius_u8()) + (0,) * (7 - c.dof)
+    snap = ReportSnapshot(
+        state=c.state,
+        mode=c.mode,
+        cmdnum=c.executor.cmdnum,
+        joints=joints,
+        pose=tuple(float(x) for x in c.tcp_pose()),
+        torques=c.joint_torques7(),
+        brake_bits=_bits(c.brakes),
+        enable_bits=_bits(c.enabled),
+        error=c.error_code,
+        warning=c.warning_code,
+        tcp_offset=tuple(s.tcp_offset),
+        tcp_load=tuple(s.tcp_load),
+        collision_sensitivity=s.collision_sensitivity,
+        teach_sensitivity=s.teach_sensitivity,
+        gravity_direction=tuple(s.gravity_direction),
+        robot_type=m.robot_type,
+        axis=m.axis,
+        version=c.version_string(),
+        tcp_jerk=s.tcp_jerk,
+        tcp_max_acc=s.tcp_maxacc,
+        tcp_max_speed=m.max_tcp_speed,
+        joint_jerk=s.joint_jerk,
+        joint_max_acc=s.joint_maxacc,
+        joint_max_speed=m.max_joint_speed,
+        servo_codes=servo,
+        tcp_speed=float(c.executor.tcp_speed),
+        joint_speeds=speeds,
+        counter=c.counter,
+        world_offset=tuple(s.world_offset),
+        simulation=c.simulation_robot,
+        self_collision=s.self_collision_on,
+        collision_tool_type=int(s.collision_tool[0]),
+        collision_tool_params=tuple(s.collision_tool[1:7]),
+        joint_currents=currents,
+        joint_voltages=(NOMINAL_JOINT_VOLTAGE,) * c.dof + pad,
+        temperatures=temps,
+        tgpio_code=(1 if tool_error else 0, tool_error),
+        **io.snapshot_fields(),
+    )
+    return snap
 
 
 class Emulator:
@@ -210,57 +266,7 @@ class Emulator:
     # -- reports -------------------------------------------------------------------------------
     def snapshot(self) -> ReportSnapshot:
         """The live state as the reports show it (manual section 2.1.6)."""
-        c = self.controller
-        s = c.settings
-        m = self.model
-        joints = c.joints7()
-        speeds = tuple(float(x) for x in c.qd) + (0.0,) * (7 - c.dof)
-        servo = tuple((1 if e else 0, e) for e in c.servo_errors) + ((0, 0),) * (7 - c.dof)
-        pad = (0.0,) * (7 - c.dof)
-        tool_error = c.hooks.tool_error()
-        currents = tuple(float(x) for x in c.joint_currents()) + pad
-        temps = tuple(self.thermal.celsius_u8()) + (0,) * (7 - c.dof)
-        snap = ReportSnapshot(
-            state=c.state,
-            mode=c.mode,
-            cmdnum=c.executor.cmdnum,
-            joints=joints,
-            pose=tuple(float(x) for x in c.tcp_pose()),
-            torques=c.joint_torques7(),
-            brake_bits=_bits(c.brakes),
-            enable_bits=_bits(c.enabled),
-            error=c.error_code,
-            warning=c.warning_code,
-            tcp_offset=tuple(s.tcp_offset),
-            tcp_load=tuple(s.tcp_load),
-            collision_sensitivity=s.collision_sensitivity,
-            teach_sensitivity=s.teach_sensitivity,
-            gravity_direction=tuple(s.gravity_direction),
-            robot_type=m.robot_type,
-            axis=m.axis,
-            version=c.version_string(),
-            tcp_jerk=s.tcp_jerk,
-            tcp_max_acc=s.tcp_maxacc,
-            tcp_max_speed=m.max_tcp_speed,
-            joint_jerk=s.joint_jerk,
-            joint_max_acc=s.joint_maxacc,
-            joint_max_speed=m.max_joint_speed,
-            servo_codes=servo,
-            tcp_speed=float(c.executor.tcp_speed),
-            joint_speeds=speeds,
-            counter=c.counter,
-            world_offset=tuple(s.world_offset),
-            simulation=c.simulation_robot,
-            self_collision=s.self_collision_on,
-            collision_tool_type=int(s.collision_tool[0]),
-            collision_tool_params=tuple(s.collision_tool[1:7]),
-            joint_currents=currents,
-            joint_voltages=(NOMINAL_JOINT_VOLTAGE,) * c.dof + pad,
-            temperatures=temps,
-            tgpio_code=(1 if tool_error else 0, tool_error),
-            **self.io.snapshot_fields(),
-        )
-        return snap
+        return report_snapshot(self.controller, self.io, self.thermal)
 
     # -- checkpoint and restore (no real control box has these) ---------------------------------
     def _parts(self) -> dict[str, dict[str, Any]]:
@@ -375,9 +381,7 @@ class Emulator:
         """Clear every injected fault at once (errors, warnings, servo and gripper errors)."""
         self.generation += 1
         ctl = self.controller
-        ctl.error_code = 0
-        ctl.warning_code = 0
-        ctl.servo_errors = [0] * ctl.dof
+        ctl.faults = Faults.none(ctl.dof)
         self.gripper.gripper.clear_error()
 
     def set_input(self, kind: str, index: int, value: float) -> None:
