@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from ..model import collision
 from .base import (
     Handler,
@@ -113,18 +111,6 @@ class SettingCommands(ControllerCore):
             self.hooks.on_save(self.config_values())
         return None
 
-    def config_values(self) -> dict[str, Any]:
-        return self.settings.to_dict()
-
-    def load_config(self, data: dict[str, Any]) -> None:
-        self.settings = Settings.from_dict(data, self.model)
-        tool = self.settings.collision_tool
-        try:
-            self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])
-        except (ValueError, TypeError, IndexError):
-            self.collision_tool = collision.NO_TOOL
-
-
     def _h_world_offset(self, v: Values) -> None:
         self.settings.world_offset = [float(x) for x in v["pose"]]
         self.system_reset()
@@ -194,9 +180,3 @@ class SettingCommands(ControllerCore):
             fire(self, Event.VIRTUAL_OFF)
         self.simulation_robot = on
         return None
-
-    @property
-    def physical_joints(self) -> np.ndarray:
-        """Joints of the physical arm: frozen while virtual robot mode (register 79) is on."""
-        return self._physical_q.copy() if self._physical_q is not None else self.q.copy()
-

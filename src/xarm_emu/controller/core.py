@@ -120,6 +120,25 @@ class ControllerCore:
         """Handlers by register code; each command group adds its own (cooperative ``super()``)."""
         return {}
 
+    # -- saved configuration (registers 39/40) --------------------------------------------------
+    def config_values(self) -> dict[str, Any]:
+        """The settings register 40 saves."""
+        return self.settings.to_dict()
+
+    def load_config(self, data: dict[str, Any]) -> None:
+        """Apply saved settings (invalid entries keep their defaults) and the collision tool."""
+        self.settings = Settings.from_dict(data, self.model)
+        tool = self.settings.collision_tool
+        try:
+            self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])
+        except (ValueError, TypeError, IndexError):
+            self.collision_tool = collision.NO_TOOL
+
+    @property
+    def physical_joints(self) -> np.ndarray:
+        """Joints of the physical arm: frozen while virtual robot mode (register 79) is on."""
+        return self._physical_q.copy() if self._physical_q is not None else self.q.copy()
+
     # -- faults (chapter 3) ----------------------------------------------------------------------
     @property
     def error_code(self) -> int:
