@@ -11,6 +11,7 @@ error code, section 3.2.1).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 #: Control period in seconds: the controller advances in steps of 4 ms (250 Hz,
@@ -62,6 +63,20 @@ class ParameterError(CommandWarning):
 
     def __init__(self, message: str = "") -> None:
         super().__init__(WARN_PARAMETER, message)
+
+
+def _no_tool_error() -> int:
+    return 0
+
+
+@dataclass
+class Hooks:
+    """What the controller calls outside itself: saving (register 40) and deleting (register 39) the
+    configuration, and the end tool's error code (register 106, the gripper's)."""
+
+    on_save: Callable[[dict[str, Any]], None] | None = None
+    on_clean_conf: Callable[[], None] | None = None
+    tool_error: Callable[[], int] = _no_tool_error
 
 
 class CommandError(Exception):

@@ -17,7 +17,7 @@ from .base import (
 from .core import (
     ControllerCore,
 )
-from .executor import wire_pose_to_matrix
+from .poses import wire_pose_to_matrix
 
 
 class KinematicsCommands(ControllerCore):
@@ -57,7 +57,7 @@ class KinematicsCommands(ControllerCore):
             out["efforts"] = self.joint_torques7()
         return out
 
-    # kinematics registers (issue 3)
+    # kinematics registers
     def _h_ik(self, v: Values) -> dict[str, Any]:
         T = wire_pose_to_matrix(v["pose"])
         q = kin.ik(self.model, self.flange_target(T), self.q, restarts=True)

@@ -22,7 +22,7 @@ from .commands import CircleMove, Dwell, JointMove, LineMove
 from .core import (
     ControllerCore,
 )
-from .executor import apply_offset, wire_pose_to_matrix
+from .poses import apply_offset, wire_pose_to_matrix
 from .settings import (
     in_range,
 )

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from ..model import collision
 from .base import (
     Handler,
@@ -13,9 +11,6 @@ from .base import (
     Values,
 )
 from .core import (
-    STATE_MOVING,
-    STATE_SLEEP,
-    STATE_SUSPEND,
     ControllerCore,
 )
 from .settings import (
@@ -27,6 +22,7 @@ from .settings import (
     gravity_ok,
     in_range,
 )
+from .states import Event, fire
 
 
 class SettingCommands(ControllerCore):
@@ -106,26 +102,14 @@ class SettingCommands(ControllerCore):
 
     def _h_clean_conf(self, v: Values) -> None:
         self.settings = Settings.for_model(self.model)
-        if self.on_clean_conf is not None:
-            self.on_clean_conf()
+        if self.hooks.on_clean_conf is not None:
+            self.hooks.on_clean_conf()
         return None
 
     def _h_save_conf(self, v: Values) -> None:
-        if self.on_save is not None:
-            self.on_save(self.config_values())
+        if self.hooks.on_save is not None:
+            self.hooks.on_save(self.config_values())
         return None
-
-    def config_values(self) -> dict[str, Any]:
-        return self.settings.to_dict()
-
-    def load_config(self, data: dict[str, Any]) -> None:
-        self.settings = Settings.from_dict(data, self.model)
-        tool = self.settings.collision_tool
-        try:
-            self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])
-        except (ValueError, TypeError, IndexError):
-            self.collision_tool = collision.NO_TOOL
-
 
     def _h_world_offset(self, v: Values) -> None:
         self.settings.world_offset = [float(x) for x in v["pose"]]
@@ -187,19 +171,12 @@ class SettingCommands(ControllerCore):
         if on and not self.simulation_robot:
             self._physical_q = self.q.copy()
         elif not on and self.simulation_robot:
-            self.executor.clear()
+            self.executor.discard()
             self.servo_target = None
             self.servo_tracker = None
             if self._physical_q is not None:
                 self.q = self._physical_q
             self._physical_q = None
-            if self._state in (STATE_MOVING, STATE_SUSPEND):
-                self._state = STATE_SLEEP
+            fire(self, Event.VIRTUAL_OFF)
         self.simulation_robot = on
         return None
-
-    @property
-    def physical_joints(self) -> np.ndarray:
-        """Joints of the physical arm: frozen while virtual robot mode (register 79) is on."""
-        return self._physical_q.copy() if self._physical_q is not None else self.q.copy()
-

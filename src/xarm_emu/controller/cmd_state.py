@@ -12,17 +12,12 @@ from .base import (
     Values,
 )
 from .core import (
-    FIRMWARE_VERSION,
     MODE_JOINT_TEACH,
     MODE_POSITION,
     MODE_SERVO,
-    STATE_MOVING,
-    STATE_SLEEP,
-    STATE_STOP,
-    STATE_SUSPEND,
-    STATE_SYSTEM_RESET,
     ControllerCore,
 )
+from .states import STATE_MOVING, STATE_SLEEP, STATE_STOP, STATE_SUSPEND, Event, fire
 
 
 def needs_power_on(code: int) -> bool:
@@ -45,7 +40,7 @@ class StateCommands(ControllerCore):
             10: self._h_shutdown,
             11: self._h_motion_enable,
             12: self._h_set_state,
-            13: lambda v: {"state": self._state},
+            13: lambda v: {"state": self.motion_state},
             14: lambda v: {"cmdnum": self.executor.cmdnum},
             15: lambda v: {"error": self.error_code, "warning": self.warning_code},
             16: self._h_clean_error,
@@ -56,11 +51,6 @@ class StateCommands(ControllerCore):
         })
         return h
 
-    # version and identity
-    def version_string(self) -> str:
-        """Register 1: ``<axis>,<type>,<robot SN>,<box SN>,v1.6.0`` (research note section 5.1)."""
-        return f"{self.model.axis},{self.model.robot_type},{self.robot_sn},{self.box_sn},{FIRMWARE_VERSION}"
-
     def _h_version(self, v: Values) -> dict[str, Any]:
         return {"version": self.version_string()}
 
@@ -69,9 +59,8 @@ class StateCommands(ControllerCore):
 
 
     def _h_shutdown(self, v: Values) -> dict[str, Any]:
-        # Remote shutdown of the control box OS: the emulator acknowledges and keeps running
-        # (documented in the README); the server may act on ``shutdown_requested``.
-        self.shutdown_requested = True
+        """Register 10, remote shutdown of the control box OS: acknowledged, the emulator keeps
+        running (documented in the README)."""
         return {"cmdnum": self.executor.cmdnum}
 
     # state machine
@@ -101,31 +90,31 @@ class StateCommands(ControllerCore):
         return None
 
     def _h_set_state(self, v: Values) -> None:
+        """Register 12: 0 run (resume a suspend, leave stop), 3 suspend, 4 stop (section 2.1.3)."""
         s = v["state"]
+        ex = self.executor
         if s == 0:
             if self.error_code:
                 return None  # stays in stop; the reply carries 0x40
-            if self._state == STATE_SUSPEND:
-                self.executor.ramp_to(1.0, self._limits())
-                self._state = STATE_MOVING if self.executor.active else STATE_SLEEP
-            elif self._state in (STATE_STOP, STATE_SYSTEM_RESET):
-                if not self.executor.stopping:
-                    self._state = STATE_SLEEP
+            if self.motion_state == STATE_SUSPEND:
+                ex.resume(self._limits())
+                if fire(self, Event.SET_RUN) == STATE_MOVING and not ex.active:
+                    fire(self, Event.IDLE)
+            elif not ex.stopping:  # a stop ramp still running keeps state 4
+                fire(self, Event.SET_RUN)
             return None
         if s == STATE_SUSPEND:
-            if self._state in (STATE_MOVING, STATE_SLEEP):
-                self.executor.ramp_to(0.0, self._limits())
-                self._state = STATE_SUSPEND
+            if self.motion_state in (STATE_MOVING, STATE_SLEEP):
+                ex.suspend(self._limits())
+                fire(self, Event.SET_SUSPEND)
             return None
         if s == STATE_STOP:
-            if self.mode == MODE_POSITION and self.executor.plan is not None:
-                self.executor.buffer.clear()
-                self.executor.stopping = True
-                self.executor.ramp_to(0.0, self._limits())
+            if self.mode == MODE_POSITION and ex.running:
+                ex.stop_smoothly(self._limits())
             else:
-                self.executor.clear()
+                ex.discard()
             self.servo_target = None
-            self._state = STATE_STOP
+            fire(self, Event.SET_STOP)
             self._enter_stop()
             return None
         raise ParameterError(f"state {s} cannot be set")
@@ -157,7 +146,7 @@ class StateCommands(ControllerCore):
         for i in range(self.dof):
             servos[2 * i] = 1 if self.servo_errors[i] else 0
             servos[2 * i + 1] = self.servo_errors[i] & 0xFF
-        tool = self.tool_error()
+        tool = self.hooks.tool_error()
         servos[14], servos[15] = (1 if tool else 0), tool & 0xFF
         return {"servos": tuple(servos)}
 

@@ -13,7 +13,6 @@ teaching (not available).
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -39,37 +38,49 @@ from .base import (
     CommandWarning,
     Component,
     Handler,
+    Hooks,
     ParameterError,
 )
 from .commands import QueuedCommand
 from .executor import Executor, Limits
+from .faults import Faults
 from .settings import (
     Settings,
 )
-
-STATE_MOVING = 1
-STATE_SLEEP = 2
-STATE_SUSPEND = 3
-STATE_STOP = 4
-STATE_SYSTEM_RESET = 5
-
-MODE_POSITION = 0
-MODE_SERVO = 1
-MODE_JOINT_TEACH = 2
-MODE_CARTESIAN_TEACH = 3
+from .states import (  # noqa: F401 - MODE_CARTESIAN_TEACH is part of the vocabulary re-exported
+    MODE_CARTESIAN_TEACH,
+    MODE_JOINT_TEACH,
+    MODE_POSITION,
+    MODE_SERVO,
+    STATE_MOVING,
+    STATE_SLEEP,
+    STATE_STOP,
+    STATE_SUSPEND,
+    STATE_SYSTEM_RESET,
+    Event,
+    fire,
+)
 
 #: Command buffer capacity; the SDK throttles itself at 512 (max_cmdnum).
 BUFFER_CAPACITY = 1024
 
 #: Firmware version the emulator claims. v1.6.0 keeps the SDK on the manual's
-#: layouts (research note section 5.3).
+#: layouts (the SDK picks its reply layouts by firmware version).
 FIRMWARE_VERSION = "v1.6.0"
 
 log = logging.getLogger("xarm_emu.controller")
 
 
+def version_string(model: RobotModel, robot_sn: str, box_sn: str) -> str:
+    """Register 1: ``<axis>,<type>,<robot SN>,<box SN>,<firmware version>``."""
+    return f"{model.axis},{model.robot_type},{robot_sn},{box_sn},{FIRMWARE_VERSION}"
+
+
 class ControllerCore:
     """State and mechanisms shared by every command group."""
+
+    #: Motion state (register 13); only :func:`.states.fire` changes it.
+    motion_state: int = STATE_STOP
 
     def __init__(self, model: RobotModel, *, robot_sn: str = "XI1300", box_sn: str = "AC1300",
                  period: float = PERIOD) -> None:
@@ -84,28 +95,22 @@ class ControllerCore:
         self.qd = np.zeros(self.dof)
         self.qdd = np.zeros(self.dof)
         self._torque_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
-        self._state = STATE_STOP
         self.mode = MODE_POSITION
         self.enabled = [True] * self.dof
         self.brakes = [True] * self.dof  # True: brake released (motor holds the joint)
-        self.error_code = 0
-        self.warning_code = 0
-        self.servo_errors = [0] * self.dof  # per-joint servo error codes (section 3.1)
+        self.faults = Faults.none(self.dof)
         self.settings = Settings.for_model(self.model)
         self.simulation_robot = False  # register 79
         self._physical_q: np.ndarray | None = None
         self.collision_tool = collision.NO_TOOL
-        #: Error code of the end tool (gripper) for register 106; the emulator wires it up.
-        self.tool_error: Callable[[], int] = lambda: 0
+        #: Calls outside the controller; the emulator wires them up.
+        self.hooks = Hooks()
         self.executor = Executor(model)
         self.servo_target: np.ndarray | None = None
         self.servo_tracker: motion.ServoTracker | None = None
         self.components: list[Component] = []
         self._pose_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._handlers: dict[int, Handler] = self.register_handlers()
-        self.on_save: Callable[[dict[str, Any]], None] | None = None
-        self.on_clean_conf: Callable[[], None] | None = None
-        self.shutdown_requested = False
         self._code = 0  # register being handled
         #: Tests set this: unexpected exceptions in handlers or steps propagate instead of being
         #: logged and answered with warning 12 / error C29 (what a running server does).
@@ -114,6 +119,60 @@ class ControllerCore:
     def register_handlers(self) -> dict[int, Handler]:
         """Handlers by register code; each command group adds its own (cooperative ``super()``)."""
         return {}
+
+    # -- saved configuration (registers 39/40) --------------------------------------------------
+    def config_values(self) -> dict[str, Any]:
+        """The settings register 40 saves."""
+        return self.settings.to_dict()
+
+    def load_config(self, data: dict[str, Any]) -> None:
+        """Apply saved settings (invalid entries keep their defaults) and the collision tool."""
+        self.settings = Settings.from_dict(data, self.model)
+        tool = self.settings.collision_tool
+        try:
+            self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])
+        except (ValueError, TypeError, IndexError):
+            self.collision_tool = collision.NO_TOOL
+
+    @property
+    def physical_joints(self) -> np.ndarray:
+        """Joints of the physical arm: frozen while virtual robot mode (register 79) is on."""
+        return self._physical_q.copy() if self._physical_q is not None else self.q.copy()
+
+    # -- faults (chapter 3) ----------------------------------------------------------------------
+    @property
+    def error_code(self) -> int:
+        return self.faults.error
+
+    @error_code.setter
+    def error_code(self, code: int) -> None:
+        self.faults.error = code
+
+    @property
+    def warning_code(self) -> int:
+        return self.faults.warning
+
+    @warning_code.setter
+    def warning_code(self, code: int) -> None:
+        self.faults.warning = code
+
+    @property
+    def servo_errors(self) -> list[int]:
+        """Per-joint servo error codes (section 3.1)."""
+        return self.faults.servo_errors
+
+    @servo_errors.setter
+    def servo_errors(self, codes: list[int]) -> None:
+        self.faults.servo_errors = codes
+
+    @property
+    def handler_codes(self) -> frozenset[int]:
+        """Register codes with a handler, the controller's and its components'."""
+        return frozenset(self._handlers)
+
+    def version_string(self) -> str:
+        """Register 1's version string of this control box."""
+        return version_string(self.model, self.robot_sn, self.box_sn)
 
     # -- components ----------------------------------------------------------------------------
     def add_component(self, component: Component) -> None:
@@ -127,11 +186,11 @@ class ControllerCore:
 
     @property
     def state(self) -> int:
-        return self._state
+        return self.motion_state
 
     @property
     def is_moving(self) -> bool:
-        return self._state == STATE_MOVING
+        return self.motion_state == STATE_MOVING
 
     @property
     def tcp_position(self) -> tuple[float, float, float]:
@@ -141,10 +200,10 @@ class ControllerCore:
     def raise_error(self, code: int) -> None:
         """Enter an error: stop at once, discard the buffer, state 4 (section 3.2.1)."""
         self.error_code = code
-        self.executor.clear()
+        self.executor.discard()
         self.servo_target = None
         self.qd[:] = 0.0
-        self._state = STATE_STOP
+        fire(self, Event.ERROR)
         self._enter_stop()
 
     def raise_warning(self, code: int) -> None:
@@ -155,14 +214,15 @@ class ControllerCore:
     @property
     def ready(self) -> bool:
         """Whether the arm can perform motion (reply bit 0x10 clear)."""
-        return (self.error_code == 0 and self._state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND)
+        return (self.error_code == 0 and self.motion_state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND)
                 and all(self.enabled) and all(self.brakes))
 
     def status_byte(self) -> int:
         s = 0
-        if self.error_code:
+        f = self.faults
+        if f.error:
             s |= STATE_ERROR
-        if self.warning_code:
+        if f.warning:
             s |= STATE_WARNING
         if not self.ready:
             s |= STATE_NOT_READY
@@ -232,7 +292,7 @@ class ControllerCore:
     def _default_reply(self, reg: regs.Register) -> bytes:
         """Reply bytes of a refused command: the buffer count for queued commands, else zeros.
 
-        The SDK raises on short replies (research note section 0.4), so a refused getter still
+        The SDK raises on short replies, so a refused getter still
         answers with its full layout.
         """
         if reg.reply.fields and reg.reply.fields[0].name == "cmdnum" and len(reg.reply.fields) == 1:
@@ -248,16 +308,17 @@ class ControllerCore:
         q_prev = self.q
         try:
             if self.error_code == 0:
-                if self.mode == MODE_SERVO and self.servo_target is not None and self._state in (
+                if self.mode == MODE_SERVO and self.servo_target is not None and self.motion_state in (
                         STATE_SLEEP, STATE_MOVING):
                     tracker = self._tracker()
                     tracker.set_target(self.servo_target)
                     q, _, _ = tracker.step(dt)
                     self.q = q.copy()
-                    self._state = STATE_SLEEP if tracker.at_target else STATE_MOVING
-                elif self.mode == MODE_POSITION and self._state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
+                    fire(self, Event.SERVO_AT_TARGET if tracker.at_target else Event.SERVO_MOVING)
+                elif self.mode == MODE_POSITION and self.motion_state in (
+                        STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
                     self._step_position(dt)
-                elif self._state == STATE_STOP and self.executor.stopping:
+                elif self.motion_state == STATE_STOP and self.executor.stopping:
                     self._step_position(dt)
                 if self.q is not q_prev:
                     self._check_safety(q_prev)
@@ -307,15 +368,10 @@ class ControllerCore:
     def _step_position(self, dt: float) -> None:
         ex = self.executor
         if not ex.active:
-            if self._state == STATE_MOVING:
-                self._state = STATE_SLEEP
+            fire(self, Event.IDLE)
             return
         self.q = ex.step(dt, self.q, self._limits(), self.flange_target, self.tcp_matrix)
-        if self._state != STATE_STOP:
-            if ex.active and not (self._state == STATE_SUSPEND):
-                self._state = STATE_MOVING
-            elif not ex.active:
-                self._state = STATE_SLEEP
+        fire(self, Event.PLAN_RUNNING if ex.active else Event.PLAN_FINISHED)
 
     def advance(self, seconds: float) -> None:
         """Step for ``seconds`` of controller time (in-process clock)."""
@@ -335,10 +391,10 @@ class ControllerCore:
     # -- state changes -------------------------------------------------------------------------
     def system_reset(self) -> None:
         """The manual's "System reset" (section 2.1.1): motion ends, buffer cleared, state 5."""
-        self.executor.clear()
+        self.executor.discard()
         self.servo_target = None
         self.servo_tracker = None
-        self._state = STATE_SYSTEM_RESET
+        fire(self, Event.SYSTEM_RESET)
         self._enter_stop()
 
     def _enter_stop(self) -> None:
@@ -359,12 +415,11 @@ class ControllerCore:
     def _queue(self, cmd: QueuedCommand) -> dict[str, Any]:
         if self.executor.cmdnum >= BUFFER_CAPACITY:
             raise CommandWarning(WARN_BUFFER_OVERFLOW)
-        self.executor.buffer.append(cmd)
-        if self._state == STATE_SLEEP:
-            self._state = STATE_MOVING
+        self.executor.queue(cmd)
+        fire(self, Event.QUEUED)
         return {"cmdnum": self.executor.cmdnum}
 
-    # torques (issue 7 provides the dynamic model)
+    # torques (the dynamic model, model/dynamics.py)
     def joint_torques(self) -> np.ndarray:
         """Theoretical joint torques (N m): gravity of the links and the payload of register 36
         with the gravity direction of register 51, plus the inertial terms of the planned motion
@@ -398,9 +453,9 @@ class ControllerCore:
         return self._code
 
 
-class NotReady(CommandWarning):
-    """A motion command while the arm cannot move: nothing queued, the reply shows 0x10."""
+class NotReady(Exception):
+    """A motion command while the arm cannot move: nothing queued, no warning, the reply shows 0x10."""
 
     def __init__(self) -> None:
-        super().__init__(0, "arm not ready for motion")
+        super().__init__("arm not ready for motion")
 

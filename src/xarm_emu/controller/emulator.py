@@ -8,14 +8,18 @@ as the CPU allows, deterministically).
 
 from __future__ import annotations
 
+import copy
 import heapq
 import logging
 import math
+from collections import deque
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from ruckig import Trajectory
 
 from ..model.inertials import NOMINAL_JOINT_VOLTAGE
 from ..model.robots import RobotModel, get_model
@@ -23,6 +27,7 @@ from ..protocol.reports import ReportSnapshot
 from . import safety
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
 from .controller import Controller
+from .faults import Faults
 from .gripper import GripperModule
 from .io import IOModule
 from .thermal import ThermalModel
@@ -43,9 +48,107 @@ def _bits(flags: list[bool]) -> int:
 
 
 #: Robot serial number of each model unless one is given: two letters and four digits, as the
-#: version string of register 1 carries it (research note section 5.1; the digits >= 1300 matter to
+#: version string of register 1 carries it (the SDK reads the digits; >= 1300 matter to
 #: the SDK only for the control box).
 DEFAULT_ROBOT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
+
+
+#: Controller attributes that are machinery, not state: constant, wired at construction, or a test
+#: switch. A checkpoint leaves them as they are.
+_CONTROLLER_MACHINERY = frozenset({"model", "dof", "period", "robot_sn", "box_sn", "components", "_handlers",
+                                   "hooks", "executor", "strict"})
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """The whole state of an emulator at one instant (:meth:`Emulator.checkpoint`): controller and
+    motion (buffer, plan, ramps), settings, IO, gripper, vacuum, thermal model and the clock. Actions
+    scheduled with :meth:`Emulator.at` are not part of it. Holds its own deep copy: restoring it
+    any number of times gives the same state."""
+
+    time: float
+    parts: dict[str, dict[str, Any]]
+
+
+def _shared_immutables(root: object) -> dict[int, object]:
+    """Planned ruckig trajectories under ``root``: they cannot be copied and never change once
+    planned, so a checkpoint shares them."""
+    found: dict[int, object] = {}
+    seen: set[int] = set()
+    stack = [root]
+    while stack:
+        obj = stack.pop()
+        if id(obj) in seen or isinstance(obj, (int, float, str, bytes, bool, np.ndarray)) or obj is None:
+            continue
+        seen.add(id(obj))
+        if isinstance(obj, Trajectory):
+            found[id(obj)] = obj
+        elif isinstance(obj, dict):
+            stack.extend(obj.values())
+        elif isinstance(obj, (list, tuple, set, frozenset, deque)):
+            stack.extend(obj)
+        else:
+            if hasattr(obj, "__dict__"):
+                stack.extend(vars(obj).values())
+            for slot in getattr(type(obj), "__slots__", ()):
+                if hasattr(obj, slot):
+                    stack.append(getattr(obj, slot))
+    return found
+
+
+def report_snapshot(c: Controller, io: IOModule, thermal: ThermalModel) -> ReportSnapshot:
+    """What the reports show (manual section 2.1.6) of controller ``c`` with its IO and thermal
+    model; reads only."""
+    s = c.settings
+    m = c.model
+    joints = c.joints7()
+    speeds = tuple(float(x) for x in c.qd) + (0.0,) * (7 - c.dof)
+    servo = tuple((1 if e else 0, e) for e in c.servo_errors) + ((0, 0),) * (7 - c.dof)
+    pad = (0.0,) * (7 - c.dof)
+    tool_error = c.hooks.tool_error()
+    currents = tuple(float(x) for x in c.joint_currents()) + pad
+    temps = tuple(thermal.celsius_u8()) + (0,) * (7 - c.dof)
+    snap = ReportSnapshot(
+        state=c.state,
+        mode=c.mode,
+        cmdnum=c.executor.cmdnum,
+        joints=joints,
+        pose=tuple(float(x) for x in c.tcp_pose()),
+        torques=c.joint_torques7(),
+        brake_bits=_bits(c.brakes),
+        enable_bits=_bits(c.enabled),
+        error=c.error_code,
+        warning=c.warning_code,
+        tcp_offset=tuple(s.tcp_offset),
+        tcp_load=tuple(s.tcp_load),
+        collision_sensitivity=s.collision_sensitivity,
+        teach_sensitivity=s.teach_sensitivity,
+        gravity_direction=tuple(s.gravity_direction),
+        robot_type=m.robot_type,
+        axis=m.axis,
+        version=c.version_string(),
+        tcp_jerk=s.tcp_jerk,
+        tcp_max_acc=s.tcp_maxacc,
+        tcp_max_speed=m.max_tcp_speed,
+        joint_jerk=s.joint_jerk,
+        joint_max_acc=s.joint_maxacc,
+        joint_max_speed=m.max_joint_speed,
+        servo_codes=servo,
+        tcp_speed=float(c.executor.tcp_speed),
+        joint_speeds=speeds,
+        counter=c.counter,
+        world_offset=tuple(s.world_offset),
+        simulation=c.simulation_robot,
+        self_collision=s.self_collision_on,
+        collision_tool_type=int(s.collision_tool[0]),
+        collision_tool_params=tuple(s.collision_tool[1:7]),
+        joint_currents=currents,
+        joint_voltages=(NOMINAL_JOINT_VOLTAGE,) * c.dof + pad,
+        temperatures=temps,
+        tgpio_code=(1 if tool_error else 0, tool_error),
+        **io.snapshot_fields(),
+    )
+    return snap
 
 
 class Emulator:
@@ -57,12 +160,12 @@ class Emulator:
         sn = robot_sn or DEFAULT_ROBOT_SN.get(self.model.dof, DEFAULT_ROBOT_SN[6])
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD)
         box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
-        # Control boxes with SN >= 1300 have 16 digital IO (research note section 5.1).
+        # Control boxes with SN >= 1300 have 16 digital IO, as the SDK expects.
         self.io = IOModule(n_digital=16 if box_number >= 1300 else 8)
         self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9])
         self.controller.add_component(self.io)
         self.controller.add_component(self.gripper)
-        self.controller.tool_error = lambda: self.gripper.gripper.error
+        self.controller.hooks.tool_error = self._tool_error
         #: The vacuum gripper's pressure switch on TI0 (controller/vacuum.py), when attached.
         self.vacuum: VacuumGripper | None = None
         if vacuum:
@@ -81,14 +184,18 @@ class Emulator:
         if config_dir is not None:
             self._attach_store(Path(config_dir), load_config)
 
+    def _tool_error(self) -> int:
+        """The end tool's error code (register 106): the gripper's."""
+        return self.gripper.gripper.error
+
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
         from .config import ConfigStore
 
         self._store = ConfigStore(directory, self.controller.robot_sn)
         ctl = self.controller
-        ctl.on_save = self._save_config
-        ctl.on_clean_conf = self._clean_config
+        ctl.hooks.on_save = self._save_config
+        ctl.hooks.on_clean_conf = self._clean_config
         if load:
             data = self._store.load()
             if data is not None:
@@ -159,64 +266,57 @@ class Emulator:
     # -- reports -------------------------------------------------------------------------------
     def snapshot(self) -> ReportSnapshot:
         """The live state as the reports show it (manual section 2.1.6)."""
-        c = self.controller
-        s = c.settings
-        m = self.model
-        joints = c.joints7()
-        speeds = tuple(float(x) for x in c.qd) + (0.0,) * (7 - c.dof)
-        servo = tuple((1 if e else 0, e) for e in c.servo_errors) + ((0, 0),) * (7 - c.dof)
-        pad = (0.0,) * (7 - c.dof)
-        tool_error = c.tool_error()
-        currents = tuple(float(x) for x in c.joint_currents()) + pad
-        temps = tuple(self.thermal.celsius_u8()) + (0,) * (7 - c.dof)
-        snap = ReportSnapshot(
-            state=c.state,
-            mode=c.mode,
-            cmdnum=c.executor.cmdnum,
-            joints=joints,
-            pose=tuple(float(x) for x in c.tcp_pose()),
-            torques=c.joint_torques7(),
-            brake_bits=_bits(c.brakes),
-            enable_bits=_bits(c.enabled),
-            error=c.error_code,
-            warning=c.warning_code,
-            tcp_offset=tuple(s.tcp_offset),
-            tcp_load=tuple(s.tcp_load),
-            collision_sensitivity=s.collision_sensitivity,
-            teach_sensitivity=s.teach_sensitivity,
-            gravity_direction=tuple(s.gravity_direction),
-            robot_type=m.robot_type,
-            axis=m.axis,
-            version=c.version_string(),
-            tcp_jerk=s.tcp_jerk,
-            tcp_max_acc=s.tcp_maxacc,
-            tcp_max_speed=m.max_tcp_speed,
-            joint_jerk=s.joint_jerk,
-            joint_max_acc=s.joint_maxacc,
-            joint_max_speed=m.max_joint_speed,
-            servo_codes=servo,
-            tcp_speed=float(c.executor.tcp_speed),
-            joint_speeds=speeds,
-            counter=c.counter,
-            world_offset=tuple(s.world_offset),
-            simulation=c.simulation_robot,
-            self_collision=s.self_collision_on,
-            collision_tool_type=int(s.collision_tool[0]),
-            collision_tool_params=tuple(s.collision_tool[1:7]),
-            joint_currents=currents,
-            joint_voltages=(NOMINAL_JOINT_VOLTAGE,) * c.dof + pad,
-            temperatures=temps,
-            tgpio_code=(1 if tool_error else 0, tool_error),
-            **self.io.snapshot_fields(),
-        )
-        return snap
+        return report_snapshot(self.controller, self.io, self.thermal)
+
+    # -- checkpoint and restore (no real control box has these) ---------------------------------
+    def _parts(self) -> dict[str, dict[str, Any]]:
+        ctl = self.controller
+        parts: dict[str, dict[str, Any]] = {
+            "controller": {k: v for k, v in vars(ctl).items() if k not in _CONTROLLER_MACHINERY},
+            "executor": {k: v for k, v in vars(ctl.executor).items() if k != "model"},
+            "io": dict(vars(self.io)),
+            "gripper": dict(vars(self.gripper.gripper)),
+            "thermal": dict(vars(self.thermal)),
+        }
+        if self.vacuum is not None:
+            parts["vacuum"] = {k: v for k, v in vars(self.vacuum).items() if k != "tool"}
+        return parts
+
+    def _memo(self, parts: object) -> dict[int, object]:
+        """Objects a copy shares instead of copying: the model, the controller and the emulator
+        (plans refer to the controller's pose functions) and the planned trajectories."""
+        memo = _shared_immutables(parts)
+        for shared in (self.model, self.controller, self):
+            memo[id(shared)] = shared
+        return memo
+
+    def checkpoint(self) -> Checkpoint:
+        """The whole emulator state as an independent deep copy (:class:`Checkpoint`)."""
+        parts = self._parts()
+        return Checkpoint(self.time, copy.deepcopy(parts, self._memo(parts)))
+
+    def restore(self, cp: Checkpoint) -> None:
+        """Put the state of ``cp`` back exactly; ``cp`` stays usable for further restores."""
+        self.generation += 1
+        if set(cp.parts) != set(self._parts()):
+            raise ValueError("checkpoint of an emulator with other components (vacuum gripper)")
+        parts = copy.deepcopy(cp.parts, self._memo(cp.parts))
+        ctl = self.controller
+        vars(ctl).update(parts["controller"])
+        vars(ctl.executor).update(parts["executor"])
+        vars(self.io).update(parts["io"])
+        vars(self.gripper.gripper).update(parts["gripper"])
+        vars(self.thermal).update(parts["thermal"])
+        if self.vacuum is not None:
+            vars(self.vacuum).update(parts["vacuum"])
+            self.vacuum.tool = self.io.tool
 
     # -- in-process API ------------------------------------------------------------------------
     @property
     def joints(self) -> np.ndarray:
         return self.controller.q.copy()
 
-    # -- fault injection and inputs from outside (issue 5; the admin channel calls these) ----
+    # -- fault injection and inputs from outside (the admin channel calls these) -------------
     def inject_error(self, code: int) -> None:
         """Raise control box error C<code> exactly as the natural cause would (section 3.2.1)."""
         self.generation += 1
@@ -281,9 +381,7 @@ class Emulator:
         """Clear every injected fault at once (errors, warnings, servo and gripper errors)."""
         self.generation += 1
         ctl = self.controller
-        ctl.error_code = 0
-        ctl.warning_code = 0
-        ctl.servo_errors = [0] * ctl.dof
+        ctl.faults = Faults.none(ctl.dof)
         self.gripper.gripper.clear_error()
 
     def set_input(self, kind: str, index: int, value: float) -> None:

@@ -3,7 +3,7 @@ current state and samples the plan every control period.
 
 Suspend (state 3) and stop (state 4) slow the *path time* down with a smooth
 ramp, so the arm stays on the planned path and a resumed move continues the
-same path (issue 4, manual register 12).
+same path (manual register 12).
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import kinematics as kin
-from ..model import rotations as rot
 from ..model.robots import RobotModel
 from . import motion
 from .base import C_CIRCLE, C_JOINT_LIMIT, C_KINEMATIC, C_SPEED, CommandError
 from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
+from .poses import resolve_line_target, wire_pose_to_matrix
 
 #: Shortest time to ramp the path rate between full speed and rest for suspend/stop (s); faster
 #: motion ramps longer so that the deceleration stays within the acceleration limit.
@@ -157,6 +157,35 @@ class Executor:
         self.tcp_speed = 0.0
         self.merged = 0
 
+    def queue(self, cmd: QueuedCommand) -> None:
+        """Append a validated command to the buffer."""
+        self.buffer.append(cmd)
+
+    @property
+    def running(self) -> bool:
+        """A command is being executed (planned and sampled)."""
+        return self.plan is not None
+
+    # -- intents (register 12, errors, system reset) -------------------------------------------
+    def suspend(self, limits: Limits) -> None:
+        """State 3: slow the path down to rest, keeping the buffer and the plan."""
+        self.ramp_to(0.0, limits)
+
+    def resume(self, limits: Limits) -> None:
+        """Leave state 3: speed the path up again from where it rests."""
+        self.ramp_to(1.0, limits)
+
+    def stop_smoothly(self, limits: Limits) -> None:
+        """State 4 while a command runs: the buffer is discarded at once, the running motion ramps to
+        rest on its path and then ends."""
+        self.buffer.clear()
+        self.stopping = True
+        self.ramp_to(0.0, limits)
+
+    def discard(self) -> None:
+        """Discard the buffer and the running motion at once (errors, system reset)."""
+        self.clear()
+
     # -- rate ramps (suspend, resume, stop) --------------------------------------------------
     def ramp_to(self, target: float, limits: Limits | None = None) -> None:
         """Ramp the path rate to ``target`` (0: suspend/stop, 1: resume) along the same path.
@@ -250,7 +279,7 @@ class Executor:
         run, t_run = found
         path = run.path
         s, v, a = run.state(t_run)
-        last_piece = path._starts[-1] if isinstance(path, motion.CompositePath) else 0.0
+        last_piece = path.starts[-1] if isinstance(path, motion.CompositePath) else 0.0
         target, radius, first = plan.blend_into
         if s < last_piece or path.length - s <= radius:
             return  # still before the last straight piece, or already inside the blend zone
@@ -377,36 +406,3 @@ class Executor:
         move = motion.plan_blended(poses, radii, cmd.speed, acc, limits.tcp_jerk)
         blend = (poses[-1], last.radius, cmd) if last.radius > 0.0 else None
         return _CartesianPlan(move, to_flange, self.model, blend)
-
-
-def wire_pose_to_matrix(pose: tuple[float, ...] | np.ndarray) -> np.ndarray:
-    """A pose as received on the wire (x, y, z mm; roll, pitch, yaw rad as float32) to a 4x4
-    matrix; float32(pi) is read as pi (research note section 3, register 43 example)."""
-    p = [float(x) for x in pose]
-    return rot.pose_to_matrix(p[:3] + [rot.snap_seam(a) for a in p[3:6]])
-
-
-def resolve_line_target(cmd: LineMove, start: np.ndarray) -> np.ndarray:
-    """The absolute target (4x4, user frame) of a linear move from ``start``.
-
-    - base frame, absolute: the pose as given;
-    - base frame, relative (register 92): position added, rotation applied in the base frame;
-    - tool frame (registers 28, 92 with coordinate 1): the pose is a motion of the tool frame,
-      T_target = T_start * T_pose.
-    """
-    to_matrix = rot.pose_aa_to_matrix if cmd.axis_angle else wire_pose_to_matrix
-    delta = to_matrix(np.asarray(cmd.pose, dtype=float))
-    return apply_offset(start, delta, cmd.tool_frame, cmd.relative)
-
-
-def apply_offset(start: np.ndarray, delta: np.ndarray, tool_frame: bool, relative: bool) -> np.ndarray:
-    """Where a pose command goes from ``start``: tool frame (T_start * T_delta), relative in the base
-    frame (position added, rotation applied in the base frame), or absolute (``delta`` itself)."""
-    if tool_frame:
-        return start @ delta
-    if relative:
-        out = np.eye(4)
-        out[:3, :3] = delta[:3, :3] @ start[:3, :3]
-        out[:3, 3] = start[:3, 3] + delta[:3, 3]
-        return out
-    return delta

@@ -43,11 +43,10 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..protocol import rtu
+from ..protocol import codes, rtu
+from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from .base import ControllerView, Handler, ParameterError
 
-TOOL_HOST = 9  # tool RS-485 (section 2.1.4 "Host ID 0x09")
-CONTROL_BOX_HOST = 11  # control-box RS-485 (SDK host id)
 GRIPPER_ID = 8  # section 2.1.4 "Gripper ID 0x08"
 GRIPPER_BAUD_INDEX = 11  # 2,000,000 bps (register 127 baud table)
 
@@ -86,7 +85,8 @@ G_FEEDBACK_SOFT_LIMIT = 0x1A
 G_DRIVE_OVERLOADED = 0x21
 G_MOTOR_OVERLOAD = 0x22
 G_DRIVER_TYPE = 0x24
-GRIPPER_ERRORS = frozenset({0x09, 0x0B, 0x0C, 0x0E, 0x0F, 0x14, 0x15, 0x17, 0x19, 0x1A, 0x21, 0x22, 0x24})
+#: Every gripper error code of section 3.3 (one home: protocol/codes.py).
+GRIPPER_ERRORS = frozenset(codes.GRIPPER_ERRORS)
 #: Codes whose handling is "restart the xArm": error clear does not remove them.
 NEEDS_RESTART = frozenset({G_CURRENT_DETECTION})
 

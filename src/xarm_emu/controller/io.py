@@ -35,10 +35,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
+from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from .base import C_DELAYED_IO, CommandError, ControllerView, Handler, ParameterError
-
-TOOL_HOST = 9
-CONTROL_BOX_HOST = 11
+from .states import STATE_STOP
 
 # Tool board addresses (registers 127/128).
 ADDR_TOOL_DI = 0x0A14
@@ -69,7 +68,6 @@ FUN_MOVING = 2
 FUN_HAS_ERROR = 11  # SDK documentation
 FUN_HAS_WARNING = 12  # SDK documentation
 
-STATE_STOP = 4
 MAX_PENDING = 36
 ERR_TOO_MANY_PENDING = C_DELAYED_IO  # C36, manual section 3.2.1
 ZERO_RADIUS_EPS = 1e-3  # mm: a zero radius means "the TCP sample is on the point"
@@ -470,8 +468,7 @@ class IOModule:
     # --- register table adapter -------------------------------------------------------------------
 
     def handlers(self) -> dict[int, Handler]:
-        c = self.cgpio
-
+        # The handlers read self.cgpio / self.tool at call time: a restored checkpoint replaces them.
         def r127(v: Any) -> None:
             self.tool.write(int(v["host"]), int(v["addr"]), float(v["value"]))
 
@@ -486,7 +483,7 @@ class IOModule:
 
         def analog_out(i: int) -> Handler:
             def h(v: Any) -> None:
-                c.set_analog_output(i, int(v["analog"]))
+                self.cgpio.set_analog_output(i, int(v["analog"]))
             return h
 
         def r146(v: Any) -> dict[str, Any]:
@@ -496,15 +493,15 @@ class IOModule:
         return {
             127: r127,
             128: r128,
-            131: lambda v: {"digital": c.digital_inputs},
-            132: lambda v: {"analog": c.analog_inputs[0]},
-            133: lambda v: {"analog": c.analog_inputs[1]},
+            131: lambda v: {"digital": self.cgpio.digital_inputs},
+            132: lambda v: {"analog": self.cgpio.analog_inputs[0]},
+            133: lambda v: {"analog": self.cgpio.analog_inputs[1]},
             134: r134,
             135: analog_out(0),
             136: analog_out(1),
-            137: lambda v: c.set_function(False, int(v["ionum"]), int(v["fun"])),
-            138: lambda v: c.set_function(True, int(v["ionum"]), int(v["fun"])),
-            139: lambda v: c.state_values(),
+            137: lambda v: self.cgpio.set_function(False, int(v["ionum"]), int(v["fun"])),
+            138: lambda v: self.cgpio.set_function(True, int(v["ionum"]), int(v["fun"])),
+            139: lambda v: self.cgpio.state_values(),
             142: lambda v: self.delayed_digital("cgpio", int(v["ionum"]), int(v["on"]), float(v["delay"])),
             143: lambda v: self.delayed_digital("tgpio", int(v["ionum"]), int(v["on"]), float(v["delay"])),
             144: lambda v: self.position_output("cgpio", int(v["ionum"]), int(v["on"]), v["xyz"],

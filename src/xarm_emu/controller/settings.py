@@ -52,7 +52,6 @@ class Settings:
     self_collision_on: bool = False
     collision_tool: list[float] = field(default_factory=lambda: [0.0] * 7)  # type, then up to 6 params
     report_current: bool = False  # registers 24 / 70: report motor current instead of torque
-    io: dict[str, Any] = field(default_factory=dict)  # owned by the IO component
 
     @classmethod
     def for_model(cls, model: RobotModel) -> Settings:

@@ -3,7 +3,7 @@
 
 It has no register of its own: the SDK's ``set_vacuum_gripper`` drives the tool outputs (TO0 = 1 and
 TO1 = 0 run the pump, TO0 = 0 and TO1 = 1 release) and reads "pressure normal" on tool input TI0,
-waiting until it matches (research note, tool IO; SDK ``gpio.py``). Without a model TI0 never
+waiting until it matches (the SDK's ``gpio.py``). Without a model TI0 never
 rises and every ``set_vacuum_gripper(True, wait=True)`` times out, so the emulator can attach one
 (``Emulator(vacuum=True)``, ``serve --vacuum``):
 

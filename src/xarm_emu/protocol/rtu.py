@@ -17,6 +17,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
+#: RS-485 host ids of register 124 and of the tool board registers 127/128: the tool bus
+#: (manual section 2.1.4 "Host ID 0x09") and the control box bus (the SDK's host id 11).
+TOOL_HOST = 9
+CONTROL_BOX_HOST = 11
+
 READ_HOLDING = 0x03
 WRITE_SINGLE = 0x06
 WRITE_MULTIPLE = 0x10

@@ -237,6 +237,11 @@ class CompositePath(Path):
             total += p.length
         self.length = total
 
+    @property
+    def starts(self) -> tuple[float, ...]:
+        """Path length at which each piece starts (mm)."""
+        return tuple(self._starts)
+
     def _find(self, s: float) -> int:
         return max(bisect_right(self._starts, s) - 1, 0)
 

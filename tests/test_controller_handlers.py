@@ -1,0 +1,30 @@
+"""Every register of the table has exactly one handler, the controller's or a component's."""
+
+from __future__ import annotations
+
+import pytest
+
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.protocol.frame import STATE_WARNING
+from xarm_emu.protocol.registers import REGISTERS
+
+
+@pytest.mark.parametrize("vacuum", [False, True])
+def test_handler_codes_are_the_register_table(vacuum: bool) -> None:
+    emu = Emulator(6, vacuum=vacuum)
+    assert emu.controller.handler_codes == frozenset(REGISTERS)
+
+
+def test_a_code_outside_the_table_is_warning_13() -> None:
+    emu = Emulator(6)
+    code = next(c for c in range(1, 256) if c not in REGISTERS)
+    status, reply = emu.handle(code, b"")
+    assert status & STATE_WARNING and reply == b""
+    assert emu.controller.warning_code == 13
+
+
+def test_register_106_reports_the_gripper_error_through_the_hooks() -> None:
+    emu = Emulator(6)
+    emu.inject_gripper_error(0x19)
+    _, reply = emu.handle(106, b"")
+    assert reply[14:16] == bytes([1, 0x19])

@@ -1,0 +1,47 @@
+"""Facts of the controller that have one home: hosts, states, gripper codes, error-code names."""
+
+from __future__ import annotations
+
+import pytest
+
+from xarm_emu.controller import base, gripper, io, states
+from xarm_emu.protocol import codes, rtu
+
+
+def test_rs485_hosts_live_in_the_rtu_module() -> None:
+    assert io.TOOL_HOST is rtu.TOOL_HOST and gripper.TOOL_HOST is rtu.TOOL_HOST
+    assert io.CONTROL_BOX_HOST is rtu.CONTROL_BOX_HOST and gripper.CONTROL_BOX_HOST is rtu.CONTROL_BOX_HOST
+
+
+def test_io_stop_state_is_the_state_machines() -> None:
+    assert io.STATE_STOP is states.STATE_STOP
+
+
+def test_gripper_error_set_is_the_code_tables() -> None:
+    assert gripper.GRIPPER_ERRORS == frozenset(codes.GRIPPER_ERRORS)
+    named = {getattr(gripper, n) for n in dir(gripper) if n.startswith("G_")}
+    assert named <= gripper.GRIPPER_ERRORS
+
+
+#: A word of the manual's name (section 3.2) that each constant's name stands for.
+NAME_WORDS = {
+    "C_ESTOP": "emergency stop", "C_SERVO_BASE": "servo", "C_KINEMATIC": "kinematics",
+    "C_SELF_COLLISION": "self-collision", "C_JOINT_LIMIT": "joint", "C_SPEED": "speed",
+    "C_PLANNING": "planning", "C_END_MODULE": "end module", "C_OTHER": "other",
+    "C_COLLISION": "collision", "C_CIRCLE": "circle", "C_BOUNDARY": "boundary",
+    "C_DELAYED_IO": "delayed io", "WARN_BUFFER_OVERFLOW": "buffer overflow",
+    "WARN_PARAMETER": "parameter", "WARN_UNKNOWN_COMMAND": "unknown command",
+    "WARN_NO_SOLUTION": "no solution",
+}
+
+
+def test_every_code_name_is_covered() -> None:
+    assert {n for n in dir(base) if n.startswith(("C_", "WARN_"))} == set(NAME_WORDS)
+
+
+@pytest.mark.parametrize("name", sorted(NAME_WORDS))
+def test_code_names_agree_with_the_code_texts(name: str) -> None:
+    code = getattr(base, name)
+    entry = codes.controller_error(code) if name.startswith("C_") else codes.WARNINGS.get(code)
+    assert entry is not None, f"{name} = {code} has no text in protocol/codes.py"
+    assert NAME_WORDS[name] in entry.name.lower()
