@@ -20,6 +20,7 @@ from rich.table import Table
 
 from . import __version__
 from .protocol import codes
+from .protocol.firmware import DEFAULT_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, VersionError, profile_for
 from .protocol.frame import COMMAND_PORT
 from .protocol.reports import DEVELOP_PORT, NORMAL_PORT, RICH_PORT
 
@@ -65,6 +66,8 @@ def serve(
                                                             "by `xarm-emu step` (needs --admin).")] = False,
     loop: Annotated[str, typer.Option(help="Event loop: asyncio (default: the steadiest 100 Hz report in "
                                            "`make bench`) or uvloop.")] = "asyncio",
+    firmware: Annotated[str, typer.Option(help="Firmware version the box claims and behaves as: "
+                                               + ", ".join(SUPPORTED_VERSIONS) + ".")] = DEFAULT_VERSION,
     vacuum: Annotated[bool, typer.Option("--vacuum", help="Attach the xArm Vacuum Gripper: its pressure "
                                                            "switch answers on tool input 0.")] = False,
     trace: Annotated[Path | None, typer.Option(help="Append every command-port request and reply to "
@@ -91,10 +94,15 @@ def serve(
                        develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
                        view=view, view_host=view_host, view_port=view_port, stepped=stepped,
                        trace=trace, faults=faults)
-    if fleet is not None:
-        _refuse_per_arm_flags(cfg, model != 6, vacuum)
     try:
-        servers, cdir = _compose_servers(cfg, fleet, model, vacuum, cdir)
+        profile = profile_for(firmware)
+    except VersionError as exc:
+        err_console.print(f"--firmware: {exc}")
+        raise typer.Exit(2) from None
+    if fleet is not None:
+        _refuse_per_arm_flags(cfg, model != 6, vacuum, firmware != DEFAULT_VERSION)
+    try:
+        servers, cdir = _compose_servers(cfg, fleet, model, vacuum, cdir, profile)
     except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
         err_console.print(str(exc))
         raise typer.Exit(2) from None
@@ -118,12 +126,12 @@ _PER_ARM = ("host", "port", "normal_port", "rich_port", "develop_port", "speed",
             "view", "stepped", "trace", "faults")
 
 
-def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool) -> None:
+def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmware: bool) -> None:
     """Exit 2 naming every per-arm option given beside --fleet."""
     from .server.app import ServerConfig
 
     defaults = ServerConfig()
-    per_arm = {"--model": model, "--vacuum": vacuum,
+    per_arm = {"--model": model, "--vacuum": vacuum, "--firmware": firmware,
                **{"--" + k.replace("_", "-"): getattr(given, k) != getattr(defaults, k) for k in _PER_ARM}}
     named = [name for name, on in per_arm.items() if on]
     if named:
@@ -133,7 +141,7 @@ def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool) -> Non
 
 
 def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: int, vacuum: bool,
-                     cdir: Path) -> tuple[list[EmulatorServer], Path]:
+                     cdir: Path, firmware: FirmwareProfile) -> tuple[list[EmulatorServer], Path]:
     """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
     port opens. Returns them and the configuration directory they use."""
@@ -146,10 +154,10 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: int, vacuum: 
     if fleet is not None:
         spec = load_fleet(fleet)
         cdir = spec.config_dir if spec.config_dir is not None else cdir
-        arms = [(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum), a.server)
-                for a in spec.arms]
+        arms = [(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum,
+                          firmware=a.firmware), a.server) for a in spec.arms]
     else:
-        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum), cfg)]
+        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware), cfg)]
     servers = []
     for emu, arm_cfg in arms:
         srv = EmulatorServer(emu, arm_cfg)

@@ -23,6 +23,7 @@ from ..model import kinematics as kin
 from ..model import rotations as rot
 from ..model.robots import RobotModel
 from ..protocol import registers as regs
+from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError, all_within
 from . import motion, safety
@@ -66,14 +67,15 @@ BUFFER_CAPACITY = 1024
 
 #: Firmware version the emulator claims. v1.6.0 keeps the SDK on the manual's
 #: layouts (the SDK picks its reply layouts by firmware version).
-FIRMWARE_VERSION = "v1.6.0"
+FIRMWARE_VERSION = f"v{DEFAULT_PROFILE.version}"
 
 log = logging.getLogger("xarm_emu.controller")
 
 
-def version_string(model: RobotModel, robot_sn: str, box_sn: str) -> str:
-    """Register 1: ``<axis>,<type>,<robot SN>,<box SN>,<firmware version>``."""
-    return f"{model.axis},{model.robot_type},{robot_sn},{box_sn},{FIRMWARE_VERSION}"
+def version_string(model: RobotModel, robot_sn: str, box_sn: str,
+                   firmware: FirmwareProfile = DEFAULT_PROFILE) -> str:
+    """Register 1: ``<axis>,<type>,<robot SN>,<box SN>,v<firmware version>``."""
+    return f"{model.axis},{model.robot_type},{robot_sn},{box_sn},v{firmware.version}"
 
 
 class ControllerCore:
@@ -83,8 +85,13 @@ class ControllerCore:
     motion_state: int = STATE_STOP
 
     def __init__(self, model: RobotModel, *, robot_sn: str = "XI1300", box_sn: str = "AC1300",
-                 period: float = PERIOD) -> None:
+                 period: float = PERIOD, firmware: FirmwareProfile = DEFAULT_PROFILE) -> None:
         self.model = model
+        #: The firmware this box claims, and the register table such a box answers.
+        self.firmware = firmware
+        self.registers = regs.registers_for(firmware)
+        self._float_checked = regs.float_checked(self.registers)
+        self._inf_unchanged = regs.inf_unchanged(self.registers)
         self.dof = model.dof
         self.period = period
         self.robot_sn = robot_sn
@@ -117,8 +124,11 @@ class ControllerCore:
         self.strict = False
 
     def register_handlers(self) -> dict[int, Handler]:
-        """Handlers by register code; each command group adds its own (cooperative ``super()``)."""
-        return {}
+        """Handlers by register code: the tables of :mod:`.handlers`, bound to this controller;
+        each remaining command group class adds its own (cooperative ``super()``)."""
+        from . import handlers
+
+        return handlers.bind(self)
 
     # -- saved configuration (registers 39/40) --------------------------------------------------
     def config_values(self) -> dict[str, Any]:
@@ -172,7 +182,7 @@ class ControllerCore:
 
     def version_string(self) -> str:
         """Register 1's version string of this control box."""
-        return version_string(self.model, self.robot_sn, self.box_sn)
+        return version_string(self.model, self.robot_sn, self.box_sn, self.firmware)
 
     # -- components ----------------------------------------------------------------------------
     def add_component(self, component: Component) -> None:
@@ -254,9 +264,10 @@ class ControllerCore:
     # -- request handling ----------------------------------------------------------------------
     def handle(self, code: int, params: bytes) -> tuple[int, bytes]:
         """Handle one command; returns (reply state byte, reply parameter bytes)."""
-        reg = regs.get(code)
+        reg = self.registers.get(code)
         handler = self._handlers.get(code)
         if reg is None or handler is None:
+            log.info("register %d is unknown to firmware %s: warning 13", code, self.firmware)
             self.raise_warning(WARN_UNKNOWN_COMMAND)
             return self.status_byte(), b""
         reply = b""
@@ -267,7 +278,8 @@ class ControllerCore:
                 values = reg.request.decode(params)
             except LayoutError as exc:
                 raise ParameterError(str(exc)) from exc
-            if code in regs.FLOAT_CHECKED and not all_within(values, PARAMETER_LIMIT):
+            if code in self._float_checked and not all_within(
+                    values, PARAMETER_LIMIT, inf_unchanged=code in self._inf_unchanged):
                 raise ParameterError(f"a float parameter is not finite or exceeds {PARAMETER_LIMIT:g}")
             result = handler(values)
             if result is not None:

@@ -23,6 +23,7 @@ from ruckig import Trajectory
 
 from ..model.inertials import NOMINAL_JOINT_VOLTAGE
 from ..model.robots import RobotModel, get_model
+from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from . import safety
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
@@ -155,10 +156,14 @@ class Emulator:
     """One emulated xArm control box (controller, peripherals, configuration)."""
 
     def __init__(self, model: int | RobotModel = 6, *, robot_sn: str | None = None, box_sn: str = "AC1300",
-                 config_dir: Path | None = None, load_config: bool = True, vacuum: bool = False) -> None:
+                 config_dir: Path | None = None, load_config: bool = True, vacuum: bool = False,
+                 firmware: str | FirmwareProfile = DEFAULT_PROFILE) -> None:
         self.model = get_model(model) if isinstance(model, int) else model
         sn = robot_sn or DEFAULT_ROBOT_SN.get(self.model.dof, DEFAULT_ROBOT_SN[6])
-        self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD)
+        #: The firmware version this box claims (register 1) and whose behaviour it has.
+        self.firmware = firmware if isinstance(firmware, FirmwareProfile) else profile_for(firmware)
+        self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD,
+                                     firmware=self.firmware)
         box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
         # Control boxes with SN >= 1300 have 16 digital IO, as the SDK expects.
         self.io = IOModule(n_digital=16 if box_number >= 1300 else 8)

@@ -19,7 +19,8 @@ lists them; top-level keys are defaults for every arm::
 
 Arm keys: ``model`` (5, 6, 7), ``host``, ``port``, ``normal_port``, ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
-``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``trace``
+``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``firmware``
+(the version the box claims, as ``serve --firmware``), ``trace``
 and ``faults`` (a command trace file and a fault schedule, as ``serve --trace`` and ``--faults``;
 relative to the fleet file; ``faults`` may be a top-level default). Arms
 without ``robot_sn`` get their model's default serial number, counted up when an earlier arm has
@@ -40,11 +41,12 @@ from typing import Any
 from ..controller.emulator import DEFAULT_ROBOT_SN
 from ..model.robots import MODELS
 from ..protocol.admin import admin_host, derive_admin_port
+from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, VersionError, profile_for
 from .core import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
-ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "trace", "faults")
+ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "firmware", "trace", "faults")
 TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k not in ("robot_sn", "trace")))
 
 
@@ -60,6 +62,7 @@ class ArmSpec:
     robot_sn: str
     server: ServerConfig = field(default_factory=ServerConfig)
     vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
+    firmware: FirmwareProfile = DEFAULT_PROFILE  # the firmware the box claims (serve --firmware)
 
 
 @dataclass(frozen=True)
@@ -131,6 +134,13 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     for key, flag in (("admin", admin), ("vacuum", vacuum)):
         if not isinstance(flag, bool):
             raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
+    firmware = values.get("firmware", str(DEFAULT_PROFILE.version))
+    if not isinstance(firmware, str):
+        raise FleetError(f"{where}: firmware is a version string such as \"2.7.103\", got {firmware!r}")
+    try:
+        profile = profile_for(firmware)
+    except VersionError as exc:
+        raise FleetError(f"{where}: {exc}") from None
     sn = values.get("robot_sn")
     if sn is None:
         sn = DEFAULT_ROBOT_SN[model]
@@ -149,7 +159,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         paths[key] = None if value is None else base / value
     cfg = replace(ServerConfig(host=host, speed=speed, admin=admin, trace=paths["trace"],
                                faults=paths["faults"]), **ports)
-    return ArmSpec(int(model), sn, cfg, vacuum)
+    return ArmSpec(int(model), sn, cfg, vacuum, profile)
 
 
 _WILDCARD = frozenset({"", "0.0.0.0", "::"})

@@ -1,0 +1,45 @@
+"""Register handlers as plain functions, bound to register codes in one place.
+
+Each module of this package holds the handlers of one group of registers, as the manual groups them
+(section 2.1.3), and ends in a ``HANDLERS`` mapping from register code to a function
+``handler(ctl, values) -> reply values | None``. :data:`TABLES` lists those mappings; :func:`bind`
+turns them into the controller's dispatch table. Components (IO, grippers, sensors) add theirs
+through :meth:`~xarm_emu.controller.base.Component.handlers`.
+
+Where one function serves several registers, the table binds the register code with
+:func:`functools.partial` (``partial(move, register=21)``); no handler learns its register any
+other way.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
+
+from ..base import Handler, Values
+
+if TYPE_CHECKING:
+    from ..core import ControllerCore
+
+#: A register handler: the controller and the request values decoded by the register table in,
+#: the reply values (or ``None`` for an empty reply) out. It refuses by raising
+#: :class:`~xarm_emu.controller.base.CommandWarning` or :class:`~xarm_emu.controller.base.CommandError`.
+CtlHandler = Callable[["Any", Values], "dict[str, Any] | None"]
+
+#: Every handler table of this package, in the order they bind (a later table never rebinds a code:
+#: :func:`bind` refuses duplicates).
+TABLES: tuple[Mapping[int, CtlHandler], ...] = ()
+
+
+def bind(ctl: ControllerCore,
+         tables: tuple[Mapping[int, CtlHandler], ...] | None = None) -> dict[int, Handler]:
+    """The dispatch table of ``ctl``: each handler of ``tables`` (default :data:`TABLES`) with the
+    controller bound as its first argument."""
+    out: dict[int, Handler] = {}
+    for table in TABLES if tables is None else tables:
+        for code, fn in table.items():
+            if code in out:
+                raise ValueError(f"register {code} is bound twice")
+            out[code] = functools.partial(fn, ctl)
+    return out
