@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
@@ -32,7 +32,7 @@ def pick_and_place(arm: Any, timeout: float = 5.0) -> int:
         if time.monotonic() > deadline:
             return -1
         time.sleep(0.05)
-    steps = [
+    steps: list[Callable[[], int]] = [
         lambda: arm.set_gripper_enable(True),
         lambda: arm.set_gripper_position(850, wait=True),
         lambda: arm.set_position(*PICK, 180, 0, 0, speed=200, wait=True),
