@@ -34,7 +34,7 @@ PRINTED = {
         "pose (mm, deg): [300.0, 100.0, 200.0, -180.0, -0.0, 30.0]", "ok   line reached x=300 y=100 z=200"],
     "03_fault_injection_and_recovery.py": [
         "error C31, warning 0, state 4", "ok   the SDK reads error C31 (collision)",
-        "ok   the arm stopped short of the target, state 4", "ok   error cleared",
+        "ok   the arm stopped at the obstacle, state 4", "ok   error cleared",
         "ok   ready again (state 2)", "ok   move finished after recovery (J1 = 90.0 deg)"],
     "04_stepped_time.py": [
         "queued 125 commands", "ok   faster than real time",
