@@ -1,10 +1,10 @@
 """02: test your own SDK program with pytest, against an emulator instead of a real arm.
 
 ``pick_and_place`` is the kind of program a user writes: wait for the part sensor on control box
-input DI3 (the box's inputs read 1 while open, so a sensor that sees a part pulls it to 0), open the
-xArm gripper, go down, close on the part, carry it over and set output DO2 to
-tell the next station (manual 2.1.3 registers 21/23, 2.1.4 registers 124 gripper, 131/134 GPIO).
-The tests run it unchanged against ``xarm_emu.testing`` and play the sensor from the emulator's side.
+input DI3 (the box's inputs read 1 while open, so a sensor that sees a part pulls it to 0), open
+the xArm gripper, go down, close on the part, carry it over and set output DO2 to tell the next
+station (manual 2.1.3 registers 21/23, 2.1.4 registers 124 gripper, 131/134 GPIO). The tests run
+it unchanged against ``xarm_emu.testing`` and play the sensor from the emulator's side.
 
 Run: ``pytest examples/02_test_a_user_program.py``.
 """
@@ -49,7 +49,8 @@ def pick_and_place(arm: Any, timeout: float = 5.0) -> int:
 
 
 def do_word(arm: Any) -> int:
-    """The control box's digital outputs, one bit each (register 139, as the SDK's list gives it)."""
+    """The control box's configurable digital outputs, one bit each (register 139; the SDK's
+    ``get_cgpio_state`` lists the word as ``states[5]``)."""
     code, states = arm.get_cgpio_state()
     assert code == 0
     return int(states[5])
