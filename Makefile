@@ -30,7 +30,7 @@ fuzz: $(STAMP)
 		tests/test_protocol_frame.py tests/test_model_rotations.py
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check src tests bench
+	$(VENV)/bin/ruff check src tests bench examples
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 
