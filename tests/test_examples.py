@@ -43,6 +43,11 @@ PRINTED = {
         "127.0.0.1: 5,5,XF1300,", "127.0.0.2: 6,6,XI1300,", "127.0.0.3: 7,7,XS1300,",
         "ok   xArm5 on 127.0.0.1 moved J1 to 20 deg", "ok   xArm6 on 127.0.0.2 moved J1 to 40 deg",
         "ok   xArm7 on 127.0.0.3 moved J1 to 60 deg"],
+    "06_checkpoint_restore.py": [
+        "checkpoint at t = 0.500 s", "ok   collision stops the arm with C31", "restored to t = 0.500 s",
+        "ok   error gone and the move still under way",
+        "ok   reports 0.2 s later are the same bytes as the first time",
+        "ok   the move finished instead: J1 = 1.200 rad"],
 }
 
 
