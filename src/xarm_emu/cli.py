@@ -521,7 +521,7 @@ def version() -> None:
 
 
 def main() -> None:
-    app()
+    app(auto_envvar_prefix="XARM_EMU")  # every option also from XARM_EMU_<COMMAND>_<OPTION>
 
 
 if __name__ == "__main__":
