@@ -129,6 +129,19 @@ def test_850_positions_match_its_modified_dh_table() -> None:
         assert np.abs(fk(UF850, q)[:3, 3] - T[:3, 3]).max() < 1e-6
 
 
+def test_lite6_positions_agree_with_its_modified_dh_table() -> None:
+    """The Lite 6 D-H table rounds four lengths differently from the URDF (243.3 vs 243.5, 200 vs 200.2,
+    227.6 vs 227.61, 61.5 vs 62.5 mm): same joint signs, positions apart by at most the sum, 1.41 mm."""
+    rows = [(0, 243.3, 0, 0), (-90, 0, -90, 0), (-90, 0, 180, 200), (0, 227.6, 90, 87), (0, 0, 90, 0),
+            (0, 61.5, -90, 0)]
+    rng = np.random.default_rng(6)
+    for q in [np.zeros(6), *(random_joints(LITE6, rng) for _ in range(8))]:
+        T = np.eye(4)
+        for (off, d, alpha, a), qi in zip(rows, q, strict=True):
+            T = T @ _mdh(alpha, a, qi + math.radians(off), d)
+        assert np.linalg.norm(fk(LITE6, q)[:3, 3] - T[:3, 3]) <= 1.41 + 1e-9
+
+
 @pytest.mark.parametrize(
     ("model", "expected", "tol"),
     [
