@@ -114,7 +114,7 @@ XARM7_HT_BR2 = InertialSet("xarm7_type7_HT_BR2", (
        (9.3e-05, 5.87e-05, 0.000132, 0.0, 0.0, -3.6e-06)),
 ))
 
-#: Lite 6, set ``xarm6_type9_HT_BR2``.
+#: Lite 6, set ``xarm6_type9_HT_BR2`` (link 5 weighs 0.804 kg there; the D-H article prints 0.084).
 LITE6_HT_BR2 = InertialSet("xarm6_type9_HT_BR2", (
     _l(1.411, (-0.36, 41.95, -2.5),
        (0.00145164, 0.0008873, 0.00131993, -1.24e-05, 6.7e-06, -0.0001255)),

@@ -274,6 +274,7 @@ LITE6 = RobotModel(
     sn_prefix="LI",
     default_robot_sn="LI1006",
     default_box_sn="DL1000",
+    # min_firmware stays (0, 0, 0): no minimum is published and the emulator enforces none.
     tool_io=LITE6_TOOL_IO,
 )
 
@@ -305,8 +306,10 @@ UF850 = RobotModel(
     tool_io=UF850_TOOL_IO,
 )
 
-# xArm 7T (axis 7, type 13), firmware 2.4.0 and later: the mirrored xArm 7, whose J2, J4 and J6 ranges
-# are the xArm 7's with their signs swapped (the SDK's type 13 table); payload and reach as the xArm 7.
+# xArm 7T (axis 7, type 13), firmware 2.4.0 and later: its J2, J4 and J6 ranges are the xArm 7's with
+# their signs swapped (the SDK's type 13 table). The vendor publishes no 7T joint origins; the emulator
+# takes those of the vendor's mirrored xArm 7 (rolls of the opposite sign, calibrated lengths), which
+# match those ranges. Payload and reach as the xArm 7.
 XARM7T = RobotModel(
     name="xArm7T",
     dof=7,
