@@ -129,17 +129,18 @@ class RobotModel:
     max_tcp_speed: float = 1000.0  # mm/s, manual 1.3 Table 1.2
     max_tcp_acc: float = 50000.0  # mm/s^2
     max_tcp_jerk: float = 10000.0  # mm/s^3
-    # Rated payload in kg (manual 4.2-4.4: xArm5 3 kg, xArm6 5 kg, xArm7 3.5 kg). Register 36 refuses a
+    # Rated payload in kg (manual 4.2-4.4: xArm5 3 kg, xArm6 5 kg, xArm7 3.5 kg; vendor product pages:
+    # Lite 6 0.6 kg, 850 5 kg). Register 36 refuses a
     # heavier payload or a centre of mass farther than ``payload_com_limit`` mm from the flange on any
     # axis; the manual gives no bound there, so this is the emulator's, wide enough for its 400 mm example.
     rated_payload: float = 5.0
     payload_com_limit: float = 1000.0
     # Short name for lookup (``get_model``) and the command line; see ``MODEL_NAMES``.
     key: str = ""
-    # Reach in mm, base axis to wrist centre as the vendor states it (xArm 5/6/7 700 mm).
+    # Reach in mm as the vendor's specifications state it (xArm 5/6/7 700, Lite 6 440, 850 850 mm).
     reach: float = 700.0
     # Identity (module docstring): robot SN prefix, default robot and control box serial numbers, first
-    # firmware (major, minor, patch) that runs the model; (0, 0, 0) when every release does.
+    # firmware (major, minor, patch) that runs the model; (0, 0, 0) when no minimum applies.
     sn_prefix: str = "XI"
     default_robot_sn: str = "XI1300"
     default_box_sn: str = "AC1300"
