@@ -54,12 +54,6 @@ def _bits(flags: list[bool]) -> int:
 DEFAULT_ROBOT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
 
 
-#: Controller attributes that are machinery, not state: constant, wired at construction, or a test
-#: switch. A checkpoint leaves them as they are.
-_CONTROLLER_MACHINERY = frozenset({"model", "dof", "period", "robot_sn", "box_sn", "components", "_handlers",
-                                   "hooks", "executor", "strict"})
-
-
 @dataclass(frozen=True)
 class Checkpoint:
     """The whole state of an emulator at one instant (:meth:`Emulator.checkpoint`): controller and
@@ -277,8 +271,7 @@ class Emulator:
     def _parts(self) -> dict[str, dict[str, Any]]:
         ctl = self.controller
         parts: dict[str, dict[str, Any]] = {
-            "controller": {k: v for k, v in vars(ctl).items() if k not in _CONTROLLER_MACHINERY},
-            "executor": {k: v for k, v in vars(ctl.executor).items() if k != "model"},
+            "controller": {"data": ctl.data, "settings": ctl.settings},
             "io": dict(vars(self.io)),
             "gripper": dict(vars(self.gripper.gripper)),
             "thermal": dict(vars(self.thermal)),
@@ -306,9 +299,7 @@ class Emulator:
         if set(cp.parts) != set(self._parts()):
             raise ValueError("checkpoint of an emulator with other components (vacuum gripper)")
         parts = copy.deepcopy(cp.parts, self._memo(cp.parts))
-        ctl = self.controller
-        vars(ctl).update(parts["controller"])
-        vars(ctl.executor).update(parts["executor"])
+        self.controller.adopt(parts["controller"]["data"], parts["controller"]["settings"])
         vars(self.io).update(parts["io"])
         vars(self.gripper.gripper).update(parts["gripper"])
         vars(self.thermal).update(parts["thermal"])

@@ -1,0 +1,248 @@
+"""Motion commands (manual section 2.1.3, registers 21-30, 92 and 93): queued moves and servo targets.
+
+Firmware from 1.11.100 (the profile's ``common_move_layout``) takes the "common" forms the SDK
+sends: register 21 with blend radius, coordinate frame, axis-angle flag, only-check byte and motion
+type; 27 with the frame, axis-angle and only-check bytes; 23, 24 and 25 with an only-check byte.
+Their replies carry a third byte, the check result. An only-check command moves nothing and is not
+queued: the reply's check result is 0 when the straight joint path to the target is free of
+self-collision (and within the joint limits), else the controller error code the move would raise.
+From 2.4.101 (``inf_unchanged``) +inf in a pose or joint value of 21 or 23 keeps that component
+where it is when the move starts.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ...model import collision
+from ...model import kinematics as kin
+from ...model import rotations as rot
+from ..base import (
+    C_JOINT_LIMIT,
+    C_KINEMATIC,
+    C_SELF_COLLISION,
+    WARN_NO_SOLUTION,
+    CommandError,
+    CommandWarning,
+    ParameterError,
+    Values,
+)
+from ..commands import CircleMove, Dwell, JointMove, LineMove
+from ..executor import keep_unchanged_joints, line_target
+from ..poses import apply_offset, wire_pose_to_matrix
+from ..settings import in_range
+from .settings import report_tau_or_i
+
+if TYPE_CHECKING:
+    from ..core import Controller
+    from . import CtlHandler
+
+#: Joint positions sampled along the straight joint path of an only-check move.
+CHECK_SAMPLES = 24
+
+
+def check_speed(speed: float, acc: float, vmax: float, amax: float) -> None:
+    """Speed and acceleration above 0 and within Table 1.2 (section 1.3), else warning 12."""
+    if not (in_range(speed, vmax) and speed > 0.0 and in_range(acc, amax) and acc > 0.0):
+        raise ParameterError("speed or acceleration outside Table 1.2")
+
+
+def _reply(ctl: Controller, check_result: int = 0) -> dict[str, Any]:
+    """Reply of a queued move: the buffer count, and for the common forms the check result."""
+    return {"cmdnum": ctl.executor.cmdnum, "check_result": check_result}
+
+
+def _only_check(v: Values) -> bool:
+    return int(v.get("only_check_type", 0)) > 0
+
+
+def check_joint_path(ctl: Controller, target: np.ndarray) -> int:
+    """Only-check moves: 0 when the straight joint path from the current joints to ``target`` stays
+    within the joint limits and free of self-collision, else the error code (C23 or C22)."""
+    if not (np.all(np.isfinite(target)) and kin.within_limits(ctl.model, target)):
+        return C_JOINT_LIMIT
+    q0 = ctl.q
+    for s in np.linspace(0.0, 1.0, CHECK_SAMPLES):
+        hit, _, _ = collision.self_collision(ctl.model, q0 + s * (target - q0), ctl.collision_tool)
+        if hit:
+            return C_SELF_COLLISION
+    return 0
+
+
+def check_pose(ctl: Controller, target: np.ndarray) -> int:
+    """Only-check Cartesian moves: the target's inverse kinematics (C21 without one), then
+    :func:`check_joint_path` to that solution."""
+    q = kin.ik(ctl.model, ctl.flange_target(target), ctl.q, limited=False, restarts=True)
+    if q is None:
+        return C_KINEMATIC
+    return check_joint_path(ctl, np.asarray(q, dtype=float))
+
+
+def move_line(ctl: Controller, v: Values, *, register: int) -> dict[str, Any]:
+    """Registers 21 (linear), 22 (with arc blending) and 28 (tool frame, relative); 21 also in the
+    common form (frame, axis-angle, only-check, motion type)."""
+    check_speed(v["speed"], v["acc"], ctl.model.max_tcp_speed, ctl.model.max_tcp_acc)
+    tool = register == 28
+    axis_angle = False
+    if "coord" in v:
+        if v["coord"] not in (0, 1) or v["is_axis_angle"] not in (0, 1):
+            raise ParameterError("coordinate and axis-angle flags are 0 or 1")
+        tool, axis_angle = v["coord"] == 1, v["is_axis_angle"] == 1
+    cmd = LineMove(register, tuple(v["pose"]), v["speed"], v["acc"], radius=float(v.get("radius", -1.0)),
+                   tool_frame=tool, relative=tool, axis_angle=axis_angle)
+    if _only_check(v):
+        start = ctl.tcp_matrix()
+        return _reply(ctl, check_pose(ctl, line_target(cmd, start)))
+    ctl.require_motion_allowed()
+    ctl.queue(cmd)
+    return _reply(ctl)
+
+
+def move_line_aa(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 92: linear motion with an axis-angle pose, base or tool frame, absolute or relative."""
+    check_speed(v["speed"], v["acc"], ctl.model.max_tcp_speed, ctl.model.max_tcp_acc)
+    if v["coord"] not in (0, 1) or v["relative"] not in (0, 1):
+        raise ParameterError("coordinate and relative flags are 0 or 1")
+    ctl.require_motion_allowed()
+    cmd = LineMove(92, tuple(v["pose"]), v["speed"], v["acc"], tool_frame=bool(v["coord"]),
+                   relative=bool(v["relative"]) or bool(v["coord"]), axis_angle=True)
+    ctl.queue(cmd)
+    return _reply(ctl)
+
+
+def joint_target(ctl: Controller, joints: tuple[float, ...]) -> np.ndarray:
+    """The joint target of a move; outside the limits is error C23. +inf values (joints kept, where
+    the profile lets +inf through) are checked as the current joints and resolved when the move
+    starts."""
+    q = np.asarray(joints[: ctl.dof], dtype=float)
+    if not kin.within_limits(ctl.model, keep_unchanged_joints(q, ctl.q)):
+        raise CommandError(C_JOINT_LIMIT, "joint target outside the limits")
+    return q
+
+
+def move_joint(ctl: Controller, v: Values, *, register: int) -> dict[str, Any]:
+    """Register 23 (P2P joint motion) and register 24's joint form (a blend radius); both with the
+    common forms' only-check byte."""
+    check_speed(v["speed"], v["acc"], ctl.model.max_joint_speed, ctl.model.max_joint_acc)
+    if _only_check(v):
+        q = keep_unchanged_joints(np.asarray(v["joints"][: ctl.dof], dtype=float), ctl.q)
+        return _reply(ctl, check_joint_path(ctl, q))
+    ctl.require_motion_allowed()
+    q = joint_target(ctl, v["joints"])
+    ctl.queue(JointMove(register, q, v["speed"], v["acc"], radius=float(v.get("radius", -1.0))))
+    return _reply(ctl)
+
+
+def register_24(ctl: Controller, v: Values) -> dict[str, Any] | None:
+    """Register 24: the manual's form selects torque or current in reports (1 byte); SDKs for
+    firmware >= 1.5.20 send a joint move with a blend radius here (10 fp32, then the only-check
+    byte from 1.11.100)."""
+    if "joints" in v:
+        return move_joint(ctl, v, register=24)
+    report_tau_or_i(ctl, v)
+    return None
+
+
+def move_home(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 25: joint move to the zero position."""
+    check_speed(v["speed"], v["acc"], ctl.model.max_joint_speed, ctl.model.max_joint_acc)
+    home = np.zeros(ctl.dof)
+    if _only_check(v):
+        return _reply(ctl, check_joint_path(ctl, home))
+    ctl.require_motion_allowed()
+    ctl.queue(JointMove(25, home, v["speed"], v["acc"]))
+    return _reply(ctl)
+
+
+def dwell(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 26: pause the command queue."""
+    t = v["seconds"]
+    if not (math.isfinite(t) and t >= 0.0):
+        raise ParameterError("pause time must be >= 0")
+    ctl.require_motion_allowed()
+    ctl.queue(Dwell(26, t))
+    return _reply(ctl)
+
+
+def move_circle(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 27: circle through the current point, pose1 and pose2 (64 bytes, or 67 with the
+    frame, axis-angle and only-check bytes)."""
+    check_speed(v["speed"], v["acc"], ctl.model.max_tcp_speed, ctl.model.max_tcp_acc)
+    if v["percent"] <= 0.0:
+        raise ParameterError("percent must be > 0")
+    pose1, pose2 = tuple(v["pose1"]), tuple(v["pose2"])
+    if "coord" in v:
+        if v["coord"] not in (0, 1) or v["is_axis_angle"] not in (0, 1):
+            raise ParameterError("coordinate and axis-angle flags are 0 or 1")
+        tool, axis_angle = v["coord"] == 1, v["is_axis_angle"] == 1
+        pose1, pose2 = (_as_base_rpy(ctl, p, tool, axis_angle) for p in (pose1, pose2))
+    if _only_check(v):
+        results = [check_pose(ctl, wire_pose_to_matrix(p)) for p in (pose1, pose2)]
+        return _reply(ctl, next((r for r in results if r), 0))
+    ctl.require_motion_allowed()
+    ctl.queue(CircleMove(27, pose1, pose2, v["speed"], v["acc"], v["percent"]))
+    return _reply(ctl)
+
+
+def _as_base_rpy(ctl: Controller, pose: tuple[float, ...], tool: bool, axis_angle: bool) -> tuple[float, ...]:
+    """A circle pose of the common form as a base-frame RPY pose: tool-frame poses are taken from the
+    current TCP pose, axis-angle orientations converted."""
+    if not (tool or axis_angle):
+        return pose
+    to_matrix = rot.pose_aa_to_matrix if axis_angle else wire_pose_to_matrix
+    T = apply_offset(ctl.tcp_matrix(), to_matrix(np.asarray(pose, dtype=float)), tool, False)
+    return tuple(float(x) for x in rot.matrix_to_pose(T))
+
+
+def servoj(ctl: Controller, v: Values) -> None:
+    """Register 29: servo joint target (mode 1)."""
+    ctl.require_motion_allowed(servo=True)
+    ctl.servo_target = joint_target(ctl, v["joints"])
+    return None
+
+
+def _servo_cartesian(ctl: Controller, T: np.ndarray) -> None:
+    q = kin.ik(ctl.model, ctl.flange_target(T), ctl.q, limited=False)
+    if q is None:
+        raise CommandWarning(WARN_NO_SOLUTION)
+    if not kin.within_limits(ctl.model, q):
+        raise CommandError(C_JOINT_LIMIT)
+    ctl.servo_target = q
+
+
+def servo_cartesian(ctl: Controller, v: Values) -> None:
+    """Register 30: servo Cartesian target (mode 1), base or tool frame."""
+    ctl.require_motion_allowed(servo=True)
+    delta = wire_pose_to_matrix(v["pose"])
+    _servo_cartesian(ctl, apply_offset(ctl.tcp_matrix(), delta, v["coord"] != 0.0, False))
+    return None
+
+
+def servo_cartesian_aa(ctl: Controller, v: Values) -> None:
+    """Register 93: servo Cartesian target with an axis-angle pose (mode 1)."""
+    ctl.require_motion_allowed(servo=True)
+    delta = rot.pose_aa_to_matrix(np.asarray(v["pose"], dtype=float))
+    T = apply_offset(ctl.tcp_matrix(), delta, v["coord"] != 0.0, int(v.get("relative", 0)) == 1)
+    _servo_cartesian(ctl, T)
+    return None
+
+
+HANDLERS: Mapping[int, CtlHandler] = {
+    21: functools.partial(move_line, register=21),
+    22: functools.partial(move_line, register=22),
+    23: functools.partial(move_joint, register=23),
+    24: register_24,
+    25: move_home,
+    26: dwell,
+    27: move_circle,
+    28: functools.partial(move_line, register=28),
+    29: servoj,
+    30: servo_cartesian,
+    92: move_line_aa,
+    93: servo_cartesian_aa,
+}
