@@ -76,6 +76,8 @@ class ControllerState:
     #: The physical arm's joints while virtual robot mode is on.
     physical_q: np.ndarray | None = None
     collision_tool: collision.ToolModel = collision.NO_TOOL  # register 78
+    #: The joints where the last only-check move ended (the SDK's "intermediate state"), if kept.
+    check_q: np.ndarray | None = None
     motion: PlanState = field(default_factory=PlanState)
 
     @classmethod

@@ -3,9 +3,12 @@
 Firmware from 1.11.100 (the profile's ``common_move_layout``) takes the "common" forms the SDK
 sends: register 21 with blend radius, coordinate frame, axis-angle flag, only-check byte and motion
 type; 27 with the frame, axis-angle and only-check bytes; 23, 24 and 25 with an only-check byte.
-Their replies carry a third byte, the check result. An only-check command moves nothing and is not
-queued: the reply's check result is 0 when the straight joint path to the target is free of
-self-collision (and within the joint limits), else the controller error code the move would raise.
+Their replies carry a third byte, the check result. An only-check command (types 1-3, as the
+SDK documents them) moves nothing and is not queued: it checks the path from the actual joints (type 1)
+or from where the previous check ended (types 2 and 3) and replies 0, or the error code the move
+would raise (C21, C22, C23, C35). Joint moves are checked along their straight joint path; linear
+moves along their TCP line; a circle along lines through its two points. The common form's motion
+type byte is accepted; every linear move plans as a TCP line.
 From 2.4.101 (``inf_unchanged``) +inf in a pose or joint value of 21 or 23 keeps that component
 where it is when the move starts.
 """
@@ -22,7 +25,9 @@ import numpy as np
 from ...model import collision
 from ...model import kinematics as kin
 from ...model import rotations as rot
+from .. import motion, safety
 from ..base import (
+    C_BOUNDARY,
     C_JOINT_LIMIT,
     C_KINEMATIC,
     C_SELF_COLLISION,
@@ -57,30 +62,64 @@ def _reply(ctl: Controller, check_result: int = 0) -> dict[str, Any]:
     return {"cmdnum": ctl.executor.cmdnum, "check_result": check_result}
 
 
-def _only_check(v: Values) -> bool:
-    return int(v.get("only_check_type", 0)) > 0
+def _check_type(v: Values) -> int:
+    """The only-check byte: 0 move; 1 check from the actual joints; 2 and 3 from the intermediate
+    state the previous check left (2 then returns it to the actual joints)."""
+    t = int(v.get("only_check_type", 0))
+    if t > 3:
+        raise ParameterError("only-check type is 0..3")
+    return t
 
 
-def check_joint_path(ctl: Controller, target: np.ndarray) -> int:
-    """Only-check moves: 0 when the straight joint path from the current joints to ``target`` stays
-    within the joint limits and free of self-collision, else the error code (C23 or C22)."""
+def check_start(ctl: Controller, check: int) -> np.ndarray:
+    """The joints an only-check path starts from: the actual ones (type 1) or the intermediate state."""
+    kept = ctl.data.check_q
+    return ctl.q.copy() if check == 1 or kept is None else kept.copy()
+
+
+def _checked(ctl: Controller, check: int, end: np.ndarray | None, result: int) -> dict[str, Any]:
+    """Keep the intermediate state after an only-check (types 1 and 3: the end of the path; type 2:
+    back to the actual joints) and reply the result."""
+    ctl.data.check_q = None if check == 2 or end is None else end
+    return _reply(ctl, result)
+
+
+def check_joint_path(ctl: Controller, q0: np.ndarray, target: np.ndarray) -> int:
+    """Only-check joint moves: 0 when the straight joint path from ``q0`` to ``target`` stays within
+    the joint limits and free of self-collision, else the error code the move would raise (C23, C22)."""
     if not (np.all(np.isfinite(target)) and kin.within_limits(ctl.model, target)):
         return C_JOINT_LIMIT
-    q0 = ctl.q
     for s in np.linspace(0.0, 1.0, CHECK_SAMPLES):
-        hit, _, _ = collision.self_collision(ctl.model, q0 + s * (target - q0), ctl.collision_tool)
-        if hit:
+        if _collides(ctl, q0 + s * (target - q0)):
             return C_SELF_COLLISION
     return 0
 
 
-def check_pose(ctl: Controller, target: np.ndarray) -> int:
-    """Only-check Cartesian moves: the target's inverse kinematics (C21 without one), then
-    :func:`check_joint_path` to that solution."""
-    q = kin.ik(ctl.model, ctl.flange_target(target), ctl.q, limited=False, restarts=True)
-    if q is None:
-        return C_KINEMATIC
-    return check_joint_path(ctl, np.asarray(q, dtype=float))
+def check_line_path(ctl: Controller, q0: np.ndarray, target: np.ndarray) -> tuple[int, np.ndarray | None]:
+    """Only-check linear moves: the straight TCP line from joints ``q0`` to the pose ``target``,
+    sampled. Returns 0 or the error code the move would raise (C21 no inverse kinematics, C23 joint
+    limit, C22 self-collision, C35 safety boundary), and the joints where the check ended."""
+    path = motion.LinePath(ctl.tcp_matrix(q0), target)
+    seed = q0
+    s = ctl.settings
+    for u in np.linspace(0.0, 1.0, CHECK_SAMPLES):
+        pose = path.pose_u(float(u))
+        q = kin.ik(ctl.model, ctl.flange_target(pose), seed, limited=False)
+        if q is None:
+            return C_KINEMATIC, None
+        seed = np.asarray(q, dtype=float)
+        if not kin.within_limits(ctl.model, seed):
+            return C_JOINT_LIMIT, seed
+        if _collides(ctl, seed):
+            return C_SELF_COLLISION, seed
+        if safety.boundary_violation(tuple(pose[:3, 3]), s.boundary, s.boundary_on):
+            return C_BOUNDARY, seed
+    return 0, seed
+
+
+def _collides(ctl: Controller, q: np.ndarray) -> bool:
+    hit, _, _ = collision.self_collision(ctl.model, q, ctl.collision_tool)
+    return hit
 
 
 def move_line(ctl: Controller, v: Values, *, register: int) -> dict[str, Any]:
@@ -95,9 +134,11 @@ def move_line(ctl: Controller, v: Values, *, register: int) -> dict[str, Any]:
         tool, axis_angle = v["coord"] == 1, v["is_axis_angle"] == 1
     cmd = LineMove(register, tuple(v["pose"]), v["speed"], v["acc"], radius=float(v.get("radius", -1.0)),
                    tool_frame=tool, relative=tool, axis_angle=axis_angle)
-    if _only_check(v):
-        start = ctl.tcp_matrix()
-        return _reply(ctl, check_pose(ctl, line_target(cmd, start)))
+    check = _check_type(v)
+    if check:
+        q0 = check_start(ctl, check)
+        result, end = check_line_path(ctl, q0, line_target(cmd, ctl.tcp_matrix(q0)))
+        return _checked(ctl, check, end, result)
     ctl.require_motion_allowed()
     ctl.queue(cmd)
     return _reply(ctl)
@@ -129,9 +170,11 @@ def move_joint(ctl: Controller, v: Values, *, register: int) -> dict[str, Any]:
     """Register 23 (P2P joint motion) and register 24's joint form (a blend radius); both with the
     common forms' only-check byte."""
     check_speed(v["speed"], v["acc"], ctl.model.max_joint_speed, ctl.model.max_joint_acc)
-    if _only_check(v):
-        q = keep_unchanged_joints(np.asarray(v["joints"][: ctl.dof], dtype=float), ctl.q)
-        return _reply(ctl, check_joint_path(ctl, q))
+    check = _check_type(v)
+    if check:
+        q0 = check_start(ctl, check)
+        q = keep_unchanged_joints(np.asarray(v["joints"][: ctl.dof], dtype=float), q0)
+        return _checked(ctl, check, q, check_joint_path(ctl, q0, q))
     ctl.require_motion_allowed()
     q = joint_target(ctl, v["joints"])
     ctl.queue(JointMove(register, q, v["speed"], v["acc"], radius=float(v.get("radius", -1.0))))
@@ -152,8 +195,10 @@ def move_home(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 25: joint move to the zero position."""
     check_speed(v["speed"], v["acc"], ctl.model.max_joint_speed, ctl.model.max_joint_acc)
     home = np.zeros(ctl.dof)
-    if _only_check(v):
-        return _reply(ctl, check_joint_path(ctl, home))
+    check = _check_type(v)
+    if check:
+        q0 = check_start(ctl, check)
+        return _checked(ctl, check, home, check_joint_path(ctl, q0, home))
     ctl.require_motion_allowed()
     ctl.queue(JointMove(25, home, v["speed"], v["acc"]))
     return _reply(ctl)
@@ -181,9 +226,16 @@ def move_circle(ctl: Controller, v: Values) -> dict[str, Any]:
             raise ParameterError("coordinate and axis-angle flags are 0 or 1")
         tool, axis_angle = v["coord"] == 1, v["is_axis_angle"] == 1
         pose1, pose2 = (_as_base_rpy(ctl, p, tool, axis_angle) for p in (pose1, pose2))
-    if _only_check(v):
-        results = [check_pose(ctl, wire_pose_to_matrix(p)) for p in (pose1, pose2)]
-        return _reply(ctl, next((r for r in results if r), 0))
+    check = _check_type(v)
+    if check:
+        end: np.ndarray | None = check_start(ctl, check)
+        result = 0
+        for pose in (pose1, pose2):  # the circle's points, each reached by a checked line
+            assert end is not None
+            result, end = check_line_path(ctl, end, wire_pose_to_matrix(pose))
+            if result:
+                break
+        return _checked(ctl, check, end, result)
     ctl.require_motion_allowed()
     ctl.queue(CircleMove(27, pose1, pose2, v["speed"], v["acc"], v["percent"]))
     return _reply(ctl)
