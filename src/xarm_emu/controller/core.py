@@ -77,6 +77,23 @@ def version_string(model: RobotModel, robot_sn: str, box_sn: str,
     return f"{model.axis},{model.robot_type},{robot_sn},{box_sn},v{firmware.version}"
 
 
+def joint_torques(model: RobotModel, data: ControllerState, settings: Settings) -> np.ndarray:
+    """Theoretical joint torques (N m) of state ``data``: gravity of the links and the payload of
+    register 36 with the gravity direction of register 51, plus the inertial terms of the planned
+    motion (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`)."""
+    s = settings
+    try:
+        g: Any = dyn.gravity_from_direction(s.gravity_direction)
+    except ValueError:
+        g = dyn.DEFAULT_GRAVITY
+    return dyn.inverse_dynamics(model, data.q, data.qd, data.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
+
+
+def tcp_matrix(model: RobotModel, q: np.ndarray, settings: Settings) -> np.ndarray:
+    """TCP pose (4x4, mm) of joints ``q`` in the user frame, TCP offset applied (registers 35, 73)."""
+    return kin.tcp_pose(model, q, settings.tcp_offset, settings.world_offset)
+
+
 class Controller:
     """One emulated control box with its arm: dispatch, readiness, poses and the control step over
     one :class:`~.state.ControllerState`."""
@@ -256,10 +273,10 @@ class Controller:
             key = (q_now.tobytes(), tuple(self.settings.tcp_offset), tuple(self.settings.world_offset))
             if self._pose_cache is not None and self._pose_cache[0] == key:
                 return self._pose_cache[1]
-            T = kin.tcp_pose(self.model, q_now, self.settings.tcp_offset, self.settings.world_offset)
+            T = tcp_matrix(self.model, q_now, self.settings)
             self._pose_cache = (key, T)
             return T
-        return kin.tcp_pose(self.model, q, self.settings.tcp_offset, self.settings.world_offset)
+        return tcp_matrix(self.model, q, self.settings)
 
     def tcp_pose(self) -> np.ndarray:
         """(x, y, z, roll, pitch, yaw) of the TCP in the user frame (register 41)."""
@@ -452,19 +469,12 @@ class Controller:
 
     # torques (the dynamic model, model/dynamics.py)
     def joint_torques(self) -> np.ndarray:
-        """Theoretical joint torques (N m): gravity of the links and the payload of register 36
-        with the gravity direction of register 51, plus the inertial terms of the planned motion
-        (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`). Computed at most once per step."""
+        """:func:`joint_torques` of the box, computed at most once per step."""
         s = self.settings
-        d = self.data
-        key = (d.steps, tuple(s.tcp_load), tuple(s.gravity_direction))
+        key = (self.data.steps, tuple(s.tcp_load), tuple(s.gravity_direction))
         if self._torque_cache is not None and self._torque_cache[0] == key:
             return self._torque_cache[1]
-        try:
-            g: Any = dyn.gravity_from_direction(s.gravity_direction)
-        except ValueError:
-            g = dyn.DEFAULT_GRAVITY
-        tau = dyn.inverse_dynamics(self.model, d.q, d.qd, d.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
+        tau = joint_torques(self.model, self.data, s)
         self._torque_cache = (key, tau)
         return tau
 

@@ -171,9 +171,7 @@ class Executor:
     def cmdnum(self) -> int:
         """Commands in the buffer, the running one included; 0 once a stop (state 4) discarded them,
         even while the arm is still coming to rest."""
-        if self.data.stopping:
-            return 0
-        return len(self.data.buffer) + (1 + self.data.merged if self.data.current is not None else 0)
+        return self.data.cmdnum
 
     @property
     def active(self) -> bool:
@@ -256,24 +254,25 @@ class Executor:
 
         Raises :class:`CommandError` for errors found while planning or moving.
         """
+        d = self.data
         self._advance_rate(dt)
-        if self.data.stopping and self.at_rest:
+        if d.stopping and self.at_rest:
             self.clear()
             return q
-        if self.data.plan is None:
-            if not self.data.buffer or self.data.rate == 0.0:
-                self.data.tcp_speed = 0.0
+        if d.plan is None:
+            if not d.buffer or d.rate == 0.0:
+                d.tcp_speed = 0.0
                 return q
-            self.data.current = self.data.buffer.popleft()
-            self.data.t = 0.0
-            self.data.plan = self._plan(self.data.current, q, limits, to_flange, tcp_pose)
-        elif isinstance(self.data.plan, _CartesianPlan) and self.data.plan.blend_into is not None:
+            d.current = d.buffer.popleft()
+            d.t = 0.0
+            d.plan = self._plan(d.current, q, limits, to_flange, tcp_pose)
+        elif isinstance(d.plan, _CartesianPlan) and d.plan.blend_into is not None:
             self._blend_late_arrival(q, limits, to_flange)
-        elif isinstance(self.data.plan, _JointPlan) and self.data.plan.blend is not None:
+        elif isinstance(d.plan, _JointPlan) and d.plan.blend is not None:
             self._blend_joint_moves(q, limits, tcp_pose)
-        self.data.t += dt * self.data.rate
-        plan = self.data.plan
-        t = min(self.data.t, plan.duration)
+        d.t += dt * d.rate
+        plan = d.plan
+        t = min(d.t, plan.duration)
         new_q = plan.joints(t, q)
         if new_q is None:
             self.clear()
@@ -287,12 +286,12 @@ class Executor:
             if speed > limits.max_joint_speed * SPEED_TOLERANCE:
                 self.clear()
                 raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")
-        self.data.tcp_speed = plan.tcp_speed * self.data.rate
-        if self.data.t >= plan.duration:
-            self.data.completed += 1 + self.data.merged
-            self.data.plan = None
-            self.data.current = None
-            self.data.merged = 0
+        d.tcp_speed = plan.tcp_speed * d.rate
+        if d.t >= plan.duration:
+            d.completed += 1 + d.merged
+            d.plan = None
+            d.current = None
+            d.merged = 0
         return np.asarray(new_q, dtype=float)
 
     def _blend_late_arrival(self, q: np.ndarray, limits: Limits,

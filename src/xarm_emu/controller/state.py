@@ -52,6 +52,14 @@ class PlanState:
     merged: int = 0  # further commands of a blended chain that the current plan runs
     completed: int = 0  # commands run to their end (the report's command counter)
 
+    @property
+    def cmdnum(self) -> int:
+        """Commands in the buffer, the running one included (register 14); 0 once a stop (state 4)
+        discarded them, even while the arm is still coming to rest."""
+        if self.stopping:
+            return 0
+        return len(self.buffer) + (1 + self.merged if self.current is not None else 0)
+
 
 @dataclass
 class ControllerState:
