@@ -198,3 +198,58 @@ def test_firmware_1_6_0_keeps_the_manual_forms(code: int) -> None:
     emu.handle(17, b"")
     status, _ = emu.handle(code, struct.pack(f"<{len(args)}f", *((math.inf,) + args[1:])))
     assert status & STATE_WARNING and emu.controller.warning_code == 12  # +inf is out of range here
+
+
+def _off_line(emu: Emulator, target: tuple[float, ...], seconds: float) -> float:
+    """Largest distance (mm) of the TCP from the line START -> ``target`` while a move runs."""
+    a, b = np.asarray(START[:3]), np.asarray(target[:3])
+    u = (b - a) / np.linalg.norm(b - a)
+    worst = 0.0
+    for _ in range(round(seconds / 0.05)):
+        emu.advance(0.05)
+        d = pose(emu)[:3] - a
+        worst = max(worst, float(np.linalg.norm(d - (d @ u) * u)))
+    return worst
+
+
+def test_motion_type_1_is_a_line_where_one_exists_and_2_a_joint_move() -> None:
+    target = (300.0, 150.0, 300.0, math.pi, 0.0, 0.0)
+    for motion_type, on_line in ((1, True), (2, False)):
+        emu = at_start()
+        status, _ = send(emu, 21, pose=target, speed=200.0, acc=2000.0, mvtime=0.0, radius=-1.0, coord=0,
+                         is_axis_angle=0, only_check_type=0, motion_type=motion_type)
+        assert status == 0
+        worst = _off_line(emu, target, 3.0)
+        assert (worst < 1e-3) if on_line else (worst > 1.0)
+        settle(emu)
+        np.testing.assert_allclose(pose(emu)[:3], target[:3], atol=1e-3)
+
+
+def test_motion_type_1_falls_back_to_a_joint_move_where_the_line_is_unreachable() -> None:
+    target = (-300.0, 0.0, 200.0, math.pi, 0.0, 0.0)  # the line runs through the base's axis
+    emu = at_start()
+    line(emu, target)
+    emu.advance(5.0)
+    assert emu.controller.error_code == 21  # motion type 0: the line has no joint solution
+    emu = at_start()
+    send(emu, 21, pose=target, speed=200.0, acc=2000.0, mvtime=0.0, radius=-1.0, coord=0, is_axis_angle=0,
+         only_check_type=0, motion_type=1)
+    settle(emu, 15.0)
+    np.testing.assert_allclose(pose(emu)[:3], target[:3], atol=1e-3)
+
+
+def test_set_mode_takes_the_detection_byte() -> None:
+    emu = ready()
+    assert emu.handle(19, bytes([1, 0])) == (0x10, b"")  # servo mode, then a system reset (state 5)
+    assert emu.controller.mode == 1
+
+
+def test_joint_states_with_three_blocks_is_84_bytes() -> None:
+    emu = ready()
+    joint(emu, (0.8, 0.0, 0.0, 0.0, 0.0, 0.0))
+    emu.advance(0.4)
+    _, reply = emu.handle(42, bytes([3]))
+    values = struct.unpack("<21f", reply)
+    np.testing.assert_allclose(values[:6], emu.joints, atol=1e-6)
+    assert values[7] > 0.1 and values[8:14] == (0.0,) * 6  # J1 turns, the others rest
+    assert any(values[14:20])  # efforts

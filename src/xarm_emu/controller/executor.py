@@ -24,6 +24,8 @@ from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
 from .poses import resolve_line_target, wire_pose_to_matrix
 from .state import RAMP_TIME, PlanState
 
+#: Points at which a TCP line is tried for joint solutions (register 21, motion type 1).
+LINE_SAMPLES = 24
 #: Peak slope of the smoothstep ramp (3u^2 - 2u^3) relative to a linear one.
 _SMOOTHSTEP_PEAK = 1.5
 
@@ -398,7 +400,10 @@ class Executor:
             return self._plan_blended(cmd, start, q, acc, limits, to_flange)
         if isinstance(cmd, LineMove):
             target = line_target(cmd, start)
-            path: motion.Path = motion.LinePath(start, target)
+            line = motion.LinePath(start, target)
+            if cmd.motion_type == 2 or (cmd.motion_type == 1 and not self._line_feasible(line, q, to_flange)):
+                return self._joint_plan_to(cmd, target, q, limits, to_flange)
+            path: motion.Path = line
             end_check = target
         else:
             assert isinstance(cmd, CircleMove)
@@ -414,6 +419,32 @@ class Executor:
         blend = (end_check, cmd.radius, cmd) if isinstance(cmd, LineMove) and cmd.radius > 0.0 else None
         return _CartesianPlan(move, to_flange, self.model, blend)
 
+    def _line_feasible(self, path: motion.LinePath, q: np.ndarray,
+                       to_flange: Callable[[np.ndarray], np.ndarray]) -> bool:
+        """Whether a TCP line has joint solutions within the limits at :data:`LINE_SAMPLES` points."""
+        seed = q
+        for u in np.linspace(0.0, 1.0, LINE_SAMPLES):
+            sol = kin.ik(self.model, to_flange(path.pose_u(float(u))), seed, limited=False)
+            if sol is None or not kin.within_limits(self.model, sol):
+                return False
+            seed = sol
+        return True
+
+    def _joint_plan_to(self, cmd: LineMove, target: np.ndarray, q: np.ndarray, limits: Limits,
+                       to_flange: Callable[[np.ndarray], np.ndarray]) -> _Plan:
+        """Register 21's motion type 2 (and 1 where no line is possible): a joint move to the target
+        pose, at the fraction of the joint maxima that the TCP speed and acceleration are of theirs
+        (Table 1.2)."""
+        m = self.model
+        sol = kin.ik(m, to_flange(target), q, limited=False, restarts=True)
+        if sol is None:
+            raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
+        if not kin.within_limits(m, sol):
+            raise CommandError(C_JOINT_LIMIT, "target pose needs joints outside the limits")
+        speed = m.max_joint_speed * min(1.0, cmd.speed / m.max_tcp_speed)
+        acc = min(m.max_joint_acc * min(1.0, cmd.acc / m.max_tcp_acc), limits.joint_maxacc)
+        q_end = np.asarray(sol, dtype=float)
+        return _JointPlan(motion.plan_joint_move(q, q_end, speed, acc, limits.joint_jerk))
 
     def _plan_blended(self, cmd: LineMove, start: np.ndarray, q: np.ndarray, acc: float, limits: Limits,
                       to_flange: Callable[[np.ndarray], np.ndarray]) -> _Plan:

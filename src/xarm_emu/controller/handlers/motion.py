@@ -8,7 +8,8 @@ SDK documents them) moves nothing and is not queued: it checks the path from the
 or from where the previous check ended (types 2 and 3) and replies 0, or the error code the move
 would raise (C21, C22, C23, C35). Joint moves are checked along their straight joint path; linear
 moves along their TCP line; a circle along lines through its two points. The common form's motion
-type byte is accepted; every linear move plans as a TCP line.
+type byte chooses the planning of register 21: 0 a TCP line, 1 a TCP line or, where the line leaves
+the reachable joints, a joint move, 2 a joint move to the pose.
 From 2.4.101 (``inf_unchanged``) +inf in a pose or joint value of 21 or 23 keeps that component
 where it is when the move starts.
 """
@@ -132,12 +133,22 @@ def move_line(ctl: Controller, v: Values, *, register: int) -> dict[str, Any]:
         if v["coord"] not in (0, 1) or v["is_axis_angle"] not in (0, 1):
             raise ParameterError("coordinate and axis-angle flags are 0 or 1")
         tool, axis_angle = v["coord"] == 1, v["is_axis_angle"] == 1
+    motion_type = int(v.get("motion_type", 0))
+    if motion_type not in (0, 1, 2):
+        raise ParameterError("motion type is 0, 1 or 2")
     cmd = LineMove(register, tuple(v["pose"]), v["speed"], v["acc"], radius=float(v.get("radius", -1.0)),
-                   tool_frame=tool, relative=tool, axis_angle=axis_angle)
+                   tool_frame=tool, relative=tool, axis_angle=axis_angle, motion_type=motion_type)
     check = _check_type(v)
     if check:
         q0 = check_start(ctl, check)
-        result, end = check_line_path(ctl, q0, line_target(cmd, ctl.tcp_matrix(q0)))
+        target = line_target(cmd, ctl.tcp_matrix(q0))
+        if motion_type == 2:
+            q = kin.ik(ctl.model, ctl.flange_target(target), q0, limited=False, restarts=True)
+            if q is None:
+                return _checked(ctl, check, None, C_KINEMATIC)
+            q_end = np.asarray(q, dtype=float)
+            return _checked(ctl, check, q_end, check_joint_path(ctl, q0, q_end))
+        result, end = check_line_path(ctl, q0, target)
         return _checked(ctl, check, end, result)
     ctl.require_motion_allowed()
     ctl.queue(cmd)
