@@ -441,7 +441,8 @@ class Controller:
         self.enter_stop()
 
     def enter_stop(self) -> None:
-        """State 4 was entered: components react (a gripper stops, delayed outputs are dropped)."""
+        """Motion ended by a stop, an error or a system reset: components that have an ``on_stop()``
+        method are told."""
         for c in self.components:
             on_stop = getattr(c, "on_stop", None)
             if on_stop is not None:

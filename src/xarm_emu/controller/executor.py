@@ -3,7 +3,12 @@ current state and samples the plan every control period.
 
 Suspend (state 3) and stop (state 4) slow the *path time* down with a smooth
 ramp, so the arm stays on the planned path and a resumed move continues the
-same path (manual register 12).
+same path (manual register 12). The buffer and the plan live in a
+:class:`~.state.PlanState`, part of the controller's :class:`~.state.ControllerState`.
+
+From firmware 2.4.101 a +inf value of a pose (register 21) or joint target (23) keeps
+that component where the move starts (:func:`keep_unchanged_pose`,
+:func:`keep_unchanged_joints`).
 """
 
 from __future__ import annotations
@@ -33,7 +38,6 @@ _SMOOTHSTEP_PEAK = 1.5
 SPEED_TOLERANCE = 1.05
 
 
-
 def keep_unchanged_joints(target: np.ndarray, q: np.ndarray) -> np.ndarray:
     """A joint target with its +inf values (firmware >= 2.4.101: "unchanged", register 23) taken from
     the joints ``q`` the move starts from."""
@@ -58,6 +62,7 @@ def line_target(cmd: LineMove, start: np.ndarray) -> np.ndarray:
     """The absolute target (4x4, user frame) of a linear move from ``start``, kept components
     resolved (:func:`keep_unchanged_pose`, :func:`~xarm_emu.controller.poses.resolve_line_target`)."""
     return resolve_line_target(keep_unchanged_pose(cmd, start), start)
+
 
 @dataclass
 class Limits:
