@@ -4,9 +4,9 @@ Firmware from 1.11.100 (the profile's ``common_move_layout``) takes the "common"
 sends: register 21 with blend radius, coordinate frame, axis-angle flag, only-check byte and motion
 type; 27 with the frame, axis-angle and only-check bytes; 23, 24 and 25 with an only-check byte.
 Their replies carry a third byte, the check result. An only-check command (types 1-3, as the
-SDK documents them) moves nothing and is not queued: it checks the path from the actual joints (type 1)
-or from where the previous check ended (types 2 and 3) and replies 0, or the error code the move
-would raise (C21, C22, C23, C35). Joint moves are checked along their straight joint path; linear
+SDK documents them) moves nothing and is not queued: it checks the path from the actual joints
+(type 1) or from where the previous check ended (types 2 and 3) and replies 0, or the error code the
+move would raise (C21, C22, C23, C35). Joint moves are checked along their straight joint path; linear
 moves along their TCP line; a circle along lines through its two points. The common form's motion
 type byte chooses the planning of register 21: 0 a TCP line, 1 a TCP line or, where the line leaves
 the reachable joints, a joint move, 2 a joint move to the pose.
@@ -169,8 +169,8 @@ def move_line_aa(ctl: Controller, v: Values) -> dict[str, Any]:
 
 def joint_target(ctl: Controller, joints: tuple[float, ...]) -> np.ndarray:
     """The joint target of a move; outside the limits is error C23. +inf values (joints kept, where
-    the profile lets +inf through) are checked as the current joints and resolved when the move
-    starts."""
+    the profile lets +inf through) stay in the target until the move starts; only the given values
+    are checked here."""
     q = np.asarray(joints[: ctl.dof], dtype=float)
     if not kin.within_limits(ctl.model, keep_unchanged_joints(q, ctl.q)):
         raise CommandError(C_JOINT_LIMIT, "joint target outside the limits")
@@ -253,8 +253,9 @@ def move_circle(ctl: Controller, v: Values) -> dict[str, Any]:
 
 
 def _as_base_rpy(ctl: Controller, pose: tuple[float, ...], tool: bool, axis_angle: bool) -> tuple[float, ...]:
-    """A circle pose of the common form as a base-frame RPY pose: tool-frame poses are taken from the
-    current TCP pose, axis-angle orientations converted."""
+    """A circle pose of the common form as a base-frame RPY pose: a tool-frame pose is taken from the
+    TCP pose when the command arrives (not where the queue leaves the arm), axis-angle orientations
+    are converted."""
     if not (tool or axis_angle):
         return pose
     to_matrix = rot.pose_aa_to_matrix if axis_angle else wire_pose_to_matrix
