@@ -8,7 +8,8 @@ import pkgutil
 
 import pytest
 
-PACKAGES = ["xarm_emu.protocol", "xarm_emu.model", "xarm_emu.controller", "xarm_emu.server", "xarm_emu.viewer"]
+PACKAGES = ["xarm_emu.protocol", "xarm_emu.model", "xarm_emu.controller", "xarm_emu.server",
+            "xarm_emu.viewer"]
 
 
 @pytest.mark.parametrize("name", PACKAGES)

@@ -9,6 +9,7 @@
 - :mod:`.settings`, :mod:`.config`: settable parameters and their saved files.
 - :mod:`.executor`, :mod:`.commands`, :mod:`.motion`, :mod:`.poses`: the command buffer and motion.
 - :mod:`.safety`, :mod:`.faults`, :mod:`.thermal`: safety checks, the fault group, joint temperatures.
+- :mod:`.base`: the control period, command outcomes and the interface components plug in through.
 - Components: :mod:`.io`, :mod:`.gripper`, :mod:`.vacuum`; :mod:`.modbus_map` binds the standard
   Modbus map to a live box.
 """
