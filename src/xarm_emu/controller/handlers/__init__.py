@@ -27,9 +27,13 @@ if TYPE_CHECKING:
 #: :class:`~xarm_emu.controller.base.CommandWarning` or :class:`~xarm_emu.controller.base.CommandError`.
 CtlHandler = Callable[["Any", Values], "dict[str, Any] | None"]
 
+from . import feedback as _feedback  # noqa: E402 - the modules import CtlHandler from here
+
 #: Every handler table of this package, in the order they bind (a later table never rebinds a code:
 #: :func:`bind` refuses duplicates).
-TABLES: tuple[Mapping[int, CtlHandler], ...] = ()
+TABLES: tuple[Mapping[int, CtlHandler], ...] = (
+    _feedback.HANDLERS,
+)
 
 
 def bind(ctl: ControllerCore,
