@@ -101,6 +101,7 @@ class FeedbackQueue:
         self.masks: dict[int, int] = {}
         self._origin: tuple[int, int, int] | None = None  # (client, tid, protocol) of the request
         self._register = 0
+        self._codes_before = (0, 0)
         self._last_before: Any = None
         self._tasks: list[_Task] = []
         self._checks: list[_Check] = []
@@ -124,6 +125,7 @@ class FeedbackQueue:
         """A request from ``client`` is about to be handled."""
         self._origin = (client, tid, protocol)
         self._register = register
+        self._codes_before = (ctl.error_code, ctl.warning_code)
         buf = ctl.executor.buffer
         self._last_before = buf[-1] if buf else None
 
@@ -147,8 +149,14 @@ class FeedbackQueue:
             self._tasks.append(_Task(cmd, origin, self._register, self._task_id))
         if new:
             self._seen = (-1, 0, 0)  # look at the buffer after the next period
-        elif self._register in TRIGGER_REGISTERS and not status & 0x60:
+        elif self._register in TRIGGER_REGISTERS and self._accepted(ctl):
             self.emit(origin, FeedbackType.TRIGGER, self._register, ctl.time, state=status)
+
+    def _accepted(self, ctl: Any) -> bool:
+        """Whether the request just handled was accepted: it raised no new error or warning (a
+        warning already set before it stays in the reply's state byte)."""
+        error, warning = self._codes_before
+        return ctl.error_code in (0, error) and ctl.warning_code in (0, warning)
 
     def capture(self) -> Origin | None:
         """The origin of the request being handled, with its connection's mask (``None`` outside a

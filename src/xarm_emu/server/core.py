@@ -34,7 +34,7 @@ from ..protocol.frame import COMMAND_PORT, encode_reply
 from .admin_port import AdminProtocol
 from .clock import ScaledClock, Ticker
 from .command_port import PURE_READS, CommandProtocol, ReadCache
-from .report_ports import REALTIME_KIND, ReportStreams, firmware2_fields
+from .report_ports import ALL_KIND_PORTS, REALTIME_KIND, ReportStreams, firmware2_fields
 from .trace import CommandTrace
 
 log = logging.getLogger("xarm_emu.server")
@@ -104,7 +104,9 @@ class EmulatorServer:
         self.clock = ScaledClock(PERIOD, self.config.speed)
         self.command_clients: set[CommandProtocol] = set()
         profile = emulator.firmware
-        rates = {REALTIME_KIND: reports.REALTIME_RATE, **self.config.report_rates}
+        defaults = reports.rates_for(profile)
+        rates = {kind: defaults[port] for kind, port in ALL_KIND_PORTS.items() if port in defaults}
+        rates.update(self.config.report_rates)
         self.reports = ReportStreams(self._report_snapshot, self.reports_paused, rates, profile)
         #: The controller's feedback events (firmware >= 2.0.102), else ``None``.
         self.feedback: FeedbackQueue | None = (feedback_queue(emulator.controller) if profile.feedback
