@@ -82,7 +82,7 @@ def _latency(fw2: ServerThread, arm: Any, got: list[bytes], call: Callable[[], i
 def test_set_position_wait_returns_within_one_poll_of_the_move_end(fw2: ServerThread, arm: Any) -> None:
     got = _frames(arm)
     lat = []
-    for x in (260.0, 220.0, 250.0):
+    for x in (260.0, 220.0, 250.0, 230.0, 255.0):
         lat.append(_latency(fw2, arm, got, lambda x=x: arm.set_position(
             x=x, y=0, z=150, roll=180, pitch=0, yaw=0, speed=200, wait=True)))
         assert abs(arm.get_position()[1][0] - x) < 0.1  # the arm is at the target when it returns

@@ -2,7 +2,12 @@
 
 Each reply is one write on a TCP_NODELAY socket, so the SDK reads it in one piece. Protocol 1 (SDK
 heartbeat) gets no reply; protocol 0 (standard Modbus TCP) is answered by the standard map
-(:mod:`xarm_emu.protocol.modbus`); a frame that cannot be framed closes that connection only. Decoding is
+(:mod:`xarm_emu.protocol.modbus`); a frame that cannot be framed closes that connection only. Protocol
+ids 2 and 3 are answered alike and echoed (the SDK switches between them on one connection).
+
+Firmware >= 2.0.102 also pushes unsolicited 21-byte 0xFF feedback frames on the connection whose
+command they report (:meth:`CommandProtocol.send_feedback`), as whole writes between replies; a
+connection that does not read them gets none (dropped and counted). Decoding is
 :class:`~xarm_emu.protocol.frame.FrameDecoder` (sans-IO); the answers come from the server's
 :meth:`CommandTarget.answer`.
 """

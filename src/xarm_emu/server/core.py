@@ -288,8 +288,11 @@ class EmulatorServer:
         finally:
             fb.end(ctl, state)
         if fb.pending and not self._feedback_soon and self._loop is not None:
-            self._feedback_soon = True
-            self._loop.call_soon(self._deliver_soon)
+            self._feedback_soon = True  # after the reply, also when an injected delay holds it back
+            if self._reply_delay > 0.0:
+                self._loop.call_later(self._reply_delay, self._deliver_soon)
+            else:
+                self._loop.call_soon(self._deliver_soon)
         return encode_reply(tid, protocol, register, state, reply)
 
     def _deliver_soon(self) -> None:
