@@ -177,3 +177,20 @@ def test_the_sdk_report_parsers_read_what_the_registers_answer(fw2: ServerThread
     else:
         assert a.ft_ext_force == pytest.approx([0.0] * 6)
         assert a.ft_raw_force == pytest.approx([0.0] * 6)
+
+
+@pytest.mark.parametrize("report_type", ["rich", "real"])
+def test_the_sdk_report_parsers_read_errors_and_warnings(sdk_arm: Callable[..., Any],
+                                                         report_type: str) -> None:
+    with running_emulator(firmware=FW2) as st:
+        a = sdk_arm(st, report_type=report_type)
+        st.call(lambda: st.emulator.inject_error(31))
+        code, (err, warn) = a.get_err_warn_code()
+        assert (code, err, warn) == (0, 31, 0)
+        assert _until(lambda: a.error_code == 31)
+        assert _until(lambda: a.state == 4)
+        a.clean_error()
+        assert a.get_err_warn_code()[1][0] == 0
+        if report_type == "rich":  # the develop stream carries no error code: only the rich one clears it
+            assert _until(lambda: a.error_code == 0)
+        a.disconnect()
