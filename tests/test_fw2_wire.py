@@ -299,3 +299,51 @@ def test_a_client_that_never_reads_does_not_slow_the_others(fw2: ServerThread) -
     assert [(f.tid, f.kind) for f in frames] == [(121, FeedbackType.MOTION_FINISH)]
     assert elapsed < 3.0
     assert fw2.server.feedback_dropped > 0
+
+
+def test_feedback_events_fall_on_the_control_periods_of_the_move() -> None:
+    """In process: the start is stamped with the first control period of the move, the finish with
+    the period it reaches its target, both in microseconds of controller time."""
+    from xarm_emu.controller.emulator import Emulator
+    from xarm_emu.controller.feedback import feedback_queue
+
+    emu = Emulator(6, firmware=FW2)
+    ctl = emu.controller
+    for code, params in ((11, bytes([8, 1])), (19, bytes([0, 0])), (12, b"\x00")):
+        emu.handle(code, params)
+    fq = feedback_queue(ctl)
+    fq.begin(ctl, 7, 1, 3, 254)
+    emu.handle(254, b"\x03")
+    fq.end(ctl)
+    emu.advance(0.1)
+    t_queued = ctl.time
+    fq.begin(ctl, 7, 2, 3, 23)
+    emu.handle(23, _joint_move(0.2))
+    fq.end(ctl)
+    assert fq.drain() == []
+    finish_step = None
+    for _ in range(1000):
+        emu.step()
+        if ctl.executor.current is None and finish_step is None:
+            finish_step = ctl.time
+            break
+    events = fq.drain()
+    assert [(e.client, e.feedback.tid, e.feedback.kind) for e in events] == [
+        (7, 2, FeedbackType.MOTION_START), (7, 2, FeedbackType.MOTION_FINISH)]
+    assert events[0].feedback.time_us == round((t_queued + ctl.period) * 1e6)
+    assert finish_step is not None and events[1].feedback.time_us == round(finish_step * 1e6)
+    assert float(ctl.q[0]) == pytest.approx(0.2, abs=1e-6)
+    fq.begin(ctl, 7, 3, 3, 63)
+    origin = fq.capture()
+    fq.end(ctl)
+    assert fq.finish_other(origin, 63, ctl.time, ok=False) is False  # the mask lacks OTHER_FINISH
+    fq.begin(ctl, 7, 4, 3, 254)
+    emu.handle(254, bytes([FeedbackType.OTHER_FINISH]))
+    fq.end(ctl)
+    fq.begin(ctl, 7, 5, 3, 64)
+    origin = fq.capture()
+    fq.end(ctl)
+    assert fq.finish_other(origin, 64, ctl.time, ok=False) is True
+    (ev,) = fq.drain()
+    assert (ev.feedback.tid, ev.feedback.kind, ev.feedback.register, ev.feedback.code) == (
+        5, FeedbackType.OTHER_FINISH, 64, FeedbackCode.FAILURE)

@@ -212,6 +212,17 @@ class FeedbackQueue:
         self._events.append(FeedbackEvent(origin.client, fb))
         return True
 
+    def start_other(self, origin: Origin | None, register: int, time_s: float, state: int = 0) -> bool:
+        """OTHER_START of a trajectory task (registers 61-65) accepted with ``origin``."""
+        return self.emit(origin, FeedbackType.OTHER_START, register, time_s, state=state)
+
+    def finish_other(self, origin: Origin | None, register: int, time_s: float, *, ok: bool = True,
+                     state: int = 0) -> bool:
+        """OTHER_FINISH of a trajectory task: code 0, or 1 when it failed (the SDK's wait then
+        returns its trajectory read/write or playback failure)."""
+        code = FeedbackCode.SUCCESS if ok else FeedbackCode.FAILURE
+        return self.emit(origin, FeedbackType.OTHER_FINISH, register, time_s, code=code, state=state)
+
     def drain(self) -> list[FeedbackEvent]:
         """Every event not yet drained, oldest first (the queue is empty afterwards)."""
         out = list(self._events)
