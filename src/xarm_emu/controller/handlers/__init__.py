@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..base import Handler, Values
-from . import kinematics, motion, settings, state
+from . import feedback, kinematics, motion, settings, state
 
 if TYPE_CHECKING:
     from ..core import ControllerCore
@@ -35,6 +35,7 @@ TABLES: tuple[Mapping[int, CtlHandler], ...] = (
     motion.HANDLERS,
     settings.HANDLERS,
     kinematics.HANDLERS,
+    feedback.HANDLERS,
 )
 
 
