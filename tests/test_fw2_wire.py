@@ -134,7 +134,7 @@ def test_motion_start_and_finish_carry_the_move_tid_and_controller_microseconds(
         frames = [f for f in c.frames_for(2.0) if is_feedback(f)]
     finally:
         c.close()
-    assert reply[6] == 23 and len(reply) == 10  # cmdnum u16
+    assert reply[6] == 23 and len(reply) == 11  # cmdnum u16 and the 2.x check-result byte
     start, finish = (decode_feedback(f) for f in frames)
     assert (start.tid, start.kind, start.register) == (31, FeedbackType.MOTION_START, 23)
     assert (finish.tid, finish.kind, finish.register, finish.code) == (

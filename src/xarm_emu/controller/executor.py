@@ -371,11 +371,11 @@ class Executor:
         if float(np.linalg.norm(tcp_pose(q)[:3, 3] - target_tcp)) > radius:
             return
         _, qd, qdd = plan.traj.at(min(self.data.t, plan.duration))
-        nxt = self.data.buffer.popleft()
-        assert isinstance(nxt, JointMove)
-        nxt = replace(nxt, target=keep_unchanged_joints(nxt.target, plan.traj.at(plan.duration)[0]))
+        queued = self.data.buffer.popleft()
+        assert isinstance(queued, JointMove)
+        nxt = replace(queued, target=keep_unchanged_joints(queued.target, plan.traj.at(plan.duration)[0]))
         self.data.completed += 1  # the blended-away command is done
-        self.data.current = nxt
+        self.data.current = queued
         acc = min(nxt.acc, limits.joint_maxacc)
         traj = motion.plan_joint_move(q, nxt.target, nxt.speed, acc, limits.joint_jerk, qd0=qd, qdd0=qdd)
         self.data.plan = _JointPlan(traj, self._joint_blend(nxt, tcp_pose))
@@ -394,8 +394,9 @@ class Executor:
             return _DwellPlan(q, cmd.seconds)
         if isinstance(cmd, JointMove):
             acc = min(cmd.acc, limits.joint_maxacc)
+            # The queued command stays ``current`` (feedback frames and the buffer count follow it);
+            # only the plan sees its +inf joints resolved.
             cmd = replace(cmd, target=keep_unchanged_joints(cmd.target, q))
-            self.data.current = cmd
             traj = motion.plan_joint_move(q, cmd.target, cmd.speed, acc, limits.joint_jerk)
             return _JointPlan(traj, self._joint_blend(cmd, tcp_pose))
         start = tcp_pose(q)

@@ -238,7 +238,7 @@ class FeedbackQueue:
     def _observe(self, ctl: Any) -> None:
         ex = ctl.executor
         current = ex.current
-        seen = (len(ex.buffer), id(current), ex.merged)
+        seen = (len(ex.buffer), id(current), ex.data.merged)
         if seen == self._seen:
             return  # nothing started, finished or was discarded during this period
         self._seen = seen
@@ -246,7 +246,7 @@ class FeedbackQueue:
         now = ctl.time
         state = ctl.status_byte()
         # A task that left the buffer while a blended chain runs (merged) is part of that chain.
-        chained = current is not None and ex.merged > 0 and not ex.stopping
+        chained = current is not None and ex.data.merged > 0 and not ex.stopping
         keep: list[_Task] = []
         for task in self._tasks:
             cmd = task.cmd
