@@ -9,11 +9,14 @@
 - :mod:`.settings`, :mod:`.config`: settable parameters and their saved files.
 - :mod:`.executor`, :mod:`.commands`, :mod:`.motion`, :mod:`.poses`: the command buffer and motion.
 - :mod:`.safety`, :mod:`.faults`, :mod:`.thermal`: safety checks, the fault group, joint temperatures.
+- :mod:`.feedback`: the queue of feedback events of firmware 2.x (registers 253/254), drained by the
+  server into 0xFF frames.
 - :mod:`.base`: the control period, command outcomes and the interface components plug in through.
 - Components: :mod:`.io`, :mod:`.gripper`, :mod:`.vacuum`; :mod:`.modbus_map` binds the standard
   Modbus map to a live box.
 """
 
-__all__ = ["base", "commands", "config", "core", "emulator", "executor", "faults", "gripper", "handlers",
+__all__ = ["base", "commands", "config", "core", "emulator", "executor", "faults", "feedback", "gripper",
+           "handlers",
            "io", "modbus_map", "motion", "poses", "safety", "settings", "state", "states", "thermal",
            "vacuum"]
