@@ -63,7 +63,7 @@ def serve(
                                                         "+ 10000, e.g. 10502).")] = None,
     view: Annotated[bool, typer.Option("--view", help="Serve the 3D view in the browser (needs the "
                                                        "'view' extra: viser).")] = False,
-    view_host: Annotated[str, typer.Option(help="Address of the 3D view.")] = "127.0.0.1",
+    view_host: Annotated[str | None, typer.Option(help="Address of the 3D view (default: --host).")] = None,
     view_port: Annotated[int, typer.Option(help="Port of the 3D view.")] = 8080,
     stepped: Annotated[bool, typer.Option("--stepped", help="Lockstep time: the controller advances only "
                                                             "by `xarm-emu step` (needs --admin).")] = False,
@@ -95,7 +95,7 @@ def serve(
     cdir = config_dir if config_dir is not None else _default_config_dir()
     cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
                        develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                       view=view, view_host=view_host, view_port=view_port, stepped=stepped,
+                       view=view, view_host=view_host or host, view_port=view_port, stepped=stepped,
                        trace=trace, faults=faults)
     try:
         profile = profile_for(firmware)

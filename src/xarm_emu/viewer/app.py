@@ -3,7 +3,9 @@ the safety boundary when it is on, and in virtual robot mode (register 79) the p
 ghost beside the commanded one.
 
 Started by ``xarm-emu serve --view``, which attaches it beside the server (:func:`attach_viewer`);
-it binds loopback unless ``--view-host`` says otherwise.
+it binds the server's ``--host`` unless ``--view-host`` says otherwise. Beside the scene, the
+pendant (:mod:`.pendant`) shows the status and carries out the actions.
+The attached tools are drawn too: the xArm gripper's fingers at their opening, the vacuum cup.
 Updates run as a task of the server's event loop at :data:`RATE` Hz and only read the emulator.
 """
 
@@ -18,8 +20,10 @@ import numpy as np
 from ..controller.emulator import Emulator
 from ..server.core import EmulatorServer
 from . import scene
+from .pendant import Pendant
 
 RATE = 30.0  # Hz
+PANEL_EVERY = 3  # the status panel and the plot refresh every this many scene updates
 ARM_COLOR = (200, 205, 215)
 GHOST_COLOR = (120, 170, 255)
 TOOL_COLOR = (255, 170, 60)
@@ -28,7 +32,8 @@ TOOL_COLOR = (255, 170, 60)
 class Viewer:
     """A viser server showing one emulator."""
 
-    def __init__(self, emulator: Emulator, host: str = "127.0.0.1", port: int = 8080) -> None:
+    def __init__(self, emulator: Emulator, host: str = "127.0.0.1", port: int = 8080,
+                 server: EmulatorServer | None = None) -> None:
         try:
             import viser
         except ImportError as exc:  # the "view" extra
@@ -47,10 +52,15 @@ class Viewer:
         self._tcp = self.server.scene.add_frame("/tcp", axes_length=0.08, axes_radius=0.004)
         self._boundary = self.server.scene.add_box("/boundary", color=(255, 80, 80), dimensions=(1, 1, 1),
                                                    wireframe=True, visible=False)
+        #: The status panel and actions; only with the server, whose loop carries out the actions.
+        self.pendant = Pendant(self.server.gui, server) if server is not None else None
 
     def start(self) -> None:
         """Start updating from the running event loop (the server's)."""
-        self._task = asyncio.get_running_loop().create_task(self._run())
+        loop = asyncio.get_running_loop()
+        if self.pendant is not None:
+            self.pendant.loop = loop
+        self._task = loop.create_task(self._run())
 
     async def _run(self) -> None:
         while True:
@@ -73,7 +83,21 @@ class Viewer:
             centre, size = scene.boundary_box(s.boundary)
             self._boundary.position = centre
             self._boundary.scale = size
+        self._draw("devices", self._device_parts(), TOOL_COLOR, 1.0, True)
+        if self.pendant is not None and self.updates % PANEL_EVERY == 0:
+            self.pendant.update()
         self.updates += 1
+
+    def _device_parts(self) -> list[scene.Part]:
+        """The end devices attached: the vacuum cup, else the xArm gripper once it is used."""
+        emu = self.emulator
+        q = emu.controller.q
+        if emu.vacuum is not None:
+            return scene.vacuum_parts(emu.model, q)
+        g = emu.gripper.gripper
+        if g.enabled or g.position > 0.0:
+            return scene.gripper_parts(emu.model, q, g.position)
+        return []
 
     def _draw(self, group: str, parts: list[scene.Part], color: tuple[int, int, int], opacity: float,
               visible: bool) -> None:
@@ -120,4 +144,4 @@ def attach_viewer(server: EmulatorServer) -> None:
     ``view_host``/``view_port`` once its ports are open (and stop it on close)."""
     cfg = server.config
     if cfg.view:
-        server.attach("view", lambda: Viewer(server.emulator, cfg.view_host, cfg.view_port))
+        server.attach("view", lambda: Viewer(server.emulator, cfg.view_host, cfg.view_port, server=server))
