@@ -146,7 +146,7 @@ class Pendant:
                 lambda _: self.command(11, joint=8, enable=0))
             gui.add_button("Clear error", hint="Register 16").on_click(lambda _: self.command(16))
             gui.add_button("Clear warning", hint="Register 17").on_click(lambda _: self.command(17))
-            stop = gui.add_button("Stop", color="red", hint="Register 12 state 4, as the SDK's emergency stop")
+            stop = gui.add_button("Stop", color="red", hint="Register 12 state 4 (the SDK's stop)")
             stop.on_click(lambda _: self.command(12, state=4))
             state = gui.add_dropdown("State", SET_STATES)
             gui.add_button("Set state", hint="Register 12").on_click(
@@ -273,7 +273,8 @@ class Pendant:
             self._last_sample = t
             dof = self.emulator.model.dof
             joints = [math.degrees(q) for q in list(snap.joints)[:dof]]
-            self._samples.append((t, joints, float(snap.tcp_speed), [float(v) for v in list(snap.torques)[:dof]]))
+            torques = [float(v) for v in list(snap.torques)[:dof]]
+            self._samples.append((t, joints, float(snap.tcp_speed), torques))
             self._redraw_plot()
 
     def _redraw_plot(self) -> None:
