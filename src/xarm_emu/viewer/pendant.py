@@ -159,14 +159,14 @@ class Pendant:
         with gui.add_folder("Jog joints", order=2):
             self._joint_step = gui.add_number("Step (deg)", 5.0, min=0.1, max=90.0, step=0.1)
             for j in range(emu.model.dof):
-                group = gui.add_button_group(f"J{j + 1}", ("-", "+"))
-                group.on_click(lambda ev, j=j: self.jog_joint(j, 1 if ev.target.value == "+" else -1))
+                group = gui.add_button_group(f"J{j + 1}", (f"J{j + 1} -", f"J{j + 1} +"))
+                group.on_click(lambda ev, j=j: self.jog_joint(j, 1 if ev.target.value.endswith("+") else -1))
         with gui.add_folder("Jog TCP", order=3):
             self._frame = gui.add_dropdown("Frame", ("base", "tool"))
             self._line_step = gui.add_number("Step (mm or deg)", 10.0, min=0.1, max=200.0, step=0.1)
             for a, name in enumerate(AXES):
-                group = gui.add_button_group(name, ("-", "+"))
-                group.on_click(lambda ev, a=a: self.jog_tcp(a, 1 if ev.target.value == "+" else -1))
+                group = gui.add_button_group(name, (f"{name} -", f"{name} +"))
+                group.on_click(lambda ev, a=a: self.jog_tcp(a, 1 if ev.target.value.endswith("+") else -1))
         with gui.add_folder("Plot", order=4):
             z = np.zeros(2)
             dof = emu.model.dof
