@@ -117,7 +117,8 @@ def test_devices_are_drawn_when_attached(make_server, tmp_path) -> None:  # type
     assert wait_for(lambda: any(k.startswith("/devices/") and "cup" in k for k in viewer._handles))
 
 
-@pytest.mark.parametrize(("extra", "expected"), [((), "127.0.0.2"), (("--view-host", "127.0.0.1"), "127.0.0.1")])
+@pytest.mark.parametrize(("extra", "expected"),
+                         [((), "127.0.0.2"), (("--view-host", "127.0.0.1"), "127.0.0.1")])
 def test_the_view_follows_host_unless_view_host_says(  # type: ignore[no-untyped-def]
         tmp_path, extra, expected) -> None:
     cmd, normal, rich, develop, view = free_ports(5)
