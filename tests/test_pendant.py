@@ -134,3 +134,45 @@ def test_the_view_follows_host_unless_view_host_says(  # type: ignore[no-untyped
         assert f"3D view on http://{expected}:{view}/" in "".join(lines)
         with urllib.request.urlopen(f"http://{expected}:{view}/", timeout=5) as r:
             assert r.status == 200
+
+
+def test_fleet_view_lists_and_draws_every_arm(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from xarm_emu.server.core import EmulatorServer, ServerConfig
+    from xarm_emu.viewer.app import FleetView
+
+    servers = [EmulatorServer(Emulator(6, config_dir=tmp_path / "a"), ServerConfig(port=5020)),
+               EmulatorServer(Emulator(7, config_dir=tmp_path / "b"), ServerConfig(host="127.0.0.2"))]
+    servers[1].emulator.inject_error(35)
+    view = FleetView(servers, "127.0.0.1", 0)
+    try:
+        view.update()
+        listing = view.listing().splitlines()
+        assert len(listing) == 2
+        assert "xArm6 on 127.0.0.1:5020" in listing[0] and "error no error" in listing[0]
+        assert "xArm7 on 127.0.0.2:502" in listing[1] and "error C35" in listing[1]
+        first, second = view.viewers
+        assert any(k.startswith("/arm1/arm/") for k in first._handles)
+        assert sum(k.startswith("/arm2/arm/") for k in second._handles) > sum(
+            k.startswith("/arm1/arm/") for k in first._handles)  # seven joints, more links
+        assert first.pendant is not None and second.pendant is not None
+        assert "C35" in second.pendant._status.content and "C35" not in first.pendant._status.content
+    finally:
+        view.stop()
+
+
+def test_serve_fleet_view(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    ports = free_ports(9)
+    arms = "".join(f'[[arm]]\nmodel = 6\nport = {ports[4 * i]}\nnormal_port = {ports[4 * i + 1]}\n'
+                   f'rich_port = {ports[4 * i + 2]}\ndevelop_port = {ports[4 * i + 3]}\n\n' for i in range(2))
+    fleet = tmp_path / "fleet.toml"
+    fleet.write_text(arms)
+    with serve_subprocess(tmp_path, "--fleet", str(fleet), "--view", "--view-port", str(ports[8])) as proc:
+        assert proc.stdout is not None
+        lines = []
+        for line in proc.stdout:
+            lines.append(line)
+            if "3D view on" in line:
+                break
+        assert f"3D view on http://127.0.0.1:{ports[8]}/" in "".join(lines)
+        with urllib.request.urlopen(f"http://127.0.0.1:{ports[8]}/", timeout=5) as r:
+            assert r.status == 200
