@@ -176,3 +176,19 @@ def test_serve_fleet_view(tmp_path) -> None:  # type: ignore[no-untyped-def]
         assert f"3D view on http://127.0.0.1:{ports[8]}/" in "".join(lines)
         with urllib.request.urlopen(f"http://127.0.0.1:{ports[8]}/", timeout=5) as r:
             assert r.status == 200
+
+
+def test_move_to_pose_is_a_linear_move(make_server) -> None:  # type: ignore[no-untyped-def]
+    st = make_server(view=True, view_port=0)
+    p = st.server.viewer.pendant
+    with Client("127.0.0.1", st.ports["command"]) as client:
+        in_thread(p.enable)
+        reply = in_thread(lambda: p.move_to_pose((250.0, 50.0, 200.0), (180.0, 0.0, 0.0)))
+        assert reply == "MOVE_LINE (21): ok"
+        assert wait_for(lambda: np.allclose(client.get_position()[:3], (250.0, 50.0, 200.0), atol=0.05), 15.0)
+
+
+def test_the_status_never_shows_negative_zero() -> None:
+    snap = ReportSnapshot(axis=6, joints=(-1e-9,) * 7, pose=(-1e-9, 0.0, 100.0, -1e-9, 0.0, 0.0))
+    text = pendant_mod.describe_state(snap)
+    assert "-0.0" not in text["joints"] and "-0.0" not in text["pose"]

@@ -47,11 +47,11 @@ AXES = ("X", "Y", "Z", "Roll", "Pitch", "Yaw")
 
 def describe_state(snap: Any) -> dict[str, str]:
     """The status panel's fields, from a report snapshot (section 2.1.6): name -> text."""
-    deg = 180.0 / math.pi
     dof = int(snap.axis)
-    joints = ", ".join(f"{q * deg:.2f}" for q in list(snap.joints)[:dof])
+    joints = ", ".join(_fmt(math.degrees(q), 2) for q in list(snap.joints)[:dof])
     p = list(snap.pose)
-    pose = f"{p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f} mm; {p[3] * deg:.2f}, {p[4] * deg:.2f}, {p[5] * deg:.2f} deg"
+    pose = (", ".join(_fmt(v, 1) for v in p[:3]) + " mm; "
+            + ", ".join(_fmt(math.degrees(v), 2) for v in p[3:6]) + " deg")
     return {
         "state": STATES.get(int(snap.state), str(snap.state)),
         "mode": MODES.get(int(snap.mode), str(snap.mode)),
@@ -156,6 +156,12 @@ class Pendant:
                 lambda _: self.command(19, mode=int(mode.value.split()[0])))
             gui.add_button("Go home", hint="Register 25").on_click(
                 lambda _: self.command(25, speed=JOG_SPEED, acc=JOG_ACC, mvtime=0.0))
+            home = emu.model.zero_pose
+            self._target_xyz = gui.add_vector3("Target (mm)", (home[0], home[1], home[2]), step=1.0)
+            self._target_rpy = gui.add_vector3("Target (deg)", tuple(math.degrees(v) for v in home[3:6]),
+                                               step=0.1)
+            gui.add_button("Move to pose", hint="Register 21, base frame").on_click(
+                lambda _: self.move_to_pose(self._target_xyz.value, self._target_rpy.value))
         with gui.add_folder("Jog joints", order=2):
             self._joint_step = gui.add_number("Step (deg)", 5.0, min=0.1, max=90.0, step=0.1)
             for j in range(emu.model.dof):
@@ -216,6 +222,11 @@ class Pendant:
         """Enable all joints (register 11) and enter the ready state (register 12 state 0)."""
         first = self.command(11, joint=8, enable=1)
         return first + "; " + self.command(12, state=0)
+
+    def move_to_pose(self, xyz: tuple[float, float, float], rpy_deg: tuple[float, float, float]) -> str:
+        """Linear move (register 21) to ``xyz`` (mm) and roll, pitch, yaw ``rpy_deg`` in the base frame."""
+        pose = tuple(float(v) for v in xyz) + tuple(math.radians(float(v)) for v in rpy_deg)
+        return self.command(21, pose=pose, speed=LINE_SPEED, acc=LINE_ACC, mvtime=0.0)
 
     def jog_joint(self, joint: int, sign: int) -> str:
         """Move joint ``joint`` (0-based) by the step (register 23, from the current joints)."""
@@ -294,6 +305,11 @@ class Pendant:
 
 
 _COLORS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6")
+
+
+def _fmt(value: float, digits: int) -> str:
+    """``value`` with ``digits`` decimals, never "-0.00"."""
+    return f"{round(float(value), digits) + 0.0:.{digits}f}"
 
 
 def _verdict(state: int) -> str:
