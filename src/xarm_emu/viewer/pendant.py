@@ -17,6 +17,7 @@ Button callbacks run in viser's threads; each action is carried out in the serve
 from __future__ import annotations
 
 import asyncio
+import logging
 import math
 from collections import deque
 from collections.abc import Callable
@@ -29,6 +30,8 @@ from ..protocol.frame import STATE_ERROR, STATE_WARNING
 from ..protocol.registers import REGISTERS
 from ..server import admin
 from ..server.core import EmulatorServer
+
+log = logging.getLogger(__name__)
 
 PLOT_SECONDS = 10.0
 PLOT_RATE = 10.0  # samples per second
@@ -89,9 +92,12 @@ class Pendant:
         Called from viser's threads; in the loop thread itself (tests) it runs at once."""
         loop = self.loop
 
-        async def inside() -> str:
-            self.server.catch_up()
+        def now() -> str:
+            self.server.catch_up()  # the control periods due first, as before a command frame
             return action()
+
+        async def inside() -> str:
+            return now()
 
         try:
             running = asyncio.get_running_loop()
@@ -99,12 +105,14 @@ class Pendant:
             running = None
         try:
             if loop is None or running is loop:
-                self.server.catch_up()
-                msg = action()
+                msg = now()
             else:
                 msg = asyncio.run_coroutine_threadsafe(inside(), loop).result(timeout)
         except (ValueError, RuntimeError, TimeoutError) as exc:  # AdminError is a ValueError
             msg = f"refused: {exc}"
+        except Exception as exc:  # noqa: BLE001 - a button must answer, not end viser's thread
+            log.exception("pendant action failed")
+            msg = f"failed: {exc}"
         self.last_message = msg
         self._message.content = f"**Last action:** {msg}"
         return msg
