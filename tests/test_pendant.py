@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 import urllib.request
 
 import numpy as np
@@ -192,3 +193,14 @@ def test_the_status_never_shows_negative_zero() -> None:
     snap = ReportSnapshot(axis=6, joints=(-1e-9,) * 7, pose=(-1e-9, 0.0, 100.0, -1e-9, 0.0, 0.0))
     text = pendant_mod.describe_state(snap)
     assert "-0.0" not in text["joints"] and "-0.0" not in text["pose"]
+
+
+def test_admin_speed_scales_time_from_now_on(make_server) -> None:  # type: ignore[no-untyped-def]
+    st = make_server(view=True, view_port=0, admin=True, admin_port=0)
+    p = st.server.viewer.pendant
+    assert in_thread(lambda: p.set_speed(0.0)).startswith("refused")
+    assert in_thread(lambda: p.set_speed(4.0)) == "speed x4"
+    t0, w0 = st.call(lambda: st.emulator.time), time.monotonic()
+    time.sleep(0.5)
+    t1, w1 = st.call(lambda: st.emulator.time), time.monotonic()
+    assert (t1 - t0) / (w1 - w0) == pytest.approx(4.0, rel=0.25)

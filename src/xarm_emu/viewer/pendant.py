@@ -6,7 +6,7 @@
 - **Actions**: every button sends the register a client would send (enable 11, state 12, clear
   16/17, mode 19, joint move 23, linear move 21, tool move 28, home 25) through
   :meth:`Pendant.command`, so its effect is what the protocol answers. The admin actions (faults,
-  inputs, step) are shown only when the server has ``--admin`` and go through the admin channel's own
+  inputs, step or speed) are shown only when the server has ``--admin`` and go through the admin channel's own
   request preparation (:func:`xarm_emu.server.admin.prepare`).
 - **Plot**: the last :data:`PLOT_SECONDS` of joints, TCP speed and joint torques.
 
@@ -224,6 +224,27 @@ class Pendant:
                 secs = gui.add_number("Step (s)", 0.1, min=0.004, max=60.0, step=0.004)
                 gui.add_button("Step time").on_click(
                     lambda _: self.admin({"cmd": "step", "seconds": float(secs.value)}))
+            else:
+                speed = gui.add_number("Speed (x real time)", self.server.config.speed, min=0.01, max=100.0,
+                                       step=0.01)
+                gui.add_button("Set speed").on_click(lambda _: self.set_speed(float(speed.value)))
+
+    def set_speed(self, speed: float) -> str:
+        """Scale time from now on (``serve --speed``): the periods due so far run at the old speed."""
+        if not self.server.config.admin:
+            return self.run(lambda: "refused: the admin actions need serve --admin")
+        if self.server.config.stepped:
+            return self.run(lambda: "refused: lockstep time advances only by step")
+        if not (math.isfinite(speed) and speed > 0.0):
+            return self.run(lambda: f"refused: speed must be a positive number, got {speed!r}")
+
+        def scale() -> str:
+            clock = self.server.clock
+            clock.speed = speed
+            clock.start(asyncio.get_running_loop().time())
+            return f"speed x{speed:g}"
+
+        return self.run(scale)
 
     # -- the actions ----------------------------------------------------------------------------
     def enable(self) -> str:
