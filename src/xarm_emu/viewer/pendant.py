@@ -6,8 +6,8 @@
 - **Actions**: every button sends the register a client would send (enable 11, state 12, clear
   16/17, mode 19, joint move 23, linear move 21, tool move 28, home 25) through
   :meth:`Pendant.command`, so its effect is what the protocol answers. The admin actions (faults,
-  inputs, step or speed) are shown only when the server has ``--admin`` and go through the admin channel's own
-  request preparation (:func:`xarm_emu.server.admin.prepare`).
+  inputs, step or speed) are shown only when the server has ``--admin``; faults, inputs and step go
+  through the admin channel's own request preparation (:func:`xarm_emu.server.admin.prepare`).
 - **Plot**: the last :data:`PLOT_SECONDS` of joints, TCP speed and joint torques.
 
 Button callbacks run in viser's threads; each action is carried out in the server's event loop
