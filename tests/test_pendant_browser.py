@@ -156,3 +156,16 @@ def test_the_drawn_arm_follows_the_pose(pendant) -> None:  # type: ignore[no-unt
     assert settled(st, 0.0)
     time.sleep(1.0)
     assert changed(home, arm_pixels(page)) < 200  # back at the pose: back in the picture
+
+
+def test_admin_actions_appear_only_with_admin(make_server, browser) -> None:  # type: ignore[no-untyped-def]
+    st = make_server(view=True, view_port=0)
+    page = browser.new_page()
+    try:
+        page.goto(f"http://127.0.0.1:{st.ports['view']}/")
+        page.get_by_text("Last action").wait_for(timeout=30000)
+        assert page.get_by_role("button", name="Enable").count() == 1
+        assert page.get_by_role("button", name="Inject error").count() == 0
+        assert "Admin (--admin)" not in status(page)
+    finally:
+        page.close()
