@@ -187,14 +187,14 @@ class Pendant:
             self._plot_joints = gui.add_uplot(
                 (z,) + (z,) * dof, ({"label": "t (s)"},) + tuple(
                     {"label": f"J{j + 1} (deg)", "stroke": _COLORS[j % len(_COLORS)]} for j in range(dof)),
-                title="Joints", aspect=1.6)
+                title="Joints", aspect=1.6, scales=_SECONDS)
             self._plot_speed = gui.add_uplot((z, z), ({"label": "t (s)"}, {"label": "TCP speed (mm/s)",
                                                                             "stroke": _COLORS[0]}),
-                                             title="TCP speed", aspect=2.0)
+                                             title="TCP speed", aspect=2.0, scales=_SECONDS)
             self._plot_torque = gui.add_uplot(
                 (z,) + (z,) * dof, ({"label": "t (s)"},) + tuple(
                     {"label": f"J{j + 1} (N m)", "stroke": _COLORS[j % len(_COLORS)]} for j in range(dof)),
-                title="Torques", aspect=1.6)
+                title="Torques", aspect=1.6, scales=_SECONDS)
         if self.server.config.admin:
             self._build_admin()
 
@@ -333,6 +333,8 @@ class Pendant:
         return list(self._samples)
 
 
+#: The plots' x axis is controller time in seconds, not a date.
+_SECONDS: dict[str, Any] = {"x": {"time": False}}
 _COLORS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6")
 
 
