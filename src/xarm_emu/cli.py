@@ -63,7 +63,7 @@ def serve(
                                                         "+ 10000, e.g. 10502).")] = None,
     view: Annotated[bool, typer.Option("--view", help="Serve the 3D view in the browser (needs the "
                                                        "'view' extra: viser).")] = False,
-    view_host: Annotated[str, typer.Option(help="Address of the 3D view.")] = "127.0.0.1",
+    view_host: Annotated[str | None, typer.Option(help="Address of the 3D view (default: --host).")] = None,
     view_port: Annotated[int, typer.Option(help="Port of the 3D view.")] = 8080,
     stepped: Annotated[bool, typer.Option("--stepped", help="Lockstep time: the controller advances only "
                                                             "by `xarm-emu step` (needs --admin).")] = False,
@@ -95,7 +95,7 @@ def serve(
     cdir = config_dir if config_dir is not None else _default_config_dir()
     cfg = ServerConfig(host=host, port=port, normal_port=normal_port, rich_port=rich_port,
                        develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
-                       view=view, view_host=view_host, view_port=view_port, stepped=stepped,
+                       view=view, view_host=view_host or host, view_port=view_port, stepped=stepped,
                        trace=trace, faults=faults)
     try:
         profile = profile_for(firmware)
@@ -132,9 +132,10 @@ def serve(
         pass
 
 
-#: Options of ``serve`` that are per arm, so refused beside --fleet (the fleet file gives them).
+#: Options of ``serve`` that are per arm, so refused beside --fleet (the fleet file gives them);
+#: --view beside --fleet serves one view of every arm.
 _PER_ARM = ("host", "port", "normal_port", "rich_port", "develop_port", "speed", "admin", "admin_port",
-            "view", "stepped", "trace", "faults")
+            "stepped", "trace", "faults")
 
 
 def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmware: bool) -> None:
@@ -160,7 +161,7 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
     from .server.app import EmulatorServer
     from .server.faults import schedule_file
     from .server.fleet import load_fleet
-    from .viewer.app import attach_viewer
+    from .viewer.app import attach_fleet_view, attach_viewer
 
     if fleet is not None:
         spec = load_fleet(fleet)
@@ -175,6 +176,8 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
         schedule_file(srv, arm_cfg.faults)
         attach_viewer(srv)
         servers.append(srv)
+    if fleet is not None and cfg.view:  # one view listing the fleet's arms
+        attach_fleet_view(servers, cfg.view_host, cfg.view_port)
     return servers, cdir
 
 
@@ -194,7 +197,7 @@ async def _serve_all(servers: list[EmulatorServer], cdir: Path) -> None:
             where = f"{admin_host(cfg.host)}:{srv.ports['admin']}"
             console.print(f"admin channel (fault injection) on {where}")
         if "view" in srv.ports:
-            console.print(f"3D view on http://{cfg.view_host}:{srv.ports['view']}/")
+            console.print(f"3D view on http://{srv.viewer.host}:{srv.ports['view']}/")
     # SIGTERM (docker stop, CI teardown) and Ctrl-C close every arm cleanly: connections end,
     # traces and logs are flushed, and the process exits 0.
     loop = asyncio.get_running_loop()

@@ -3,7 +3,9 @@ the safety boundary when it is on, and in virtual robot mode (register 79) the p
 ghost beside the commanded one.
 
 Started by ``xarm-emu serve --view``, which attaches it beside the server (:func:`attach_viewer`);
-it binds loopback unless ``--view-host`` says otherwise.
+it binds the server's ``--host`` unless ``--view-host`` says otherwise. Beside the scene, the
+pendant (:mod:`.pendant`) shows the status and carries out the actions.
+The attached tools are drawn too: the xArm gripper's fingers at their opening, the vacuum cup.
 Updates run as a task of the server's event loop at :data:`RATE` Hz and only read the emulator.
 """
 
@@ -18,8 +20,10 @@ import numpy as np
 from ..controller.emulator import Emulator
 from ..server.core import EmulatorServer
 from . import scene
+from .pendant import Pendant, describe_state
 
 RATE = 30.0  # Hz
+PANEL_EVERY = 3  # the status panel and the plot refresh every this many scene updates
 ARM_COLOR = (200, 205, 215)
 GHOST_COLOR = (120, 170, 255)
 TOOL_COLOR = (255, 170, 60)
@@ -28,29 +32,40 @@ TOOL_COLOR = (255, 170, 60)
 class Viewer:
     """A viser server showing one emulator."""
 
-    def __init__(self, emulator: Emulator, host: str = "127.0.0.1", port: int = 8080) -> None:
-        try:
-            import viser
-        except ImportError as exc:  # the "view" extra
-            raise RuntimeError("the 3D view needs viser: pip install 'xarm-emu[view]'") from exc
+    def __init__(self, emulator: Emulator, host: str = "127.0.0.1", port: int = 8080,
+                 server: EmulatorServer | None = None, *, viser_server: Any = None, root: str = "") -> None:
+        """Serve on ``host``/``port``, or draw under the scene path ``root`` of a ``viser_server`` that
+        someone else owns (the fleet view); with ``server`` the pendant's panel is added."""
         self.emulator = emulator
-        self.server = viser.ViserServer(host=host, port=port, label="xarm-emu", verbose=False)
+        self._root = root
+        self._owns = viser_server is None
+        if viser_server is None:
+            viser_server = _new_viser(host, port)
+        self.server = viser_server
+        self.host = host
         self.port = int(self.server.get_port())
         self._handles: dict[str, Any] = {}
         self._sizes: dict[str, tuple[float, float, tuple[float, float, float]]] = {}
         self._meshes: dict[tuple[str, float, float], tuple[np.ndarray, np.ndarray]] = {}
         self._task: asyncio.Task[None] | None = None
         self.updates = 0
-        self.server.initial_camera.position = (1.1, -0.9, 0.8)
-        self.server.initial_camera.look_at = (0.15, 0.0, 0.25)
-        self.server.scene.add_grid("/ground", width=2.0, height=2.0, cell_size=0.1)
-        self._tcp = self.server.scene.add_frame("/tcp", axes_length=0.08, axes_radius=0.004)
-        self._boundary = self.server.scene.add_box("/boundary", color=(255, 80, 80), dimensions=(1, 1, 1),
-                                                   wireframe=True, visible=False)
+        sc = self.server.scene
+        if self._owns:
+            self.server.initial_camera.position = (1.1, -0.9, 0.8)
+            self.server.initial_camera.look_at = (0.15, 0.0, 0.25)
+            sc.add_grid("/ground", width=2.0, height=2.0, cell_size=0.1)
+        self._tcp = sc.add_frame(f"{root}/tcp", axes_length=0.08, axes_radius=0.004)
+        self._boundary = sc.add_box(f"{root}/boundary", color=(255, 80, 80), dimensions=(1, 1, 1),
+                                    wireframe=True, visible=False)
+        #: The status panel and actions; only with the server, whose loop carries out the actions.
+        self.pendant = Pendant(self.server.gui, server) if server is not None else None
 
     def start(self) -> None:
         """Start updating from the running event loop (the server's)."""
-        self._task = asyncio.get_running_loop().create_task(self._run())
+        loop = asyncio.get_running_loop()
+        if self.pendant is not None:
+            self.pendant.loop = loop
+        self._task = loop.create_task(self._run())
 
     async def _run(self) -> None:
         while True:
@@ -73,13 +88,27 @@ class Viewer:
             centre, size = scene.boundary_box(s.boundary)
             self._boundary.position = centre
             self._boundary.scale = size
+        self._draw("devices", self._device_parts(), TOOL_COLOR, 1.0, True)
+        if self.pendant is not None and self.updates % PANEL_EVERY == 0:
+            self.pendant.update()
         self.updates += 1
+
+    def _device_parts(self) -> list[scene.Part]:
+        """The end devices attached: the vacuum cup, else the xArm gripper once it is used."""
+        emu = self.emulator
+        q = emu.controller.q
+        if emu.vacuum is not None:
+            return scene.vacuum_parts(emu.model, q)
+        g = emu.gripper.gripper
+        if g.enabled or g.position > 0.0:
+            return scene.gripper_parts(emu.model, q, g.position)
+        return []
 
     def _draw(self, group: str, parts: list[scene.Part], color: tuple[int, int, int], opacity: float,
               visible: bool) -> None:
         seen = set()
         for part in parts:
-            key = f"/{group}/{part.name}"
+            key = f"{self._root}/{group}/{part.name}"
             seen.add(key)
             handle = self._handles.get(key)
             tint = TOOL_COLOR if "tool" in part.name else color
@@ -91,7 +120,8 @@ class Viewer:
                 self._handles[key] = handle
                 self._sizes[key] = size
             handle.position, handle.wxyz, handle.visible = part.position, part.wxyz, visible
-        for key in [k for k in self._handles if k.startswith(f"/{group}/") and k not in seen]:
+        prefix = f"{self._root}/{group}/"
+        for key in [k for k in self._handles if k.startswith(prefix) and k not in seen]:
             self._handles.pop(key).remove()
             self._sizes.pop(key, None)
 
@@ -111,8 +141,100 @@ class Viewer:
         if self._task is not None:
             self._task.cancel()
             self._task = None
+        if self._owns:
+            with contextlib.suppress(Exception):
+                self.server.stop()
+
+
+def _new_viser(host: str, port: int) -> Any:
+    try:
+        import viser
+    except ImportError as exc:  # the "view" extra
+        raise RuntimeError("the 3D view needs viser: pip install 'xarm-emu[view]'") from exc
+    if not 0 <= port <= 65535:
+        raise ValueError(f"--view-port must be 0..65535, got {port}")
+    return viser.ViserServer(host=host, port=port, label="xarm-emu", verbose=False)
+
+
+FLEET_SPACING = 0.9  # m between the arms of a fleet view, along y
+
+
+class FleetView:
+    """One viser server for every arm of a fleet: the arms side by side along y, a list of them
+    (model, command port, state, error), and a tab with each arm's pendant."""
+
+    def __init__(self, servers: list[EmulatorServer], host: str = "127.0.0.1", port: int = 8080) -> None:
+        self.server = _new_viser(host, port)
+        self.host = host
+        self.port = int(self.server.get_port())
+        self.servers = servers
+        self.updates = 0
+        self._task: asyncio.Task[None] | None = None
+        vs = self.server
+        n = len(servers)
+        vs.initial_camera.position = (1.6, -1.2 - 0.5 * FLEET_SPACING * n, 1.2)
+        vs.initial_camera.look_at = (0.15, 0.5 * FLEET_SPACING * (n - 1), 0.25)
+        vs.scene.add_grid("/ground", width=2.0, height=2.0 + FLEET_SPACING * n, cell_size=0.1,
+                          position=(0.0, 0.5 * FLEET_SPACING * (n - 1), 0.0))
+        with vs.gui.add_folder("Fleet", order=-1):
+            self._list = vs.gui.add_markdown("")
+        tabs = vs.gui.add_tab_group(order=0)
+        self.viewers: list[Viewer] = []
+        for i, srv in enumerate(servers):
+            root = f"/arm{i + 1}"
+            vs.scene.add_frame(root, position=(0.0, i * FLEET_SPACING, 0.0), show_axes=False)
+            vs.scene.add_label(f"{root}/label", self._name(i), position=(0.0, 0.0, 0.9))
+            with tabs.add_tab(f"Arm {i + 1}"):
+                self.viewers.append(Viewer(srv.emulator, server=srv, viser_server=vs, root=root))
+
+    def _name(self, i: int) -> str:
+        srv = self.servers[i]
+        port = srv.ports.get("command", srv.config.port)
+        return f"arm {i + 1}: {srv.emulator.model.name} on {srv.config.host}:{port}"
+
+    def listing(self) -> str:
+        """The fleet's list: one line per arm with its state and error (section 3.2.1)."""
+        lines = []
+        for i, srv in enumerate(self.servers):
+            snap = srv.emulator.snapshot()
+            text = describe_state(snap)
+            lines.append(f"- **{self._name(i)}**: state {text['state']}, error {text['error'].split(':')[0]}")
+        return "\n".join(lines)
+
+    def start(self) -> None:
+        loop = asyncio.get_running_loop()
+        for v in self.viewers:
+            if v.pendant is not None:
+                v.pendant.loop = loop
+        self._task = loop.create_task(self._run())
+
+    async def _run(self) -> None:
+        while True:
+            self.update()
+            await asyncio.sleep(1.0 / RATE)
+
+    def update(self) -> None:
+        for v in self.viewers:
+            v.update()
+        if self.updates % PANEL_EVERY == 0:
+            text = self.listing()
+            if text != self._list.content:
+                self._list.content = text
+        self.updates += 1
+
+    def stop(self) -> None:
+        if self._task is not None:
+            self._task.cancel()
+            self._task = None
         with contextlib.suppress(Exception):
             self.server.stop()
+
+
+def attach_fleet_view(servers: list[EmulatorServer], host: str, port: int) -> None:
+    """Serve one :class:`FleetView` of ``servers`` (all in one event loop), attached to the first so
+    that it starts once the ports are open and stops with the fleet."""
+    if servers:
+        servers[0].attach("view", lambda: FleetView(servers, host, port))
 
 
 def attach_viewer(server: EmulatorServer) -> None:
@@ -120,4 +242,4 @@ def attach_viewer(server: EmulatorServer) -> None:
     ``view_host``/``view_port`` once its ports are open (and stop it on close)."""
     cfg = server.config
     if cfg.view:
-        server.attach("view", lambda: Viewer(server.emulator, cfg.view_host, cfg.view_port))
+        server.attach("view", lambda: Viewer(server.emulator, cfg.view_host, cfg.view_port, server=server))

@@ -116,3 +116,36 @@ def capsule_mesh(radius: float, length: float, segments: int = 16,
     for s in range(segments):  # top cap
         faces.append((last + s, last + (s + 1) % segments, top))
     return np.array(verts, dtype=np.float32), np.array(faces, dtype=np.uint32)
+
+
+#: The xArm gripper's full stroke in position pulses (register 124 gripper position) and in metres.
+GRIPPER_PULSES = 850.0
+GRIPPER_STROKE = 0.085
+FINGER_HALF = (0.006, 0.004, 0.025)  # m: half extents of one drawn finger
+CUP_RADIUS = 0.02  # m: the drawn vacuum cup
+CUP_LENGTH = 0.05
+
+
+def gripper_parts(model: RobotModel, q: Sequence[float] | np.ndarray, position: float) -> list[Part]:
+    """The xArm gripper's two fingers on the flange, apart by the opening that the gripper position
+    (0 closed .. :data:`GRIPPER_PULSES` open) gives."""
+    T = kin.fk(model, q)
+    R = T[:3, :3]
+    flange = T[:3, 3] * MM
+    opening = max(0.0, min(1.0, float(position) / GRIPPER_PULSES)) * GRIPPER_STROKE
+    wxyz = quat_from_matrix(R)
+    parts = []
+    for name, side in (("finger_a", 1.0), ("finger_b", -1.0)):
+        local = np.array([0.0, side * (opening / 2 + FINGER_HALF[1]), 0.06])
+        c = flange + R @ local
+        parts.append(Part(f"tool_{name}", "box", (float(c[0]), float(c[1]), float(c[2])), wxyz,
+                          half=FINGER_HALF))
+    return parts
+
+
+def vacuum_parts(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[Part]:
+    """The vacuum cup: a short capsule along the flange's z axis."""
+    T = kin.fk(model, q)
+    a = T[:3, 3] * MM
+    return [Part("tool_cup", "capsule", (float(a[0]), float(a[1]), float(a[2])),
+                 quat_z_to(tuple(float(v) for v in T[:3, 2])), radius=CUP_RADIUS, length=CUP_LENGTH)]
