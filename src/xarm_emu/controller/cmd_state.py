@@ -18,6 +18,7 @@ from .core import (
     ControllerCore,
 )
 from .states import STATE_MOVING, STATE_SLEEP, STATE_STOP, STATE_SUSPEND, Event, fire
+from .velocity import extra_modes
 
 
 def needs_power_on(code: int) -> bool:
@@ -133,7 +134,7 @@ class StateCommands(ControllerCore):
 
     def _h_set_mode(self, v: Values) -> None:
         mode = v["mode"]
-        if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH):
+        if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH) + extra_modes(self):
             raise ParameterError(f"mode {mode} not available")
         self.mode = mode
         self.system_reset()

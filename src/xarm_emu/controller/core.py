@@ -61,6 +61,7 @@ from .states import (  # noqa: F401 - MODE_CARTESIAN_TEACH is part of the vocabu
     Event,
     fire,
 )
+from .velocity import MODE_STEPS
 
 #: Command buffer capacity; the SDK throttles itself at 512 (max_cmdnum).
 BUFFER_CAPACITY = 1024
@@ -332,6 +333,8 @@ class ControllerCore:
                     self._step_position(dt)
                 elif self.motion_state == STATE_STOP and self.executor.stopping:
                     self._step_position(dt)
+                elif (mode_step := MODE_STEPS.get(self.mode)) is not None:
+                    mode_step(self, dt)
                 if self.q is not q_prev:
                     self._check_safety(q_prev)
         except CommandError as e:

@@ -323,7 +323,8 @@ class Executor:
         (a jerk-limited ruckig move from the moving state)."""
         plan = self.plan
         assert isinstance(plan, _JointPlan) and plan.blend is not None
-        if not self.buffer or not isinstance(self.buffer[0], JointMove) or self.rate != 1.0 or self.stopping:
+        if (not self.buffer or not isinstance(self.buffer[0], JointMove) or self.buffer[0].relative
+                or self.rate != 1.0 or self.stopping):
             return
         radius, target_tcp = plan.blend
         if float(np.linalg.norm(tcp_pose(q)[:3, 3] - target_tcp)) > radius:
@@ -341,7 +342,9 @@ class Executor:
     @staticmethod
     def _joint_blend(cmd: JointMove, tcp_pose: Callable[[np.ndarray], np.ndarray]
                      ) -> tuple[float, np.ndarray] | None:
-        return (cmd.radius, tcp_pose(cmd.target)[:3, 3].copy()) if cmd.radius > 0.0 else None
+        if cmd.radius <= 0.0 or cmd.relative:
+            return None
+        return (cmd.radius, tcp_pose(cmd.target)[:3, 3].copy())
 
     # -- planning ----------------------------------------------------------------------------
     def _plan(self, cmd: QueuedCommand, q: np.ndarray, limits: Limits,
@@ -351,7 +354,10 @@ class Executor:
             return _DwellPlan(q, cmd.seconds)
         if isinstance(cmd, JointMove):
             acc = min(cmd.acc, limits.joint_maxacc)
-            traj = motion.plan_joint_move(q, cmd.target, cmd.speed, acc, limits.joint_jerk)
+            target = q + cmd.target if cmd.relative else cmd.target
+            if cmd.relative and not kin.within_limits(self.model, target):
+                raise CommandError(C_JOINT_LIMIT, "relative joint target outside the limits")
+            traj = motion.plan_joint_move(q, target, cmd.speed, acc, limits.joint_jerk)
             return _JointPlan(traj, self._joint_blend(cmd, tcp_pose))
         start = tcp_pose(q)
         acc = min(cmd.acc, limits.tcp_maxacc)
