@@ -36,11 +36,12 @@ TABLES: tuple[Mapping[int, CtlHandler], ...] = (motion2.HANDLERS,)
 def bind(ctl: ControllerCore,
          tables: tuple[Mapping[int, CtlHandler], ...] | None = None) -> dict[int, Handler]:
     """The dispatch table of ``ctl``: each handler of ``tables`` (default :data:`TABLES`) with the
-    controller bound as its first argument."""
+    controller bound as its first argument, for the registers of ``ctl``'s firmware only."""
     out: dict[int, Handler] = {}
     for table in TABLES if tables is None else tables:
         for code, fn in table.items():
             if code in out:
                 raise ValueError(f"register {code} is bound twice")
-            out[code] = functools.partial(fn, ctl)
+            if code in ctl.registers:
+                out[code] = functools.partial(fn, ctl)
     return out
