@@ -17,8 +17,8 @@ from .core import (
     MODE_SERVO,
     ControllerCore,
 )
+from .mode_steps import extra_modes
 from .states import STATE_MOVING, STATE_SLEEP, STATE_STOP, STATE_SUSPEND, Event, fire
-from .velocity import extra_modes
 
 
 def needs_power_on(code: int) -> bool:

@@ -45,6 +45,7 @@ from .base import (
 from .commands import QueuedCommand
 from .executor import Executor, Limits
 from .faults import Faults
+from .mode_steps import MODE_STEPS, route
 from .settings import (
     Settings,
 )
@@ -61,7 +62,6 @@ from .states import (  # noqa: F401 - MODE_CARTESIAN_TEACH is part of the vocabu
     Event,
     fire,
 )
-from .velocity import MODE_STEPS
 
 #: Command buffer capacity; the SDK throttles itself at 512 (max_cmdnum).
 BUFFER_CAPACITY = 1024
@@ -266,7 +266,7 @@ class ControllerCore:
     def handle(self, code: int, params: bytes) -> tuple[int, bytes]:
         """Handle one command; returns (reply state byte, reply parameter bytes)."""
         reg = self.registers.get(code)
-        handler = self._handlers.get(code)
+        handler = route(self, code) or self._handlers.get(code)
         if reg is None or handler is None:
             log.info("register %d is unknown to firmware %s: warning 13", code, self.firmware)
             self.raise_warning(WARN_UNKNOWN_COMMAND)

@@ -16,7 +16,6 @@ the joint limits or the workspace (no inverse kinematics solution) stops the arm
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -235,14 +234,3 @@ def _cartesian_step(ctl: Any, vc: VelocityControl, v: np.ndarray, dt: float) -> 
 #: Modes beyond the manual's, each with the register that commands it: register 19 accepts such a
 #: mode on a box whose register table has that register (not on firmware 1.6.0).
 MODE_REGISTERS: dict[int, int] = {MODE_JOINT_VELOCITY: 81, MODE_CARTESIAN_VELOCITY: 82}
-
-#: What the core runs each control period while the controller is in one of these modes.
-MODE_STEPS: dict[int, Callable[[Any, float], None]] = {
-    MODE_JOINT_VELOCITY: step,
-    MODE_CARTESIAN_VELOCITY: step,
-}
-
-
-def extra_modes(ctl: Any) -> tuple[int, ...]:
-    """Modes of :data:`MODE_REGISTERS` that ``ctl``'s firmware answers."""
-    return tuple(m for m, code in MODE_REGISTERS.items() if code in ctl.registers)
