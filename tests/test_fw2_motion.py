@@ -265,3 +265,100 @@ def test_cartesian_velocity_out_of_reach_stops_the_arm_without_an_error() -> Non
     x = ctl.tcp_pose()[0]
     emu.advance(0.5)
     assert ctl.tcp_pose()[0] == pytest.approx(x, abs=1e-9)
+
+
+# ---- modes 6 and 7: online trajectory planning ------------------------------------------------------
+def joint_target(emu: Emulator, *q: float, speed: float = 1.0, acc: float = 10.0) -> int:
+    return call(emu, 23, joints=tuple(q) + (0.0,) * (7 - len(q)), speed=speed, acc=acc, mvtime=0.0)[0]
+
+
+def _run(emu: Emulator, seconds: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Joints, velocities and accelerations of each control period for ``seconds``."""
+    ctl = emu.controller
+    qs, qds, qdds = [], [], []
+    for _ in range(round(seconds / ctl.period)):
+        emu.step()
+        qs.append(ctl.q.copy())
+        qds.append(ctl.qd.copy())
+        qdds.append(ctl.qdd.copy())
+    return np.asarray(qs), np.asarray(qds), np.asarray(qdds)
+
+
+def test_mode_6_a_new_target_takes_over_mid_move_without_a_stop() -> None:
+    emu = _emu()
+    ready(emu, mode=6)
+    ctl = emu.controller
+    assert joint_target(emu, 1.0) == 0
+    assert ctl.executor.cmdnum == 0  # nothing is queued
+    q1, qd1, qdd1 = _run(emu, 0.5)
+    assert qd1[-1][0] == pytest.approx(1.0) and qdd1[-1][0] == pytest.approx(0.0, abs=1e-9)  # cruising
+    assert joint_target(emu, 1.8, 0.3) == 0
+    q2, qd2, qdd2 = _run(emu, 4.0)
+    # The next control period already follows the new plan: J2 starts to accelerate.
+    assert qdd2[0][1] > 0.0
+    on_the_way = (q2[:, 0] < 1.6)  # before J1's final deceleration
+    assert float(np.min(qd2[on_the_way, 0])) > 0.9  # J1 goes on at its speed: no stop at the switch
+    jerk = np.diff(np.concatenate([qdd1, qdd2]), axis=0) / ctl.period
+    assert float(np.max(np.abs(jerk))) <= ctl.settings.joint_jerk * (1 + 1e-6)
+    acc = np.concatenate([qdd1, qdd2])
+    assert float(np.max(np.abs(acc))) <= 10.0 * (1 + 1e-6)
+    assert ctl.q == pytest.approx([1.8, 0.3, 0, 0, 0, 0], abs=1e-6)
+    assert ctl.state == 2 and not np.any(ctl.qd)
+
+
+def test_mode_6_reversing_target_decelerates_at_once_and_ends_on_the_last_target() -> None:
+    emu = _emu()
+    ready(emu, mode=6)
+    ctl = emu.controller
+    joint_target(emu, 1.0)
+    _run(emu, 0.5)
+    joint_target(emu, -0.5)
+    _, _, qdd = _run(emu, 0.004)
+    assert qdd[0][0] < 0.0
+    _run(emu, 4.0)
+    assert ctl.q[0] == pytest.approx(-0.5, abs=1e-6) and ctl.state == 2
+
+
+def test_mode_6_refusals() -> None:
+    emu = _emu()
+    emu.controller.strict = False
+    ready(emu, mode=6)
+    state = joint_target(emu, 0.1, speed=10.0)  # above pi rad/s
+    assert bits(state)[1] and emu.controller.warning_code == 12
+    call(emu, 17)
+    state = joint_target(emu, 0, 0, 0, 0, -3.0)  # J5 below its limit
+    assert bits(state)[0] and emu.controller.error_code == 23
+    assert emu.controller.q == pytest.approx(np.zeros(6), abs=1e-12)
+
+
+def test_modes_6_and_7_are_not_answered_below_firmware_2() -> None:
+    emu = _emu("1.11.100")
+    ready(emu)
+    state, _, _ = call(emu, 19, mode=6)
+    assert bits(state)[1] and emu.controller.mode == 0
+
+
+def line_target(emu: Emulator, pose: np.ndarray, speed: float = 100.0) -> int:
+    return call(emu, 21, pose=tuple(pose), speed=speed, acc=1000.0, mvtime=0.0, radius=-1.0, coord=0,
+                is_axis_angle=0, only_check_type=0, motion_type=0)[0]
+
+
+def test_mode_7_a_new_pose_replaces_the_current_one() -> None:
+    emu = _emu()
+    ready(emu)
+    ctl = emu.controller
+    ctl.q = np.array([0.0, -0.5, -0.5, 0.0, 1.0, 0.0])
+    ready(emu, mode=7)
+    p0 = ctl.tcp_pose().copy()
+    assert line_target(emu, p0 + [60, 0, 0, 0, 0, 0]) == 0
+    emu.advance(0.3)
+    mid = ctl.tcp_pose().copy()
+    assert 10.0 < mid[0] - p0[0] < 60.0
+    last = p0 + [30, 40, -20, 0, 0, 0.2]
+    assert line_target(emu, last) == 0
+    xs = []
+    for _ in range(round(4.0 / ctl.period)):
+        emu.step()
+        xs.append(ctl.tcp_pose()[0] - p0[0])
+    assert max(xs) < 60.0  # the first target is never reached
+    assert ctl.tcp_pose() == pytest.approx(last, abs=1e-4) and ctl.state == 2
