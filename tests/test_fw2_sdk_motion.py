@@ -175,3 +175,40 @@ def test_modes_4_and_5_are_refused_by_firmware_1_6_0(sdk_arm: SDKArm) -> None:
         arm.set_mode(4)
         assert wait_for(lambda: ctl.warning_code == 12)  # parameter abnormal: no such mode
         assert ctl.mode == 0
+
+
+@pytest.mark.parametrize("firmware", ["2.0.102", "2.7.103"])
+def test_mode_6_set_servo_angle_retargets_mid_move(firmware: str, sdk_arm: SDKArm) -> None:
+    with running_emulator(firmware=firmware, speed=1.0) as st:
+        arm = sdk_arm(st)
+        sdk_ready(arm)
+        ctl = st.emulator.controller
+        assert arm.set_mode(6) == 0 and arm.set_state(0) == 0
+        assert wait_for(lambda: ctl.mode == 6 and ctl.state == 2)
+        assert arm.set_servo_angle(angle=[90, 0, 0, 0, 0, 0], speed=60, mvacc=500, wait=False) == 0
+        assert wait_for(lambda: ctl.q[0] > math.radians(20), 5)
+        assert ctl.state == 1 and ctl.executor.cmdnum == 0
+        assert arm.set_servo_angle(angle=[40, 0, -20, 0, 0, 0], speed=60, mvacc=500, wait=False) == 0
+        assert wait_for(lambda: ctl.state == 2, 10)
+        assert ctl.q == pytest.approx(np.radians([40, 0, -20, 0, 0, 0]), abs=1e-6)
+        assert arm.mode == 6
+
+
+def test_mode_7_set_position_retargets_mid_move(sdk_arm: SDKArm) -> None:
+    with running_emulator(firmware="2.7.103", speed=1.0) as st:
+        arm = sdk_arm(st)
+        sdk_ready(arm)
+        ctl = st.emulator.controller
+        assert arm.set_servo_angle(angle=[0, -30, -30, 0, 60, 0], speed=60, wait=False) == 0
+        assert wait_for(lambda: _idle(st), 10)
+        p0 = ctl.tcp_pose().copy()
+        assert arm.set_mode(7) == 0 and arm.set_state(0) == 0
+        assert wait_for(lambda: ctl.mode == 7 and ctl.state == 2)
+        x, y, z = p0[:3]
+        rpy = list(np.degrees(p0[3:]))
+        assert arm.set_position(x + 80, y, z, *rpy, speed=100, mvacc=1000, wait=False) == 0
+        assert wait_for(lambda: ctl.tcp_pose()[0] > x + 20, 5)
+        assert arm.set_position(x + 30, y + 40, z - 10, *rpy, speed=100, mvacc=1000, wait=False) == 0
+        assert wait_for(lambda: ctl.state == 2, 10)
+        assert ctl.tcp_pose()[:3] == pytest.approx([x + 30, y + 40, z - 10], abs=1e-3)
+        assert ctl.executor.cmdnum == 0
