@@ -30,8 +30,9 @@ def test_register_106_reports_the_gripper_error_through_the_hooks() -> None:
     assert reply[14:16] == bytes([1, 0x19])
 
 
-#: Registers of the newest profile whose handlers have landed (relative moves, velocity control).
-LANDED_FW2 = frozenset({81, 82, 83})
+#: Registers of the newest profile whose handlers have landed (relative moves, velocity control,
+#: trajectories).
+LANDED_FW2 = frozenset({61, 62, 63, 64, 65, 81, 82, 83, 230})
 
 
 @pytest.mark.parametrize("firmware", ["1.11.100", "2.0.102", "2.7.103"])

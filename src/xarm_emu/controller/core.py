@@ -45,7 +45,7 @@ from .base import (
 from .commands import QueuedCommand
 from .executor import Executor, Limits
 from .faults import Faults
-from .mode_steps import MODE_STEPS, route
+from .mode_steps import EVERY_STEP, MODE_STEPS, route
 from .settings import (
     Settings,
 )
@@ -352,6 +352,8 @@ class ControllerCore:
         self.qd = qd
         for c in self.components:
             c.step(dt, self)
+        for hook in EVERY_STEP:
+            hook(self, dt)
 
     def _tracker(self) -> motion.ServoTracker:
         if self.servo_tracker is None:

@@ -8,7 +8,7 @@ import functools
 from collections.abc import Callable
 from typing import Any
 
-from . import online, velocity
+from . import online, trajectory, velocity
 from .base import Handler, Values
 
 #: What the core runs each control period while the controller is in one of these modes.
@@ -17,7 +17,11 @@ MODE_STEPS: dict[int, Callable[[Any, float], None]] = {
     velocity.MODE_CARTESIAN_VELOCITY: velocity.step,
     online.MODE_JOINT_ONLINE: online.step,
     online.MODE_CARTESIAN_ONLINE: online.step,
+    trajectory.MODE_PLAYBACK: trajectory.playback_step,
 }
+
+#: What the core runs every control period, whatever the mode (after the motion of the period).
+EVERY_STEP: tuple[Callable[[Any, float], None], ...] = (trajectory.record_step,)
 
 #: Registers whose meaning a mode changes: (mode, register) -> handler. In modes 6 and 7 a joint or
 #: linear move is a new online target instead of a queued command.
