@@ -45,7 +45,7 @@ def record(emu: Emulator, seconds: float = 2.0) -> list[np.ndarray]:
     return seen
 
 
-def test_recorded_motion_survives_a_restart_and_plays_back_through_the_recorded_points(tmp_path: Path) -> None:
+def test_recording_survives_a_restart_and_plays_back_through_the_recorded_points(tmp_path: Path) -> None:
     emu = _emu(tmp_path)
     recorded = record(emu)
     assert call(emu, 62, filename="wave.traj")[0] == 0
