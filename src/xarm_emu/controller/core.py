@@ -26,7 +26,7 @@ from ..protocol import registers as regs
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError, all_within
-from . import motion, safety
+from . import motion, reduced, safety
 from .base import (
     C_OTHER,
     C_PLANNING,
@@ -364,6 +364,7 @@ class ControllerCore:
     def _check_safety(self, q_prev: np.ndarray) -> None:
         """Safety boundary (52, 59: C35) and self-collision (77, 78: C22) on the step just planned:
         the arm stops on the boundary or before contact (controller/safety.py)."""
+        reduced.check_step(self, q_prev)  # reduced-mode joint ranges: C23
         s = self.settings
         if not (s.boundary_on or s.self_collision_on):
             return
@@ -380,7 +381,9 @@ class ControllerCore:
 
     def _limits(self) -> Limits:
         s = self.settings
-        return Limits(s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed)
+        tcp_cap, joint_cap = reduced.speed_caps(self)
+        return Limits(s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed,
+                      tcp_cap, joint_cap)
 
     def _step_position(self, dt: float) -> None:
         ex = self.executor

@@ -41,6 +41,9 @@ class Limits:
     joint_jerk: float
     joint_maxacc: float
     max_joint_speed: float = math.pi  # Table 1.2; a Cartesian path needing more is error C24
+    #: Speed caps of queued moves (reduced mode, registers 47/48): mm/s for Cartesian, rad/s joint.
+    tcp_speed_cap: float = math.inf
+    joint_speed_cap: float = math.inf
 
 
 class _Plan:
@@ -305,9 +308,10 @@ class Executor:
         radii[-1] = None
         acc = min(first.acc, limits.tcp_maxacc)
         runs = motion.blend_runs(poses, radii)
-        profile = motion.MovingProfile(runs[0].length, v, a, first.speed, acc, limits.tcp_jerk)
-        moves = [motion.CartesianMove(runs[0], first.speed, acc, limits.tcp_jerk, profile=profile)]
-        moves += [motion.CartesianMove(r, first.speed, acc, limits.tcp_jerk) for r in runs[1:]]
+        speed = min(first.speed, limits.tcp_speed_cap)
+        profile = motion.MovingProfile(runs[0].length, v, a, speed, acc, limits.tcp_jerk)
+        moves = [motion.CartesianMove(runs[0], speed, acc, limits.tcp_jerk, profile=profile)]
+        moves += [motion.CartesianMove(r, speed, acc, limits.tcp_jerk) for r in runs[1:]]
         move: motion.CartesianMove | motion.MoveChain = (moves[0] if len(moves) == 1
                                                          else motion.MoveChain(moves))
         blend = (poses[-1], last.radius, first) if last.radius > 0.0 else None
@@ -335,7 +339,8 @@ class Executor:
         self.completed += 1  # the blended-away command is done
         self.current = nxt
         acc = min(nxt.acc, limits.joint_maxacc)
-        traj = motion.plan_joint_move(q, nxt.target, nxt.speed, acc, limits.joint_jerk, qd0=qd, qdd0=qdd)
+        speed = min(nxt.speed, limits.joint_speed_cap)
+        traj = motion.plan_joint_move(q, nxt.target, speed, acc, limits.joint_jerk, qd0=qd, qdd0=qdd)
         self.plan = _JointPlan(traj, self._joint_blend(nxt, tcp_pose))
         self.t = 0.0
 
@@ -357,7 +362,8 @@ class Executor:
             target = q + cmd.target if cmd.relative else cmd.target
             if cmd.relative and not kin.within_limits(self.model, target):
                 raise CommandError(C_JOINT_LIMIT, "relative joint target outside the limits")
-            traj = motion.plan_joint_move(q, target, cmd.speed, acc, limits.joint_jerk)
+            speed = min(cmd.speed, limits.joint_speed_cap)
+            traj = motion.plan_joint_move(q, target, speed, acc, limits.joint_jerk)
             return _JointPlan(traj, self._joint_blend(cmd, tcp_pose))
         start = tcp_pose(q)
         acc = min(cmd.acc, limits.tcp_maxacc)
@@ -378,7 +384,7 @@ class Executor:
             end_check = path.pose(path.length)
         if kin.ik(self.model, to_flange(end_check), q, limited=False, restarts=True) is None:
             raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
-        move = motion.CartesianMove(path, cmd.speed, acc, limits.tcp_jerk)
+        move = motion.CartesianMove(path, min(cmd.speed, limits.tcp_speed_cap), acc, limits.tcp_jerk)
         blend = (end_check, cmd.radius, cmd) if isinstance(cmd, LineMove) and cmd.radius > 0.0 else None
         return _CartesianPlan(move, to_flange, self.model, blend)
 
@@ -409,6 +415,6 @@ class Executor:
             if sol is None:
                 raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
             seed = sol
-        move = motion.plan_blended(poses, radii, cmd.speed, acc, limits.tcp_jerk)
+        move = motion.plan_blended(poses, radii, min(cmd.speed, limits.tcp_speed_cap), acc, limits.tcp_jerk)
         blend = (poses[-1], last.radius, cmd) if last.radius > 0.0 else None
         return _CartesianPlan(move, to_flange, self.model, blend)

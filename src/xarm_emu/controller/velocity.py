@@ -24,6 +24,7 @@ from ruckig import ControlInterface, InputParameter, Result, Ruckig, Synchroniza
 
 from ..model import kinematics as kin
 from ..model import rotations as rot
+from . import reduced
 from .states import STATE_MOVING, STATE_SLEEP, Event, fire
 
 #: Modes of register 19 (SDK vocabulary): joint and Cartesian velocity control.
@@ -110,10 +111,8 @@ def _limits(ctl: Any, mode: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def reduced_limits(ctl: Any) -> tuple[float, float] | None:
     """(TCP speed mm/s, joint speed rad/s) maxima while reduced mode is on, else None."""
-    reduced = getattr(ctl, "reduced", None)
-    if reduced is None or not getattr(reduced, "on", False):
-        return None
-    return float(reduced.tcp_speed), float(reduced.joint_speed)
+    tcp, joint = reduced.speed_caps(ctl)
+    return None if tcp == float("inf") else (tcp, joint)
 
 
 def _clip_target(target: np.ndarray, vmax: np.ndarray, mode: int) -> np.ndarray:
@@ -185,15 +184,7 @@ def step(ctl: Any, dt: float) -> None:
 
 
 def _joint_range(ctl: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Joint limits (rad), narrowed to the reduced-mode ranges while reduced mode is on."""
-    lo = ctl.model.lower.copy()
-    hi = ctl.model.upper.copy()
-    reduced = getattr(ctl, "reduced", None)
-    if reduced is not None and getattr(reduced, "on", False) and getattr(reduced, "ranges_on", False):
-        rng = np.asarray(reduced.joint_ranges, dtype=float)[: 2 * ctl.dof].reshape(-1, 2)
-        lo = np.maximum(lo, rng[:, 0])
-        hi = np.minimum(hi, rng[:, 1])
-    return lo, hi
+    return reduced.joint_range(ctl)
 
 
 def _joint_limit_brake(ctl: Any, v: np.ndarray, amax: np.ndarray) -> np.ndarray:
