@@ -116,7 +116,8 @@ def test_sdk_reduced_mode_calls(sdk_arm: SDKArm) -> None:
         ctl = st.emulator.controller
         assert arm.set_reduced_max_tcp_speed(50) == 0
         assert arm.set_reduced_max_joint_speed(30) == 0  # deg/s
-        assert arm.set_reduced_joint_range([-90, 90, -100, 100, -200, 10, -180, 180, -90, 170, -180, 180]) == 0
+        ranges_deg = [-90, 90, -100, 100, -200, 10, -180, 180, -90, 170, -180, 180]
+        assert arm.set_reduced_joint_range(ranges_deg) == 0
         assert arm.set_reduced_tcp_boundary([500, -500, 400, -400, 600, -100]) == 0
         assert arm.set_fense_mode(True)[0] == 0
         assert arm.set_collision_rebound(True)[0] == 0
