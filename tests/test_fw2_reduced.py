@@ -144,3 +144,20 @@ def test_sdk_reduced_mode_calls(sdk_arm: SDKArm) -> None:
         assert ctl.time - t0 > 50.0 / 50.0  # 50 mm at no more than 50 mm/s
         assert arm.set_reduced_mode(False) == 0
         assert arm.get_reduced_mode() == (0, 0)
+
+
+def test_reduced_settings_are_saved_with_register_40(tmp_path: Any) -> None:
+    emu = Emulator(6, firmware="2.7.103", config_dir=tmp_path)
+    call(emu, 47, speed=120.0)
+    call(emu, 48, speed=0.5)
+    call(emu, 58, joint_ranges=(-1.0, 1.0) + (-2.0, 2.0) + (-3.0, 0.1) + (-6.0, 6.0) + (-1.5, 3.0)
+         + (-6.0, 6.0) + (0.0, 0.0))
+    call(emu, 60, on=1)
+    call(emu, 50, on=1)
+    saved = call(emu, 53)[2]
+    restarted = Emulator(6, firmware="2.7.103", config_dir=tmp_path)
+    assert call(restarted, 53)[2] != saved  # not saved yet: defaults
+    call(emu, 40)
+    restarted = Emulator(6, firmware="2.7.103", config_dir=tmp_path)
+    assert call(restarted, 53)[2] == saved
+    assert call(restarted, 49)[1] == {"on": 1}

@@ -134,11 +134,15 @@ class ControllerCore:
     # -- saved configuration (registers 39/40) --------------------------------------------------
     def config_values(self) -> dict[str, Any]:
         """The settings register 40 saves."""
-        return self.settings.to_dict()
+        values = self.settings.to_dict()
+        if (saved := reduced.config_of(self)) is not None:
+            values[reduced.CONFIG_KEY] = saved
+        return values
 
     def load_config(self, data: dict[str, Any]) -> None:
         """Apply saved settings (invalid entries keep their defaults) and the collision tool."""
         self.settings = Settings.from_dict(data, self.model)
+        reduced.load_config(self, data.get(reduced.CONFIG_KEY))
         tool = self.settings.collision_tool
         try:
             self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])

@@ -10,7 +10,7 @@ While reduced mode is on:
 
 The maxima start at the model's (manual 1.3, Table 1.2) and the ranges at its joint limits, so
 reduced mode changes nothing until they are set. Register 53 reports them with the safety boundary
-(register 52) and fence switch (59).
+(register 52) and fence switch (59); register 40 saves them with the other settings.
 """
 
 from __future__ import annotations
@@ -40,12 +40,8 @@ def reduced_of(ctl: Any) -> ReducedMode:
     r = getattr(ctl, _ATTR, None)
     if r is None:
         m = ctl.model
-        ranges: list[float] = []
-        for lo, hi in zip(m.lower, m.upper, strict=True):
-            ranges += [float(lo), float(hi)]
-        ranges += [0.0] * (14 - len(ranges))
         r = ReducedMode(tcp_speed=float(m.max_tcp_speed), joint_speed=float(m.max_joint_speed),
-                        joint_ranges=ranges)
+                        joint_ranges=reduced_of_default(ctl))
         setattr(ctl, _ATTR, r)
     return r
 
@@ -82,3 +78,53 @@ def check_step(ctl: Any, q_prev: np.ndarray) -> None:
     if np.any(excess(ctl.q) > excess(q_prev) + 1e-12):
         ctl.q = np.asarray(q_prev, dtype=float).copy()
         raise CommandError(C_JOINT_LIMIT, "a joint leaves its reduced-mode range")
+
+
+#: Key of the reduced-mode settings in the saved configuration (register 40).
+CONFIG_KEY = "reduced"
+
+
+def config_of(ctl: Any) -> dict[str, Any] | None:
+    """What register 40 saves of reduced mode; None while every setting has its default."""
+    r = getattr(ctl, _ATTR, None)
+    if r is None:
+        return None
+    m = ctl.model
+    default = ReducedMode(tcp_speed=float(m.max_tcp_speed), joint_speed=float(m.max_joint_speed),
+                          joint_ranges=reduced_of_default(ctl))
+    if r == default:
+        return None
+    return {"on": r.on, "tcp_speed": r.tcp_speed, "joint_speed": r.joint_speed,
+            "joint_ranges": list(r.joint_ranges), "rebound": r.rebound}
+
+
+def reduced_of_default(ctl: Any) -> list[float]:
+    """The model's joint limits as reduced ranges (J1 min, J1 max, ... padded to 7 joints)."""
+    ranges: list[float] = []
+    for lo, hi in zip(ctl.model.lower, ctl.model.upper, strict=True):
+        ranges += [float(lo), float(hi)]
+    return ranges + [0.0] * (14 - len(ranges))
+
+
+def load_config(ctl: Any, data: Any) -> None:
+    """Apply saved reduced-mode settings; anything of the wrong shape or out of range keeps the
+    defaults."""
+    setattr(ctl, _ATTR, None)
+    if not isinstance(data, dict):
+        return
+    r = reduced_of(ctl)
+    m = ctl.model
+    try:
+        tcp, joint = float(data["tcp_speed"]), float(data["joint_speed"])
+        ranges = [float(x) for x in data["joint_ranges"]]
+        on, rebound = data["on"], data["rebound"]
+    except (KeyError, TypeError, ValueError):
+        return
+    if not (isinstance(on, bool) and isinstance(rebound, bool) and len(ranges) == 14
+            and 0.0 < tcp <= m.max_tcp_speed and 0.0 < joint <= m.max_joint_speed
+            and all(np.isfinite(ranges))):
+        return
+    lo, hi = m.lower, m.upper
+    if any(not (lo[i] <= ranges[2 * i] < ranges[2 * i + 1] <= hi[i]) for i in range(ctl.dof)):
+        return
+    r.on, r.tcp_speed, r.joint_speed, r.joint_ranges, r.rebound = on, tcp, joint, ranges, rebound
