@@ -161,3 +161,29 @@ def test_reduced_settings_are_saved_with_register_40(tmp_path: Any) -> None:
     restarted = Emulator(6, firmware="2.7.103", config_dir=tmp_path)
     assert call(restarted, 53)[2] == saved
     assert call(restarted, 49)[1] == {"on": 1}
+
+
+def test_reduced_tcp_speed_caps_cartesian_velocity_and_online_targets() -> None:
+    emu = _emu()
+    ready(emu)
+    ctl = emu.controller
+    ctl.q = POSE_Q.copy()
+    call(emu, 47, speed=25.0)
+    call(emu, 50, on=1)
+    ready(emu, mode=5)
+    call(emu, 82, speeds=(60.0, 0, 0, 0, 0, 0), is_tool_coord=0, duration=1.0)
+    assert _peak_tcp_speed(emu, 1.5) == pytest.approx(25.0, rel=1e-6)
+    ready(emu, mode=7)
+    pose = ctl.tcp_pose().copy()
+    pose[1] += 40.0
+    call(emu, 21, pose=tuple(pose), speed=200.0, acc=2000.0, mvtime=0.0, radius=-1.0, coord=0,
+         is_axis_angle=0, only_check_type=0, motion_type=0)
+    assert _peak_tcp_speed(emu, 3.0) == pytest.approx(25.0, rel=1e-3)
+    assert ctl.tcp_pose()[1] == pytest.approx(pose[1], abs=1e-4)
+
+
+def test_register_24_one_byte_form_still_works_in_mode_6() -> None:
+    emu = _emu()
+    ready(emu, mode=6)
+    state, _, _ = call(emu, 24, tau_or_i=1)
+    assert not any(bits(state)) and emu.controller.settings.report_current

@@ -212,3 +212,21 @@ def test_mode_7_set_position_retargets_mid_move(sdk_arm: SDKArm) -> None:
         assert wait_for(lambda: ctl.state == 2, 10)
         assert ctl.tcp_pose()[:3] == pytest.approx([x + 30, y + 40, z - 10], abs=1e-3)
         assert ctl.executor.cmdnum == 0
+
+
+def test_set_position_aa_relative_goes_through_register_83(fw_server: ServerThread, sdk_arm: SDKArm) -> None:
+    arm = sdk_arm(fw_server)
+    sdk_ready(arm)
+    ctl = fw_server.emulator.controller
+    assert arm.set_servo_angle(angle=[0, -30, -30, 0, 60, 0], speed=60, wait=False) == 0
+    assert wait_for(lambda: _idle(fw_server), 10)
+    T0 = ctl.tcp_matrix().copy()
+    seen = _seen_registers(fw_server)
+    assert arm.set_position_aa([0, 15, 0, 0, 0, 10], relative=True, speed=50, mvacc=1000, wait=False) == 0
+    assert wait_for(lambda: _idle(fw_server), 10)
+    assert 83 in seen
+    T1 = ctl.tcp_matrix()
+    assert T1[:3, 3] - T0[:3, 3] == pytest.approx([0, 15, 0], abs=1e-3)
+    c, s = math.cos(math.radians(10)), math.sin(math.radians(10))
+    rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    assert T1[:3, :3] == pytest.approx(rz @ T0[:3, :3], abs=1e-6)  # rotation applied in the base frame

@@ -3,8 +3,9 @@
 In these modes a joint move (register 23, 24) or a linear move (register 21) is not queued: its
 target replaces the one the arm is heading for. The arm re-plans at the next control period from
 its present position, velocity and acceleration (ruckig's offline planner, state to state) within
-the jerk and acceleration limits (registers 31-34) and the command's speed and acceleration, so a
-new target mid-move takes over without a stop and the arm ends at rest on the last target.
+the jerk and acceleration limits (registers 31-34) and the command's speed and acceleration (capped
+by reduced mode, registers 47/48), so a new target mid-move takes over without a stop and the arm
+ends at rest on the last target.
 
 Mode 7 plans the TCP in six coordinates: the position (mm) and the rotation vector (rad, base
 frame) from the orientation at the moment of re-planning; each period the pose is solved to joints
@@ -22,7 +23,7 @@ import numpy as np
 
 from ..model import kinematics as kin
 from ..model import rotations as rot
-from . import motion
+from . import motion, reduced
 from .base import C_JOINT_LIMIT, C_KINEMATIC, CommandError, ParameterError, Values
 from .poses import wire_pose_to_matrix
 from .settings import in_range
@@ -90,6 +91,8 @@ def _unchanged(values: Any, current: np.ndarray) -> np.ndarray:
 
 def joint_target(ctl: Any, v: Values) -> dict[str, Any]:
     """Register 23 (or 24) in mode 6: the joints head for this target from now on."""
+    if "joints" not in v:  # register 24's one-byte form (torque or current in the reports)
+        return ctl._handlers[24](v)  # type: ignore[no-any-return]
     m = ctl.model
     speed, acc = _speed(v, m.max_joint_speed, m.max_joint_acc)
     _require(ctl, MODE_JOINT_ONLINE)
@@ -140,6 +143,8 @@ def _replan(ctl: Any, p: OnlinePlanner) -> None:
     target, speed, acc = p.pending
     p.pending = None
     s = ctl.settings
+    tcp_cap, joint_cap = reduced.speed_caps(ctl)
+    speed = min(speed, joint_cap if p.mode == MODE_JOINT_ONLINE else tcp_cap)
     if p.mode == MODE_JOINT_ONLINE:
         q, qd, qdd = p.state if p.state is not None else (ctl.q.copy(), np.zeros(ctl.dof), np.zeros(ctl.dof))
         p.traj = motion.plan_joint_move(q, target, speed, min(acc, s.joint_maxacc), s.joint_jerk,
