@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: install serve test bench lint clean fuzz
+.PHONY: install serve test bench lint clean fuzz image image-test
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,9 +30,19 @@ fuzz: $(STAMP)
 		tests/test_protocol_frame.py tests/test_model_rotations.py
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check src tests bench
+	$(VENV)/bin/ruff check src tests bench examples
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
+
+# The container image (docs/container.md): IMAGE_BASE is any base with python3 and its venv module.
+IMAGE ?= xarm-emu
+IMAGE_BASE ?= python:3.11-slim
+image:
+	docker build --build-arg BASE=$(IMAGE_BASE) -t $(IMAGE) .
+
+# Build on a debootstrapped Debian base with a dockerd of its own and test the image for real (root).
+image-test: $(STAMP)
+	PYTHON=$(abspath $(PY)) scripts/image-test
 
 clean:
 	rm -rf $(VENV) build *.egg-info src/*.egg-info

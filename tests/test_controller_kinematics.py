@@ -1,4 +1,4 @@
-"""Kinematics registers through the controller (issue 3 item 4): bytes of the manual's examples,
+"""Kinematics registers through the controller (manual 2.1.3, 41-45): bytes of the manual's examples,
 TCP and user offsets, bad input."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Motion through the controller (issue 4): end points, paths and timing, sampled every control
+"""Motion through the controller (manual 2.1.3): end points, paths and timing, sampled every control
 period with the stepped clock."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Parameter bounds (issue 2 "bad input", issue 7 item 3): float parameters out of any sensible range,
+"""Parameter bounds (bad input gets the manual's warning 12): float parameters out of any sensible range,
 the payload of register 36, and saved settings that a register would have refused."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Saved configuration across restarts (issue 7 item 3): registers 40 and 39 through the emulator."""
+"""Saved configuration across restarts: registers 40 and 39 through the emulator."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""SIGKILL during save_conf (issue 7): an emulator process that saves its configuration in a loop is
+"""SIGKILL during save_conf: an emulator process that saves its configuration in a loop is
 killed at random moments; every time, a fresh emulator loads one whole generation of values."""
 
 from __future__ import annotations

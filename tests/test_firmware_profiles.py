@@ -71,3 +71,26 @@ def test_cli_refuses_a_bad_firmware_in_one_line() -> None:
     assert out.returncode == 2
     assert "--firmware" in out.stderr and "Traceback" not in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("name, firmware, version", [
+    ("lite6", "1.6.0", "6,9,LI1006,DL1000,v1.6.0"),
+    ("850", "2.4.101", "6,12,FX1202,AC1300,v2.4.101"),
+    ("7t", "2.7.103", "7,13,CS1300,AC1300,v2.7.103"),
+])
+def test_other_arms_identify_themselves(name: str, firmware: str, version: str) -> None:
+    """Register 1 of Lite 6, 850 and 7T: axis, robot type, their serial-number prefixes."""
+    assert _version(Emulator(name, firmware=firmware)) == version
+
+
+@pytest.mark.parametrize("name, too_old", [("850", "2.0.102"), ("7t", "2.0.102")])
+def test_an_arm_refuses_a_firmware_older_than_it_ships_with(name: str, too_old: str) -> None:
+    with pytest.raises(ValueError, match="ships with firmware"):
+        Emulator(name, firmware=too_old)
+
+
+def test_cli_refuses_an_unknown_model_in_one_line() -> None:
+    out = subprocess.run([sys.executable, "-m", "xarm_emu.cli", "serve", "--model", "9"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and "lite6" in out.stderr and "Traceback" not in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1

@@ -60,7 +60,7 @@ def test_tool_outputs_mask_encoding(io_api: int, value: int, word: int) -> None:
 
 def test_tool_output_sdk_bytes() -> None:
     io = IOModule()
-    # set_tgpio_digital(0, 1) sends 09 0a15 00808043 01 (research note 3.4).
+    # set_tgpio_digital(0, 1) sends 09 0a15 00808043 01 (as the SDK builds it).
     call(io, 127, bytes.fromhex("09 0a 15 00 80 80 43 01"))
     assert tgpio_r(io, 0x0A18) == 1
 

@@ -82,7 +82,7 @@ def test_length_and_header(encode, size):
     frame = encode(ReportSnapshot())
     assert len(frame) == size
     assert at(frame, 1, ">I") == (size,)
-    assert size != 233  # the SDK's reader breaks on 233 (research note 2.1)
+    assert size != 233  # the SDK's reader breaks on 233 (it keys its layout on the length)
     assert (DEVELOP_SIZE, NORMAL_SIZE, RICH_SIZE) == (87, 145, 433)
 
 

@@ -1,4 +1,4 @@
-"""Safety features through the controller (issue 5 item 3): the arm stops on the safety boundary
+"""Safety features through the controller (manual chapter 3): the arm stops on the safety boundary
 with C35 and before self-contact with C22; over random command sequences the joints never leave their
 limits and the TCP never leaves an enabled boundary."""
 

@@ -45,7 +45,8 @@ def test_top_level_keys_are_defaults_and_config_dir_is_relative_to_the_file() ->
 
 @pytest.mark.parametrize("data, fragment", [
     ({}, "at least one [[arm]]"),
-    (fleet({"model": 8}), "arm 1: model is 5, 6 or 7"),
+    (fleet({"model": 8}), "arm 1: model is one of 5, 6, 7, lite6, 850, 7t, got 8"),
+    (fleet({"model": "850"}), "arm 1: the 850 arm ships with firmware 2.1.0 or later, not 1.6.0"),
     (fleet({"model": 6, "colour": "red"}), "arm 1: unknown key 'colour'"),
     ({"arm": [{}], "robot_sn": "XI0001"}, "the fleet file: unknown key 'robot_sn'"),
     (fleet({}, {"robot_sn": "xi12"}), "arm 2: robot_sn is two capital letters and four digits"),
@@ -63,7 +64,7 @@ def test_top_level_keys_are_defaults_and_config_dir_is_relative_to_the_file() ->
     (fleet({"host": "0.0.0.0"}, {"host": "127.0.0.2"}), "arm 2: 127.0.0.2:502 is already arm 1's"),
     (fleet({"host": "127.0.0.1"}, {"host": "localhost"}), "arm 2: localhost:502 is already arm 1's"),
     (fleet({"port": 30001}), "arm 1: 127.0.0.1:30001 is this arm's too"),
-    (fleet({"model": [6]}), "arm 1: model is 5, 6 or 7"),
+    (fleet({"model": [6]}), "arm 1: model is one of 5, 6, 7, lite6, 850, 7t, got [6]"),
     (fleet({"admin": "yes"}), "admin is true or false"),
     (fleet({"vacuum": 1}), "vacuum is true or false"),
     (fleet({}, speed=0), "speed must be a positive number"),

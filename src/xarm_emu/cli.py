@@ -19,6 +19,7 @@ from rich.console import Console
 from rich.table import Table
 
 from . import __version__
+from .model.robots import MODEL_NAMES, RobotModel, get_model
 from .protocol import codes
 from .protocol.firmware import DEFAULT_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, VersionError, profile_for
 from .protocol.frame import COMMAND_PORT
@@ -28,7 +29,8 @@ if TYPE_CHECKING:
     from .server.app import EmulatorServer, ServerConfig
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
-                  help="Emulator of the UFACTORY xArm 5/6/7 control box (Developer Manual V1.6.0).")
+                  help="Emulator of the UFACTORY xArm control box (xArm 5/6/7, Lite 6, 850, 7T; "
+                       "Developer Manual V1.6.0 and firmware 2.x).")
 console = Console()
 err_console = Console(stderr=True)
 
@@ -44,7 +46,8 @@ def _default_config_dir() -> Path:
 
 @app.command()
 def serve(
-    model: Annotated[int, typer.Option(help="Arm model: 5, 6 or 7 axes.", min=5, max=7)] = 6,
+    model: Annotated[str, typer.Option(help="Arm model: " + ", ".join(MODEL_NAMES)
+                                       + " (xArm 5/6/7, Lite 6, UFACTORY 850, xArm 7T).")] = "6",
     host: Annotated[str, typer.Option(help="Address to bind (loopback by default).")] = "127.0.0.1",
     port: Annotated[int, typer.Option(help="Command port.")] = COMMAND_PORT,
     normal_port: Annotated[int, typer.Option(help="Normal report port (5 Hz).")] = NORMAL_PORT,
@@ -99,10 +102,18 @@ def serve(
     except VersionError as exc:
         err_console.print(f"--firmware: {exc}")
         raise typer.Exit(2) from None
-    if fleet is not None:
-        _refuse_per_arm_flags(cfg, model != 6, vacuum, firmware != DEFAULT_VERSION)
+    from .controller.emulator import check_firmware
+
     try:
-        servers, cdir = _compose_servers(cfg, fleet, model, vacuum, cdir, profile)
+        robot = get_model(model)
+        check_firmware(robot, profile)
+    except ValueError as exc:
+        err_console.print(f"--model: {exc}")
+        raise typer.Exit(2) from None
+    if fleet is not None:
+        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != DEFAULT_VERSION)
+    try:
+        servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile)
     except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
         err_console.print(str(exc))
         raise typer.Exit(2) from None
@@ -140,7 +151,7 @@ def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmwa
         raise typer.Exit(2)
 
 
-def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: int, vacuum: bool,
+def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, vacuum: bool,
                      cdir: Path, firmware: FirmwareProfile) -> tuple[list[EmulatorServer], Path]:
     """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
@@ -521,7 +532,7 @@ def version() -> None:
 
 
 def main() -> None:
-    app()
+    app(auto_envvar_prefix="XARM_EMU")  # every option also from XARM_EMU_<COMMAND>_<OPTION>
 
 
 if __name__ == "__main__":

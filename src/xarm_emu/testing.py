@@ -37,7 +37,7 @@ _SDK_REPORT_PORTS = {"normal": ("TCP_REPORT_NORM_PORT", 30001), "rich": ("TCP_RE
 
 
 @contextlib.contextmanager
-def running_emulator(model: int = 6, *, config_dir: Path | None = None, vacuum: bool = False,
+def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, vacuum: bool = False,
                      firmware: str = DEFAULT_VERSION, **config: Any) -> Iterator[ServerThread]:
     """An emulator server on free loopback ports (``ServerConfig`` fields as keywords, e.g.
     ``speed=5.0``, ``admin=True``), stopped at the end of the block. Saved configuration goes to a

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from ruckig import Trajectory
 
-from ..model.inertials import NOMINAL_JOINT_VOLTAGE
+from ..model.inertials import NOMINAL_JOINT_VOLTAGE, joint_sizes
 from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
@@ -48,16 +48,19 @@ def _bits(flags: list[bool]) -> int:
     return out
 
 
-#: Robot serial number of each model unless one is given: two letters and four digits, as the
-#: version string of register 1 carries it (the SDK reads the digits; >= 1300 matter to
-#: the SDK only for the control box).
-DEFAULT_ROBOT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
+def check_firmware(model: RobotModel, firmware: FirmwareProfile) -> None:
+    """Refuse a firmware older than the arm ships with (the UFACTORY 850 needs 2.1.0, the xArm 7T 2.4.0)."""
+    if firmware.version.parts < model.min_firmware:
+        need = ".".join(str(x) for x in model.min_firmware)
+        raise ValueError(f"the {model.name} arm ships with firmware {need} or later, not {firmware}: "
+                         "choose a later --firmware")
 
 
 #: Controller attributes that are machinery, not state: constant, wired at construction, or a test
 #: switch. A checkpoint leaves them as they are.
 _CONTROLLER_MACHINERY = frozenset({"model", "dof", "period", "robot_sn", "box_sn", "components", "_handlers",
-                                   "hooks", "executor", "strict"})
+                                   "hooks", "executor", "strict", "firmware", "registers", "_float_checked",
+                                   "_inf_unchanged"})
 
 
 @dataclass(frozen=True)
@@ -155,13 +158,15 @@ def report_snapshot(c: Controller, io: IOModule, thermal: ThermalModel) -> Repor
 class Emulator:
     """One emulated xArm control box (controller, peripherals, configuration)."""
 
-    def __init__(self, model: int | RobotModel = 6, *, robot_sn: str | None = None, box_sn: str = "AC1300",
-                 config_dir: Path | None = None, load_config: bool = True, vacuum: bool = False,
-                 firmware: str | FirmwareProfile = DEFAULT_PROFILE) -> None:
-        self.model = get_model(model) if isinstance(model, int) else model
-        sn = robot_sn or DEFAULT_ROBOT_SN.get(self.model.dof, DEFAULT_ROBOT_SN[6])
+    def __init__(self, model: int | str | RobotModel = 6, *, robot_sn: str | None = None,
+                 box_sn: str | None = None, config_dir: Path | None = None, load_config: bool = True,
+                 vacuum: bool = False, firmware: str | FirmwareProfile = DEFAULT_PROFILE) -> None:
+        self.model = model if isinstance(model, RobotModel) else get_model(model)
+        sn = robot_sn or self.model.default_robot_sn
+        box_sn = box_sn or self.model.default_box_sn
         #: The firmware version this box claims (register 1) and whose behaviour it has.
         self.firmware = firmware if isinstance(firmware, FirmwareProfile) else profile_for(firmware)
+        check_firmware(self.model, self.firmware)
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD,
                                      firmware=self.firmware)
         box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
@@ -176,7 +181,7 @@ class Emulator:
         if vacuum:
             self.vacuum = VacuumGripper(self.io.tool)
             self.controller.add_component(self.vacuum)
-        self.thermal = ThermalModel(self.model.dof)
+        self.thermal = ThermalModel(self.model.dof, sizes=joint_sizes(self.model))
         self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
         self._schedule_seq = 0
         self.config_dir = config_dir

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from xarm_emu.model.inertials import joint_sizes
+from ..model.inertials import joint_sizes
 
 #: Ambient temperature (C); the manual's operating range is 0-50 C.
 AMBIENT_C = 25.0
@@ -43,8 +43,9 @@ THERMAL_BY_SIZE: dict[str, JointThermal] = {
 class ThermalModel:
     """Temperatures of ``dof`` joints, advanced by :meth:`step`. Starts at ambient (cold start)."""
 
-    def __init__(self, dof: int, ambient: float = AMBIENT_C, initial: Sequence[float] | None = None) -> None:
-        params = [THERMAL_BY_SIZE[s] for s in joint_sizes(dof)]
+    def __init__(self, dof: int, ambient: float = AMBIENT_C, initial: Sequence[float] | None = None,
+                 sizes: Sequence[str] | None = None) -> None:
+        params = [THERMAL_BY_SIZE[s] for s in (joint_sizes(dof) if sizes is None else sizes)]
         self.dof = dof
         self.ambient = float(ambient)
         self._tau = np.array([p.time_constant for p in params])

@@ -1,4 +1,4 @@
-"""Self-collision geometry of the xArm 5/6/7 (manual registers 77 and 78; error C22, manual 3.2.1).
+"""Self-collision geometry of the arms of ``robots.py`` (manual registers 77 and 78; error C22, manual 3.2.1).
 
 Each link is one or more capsules (a segment fixed in a joint frame plus a radius, mm); the end tool of
 register 78 is a capsule (built-in tools, cylinder 21) or a box (cuboid 22) in the flange frame.
@@ -11,10 +11,11 @@ down to the flange (y of the last joint's origin). The only collision data are t
 the joint modules' housings (no vendor collision model is published in a form we can read): base column
 and shoulder 60, upper arm 46, elbow module 50, forearm tube 38, wrist module 40, last module and flange
 35 mm; and three splits: the top 110 mm of the forearm belong to the elbow body, the forearm capsule stops
-45 mm above the wrist axis, the wrist module is 90 mm long. Where a module's housing is a cylinder about
-its own joint axis the capsule lies on that axis, which makes it invariant to that joint. Parts of a link
-that always touch a neighbour through the joint are left to the neighbour (adjacent bodies are never
-checked).
+45 mm above the wrist axis, the wrist module is 90 mm long (``XARM_GEOMETRY``, also used for the xArm 7T).
+Lite 6 and 850 have their own radii and splits (``LinkGeometry``), the emulator's estimates. Where a
+module's housing is a cylinder about its own joint axis the capsule lies on that axis, which makes it
+invariant to that joint. Parts of a link that always touch a neighbour through the joint are left to the
+neighbour (adjacent bodies are never checked).
 
 Checked pairs. Every pair of bodies at least two apart in the chain, except pairs that can never meet
 (elbow vs wrist, kept apart by the forearm) and the forearm vs the last module, which the J5 (xArm5: J4,
@@ -30,7 +31,8 @@ axes are the flange (default TCP) axes, as the manual says. The cylinder is encl
 rounded ends reach ``radius`` beyond the flat faces: conservative); the box is exact.
 
 Speed: the joint chain is evaluated in scalar Python using the fact that every joint origin rotation is
-Rx(0) or Rx(+/-pi/2) (a column permutation), and distances are closed-form scalar code (segment-segment
+a quarter-turn rotation (a signed permutation; Rx(0) and Rx(+/-pi/2), those of the xArm, take a shortcut),
+and distances are closed-form scalar code (segment-segment
 after Ericson, segment-box by piecewise quadratics). ``bench/bench_safety.py`` measures it.
 """
 
@@ -43,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .robots import RobotModel, joint_values
+from .rotations import rpy_to_matrix
 
 Vec = tuple[float, float, float]
 
@@ -135,10 +138,41 @@ NO_TOOL = tool_model(TOOL_NONE)
 # Link capsules per model, derived from the joint origins of ``robots.py`` (see the module docstring).
 # Collision data proper is only the radii, the splits along the forearm and the wrist module's length.
 
-_R_BASE, _R_UPPER, _R_ELBOW, _R_FORE, _R_WRIST, _R_LAST = 60.0, 46.0, 50.0, 38.0, 40.0, 35.0
-_FORE_TOP = 110.0  # forearm split: the top 110 mm (J4 module side) belongs to the elbow body
-_FORE_LOW = 45.0  # the forearm capsule ends this far above the wrist axis (the wrist module covers below)
-_WRIST_HALF = 45.0  # wrist module half length along its axis
+@dataclass(frozen=True)
+class LinkGeometry:
+    """Collision data of one model's links (mm): capsule radii and the splits along the arm.
+
+    ``fore_top``: the top of the forearm (elbow side) that belongs to the elbow body; ``fore_low``: how
+    far above the wrist axis the forearm capsule ends; ``wrist_half``: half the wrist module's length.
+    """
+
+    base: float
+    upper: float
+    elbow: float
+    fore: float
+    wrist: float
+    last: float
+    fore_top: float
+    fore_low: float
+    wrist_half: float
+
+
+#: The xArm 5/6/7 (and xArm 7T, the same joint modules) housings, as in the module docstring.
+XARM_GEOMETRY = LinkGeometry(60.0, 46.0, 50.0, 38.0, 40.0, 35.0, 110.0, 45.0, 45.0)
+#: Lite 6. ESTIMATE (the emulator's own, no vendor collision model): smaller joint modules, scaled to
+#: its shorter links (upper arm 200 mm, forearm 228 mm, wrist to flange 62.5 mm).
+LITE6_GEOMETRY = LinkGeometry(40.0, 35.0, 36.0, 28.0, 30.0, 28.0, 70.0, 35.0, 35.0)
+#: UFACTORY 850. ESTIMATE (the emulator's own): larger modules for its 390 mm upper arm and 426 mm
+#: forearm.
+UF850_GEOMETRY = LinkGeometry(75.0, 60.0, 62.0, 48.0, 45.0, 42.0, 130.0, 55.0, 50.0)
+
+_GEOMETRY: dict[str, LinkGeometry] = {"lite6": LITE6_GEOMETRY, "850": UF850_GEOMETRY}
+
+
+def link_geometry(model: RobotModel) -> LinkGeometry:
+    """The collision data of ``model`` (by its key; the xArm's for any other)."""
+    return _GEOMETRY.get(model.key, XARM_GEOMETRY)
+
 
 _ORIGIN: Vec = (0.0, 0.0, 0.0)
 
@@ -154,17 +188,27 @@ def _roll_code(roll: float) -> int:
     raise ValueError("collision chain supports roll 0 or +/-pi/2 only")
 
 
+def _origin_rotation(rpy: tuple[float, float, float]) -> tuple[float, ...]:
+    """Rz(yaw) Ry(pitch) Rx(roll) as 9 row-major entries, each snapped to 0 or +/-1 (quarter turns)."""
+    roll, pitch, yaw = rpy
+    m = rpy_to_matrix(roll, pitch, yaw)
+    out = []
+    for v in m.reshape(-1).tolist():
+        r = round(v)
+        if abs(v - r) > 1e-12:
+            raise ValueError("collision chain supports origin rotations in quarter turns only")
+        out.append(float(r))
+    return tuple(out)
+
+
 def _in_child(model: RobotModel, k: int, p: Vec) -> Vec:
     """Point ``p`` of joint ``k``'s parent frame in joint ``k``'s own frame (at zero joint angle)."""
     j = model.joints[k]
     ox, oy, oz = j.origin_xyz
     vx, vy, vz = p[0] - ox, p[1] - oy, p[2] - oz
-    code = _roll_code(j.origin_rpy[0])
-    if code == 1:  # Rx(+pi/2): child y = parent z, child z = -parent y
-        return (vx, vz, -vy)
-    if code == -1:  # Rx(-pi/2): child y = -parent z, child z = parent y
-        return (vx, -vz, vy)
-    return (vx, vy, vz)
+    m = _origin_rotation(j.origin_rpy)  # child coordinates = m^T (p - o)
+    return (m[0] * vx + m[3] * vy + m[6] * vz, m[1] * vx + m[4] * vy + m[7] * vz,
+            m[2] * vx + m[5] * vy + m[8] * vz)
 
 
 def _link_capsules(model: RobotModel) -> tuple[Capsule, ...]:
@@ -178,32 +222,33 @@ def _link_capsules(model: RobotModel) -> tuple[Capsule, ...]:
     dof = model.dof
     if dof not in (5, 6, 7):
         raise ValueError(f"no self-collision layout for {dof} axes")
+    g = link_geometry(model)
     j = model.joints
     b = 1 if dof == 7 else 0  # xArm7: one more upper body (J3), so later bodies shift by one
     wrist_j = 4 if dof == 7 else 3  # joint whose origin ends the forearm
     ex, fy, _ = j[wrist_j].origin_xyz
-    top = math.copysign(_FORE_TOP, fy)
+    top = math.copysign(g.fore_top, fy)
     caps = [
-        Capsule(_ORIGIN, j[0].origin_xyz, _R_BASE, "base", 1, -1),
-        Capsule(_ORIGIN, j[2].origin_xyz, _R_UPPER, "upper arm", 2, 1),
+        Capsule(_ORIGIN, j[0].origin_xyz, g.base, "base", 1, -1),
+        Capsule(_ORIGIN, j[2].origin_xyz, g.upper, "upper arm", 2, 1),
     ]
     if dof == 7:
-        caps.append(Capsule(_ORIGIN, j[3].origin_xyz, _R_ELBOW, "elbow J4 side", 3, 2))
+        caps.append(Capsule(_ORIGIN, j[3].origin_xyz, g.elbow, "elbow J4 side", 3, 2))
     parent = wrist_j - 1  # frame of the elbow and the top of the forearm
-    fore_a, fore_b = (ex, top, 0.0), (ex, fy - math.copysign(_FORE_LOW, fy), 0.0)
+    fore_a, fore_b = (ex, top, 0.0), (ex, fy - math.copysign(g.fore_low, fy), 0.0)
     if dof == 5:  # no joint turns about the forearm: it stays in the elbow frame
-        fore = Capsule(fore_a, fore_b, _R_FORE, "forearm", 4, parent)
+        fore = Capsule(fore_a, fore_b, g.fore, "forearm", 4, parent)
     else:  # it lies on the axis of the joint at its end, in that joint's frame
-        fore = Capsule(_in_child(model, wrist_j, fore_a), _in_child(model, wrist_j, fore_b), _R_FORE,
+        fore = Capsule(_in_child(model, wrist_j, fore_a), _in_child(model, wrist_j, fore_b), g.fore,
                        "forearm", 4 + b, wrist_j)
     last = dof - 1
     lx = j[last].origin_xyz[0]
     caps += [
-        Capsule(_ORIGIN, (ex, 0.0, 0.0), _R_ELBOW, "elbow", 3 + b, parent),
-        Capsule((ex, 0.0, 0.0), (ex, top, 0.0), _R_FORE, "forearm top", 3 + b, parent),
+        Capsule(_ORIGIN, (ex, 0.0, 0.0), g.elbow, "elbow", 3 + b, parent),
+        Capsule((ex, 0.0, 0.0), (ex, top, 0.0), g.fore, "forearm top", 3 + b, parent),
         fore,
-        Capsule((0.0, 0.0, -_WRIST_HALF), (0.0, 0.0, _WRIST_HALF), _R_WRIST, "wrist", 5 + b, last - 1),
-        Capsule(_in_child(model, last, (lx, 0.0, 0.0)), _ORIGIN, _R_LAST, "flange", 6 + b, last),
+        Capsule((0.0, 0.0, -g.wrist_half), (0.0, 0.0, g.wrist_half), g.wrist, "wrist", 5 + b, last - 1),
+        Capsule(_in_child(model, last, (lx, 0.0, 0.0)), _ORIGIN, g.last, "flange", 6 + b, last),
     ]
     return tuple(caps)
 
@@ -272,14 +317,20 @@ def _local_shapes(model: RobotModel, tool: ToolModel) -> list[tuple]:
 # Fast scalar joint chain
 
 
-def _origin_codes(model: RobotModel) -> tuple[tuple[int, float, float, float], ...]:
-    out: list[tuple[int, float, float, float]] = []
+_OriginCode = tuple[int, float, float, float, tuple[float, ...]]
+
+
+def _origin_codes(model: RobotModel) -> tuple[_OriginCode, ...]:
+    """Per joint: 0/+1/-1 for an origin rotation Rx(0)/Rx(+pi/2)/Rx(-pi/2), 2 for any other quarter-turn
+    rotation (its 9 entries follow), then the origin."""
+    out: list[_OriginCode] = []
     for j in model.joints:
         roll, pitch, yaw = j.origin_rpy
-        if pitch != 0.0 or yaw != 0.0:
-            raise ValueError("collision chain supports origin rotations about x only")
         x, y, z = (float(v) for v in j.origin_xyz)
-        out.append((_roll_code(roll), x, y, z))
+        if pitch == 0.0 and yaw == 0.0 and abs(abs(roll) - math.pi) > 1e-12:
+            out.append((_roll_code(roll), x, y, z, ()))
+        else:
+            out.append((2, x, y, z, _origin_rotation(j.origin_rpy)))
     return tuple(out)
 
 
@@ -290,13 +341,21 @@ def frames_scalar(model: RobotModel, q: Sequence[float]) -> list[tuple[float, ..
     px = py = pz = 0.0
     out: list[tuple[float, ...]] = []
     cos, sin = math.cos, math.sin
-    for (code, ox, oy, oz), qi in zip(codes, q, strict=False):
+    for (code, ox, oy, oz, m), qi in zip(codes, q, strict=False):
         px, py, pz = (px + xx * ox + yx * oy + zx * oz, py + xy * ox + yy * oy + zy * oz,
                       pz + xz * ox + yz * oy + zz * oz)
         if code == 1:  # Rx(+pi/2): new y = z, new z = -y
             yx, yy, yz, zx, zy, zz = zx, zy, zz, -yx, -yy, -yz
         elif code == -1:  # Rx(-pi/2): new y = -z, new z = y
             yx, yy, yz, zx, zy, zz = -zx, -zy, -zz, yx, yy, yz
+        elif code == 2:  # any quarter-turn rotation: new axis k = sum_i m[i][k] axis_i
+            xx, xy, xz, yx, yy, yz, zx, zy, zz = (
+                m[0] * xx + m[3] * yx + m[6] * zx, m[0] * xy + m[3] * yy + m[6] * zy,
+                m[0] * xz + m[3] * yz + m[6] * zz,
+                m[1] * xx + m[4] * yx + m[7] * zx, m[1] * xy + m[4] * yy + m[7] * zy,
+                m[1] * xz + m[4] * yz + m[7] * zz,
+                m[2] * xx + m[5] * yx + m[8] * zx, m[2] * xy + m[5] * yy + m[8] * zy,
+                m[2] * xz + m[5] * yz + m[8] * zz)
         c, s = cos(qi), sin(qi)
         xx, xy, xz, yx, yy, yz = (c * xx + s * yx, c * xy + s * yy, c * xz + s * yz,
                                   c * yx - s * xx, c * yy - s * xy, c * yz - s * xz)

@@ -221,4 +221,4 @@ def mass_matrix(
 def torques_to_currents(model: RobotModel, torques: Sequence[float] | np.ndarray) -> np.ndarray:
     """Motor currents (A) for joint torques, through the assumed torque constants of ``model.inertials``."""
     tau = np.asarray(torques, dtype=float).reshape(-1)[: model.dof]
-    return tau / torque_constants(model.dof)
+    return tau / torque_constants(model)

@@ -1,9 +1,10 @@
-"""Link inertial parameters, motor torque constants and joint voltage of the xArm 5, 6 and 7.
+"""Link inertial parameters, motor torque constants and joint voltage of every model of ``model.robots``.
 
 Source of the link tables: the vendor's published inertial sets ``xarm5_type5_HT_BR2``,
 ``xarm6_type6_HT_BR2`` and ``xarm7_type7_HT_BR2`` (xArm-Developer/xarm_ros2, ``xarm_description/config/
 link_inertial``; the "Model 3" tables of UFACTORY's "kinematic and dynamic parameters" article), which the
-vendor's URDF selects by default. The numbers were read from those
+vendor's URDF selects by default, and from the same place ``xarm6_type9_HT_BR2`` (Lite 6),
+``xarm6_type12_HT_LDBR2`` (850) and ``xarm7_type13_HT_BR2`` (xArm 7T). The numbers were read from those
 sets and written here in the project's units: mass in kg, centre of mass (COM) in mm in the link frame,
 inertia tensor in kg.m^2 about the COM, axes of the link frame.
 
@@ -113,7 +114,64 @@ XARM7_HT_BR2 = InertialSet("xarm7_type7_HT_BR2", (
        (9.3e-05, 5.87e-05, 0.000132, 0.0, 0.0, -3.6e-06)),
 ))
 
+#: Lite 6, set ``xarm6_type9_HT_BR2`` (link 5 weighs 0.804 kg there; the D-H article prints 0.084).
+LITE6_HT_BR2 = InertialSet("xarm6_type9_HT_BR2", (
+    _l(1.411, (-0.36, 41.95, -2.5),
+       (0.00145164, 0.0008873, 0.00131993, -1.24e-05, 6.7e-06, -0.0001255)),
+    _l(1.34, (179.0, 0.0, 58.4),
+       (0.0015854, 0.0056097, 0.00485, 6.766e-06, 0.00115136, -1.14e-06)),
+    _l(0.953, (72.0, -35.7, -1.0),
+       (0.0008861, 0.0015785, 0.00184677, 0.00039287, -7.066e-05, 2.445e-05)),
+    _l(1.284, (-2.0, -28.5, -81.3),
+       (0.003705, 0.0030455, 0.0015413, 2.0e-06, -7.17e-06, 0.00093188)),
+    _l(0.804, (0.0, 10.0, 1.9),
+       (0.0005668, 0.0005077, 0.00053, -6.0e-07, 5.3e-06, 4.8e-07)),
+    _l(0.13, (0.0, -1.94, -10.2),
+       (7.726e-05, 8.5665e-05, 0.00014814, -1.0e-06, -4.0e-07, 6.0e-07)),
+))
+
+#: UFACTORY 850, set ``xarm6_type12_HT_LDBR2``.
+UF850_HT_LDBR2 = InertialSet("xarm6_type12_HT_LDBR2", (
+    _l(4.807, (0.057, 13.842, -20.55),
+       (0.022001729, 0.018900685, 0.012270188, -1.1152e-05, 6.738e-06, -0.000364084)),
+    _l(3.28, (323.425, 0.095, 7.586),
+       (0.007611984, 0.06420854, 0.0611757, -3.3561e-05, 0.008240021, -1.6145e-05)),
+    _l(2.237, (128.834, 113.41, 9.78),
+       (0.009920314, 0.008923236, 0.01428481, -0.005137841, 0.002628426, 0.002412869)),
+    _l(2.041, (0.266, -38.33, -101.915),
+       (0.019918597, 0.017515194, 0.004283807, -2.3185e-05, 5.8169e-05, 0.005878608)),
+    _l(1.385, (0.057, -15.267, -1.015),
+       (0.002077454, 0.001109183, 0.0020357, -5.026e-06, -6.99e-07, 6.747e-06)),
+    _l(0.225, (0.484, -0.334, -14.217),
+       (0.000130252, 0.000128308, 0.0002325, -4.285e-06, 3.19e-07, -3.86e-07)),
+))
+
+#: xArm 7T, set ``xarm7_type13_HT_BR2``.
+XARM7T_HT_BR2 = InertialSet("xarm7_type13_HT_BR2", (
+    _l(2.459, (0.13, -28.3, -13.0),
+       (0.006061, 0.0052228, 0.00347077, -3.28e-06, -1.772e-05, 0.000924556)),
+    _l(1.956, (-0.42, 126.07, 18.41),
+       (0.01048, 0.0040914, 0.008267, 5.5459e-05, -3.9657e-05, 0.0034744)),
+    _l(1.8618, (44.5, 21.12, -11.13),
+       (0.0040936, 0.00368447, 0.00329033, -0.00039518, -0.000932, -0.0004827)),
+    _l(1.8955, (67.74, 110.86, 12.7),
+       (0.00724718, 0.00434535, 0.00680433, -0.0018978, 0.00117617, 0.00224485)),
+    _l(1.428, (0.32, -14.93, -30.46),
+       (0.00655938, 0.0061149, 0.00148845, 8.13e-06, 4.257e-06, 0.00036789)),
+    _l(1.397, (65.0, -31.5, 4.2),
+       (0.0016471, 0.00205013, 0.00258552, 0.00049082, 0.00034105, -0.00017778)),
+    _l(0.1843, (0.0, 3.44, -10.34),
+       (9.666e-05, 7.44e-05, 0.0001485, -2.7e-07, 0.0, 2.75e-06)),
+))
+
+#: Default inertial set by number of axes (the xArm 5, 6 and 7).
 INERTIALS: dict[int, InertialSet] = {5: XARM5_HT_BR2, 6: XARM6_HT_BR2, 7: XARM7_HT_BR2}
+
+#: Inertial set by model key (``RobotModel.key``).
+INERTIALS_BY_MODEL: dict[str, InertialSet] = {
+    "5": XARM5_HT_BR2, "6": XARM6_HT_BR2, "7": XARM7_HT_BR2,
+    "lite6": LITE6_HT_BR2, "850": UF850_HT_LDBR2, "7t": XARM7T_HT_BR2,
+}
 
 #: Standard gravity used for all torques (m/s^2). The vendor does not state its value (9.8 and 9.81
 #: differ by 0.1%); register 51 gives only a direction, scaled to this magnitude (``model.dynamics``).
@@ -133,26 +191,48 @@ _SIZES: dict[int, tuple[str, ...]] = {
 }
 _KT = {"L": TORQUE_CONSTANT_LARGE, "M": TORQUE_CONSTANT_MEDIUM, "S": TORQUE_CONSTANT_SMALL}
 
+# Lite 6 and 850. ASSUMPTION (the emulator's own, like the constants above): the Lite 6 runs one size
+# smaller than the xArm 6 at the shoulder and elbow; the 850, whose shoulder carries about three times the
+# xArm 6's gravity torque, runs twice the xArm's large constant at J1/J2 and the large one at its elbow.
+_MODEL_SIZES: dict[str, tuple[str, ...]] = {
+    "lite6": ("M", "M", "S", "S", "S", "S"),
+    "850": ("L", "L", "L", "M", "S", "S"),
+}
+_MODEL_KT: dict[str, tuple[float, ...]] = {
+    "850": (2.0 * TORQUE_CONSTANT_LARGE, 2.0 * TORQUE_CONSTANT_LARGE, TORQUE_CONSTANT_LARGE,
+            TORQUE_CONSTANT_MEDIUM, TORQUE_CONSTANT_SMALL, TORQUE_CONSTANT_SMALL),
+}
+
 #: Nominal joint bus voltage (V). ASSUMPTION: the xArm 5/6/7 joints run from the control box's 48 V DC
 #: arm supply; the rich report gives it x100 (manual 2.1.6, bytes 342-355).
 NOMINAL_JOINT_VOLTAGE = 48.0
 
 
-def joint_sizes(dof: int) -> tuple[str, ...]:
-    """Size class per joint: ``"L"`` (shoulder), ``"M"`` (elbow), ``"S"`` (wrist)."""
+def joint_sizes(model: RobotModel | int) -> tuple[str, ...]:
+    """Size class per joint: ``"L"`` (shoulder), ``"M"`` (elbow), ``"S"`` (wrist).
+
+    A model picks its own (Lite 6, 850); a number of axes, or any other model, the xArm's for that many.
+    """
+    if not isinstance(model, int) and model.key in _MODEL_SIZES:
+        return _MODEL_SIZES[model.key]
+    dof = model if isinstance(model, int) else model.dof
     try:
         return _SIZES[int(dof)]
     except KeyError:
         raise ValueError(f"no xArm model with {dof!r} axes (expected 5, 6 or 7)") from None
 
 
-def torque_constants(dof: int) -> np.ndarray:
+def torque_constants(model: RobotModel | int) -> np.ndarray:
     """Assumed torque constant per joint (N.m/A), length ``dof``; current = torque / constant."""
-    return np.array([_KT[s] for s in joint_sizes(dof)], dtype=float)
+    if not isinstance(model, int) and model.key in _MODEL_KT:
+        return np.array(_MODEL_KT[model.key], dtype=float)
+    return np.array([_KT[s] for s in joint_sizes(model)], dtype=float)
 
 
 def get_inertials(model: RobotModel | int) -> InertialSet:
-    """The default (HT_BR2) inertial set of a model, chosen by its number of axes."""
+    """The inertial set of a model (by its key), or the xArm's default one for a number of axes."""
+    if not isinstance(model, int) and model.key in INERTIALS_BY_MODEL:
+        return INERTIALS_BY_MODEL[model.key]
     dof = model if isinstance(model, int) else model.dof
     try:
         return INERTIALS[int(dof)]

@@ -12,7 +12,7 @@ Every frame starts with its total length as u32 big-endian. Following section 2.
 ("automatic reporting data analysis"), fp32 are little-endian and multi-byte integers big-endian.
 The manual numbers bytes from 1; the offsets below are 0-based (manual byte N is offset N-1).
 
-Where the manual is unclear, the official SDK's reading decides (research note section 2.3):
+Where the manual is unclear, the official SDK's reading decides:
 byte 89 is the enable bits (the manual repeats "brake"), bytes 150..151 are reserved
 (motor tid/fid), temperatures are signed bytes, joint voltages are V x 100, analog values are
 12-bit counts of 0..10 V.

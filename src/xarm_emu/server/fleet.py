@@ -17,7 +17,8 @@ lists them; top-level keys are defaults for every arm::
     robot_sn = "XS1302"
     admin = true                 # fault injection on 127.0.0.2:10502 (see xarm-emu inject)
 
-Arm keys: ``model`` (5, 6, 7), ``host``, ``port``, ``normal_port``, ``rich_port``, ``develop_port``,
+Arm keys: ``model`` (5, 6, 7, or a name: lite6, 850, 7t), ``host``, ``port``, ``normal_port``,
+``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
 ``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``firmware``
 (the version the box claims, as ``serve --firmware``), ``trace``
@@ -38,8 +39,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from ..controller.emulator import DEFAULT_ROBOT_SN
-from ..model.robots import MODELS
+from ..controller.emulator import check_firmware
+from ..model.robots import MODEL_NAMES, get_model
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, VersionError, profile_for
 from .core import ServerConfig
@@ -58,7 +59,7 @@ class FleetError(ValueError):
 class ArmSpec:
     """One arm of a fleet: its model, serial number and server configuration."""
 
-    model: int
+    model: int | str  # as the file gives it: 5, 6, 7 or a name of model.robots.MODEL_NAMES
     robot_sn: str
     server: ServerConfig = field(default_factory=ServerConfig)
     vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
@@ -117,8 +118,12 @@ def _unknown(table: dict[str, Any], known: tuple[str, ...], where: str) -> None:
 
 def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], base: Path) -> ArmSpec:
     model = values.get("model", 6)
-    if isinstance(model, bool) or not isinstance(model, int) or model not in MODELS:
-        raise FleetError(f"{where}: model is 5, 6 or 7, got {model!r}")
+    try:
+        if not isinstance(model, int | str):
+            raise ValueError(model)
+        robot = get_model(model)
+    except ValueError:
+        raise FleetError(f"{where}: model is one of {', '.join(MODEL_NAMES)}, got {model!r}") from None
     host = values.get("host", "127.0.0.1")
     if not isinstance(host, str) or not host:
         raise FleetError(f"{where}: host must be an address string, got {host!r}")
@@ -143,7 +148,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         raise FleetError(f"{where}: {exc}") from None
     sn = values.get("robot_sn")
     if sn is None:
-        sn = DEFAULT_ROBOT_SN[model]
+        sn = robot.default_robot_sn
         while sn in taken:
             sn = f"{sn[:2]}{int(sn[2:]) + 1:04d}"
     elif not isinstance(sn, str) or not _SN.fullmatch(sn):
@@ -159,7 +164,11 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         paths[key] = None if value is None else base / value
     cfg = replace(ServerConfig(host=host, speed=speed, admin=admin, trace=paths["trace"],
                                faults=paths["faults"]), **ports)
-    return ArmSpec(int(model), sn, cfg, vacuum, profile)
+    try:
+        check_firmware(robot, profile)
+    except ValueError as exc:
+        raise FleetError(f"{where}: {exc}") from None
+    return ArmSpec(model, sn, cfg, vacuum, profile)
 
 
 _WILDCARD = frozenset({"", "0.0.0.0", "::"})
