@@ -362,3 +362,20 @@ def test_mode_7_a_new_pose_replaces_the_current_one() -> None:
         xs.append(ctl.tcp_pose()[0] - p0[0])
     assert max(xs) < 60.0  # the first target is never reached
     assert ctl.tcp_pose() == pytest.approx(last, abs=1e-4) and ctl.state == 2
+
+
+@pytest.mark.parametrize("mode", [4, 6])
+def test_checkpoint_mid_move_replays_the_same_joints(mode: int) -> None:
+    emu = _emu()
+    ready(emu, mode=mode)
+    if mode == 4:
+        jointv(emu, (0.3, -0.2), duration=1.0)
+    else:
+        joint_target(emu, 1.0, -0.5)
+    emu.advance(0.3)
+    cp = emu.checkpoint()
+    first, _, _ = _run(emu, 1.5)
+    emu.restore(cp)
+    again, _, _ = _run(emu, 1.5)
+    assert np.array_equal(first, again)
+    assert emu.controller.state == 2
