@@ -185,3 +185,53 @@ def test_recording_stops_at_its_longest(tmp_path: Path, monkeypatch: pytest.Monk
     call(emu, 61, on=1)
     emu.advance(1.0)
     assert len(trajectory.store_of(emu.controller).recorded) == round(0.2 / emu.controller.period) + 1
+
+
+class RecordingFeedback:
+    """Stands in for the controller's feedback queue: records what trajectory tasks report."""
+
+    def __init__(self) -> None:
+        self.events: list[tuple[str, object, int, bool]] = []
+        self.origin = 0
+
+    def handlers(self) -> dict[int, object]:
+        return {}
+
+    def step(self, dt: float, ctl: object) -> None:
+        pass
+
+    def capture(self) -> object:
+        self.origin += 1
+        return ("request", self.origin)
+
+    def start_other(self, origin: object, register: int, time_s: float, state: int = 0) -> bool:
+        self.events.append(("start", origin, register, True))
+        return True
+
+    def finish_other(self, origin: object, register: int, time_s: float, *, ok: bool = True,
+                     state: int = 0) -> bool:
+        self.events.append(("finish", origin, register, ok))
+        return True
+
+
+def test_save_load_and_playback_report_other_start_and_finish_to_their_origin(tmp_path: Path) -> None:
+    emu = _emu(tmp_path)
+    fb = RecordingFeedback()
+    emu.controller.add_component(fb)  # type: ignore[arg-type]
+    record(emu, 0.5)
+    call(emu, 62, filename="a")
+    call(emu, 63, filename="missing")
+    call(emu, 63, filename="a")
+    ready(emu)
+    call(emu, 64, times=1, speed=4)
+    assert fb.events == [("start", ("request", 1), 62, True), ("finish", ("request", 1), 62, True),
+                         ("start", ("request", 2), 63, True), ("finish", ("request", 2), 63, False),
+                         ("start", ("request", 3), 63, True), ("finish", ("request", 3), 63, True),
+                         ("start", ("request", 4), 64, True)]
+    emu.advance(2.0)
+    assert fb.events[-1] == ("finish", ("request", 4), 64, True)
+    call(emu, 64, times=-1, speed=1)
+    emu.advance(0.5)
+    call(emu, 12, state=4)
+    emu.step()
+    assert fb.events[-1] == ("finish", ("request", 5), 64, False)

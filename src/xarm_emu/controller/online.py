@@ -52,6 +52,7 @@ class OnlinePlanner:
     last_step: int = -2
     #: Present state of the planned coordinates (joints, or xyz + rotation vector).
     state: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    #: Targets taken over so far (each one re-planned the motion).
     replans: int = 0
 
 
@@ -204,9 +205,3 @@ def step(ctl: Any, dt: float) -> None:
         p.traj = None
         p.state = (c, np.zeros_like(cd), np.zeros_like(cdd))
     fire(ctl, Event.SERVO_AT_TARGET if done else Event.SERVO_MOVING)
-
-
-def pending_command(ctl: Any) -> bool:
-    """A target waits for the next control period or the arm is still heading for one."""
-    p = planner_of(ctl)
-    return p.pending is not None or p.traj is not None

@@ -15,8 +15,11 @@
   SDK waits for), state 1; at the end the mode returns to 0 and the state to 2.
 
 Names are ASCII letters, digits, ``-``, ``_``, ``.`` and spaces, at most 80 characters, no path parts.
-A save, load or playback that finishes calls :attr:`TrajectoryStore.on_finish` with the register and
-the code (0 success, 1 failure), for the feedback frames of firmware 2.0.102 (OTHER_FINISH).
+Feedback (firmware 2.0.102, registers 253/254): where the controller has a feedback queue (a
+component with ``capture``, ``start_other`` and ``finish_other``), a save, load or playback reports
+OTHER_START when accepted and OTHER_FINISH (code 0, or 1 when it failed) when it ends, to the
+connection and transaction that asked for it; the SDK's ``wait=True`` waits for that frame.
+:attr:`TrajectoryStore.on_finish` is called as well, with the register and the code.
 """
 
 from __future__ import annotations
@@ -77,6 +80,32 @@ class Playback:
     t: float = 0.0
     index: float = 0.0
     done_times: int = 0
+    #: Who asked for the playback, for its OTHER_FINISH feedback.
+    origin: Any = None
+
+
+def _feedback_queue(ctl: Any) -> Any:
+    """The controller's feedback queue component, if it has one."""
+    for c in ctl.components:
+        if all(hasattr(c, name) for name in ("capture", "start_other", "finish_other")):
+            return c
+    return None
+
+
+def _started(ctl: Any, register: int) -> Any:
+    """OTHER_START of a trajectory task just accepted; returns its origin for the finish."""
+    fq = _feedback_queue(ctl)
+    if fq is None:
+        return None
+    origin = fq.capture()
+    fq.start_other(origin, register, ctl.time)
+    return origin
+
+
+def _finished(ctl: Any, origin: Any, register: int, code: int) -> None:
+    fq = _feedback_queue(ctl)
+    if fq is not None:
+        fq.finish_other(origin, register, ctl.time, ok=code == 0)
 
 
 @dataclass
@@ -182,6 +211,7 @@ def record_step(ctl: Any, dt: float) -> None:
 def save(ctl: Any, name: str) -> int:
     """Register 62: save the recording; returns register 65's status."""
     st = store_of(ctl)
+    origin = _started(ctl, 62)
     st.status = SAVING
     try:
         if len(st.recorded) < 2:
@@ -190,6 +220,7 @@ def save(ctl: Any, name: str) -> int:
         st.status = SAVE_OK
     except (TrajectoryError, OSError):
         st.status = SAVE_FAILED
+    _finished(ctl, origin, 62, 0 if st.status == SAVE_OK else 1)
     st.finish(62, 0 if st.status == SAVE_OK else 1)
     return st.status
 
@@ -197,12 +228,14 @@ def save(ctl: Any, name: str) -> int:
 def load(ctl: Any, name: str) -> int:
     """Register 63: load a saved trajectory; returns register 65's status."""
     st = store_of(ctl)
+    origin = _started(ctl, 63)
     st.status = LOADING
     try:
         st.loaded, st.loaded_period = st.read(name, ctl.dof)
         st.status = LOAD_OK
     except (TrajectoryError, OSError, KeyError):
         st.status = LOAD_FAILED
+    _finished(ctl, origin, 63, 0 if st.status == LOAD_OK else 1)
     st.finish(63, 0 if st.status == LOAD_OK else 1)
     return st.status
 
@@ -220,12 +253,14 @@ def start_playback(ctl: Any, times: int, factor: int) -> None:
         s = ctl.settings
         lead_in = motion.plan_joint_move(ctl.q, samples[0], LEAD_IN_SPEED, min(LEAD_IN_ACC, s.joint_maxacc),
                                          s.joint_jerk)
-    st.playback = Playback(samples, factor, times, lead_in)
+    st.playback = Playback(samples, factor, times, lead_in, origin=_started(ctl, 64))
     ctl.mode = MODE_PLAYBACK
     fire(ctl, Event.SERVO_MOVING)
 
 
 def _end_playback(ctl: Any, st: TrajectoryStore, code: int) -> None:
+    if st.playback is not None:
+        _finished(ctl, st.playback.origin, 64, code)
     st.playback = None
     ctl.mode = 0
     st.finish(64, code)
