@@ -379,3 +379,14 @@ def test_checkpoint_mid_move_replays_the_same_joints(mode: int) -> None:
     again, _, _ = _run(emu, 1.5)
     assert np.array_equal(first, again)
     assert emu.controller.state == 2
+
+
+def test_restore_to_before_a_velocity_command_forgets_it() -> None:
+    emu = _emu()
+    ready(emu, mode=4)
+    cp = emu.checkpoint()
+    jointv(emu, (0.3,))
+    emu.advance(0.5)
+    emu.restore(cp)
+    emu.advance(0.5)
+    assert emu.controller.q == pytest.approx(np.zeros(6), abs=1e-12) and emu.controller.state == 2

@@ -8,7 +8,7 @@ import functools
 from collections.abc import Callable
 from typing import Any
 
-from . import online, trajectory, velocity
+from . import online, reduced, trajectory, velocity
 from .base import Handler, Values
 
 #: What the core runs each control period while the controller is in one of these modes.
@@ -47,3 +47,12 @@ def route(ctl: Any, code: int) -> Handler | None:
     if fn is None:
         return None
     return functools.partial(fn, ctl)
+
+
+def create_state(ctl: Any) -> None:
+    """Create the state behind modes 4-7 and 11, trajectories and reduced mode on ``ctl`` at
+    construction, so that a checkpoint (a copy of the controller's attributes) always holds it."""
+    velocity.control_of(ctl)
+    online.planner_of(ctl)
+    trajectory.store_of(ctl)
+    reduced.reduced_of(ctl)

@@ -37,6 +37,9 @@ def bind(ctl: ControllerCore,
          tables: tuple[Mapping[int, CtlHandler], ...] | None = None) -> dict[int, Handler]:
     """The dispatch table of ``ctl``: each handler of ``tables`` (default :data:`TABLES`) with the
     controller bound as its first argument, for the registers of ``ctl``'s firmware only."""
+    from ..mode_steps import create_state
+
+    create_state(ctl)  # the state behind these handlers exists from construction (checkpoints)
     out: dict[int, Handler] = {}
     for table in TABLES if tables is None else tables:
         for code, fn in table.items():
