@@ -235,3 +235,22 @@ def test_save_load_and_playback_report_other_start_and_finish_to_their_origin(tm
     call(emu, 12, state=4)
     emu.step()
     assert fb.events[-1] == ("finish", ("request", 5), 64, False)
+
+
+def test_leaving_mode_11_ends_the_playback_unfinished(tmp_path: Path) -> None:
+    emu = _emu(tmp_path)
+    fb = RecordingFeedback()
+    emu.controller.add_component(fb)  # type: ignore[arg-type]
+    record(emu, 0.5)
+    call(emu, 62, filename="a")
+    call(emu, 63, filename="a")
+    ready(emu)
+    call(emu, 64, times=-1, speed=1)
+    emu.advance(0.3)
+    call(emu, 19, mode=0)
+    call(emu, 12, state=0)
+    emu.advance(0.3)
+    q = emu.controller.q.copy()
+    emu.advance(0.3)
+    assert fb.events[-1][0] == "finish" and fb.events[-1][2:] == (64, False)
+    assert emu.controller.mode == 0 and emu.controller.q == pytest.approx(q, abs=1e-12)

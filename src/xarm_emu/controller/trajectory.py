@@ -199,9 +199,15 @@ def set_recording(ctl: Any, on: bool) -> None:
 
 
 def record_step(ctl: Any, dt: float) -> None:
-    """Every control period: keep the joints while recording."""
+    """Every control period: keep the joints while recording; a playback whose mode 11 was left
+    (register 19) ends unfinished."""
     st = getattr(ctl, _ATTR, None)
-    if st is None or not st.recording:
+    if st is None:
+        return
+    if st.playback is not None and ctl.mode != MODE_PLAYBACK:
+        _finished(ctl, st.playback.origin, 64, 1)
+        st.playback = None
+    if not st.recording:
         return
     st.recorded.append(ctl.q.copy())
     if (len(st.recorded) - 1) * st.record_period >= MAX_RECORD_SECONDS:
