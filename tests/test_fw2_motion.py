@@ -52,7 +52,7 @@ def test_the_sdks_bytes_for_set_position_x10_relative_move_the_tcp_10_mm() -> No
     wire = struct.pack("<11f", 10, 0, 0, 0, 0, 0, 0, 100, 2000, 0, -1) + b"\x00\x00"
     start = emu.controller.tcp_pose().copy()
     state, reply = emu.handle(83, wire)
-    assert state == 0 and reply == b"\x00\x01"
+    assert state == 0 and reply == b"\x00\x01\x00"  # buffer count, check result 0 (as register 21)
     emu.advance(2.0)
     assert emu.controller.tcp_pose() - start == pytest.approx([10, 0, 0, 0, 0, 0], abs=1e-6)
 

@@ -1,1 +1,19 @@
-"""xarm-emu."""
+"""The control box: pure and deterministic, advanced by ``step()`` on a fixed control period.
+
+- :mod:`.emulator`: :class:`~.emulator.Emulator`, the box with its components, saved configuration,
+  report snapshot, fault injection and checkpoints; what the server runs and tests drive.
+- :mod:`.core`: :class:`~.core.Controller`: dispatch through the register table, the control step.
+- :mod:`.handlers`: register handlers as plain functions, bound to codes in one table.
+- :mod:`.states`: the motion state machine (states, modes, events, transition table).
+- :mod:`.state`: :class:`~.state.ControllerState`, every mutable value of the controller.
+- :mod:`.settings`, :mod:`.config`: settable parameters and their saved files.
+- :mod:`.executor`, :mod:`.commands`, :mod:`.motion`, :mod:`.poses`: the command buffer and motion.
+- :mod:`.safety`, :mod:`.faults`, :mod:`.thermal`: safety checks, the fault group, joint temperatures.
+- :mod:`.base`: the control period, command outcomes and the interface components plug in through.
+- Components: :mod:`.io`, :mod:`.gripper`, :mod:`.vacuum`; :mod:`.modbus_map` binds the standard
+  Modbus map to a live box.
+"""
+
+__all__ = ["base", "commands", "config", "core", "emulator", "executor", "faults", "gripper", "handlers",
+           "io", "modbus_map", "motion", "poses", "safety", "settings", "state", "states", "thermal",
+           "vacuum"]

@@ -36,6 +36,7 @@ class LineMove:
     tool_frame: bool = False  # register 28 / 92 coordinate 1
     relative: bool = False  # register 92 "relative pose"
     axis_angle: bool = False  # register 92
+    motion_type: int = 0  # register 21's common form: 1 line or joint fallback, 2 joint planning
 
 
 @dataclass(frozen=True)

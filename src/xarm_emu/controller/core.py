@@ -3,7 +3,9 @@ control step and the safety checks.
 
 Pure and deterministic: no sockets, no wall clock. The server calls :meth:`handle` for every
 request and :meth:`step` once per control period (:data:`~xarm_emu.controller.base.PERIOD`).
-Register handlers live in the command modules (``cmd_*.py``) that :class:`Controller` combines.
+Register handlers are plain functions in :mod:`.handlers`, bound in one table; the mutable state is
+one :class:`~.state.ControllerState` (:attr:`Controller.data`), beside the constant robot model
+and the :class:`~.settings.Settings`.
 
 States (register 13, manual section 2.1.3): 1 in motion, 2 sleep (idle and ready), 3 suspend,
 4 stop, 5 system reset. Modes (register 19): 0 position, 1 servo, 2 joint teaching, 3 Cartesian
@@ -46,11 +48,9 @@ from .commands import QueuedCommand
 from .executor import Executor, Limits
 from .faults import Faults
 from .mode_steps import EVERY_STEP, MODE_STEPS, route
-from .settings import (
-    Settings,
-)
-from .states import (  # noqa: F401 - MODE_CARTESIAN_TEACH is part of the vocabulary re-exported
-    MODE_CARTESIAN_TEACH,
+from .settings import Settings
+from .state import ControllerState, StateField
+from .states import (
     MODE_JOINT_TEACH,
     MODE_POSITION,
     MODE_SERVO,
@@ -58,7 +58,6 @@ from .states import (  # noqa: F401 - MODE_CARTESIAN_TEACH is part of the vocabu
     STATE_SLEEP,
     STATE_STOP,
     STATE_SUSPEND,
-    STATE_SYSTEM_RESET,
     Event,
     fire,
 )
@@ -79,11 +78,26 @@ def version_string(model: RobotModel, robot_sn: str, box_sn: str,
     return f"{model.axis},{model.robot_type},{robot_sn},{box_sn},v{firmware.version}"
 
 
-class ControllerCore:
-    """State and mechanisms shared by every command group."""
+def joint_torques(model: RobotModel, data: ControllerState, settings: Settings) -> np.ndarray:
+    """Theoretical joint torques (N m) of state ``data``: gravity of the links and the payload of
+    register 36 with the gravity direction of register 51, plus the inertial terms of the planned
+    motion (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`)."""
+    s = settings
+    try:
+        g: Any = dyn.gravity_from_direction(s.gravity_direction)
+    except ValueError:
+        g = dyn.DEFAULT_GRAVITY
+    return dyn.inverse_dynamics(model, data.q, data.qd, data.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
 
-    #: Motion state (register 13); only :func:`.states.fire` changes it.
-    motion_state: int = STATE_STOP
+
+def tcp_matrix(model: RobotModel, q: np.ndarray, settings: Settings) -> np.ndarray:
+    """TCP pose (4x4, mm) of joints ``q`` in the user frame, TCP offset applied (registers 35, 73)."""
+    return kin.tcp_pose(model, q, settings.tcp_offset, settings.world_offset)
+
+
+class Controller:
+    """One emulated control box with its arm: dispatch, readiness, poses and the control step over
+    one :class:`~.state.ControllerState`."""
 
     def __init__(self, model: RobotModel, *, robot_sn: str = "XI1300", box_sn: str = "AC1300",
                  period: float = PERIOD, firmware: FirmwareProfile = DEFAULT_PROFILE) -> None:
@@ -97,39 +111,49 @@ class ControllerCore:
         self.period = period
         self.robot_sn = robot_sn
         self.box_sn = box_sn
-        self._time = 0.0
-        self.steps = 0
-        self.q = np.zeros(self.dof)
-        self.qd = np.zeros(self.dof)
-        self.qdd = np.zeros(self.dof)
-        self._torque_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
-        self.mode = MODE_POSITION
-        self.enabled = [True] * self.dof
-        self.brakes = [True] * self.dof  # True: brake released (motor holds the joint)
-        self.faults = Faults.none(self.dof)
+        #: Every mutable value of the box (:class:`~.state.ControllerState`).
+        self.data = ControllerState.initial(self.dof)
         self.settings = Settings.for_model(self.model)
-        self.simulation_robot = False  # register 79
-        self._physical_q: np.ndarray | None = None
-        self.collision_tool = collision.NO_TOOL
         #: Calls outside the controller; the emulator wires them up.
         self.hooks = Hooks()
-        self.executor = Executor(model)
-        self.servo_target: np.ndarray | None = None
-        self.servo_tracker: motion.ServoTracker | None = None
+        self.executor = Executor(model, self.data.motion)
         self.components: list[Component] = []
+        self._torque_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._pose_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._handlers: dict[int, Handler] = self.register_handlers()
-        self._code = 0  # register being handled
         #: Tests set this: unexpected exceptions in handlers or steps propagate instead of being
         #: logged and answered with warning 12 / error C29 (what a running server does).
         self.strict = False
 
     def register_handlers(self) -> dict[int, Handler]:
-        """Handlers by register code: the tables of :mod:`.handlers`, bound to this controller;
-        each remaining command group class adds its own (cooperative ``super()``)."""
+        """Handlers by register code: the tables of :mod:`.handlers`, bound to this controller."""
         from . import handlers
 
         return handlers.bind(self)
+
+    def adopt(self, data: ControllerState, settings: Settings) -> None:
+        """Take ``data`` and ``settings`` as the box's state (a restored checkpoint); derived
+        values are computed afresh."""
+        self.data = data
+        self.settings = settings
+        self.executor.data = data.motion
+        self._torque_cache = self._pose_cache = None
+
+    # -- the state's values (ControllerState), by the names the handlers and components use ---
+    #: Motion state (register 13); only :func:`.states.fire` changes it.
+    motion_state = StateField[int]()
+    steps = StateField[int]()
+    q = StateField[np.ndarray]()
+    qd = StateField[np.ndarray]()
+    qdd = StateField[np.ndarray]()
+    mode = StateField[int]()  # register 19
+    enabled = StateField[list[bool]]()  # register 11
+    brakes = StateField[list[bool]]()  # register 18; True: brake released
+    faults = StateField[Faults]()  # chapter 3
+    servo_target = StateField[np.ndarray | None]()
+    servo_tracker = StateField[motion.ServoTracker | None]()
+    simulation_robot = StateField[bool]()  # register 79
+    collision_tool = StateField[collision.ToolModel]()  # register 78
 
     # -- saved configuration (registers 39/40) --------------------------------------------------
     def config_values(self) -> dict[str, Any]:
@@ -152,33 +176,34 @@ class ControllerCore:
     @property
     def physical_joints(self) -> np.ndarray:
         """Joints of the physical arm: frozen while virtual robot mode (register 79) is on."""
-        return self._physical_q.copy() if self._physical_q is not None else self.q.copy()
+        d = self.data
+        return d.physical_q.copy() if d.physical_q is not None else d.q.copy()
 
     # -- faults (chapter 3) ----------------------------------------------------------------------
     @property
     def error_code(self) -> int:
-        return self.faults.error
+        return self.data.faults.error
 
     @error_code.setter
     def error_code(self, code: int) -> None:
-        self.faults.error = code
+        self.data.faults.error = code
 
     @property
     def warning_code(self) -> int:
-        return self.faults.warning
+        return self.data.faults.warning
 
     @warning_code.setter
     def warning_code(self, code: int) -> None:
-        self.faults.warning = code
+        self.data.faults.warning = code
 
     @property
     def servo_errors(self) -> list[int]:
         """Per-joint servo error codes (section 3.1)."""
-        return self.faults.servo_errors
+        return self.data.faults.servo_errors
 
     @servo_errors.setter
     def servo_errors(self, codes: list[int]) -> None:
-        self.faults.servo_errors = codes
+        self.data.faults.servo_errors = codes
 
     @property
     def handler_codes(self) -> frozenset[int]:
@@ -197,15 +222,15 @@ class ControllerCore:
     # -- ControllerView ------------------------------------------------------------------------
     @property
     def time(self) -> float:
-        return self._time
+        return self.data.time
 
     @property
     def state(self) -> int:
-        return self.motion_state
+        return self.data.motion_state
 
     @property
     def is_moving(self) -> bool:
-        return self.motion_state == STATE_MOVING
+        return self.data.motion_state == STATE_MOVING
 
     @property
     def tcp_position(self) -> tuple[float, float, float]:
@@ -214,27 +239,29 @@ class ControllerCore:
 
     def raise_error(self, code: int) -> None:
         """Enter an error: stop at once, discard the buffer, state 4 (section 3.2.1)."""
-        self.error_code = code
+        d = self.data
+        d.faults.error = code
         self.executor.discard()
-        self.servo_target = None
-        self.qd[:] = 0.0
+        d.servo_target = None
+        d.qd[:] = 0.0
         fire(self, Event.ERROR)
-        self._enter_stop()
+        self.enter_stop()
 
     def raise_warning(self, code: int) -> None:
         """Set a warning: only the flag and the code change (section 3.2.2)."""
-        self.warning_code = code
+        self.data.faults.warning = code
 
     # -- readiness -----------------------------------------------------------------------------
     @property
     def ready(self) -> bool:
         """Whether the arm can perform motion (reply bit 0x10 clear)."""
-        return (self.error_code == 0 and self.motion_state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND)
-                and all(self.enabled) and all(self.brakes))
+        d = self.data
+        return (d.faults.error == 0 and d.motion_state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND)
+                and all(d.enabled) and all(d.brakes))
 
     def status_byte(self) -> int:
         s = 0
-        f = self.faults
+        f = self.data.faults
         if f.error:
             s |= STATE_ERROR
         if f.warning:
@@ -247,13 +274,14 @@ class ControllerCore:
     def tcp_matrix(self, q: np.ndarray | None = None) -> np.ndarray:
         """TCP pose (4x4, mm) in the user frame, TCP offset applied."""
         if q is None:
-            key = (self.q.tobytes(), tuple(self.settings.tcp_offset), tuple(self.settings.world_offset))
+            q_now = self.data.q
+            key = (q_now.tobytes(), tuple(self.settings.tcp_offset), tuple(self.settings.world_offset))
             if self._pose_cache is not None and self._pose_cache[0] == key:
                 return self._pose_cache[1]
-            T = kin.tcp_pose(self.model, self.q, self.settings.tcp_offset, self.settings.world_offset)
+            T = tcp_matrix(self.model, q_now, self.settings)
             self._pose_cache = (key, T)
             return T
-        return kin.tcp_pose(self.model, q, self.settings.tcp_offset, self.settings.world_offset)
+        return tcp_matrix(self.model, q, self.settings)
 
     def tcp_pose(self) -> np.ndarray:
         """(x, y, z, roll, pitch, yaw) of the TCP in the user frame (register 41)."""
@@ -276,7 +304,6 @@ class ControllerCore:
             self.raise_warning(WARN_UNKNOWN_COMMAND)
             return self.status_byte(), b""
         reply = b""
-        self._code = code
         extra = 0
         try:
             try:
@@ -320,26 +347,27 @@ class ControllerCore:
     def step(self) -> None:
         """Advance the control box by one control period."""
         dt = self.period
-        self._time += dt
-        self.steps += 1
-        q_prev = self.q
+        d = self.data
+        d.time += dt
+        d.steps += 1
+        q_prev = d.q
         try:
-            if self.error_code == 0:
-                if self.mode == MODE_SERVO and self.servo_target is not None and self.motion_state in (
-                        STATE_SLEEP, STATE_MOVING):
+            if d.faults.error == 0:
+                state = d.motion_state
+                target = d.servo_target
+                if d.mode == MODE_SERVO and target is not None and state in (STATE_SLEEP, STATE_MOVING):
                     tracker = self._tracker()
-                    tracker.set_target(self.servo_target)
+                    tracker.set_target(target)
                     q, _, _ = tracker.step(dt)
-                    self.q = q.copy()
+                    d.q = q.copy()
                     fire(self, Event.SERVO_AT_TARGET if tracker.at_target else Event.SERVO_MOVING)
-                elif self.mode == MODE_POSITION and self.motion_state in (
-                        STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
+                elif d.mode == MODE_POSITION and state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
                     self._step_position(dt)
-                elif self.motion_state == STATE_STOP and self.executor.stopping:
+                elif state == STATE_STOP and d.motion.stopping:
                     self._step_position(dt)
-                elif (mode_step := MODE_STEPS.get(self.mode)) is not None:
+                elif (mode_step := MODE_STEPS.get(d.mode)) is not None:
                     mode_step(self, dt)
-                if self.q is not q_prev:
+                if d.q is not q_prev:
                     self._check_safety(q_prev)
         except CommandError as e:
             self.raise_error(e.code)
@@ -351,19 +379,20 @@ class ControllerCore:
                 raise
             log.exception("control step failed")
             self.raise_error(C_OTHER)
-        qd = (self.q - q_prev) / dt
-        self.qdd = (qd - self.qd) / dt
-        self.qd = qd
+        qd = (d.q - q_prev) / dt
+        d.qdd = (qd - d.qd) / dt
+        d.qd = qd
         for c in self.components:
             c.step(dt, self)
         for hook in EVERY_STEP:
             hook(self, dt)
 
     def _tracker(self) -> motion.ServoTracker:
-        if self.servo_tracker is None:
+        d = self.data
+        if d.servo_tracker is None:
             m = self.model
-            self.servo_tracker = motion.ServoTracker(self.q, m.max_joint_speed, m.max_joint_acc)
-        return self.servo_tracker
+            d.servo_tracker = motion.ServoTracker(d.q, m.max_joint_speed, m.max_joint_acc)
+        return d.servo_tracker
 
     def _check_safety(self, q_prev: np.ndarray) -> None:
         """Safety boundary (52, 59: C35) and self-collision (77, 78: C22) on the step just planned:
@@ -383,7 +412,8 @@ class ControllerCore:
         """Commands completed since power-on (rich report bytes 285-288)."""
         return self.executor.completed
 
-    def _limits(self) -> Limits:
+    def limits(self) -> Limits:
+        """The motion limits of the settings (registers 31-34) and the model (Table 1.2)."""
         s = self.settings
         tcp_cap, joint_cap = reduced.speed_caps(self)
         return Limits(s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed,
@@ -394,7 +424,8 @@ class ControllerCore:
         if not ex.active:
             fire(self, Event.IDLE)
             return
-        self.q = ex.step(dt, self.q, self._limits(), self.flange_target, self.tcp_matrix)
+        d = self.data
+        d.q = ex.step(dt, d.q, self.limits(), self.flange_target, self.tcp_matrix)
         fire(self, Event.PLAN_RUNNING if ex.active else Event.PLAN_FINISHED)
 
     def advance(self, seconds: float) -> None:
@@ -416,18 +447,20 @@ class ControllerCore:
     def system_reset(self) -> None:
         """The manual's "System reset" (section 2.1.1): motion ends, buffer cleared, state 5."""
         self.executor.discard()
-        self.servo_target = None
-        self.servo_tracker = None
+        self.data.servo_target = None
+        self.data.servo_tracker = None
         fire(self, Event.SYSTEM_RESET)
-        self._enter_stop()
+        self.enter_stop()
 
-    def _enter_stop(self) -> None:
+    def enter_stop(self) -> None:
+        """Motion ended by a stop, an error or a system reset: components that have an ``on_stop()``
+        method are told."""
         for c in self.components:
             on_stop = getattr(c, "on_stop", None)
             if on_stop is not None:
                 on_stop()
 
-    def _require_motion_allowed(self, servo: bool = False) -> None:
+    def require_motion_allowed(self, servo: bool = False) -> None:
         """Refuse motion commands that cannot run now (reply bit 0x10; nothing is queued)."""
         if self.error_code or not self.ready:
             raise NotReady()
@@ -436,27 +469,25 @@ class ControllerCore:
         if not servo and self.mode != MODE_POSITION:
             raise NotReady()
 
-    def _queue(self, cmd: QueuedCommand) -> dict[str, Any]:
+    def queue(self, cmd: QueuedCommand) -> dict[str, Any]:
+        """Put a motion command into the buffer (warning 11 when full); the reply's buffer count."""
         if self.executor.cmdnum >= BUFFER_CAPACITY:
             raise CommandWarning(WARN_BUFFER_OVERFLOW)
         self.executor.queue(cmd)
         fire(self, Event.QUEUED)
         return {"cmdnum": self.executor.cmdnum}
 
+    #: The name component handler modules use for :meth:`queue`.
+    _queue = queue
+
     # torques (the dynamic model, model/dynamics.py)
     def joint_torques(self) -> np.ndarray:
-        """Theoretical joint torques (N m): gravity of the links and the payload of register 36
-        with the gravity direction of register 51, plus the inertial terms of the planned motion
-        (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`). Computed at most once per step."""
+        """:func:`joint_torques` of the box, computed at most once per step."""
         s = self.settings
-        key = (self.steps, tuple(s.tcp_load), tuple(s.gravity_direction))
+        key = (self.data.steps, tuple(s.tcp_load), tuple(s.gravity_direction))
         if self._torque_cache is not None and self._torque_cache[0] == key:
             return self._torque_cache[1]
-        try:
-            g: Any = dyn.gravity_from_direction(s.gravity_direction)
-        except ValueError:
-            g = dyn.DEFAULT_GRAVITY
-        tau = dyn.inverse_dynamics(self.model, self.q, self.qd, self.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
+        tau = joint_torques(self.model, self.data, s)
         self._torque_cache = (key, tau)
         return tau
 
@@ -472,9 +503,9 @@ class ControllerCore:
         t = self.reported_torques()
         return tuple(float(x) for x in t) + (0.0,) * (7 - self.dof)
 
-    @property
-    def _current_code(self) -> int:
-        return self._code
+
+#: The name handler modules use for the controller in type hints.
+ControllerCore = Controller
 
 
 class NotReady(Exception):

@@ -21,16 +21,20 @@ from typing import Any
 import numpy as np
 from ruckig import Trajectory
 
+from ..model import dynamics as dyn
+from ..model import rotations as rot
 from ..model.inertials import NOMINAL_JOINT_VOLTAGE, joint_sizes
 from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from . import safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
-from .controller import Controller
+from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .gripper import GripperModule
 from .io import IOModule
+from .settings import Settings
+from .state import ControllerState
 from .thermal import ThermalModel
 from .vacuum import VacuumGripper
 
@@ -54,13 +58,6 @@ def check_firmware(model: RobotModel, firmware: FirmwareProfile) -> None:
         need = ".".join(str(x) for x in model.min_firmware)
         raise ValueError(f"the {model.name} arm ships with firmware {need} or later, not {firmware}: "
                          "choose a later --firmware")
-
-
-#: Controller attributes that are machinery, not state: constant, wired at construction, or a test
-#: switch. A checkpoint leaves them as they are.
-_CONTROLLER_MACHINERY = frozenset({"model", "dof", "period", "robot_sn", "box_sn", "components", "_handlers",
-                                   "hooks", "executor", "strict", "firmware", "registers", "_float_checked",
-                                   "_inf_unchanged"})
 
 
 @dataclass(frozen=True)
@@ -100,29 +97,30 @@ def _shared_immutables(root: object) -> dict[int, object]:
     return found
 
 
-def report_snapshot(c: Controller, io: IOModule, thermal: ThermalModel) -> ReportSnapshot:
-    """What the reports show (manual section 2.1.6) of controller ``c`` with its IO and thermal
-    model; reads only."""
-    s = c.settings
-    m = c.model
-    joints = c.joints7()
-    speeds = tuple(float(x) for x in c.qd) + (0.0,) * (7 - c.dof)
-    servo = tuple((1 if e else 0, e) for e in c.servo_errors) + ((0, 0),) * (7 - c.dof)
-    pad = (0.0,) * (7 - c.dof)
-    tool_error = c.hooks.tool_error()
-    currents = tuple(float(x) for x in c.joint_currents()) + pad
-    temps = tuple(thermal.celsius_u8()) + (0,) * (7 - c.dof)
-    snap = ReportSnapshot(
-        state=c.state,
-        mode=c.mode,
-        cmdnum=c.executor.cmdnum,
-        joints=joints,
-        pose=tuple(float(x) for x in c.tcp_pose()),
-        torques=c.joint_torques7(),
-        brake_bits=_bits(c.brakes),
-        enable_bits=_bits(c.enabled),
-        error=c.error_code,
-        warning=c.warning_code,
+def report_snapshot(model: RobotModel, data: ControllerState, settings: Settings, io: IOModule,
+                    thermal: ThermalModel, *, version: str, tool_error: int = 0,
+                    torques: np.ndarray | None = None, pose: np.ndarray | None = None) -> ReportSnapshot:
+    """What the reports show (manual section 2.1.6) of a box: its model, state and settings, its IO
+    and thermal model, register 1's version string and the end tool's error code; reads only.
+    ``torques`` and ``pose`` may be given where they are already known (the controller's caches)."""
+    s, m, dof = settings, model, model.dof
+    pad = (0.0,) * (7 - dof)
+    tau = joint_torques(m, data, s) if torques is None else torques
+    currents = dyn.torques_to_currents(m, tau)
+    reported = currents if s.report_current else tau
+    T = tcp_matrix(m, data.q, s) if pose is None else pose
+    faults = data.faults
+    return ReportSnapshot(
+        state=data.motion_state,
+        mode=data.mode,
+        cmdnum=data.motion.cmdnum,
+        joints=tuple(float(x) for x in data.q) + pad,
+        pose=tuple(float(x) for x in rot.matrix_to_pose(T)),
+        torques=tuple(float(x) for x in reported) + pad,
+        brake_bits=_bits(data.brakes),
+        enable_bits=_bits(data.enabled),
+        error=faults.error,
+        warning=faults.warning,
         tcp_offset=tuple(s.tcp_offset),
         tcp_load=tuple(s.tcp_load),
         collision_sensitivity=s.collision_sensitivity,
@@ -130,29 +128,28 @@ def report_snapshot(c: Controller, io: IOModule, thermal: ThermalModel) -> Repor
         gravity_direction=tuple(s.gravity_direction),
         robot_type=m.robot_type,
         axis=m.axis,
-        version=c.version_string(),
+        version=version,
         tcp_jerk=s.tcp_jerk,
         tcp_max_acc=s.tcp_maxacc,
         tcp_max_speed=m.max_tcp_speed,
         joint_jerk=s.joint_jerk,
         joint_max_acc=s.joint_maxacc,
         joint_max_speed=m.max_joint_speed,
-        servo_codes=servo,
-        tcp_speed=float(c.executor.tcp_speed),
-        joint_speeds=speeds,
-        counter=c.counter,
+        servo_codes=tuple((1 if e else 0, e) for e in faults.servo_errors) + ((0, 0),) * (7 - dof),
+        tcp_speed=float(data.motion.tcp_speed),
+        joint_speeds=tuple(float(x) for x in data.qd) + pad,
+        counter=data.motion.completed,
         world_offset=tuple(s.world_offset),
-        simulation=c.simulation_robot,
+        simulation=data.simulation_robot,
         self_collision=s.self_collision_on,
         collision_tool_type=int(s.collision_tool[0]),
         collision_tool_params=tuple(s.collision_tool[1:7]),
-        joint_currents=currents,
-        joint_voltages=(NOMINAL_JOINT_VOLTAGE,) * c.dof + pad,
-        temperatures=temps,
+        joint_currents=tuple(float(x) for x in currents) + pad,
+        joint_voltages=(NOMINAL_JOINT_VOLTAGE,) * dof + pad,
+        temperatures=tuple(thermal.celsius_u8()) + (0,) * (7 - dof),
         tgpio_code=(1 if tool_error else 0, tool_error),
         **io.snapshot_fields(),
     )
-    return snap
 
 
 class Emulator:
@@ -277,14 +274,16 @@ class Emulator:
     # -- reports -------------------------------------------------------------------------------
     def snapshot(self) -> ReportSnapshot:
         """The live state as the reports show it (manual section 2.1.6)."""
-        return report_snapshot(self.controller, self.io, self.thermal)
+        c = self.controller
+        return report_snapshot(c.model, c.data, c.settings, self.io, self.thermal,
+                               version=c.version_string(), tool_error=c.hooks.tool_error(),
+                               torques=c.joint_torques(), pose=c.tcp_matrix())
 
     # -- checkpoint and restore (no real control box has these) ---------------------------------
     def _parts(self) -> dict[str, dict[str, Any]]:
         ctl = self.controller
         parts: dict[str, dict[str, Any]] = {
-            "controller": {k: v for k, v in vars(ctl).items() if k not in _CONTROLLER_MACHINERY},
-            "executor": {k: v for k, v in vars(ctl.executor).items() if k != "model"},
+            "controller": {"data": ctl.data, "settings": ctl.settings},
             "io": dict(vars(self.io)),
             "gripper": dict(vars(self.gripper.gripper)),
             "thermal": dict(vars(self.thermal)),
@@ -312,9 +311,7 @@ class Emulator:
         if set(cp.parts) != set(self._parts()):
             raise ValueError("checkpoint of an emulator with other components (vacuum gripper)")
         parts = copy.deepcopy(cp.parts, self._memo(cp.parts))
-        ctl = self.controller
-        vars(ctl).update(parts["controller"])
-        vars(ctl.executor).update(parts["executor"])
+        self.controller.adopt(parts["controller"]["data"], parts["controller"]["settings"])
         vars(self.io).update(parts["io"])
         vars(self.gripper.gripper).update(parts["gripper"])
         vars(self.thermal).update(parts["thermal"])

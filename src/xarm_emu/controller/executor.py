@@ -3,7 +3,12 @@ current state and samples the plan every control period.
 
 Suspend (state 3) and stop (state 4) slow the *path time* down with a smooth
 ramp, so the arm stays on the planned path and a resumed move continues the
-same path (manual register 12).
+same path (manual register 12). The buffer and the plan live in a
+:class:`~.state.PlanState`, part of the controller's :class:`~.state.ControllerState`.
+
+From firmware 2.4.101 a +inf value of a pose (register 21) or joint target (23) keeps
+that component where the move starts (:func:`keep_unchanged_pose`,
+:func:`keep_unchanged_joints`).
 """
 
 from __future__ import annotations
@@ -11,25 +16,52 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..model import kinematics as kin
+from ..model import rotations as rot
 from ..model.robots import RobotModel
 from . import motion
 from .base import C_CIRCLE, C_JOINT_LIMIT, C_KINEMATIC, C_SPEED, CommandError
 from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
 from .poses import resolve_line_target, wire_pose_to_matrix
+from .state import RAMP_TIME, PlanState
 
-#: Shortest time to ramp the path rate between full speed and rest for suspend/stop (s); faster
-#: motion ramps longer so that the deceleration stays within the acceleration limit.
-RAMP_TIME = 0.2
+#: Points at which a TCP line is tried for joint solutions (register 21, motion type 1).
+LINE_SAMPLES = 24
 #: Peak slope of the smoothstep ramp (3u^2 - 2u^3) relative to a linear one.
 _SMOOTHSTEP_PEAK = 1.5
 
 #: A Cartesian step may exceed the joint speed limit by this factor before C24 (sampling slack).
 SPEED_TOLERANCE = 1.05
+
+
+def keep_unchanged_joints(target: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """A joint target with its +inf values (firmware >= 2.4.101: "unchanged", register 23) taken from
+    the joints ``q`` the move starts from."""
+    return np.where(np.isposinf(target), q, target) if np.isposinf(target).any() else target
+
+
+def keep_unchanged_pose(cmd: LineMove, start: np.ndarray) -> LineMove:
+    """A linear move with its +inf pose values (firmware >= 2.4.101: "unchanged", register 21)
+    resolved from the TCP pose ``start`` the move starts from: the start's own component for an
+    absolute base-frame pose, no motion (0) for relative and tool-frame poses."""
+    if not any(x == math.inf for x in cmd.pose):
+        return cmd
+    if cmd.tool_frame or cmd.relative:
+        ref: tuple[float, ...] = (0.0,) * 6
+    else:
+        to_pose = rot.matrix_to_pose_aa if cmd.axis_angle else rot.matrix_to_pose
+        ref = tuple(float(x) for x in to_pose(start))
+    return replace(cmd, pose=tuple(r if x == math.inf else x for x, r in zip(cmd.pose, ref, strict=False)))
+
+
+def line_target(cmd: LineMove, start: np.ndarray) -> np.ndarray:
+    """The absolute target (4x4, user frame) of a linear move from ``start``, kept components
+    resolved (:func:`keep_unchanged_pose`, :func:`~xarm_emu.controller.poses.resolve_line_target`)."""
+    return resolve_line_target(keep_unchanged_pose(cmd, start), start)
 
 
 @dataclass
@@ -119,55 +151,62 @@ class _CartesianPlan(_Plan):
 class Executor:
     """The command buffer and the motion that runs from it."""
 
-    def __init__(self, model: RobotModel) -> None:
+    def __init__(self, model: RobotModel, data: PlanState | None = None) -> None:
         self.model = model
-        self.buffer: deque[QueuedCommand] = deque()
-        self.plan: _Plan | None = None
-        self.current: QueuedCommand | None = None
-        self.t = 0.0  # path time within the current plan
-        self.rate = 1.0  # path time per control time, 0..1
-        self._ramp_from = 1.0
-        self._ramp_to = 1.0
-        self._ramp_u = 1.0  # progress of the current ramp, 0..1
-        self._ramp_time = RAMP_TIME
-        self.stopping = False  # a stop ramp is running; the plan ends when it reaches rest
-        self.tcp_speed = 0.0
-        self.merged = 0  # further commands of a blended chain that the current plan runs
-        self.completed = 0  # commands run to their end (the report's command counter)
+        #: The buffer and plan state; part of the controller's :class:`~.state.ControllerState`.
+        self.data = PlanState() if data is None else data
+
+    @property
+    def buffer(self) -> deque[QueuedCommand]:
+        return self.data.buffer
+
+    @property
+    def current(self) -> QueuedCommand | None:
+        return self.data.current
+
+    @property
+    def stopping(self) -> bool:
+        return self.data.stopping
+
+    @property
+    def tcp_speed(self) -> float:
+        return self.data.tcp_speed
+
+    @property
+    def completed(self) -> int:
+        return self.data.completed
 
     # -- buffer ------------------------------------------------------------------------------
     @property
     def cmdnum(self) -> int:
         """Commands in the buffer, the running one included; 0 once a stop (state 4) discarded them,
         even while the arm is still coming to rest."""
-        if self.stopping:
-            return 0
-        return len(self.buffer) + (1 + self.merged if self.current is not None else 0)
+        return self.data.cmdnum
 
     @property
     def active(self) -> bool:
-        return self.current is not None or bool(self.buffer)
+        return self.data.current is not None or bool(self.data.buffer)
 
     def clear(self) -> None:
         """Discard the buffer and the running motion at once."""
-        self.buffer.clear()
-        self.plan = None
-        self.current = None
-        self.t = 0.0
-        self.rate = self._ramp_from = self._ramp_to = 1.0
-        self._ramp_u = 1.0
-        self.stopping = False
-        self.tcp_speed = 0.0
-        self.merged = 0
+        self.data.buffer.clear()
+        self.data.plan = None
+        self.data.current = None
+        self.data.t = 0.0
+        self.data.rate = self.data.ramp_from = self.data.ramp_to = 1.0
+        self.data.ramp_u = 1.0
+        self.data.stopping = False
+        self.data.tcp_speed = 0.0
+        self.data.merged = 0
 
     def queue(self, cmd: QueuedCommand) -> None:
         """Append a validated command to the buffer."""
-        self.buffer.append(cmd)
+        self.data.buffer.append(cmd)
 
     @property
     def running(self) -> bool:
         """A command is being executed (planned and sampled)."""
-        return self.plan is not None
+        return self.data.plan is not None
 
     # -- intents (register 12, errors, system reset) -------------------------------------------
     def suspend(self, limits: Limits) -> None:
@@ -181,8 +220,8 @@ class Executor:
     def stop_smoothly(self, limits: Limits) -> None:
         """State 4 while a command runs: the buffer is discarded at once, the running motion ramps to
         rest on its path and then ends."""
-        self.buffer.clear()
-        self.stopping = True
+        self.data.buffer.clear()
+        self.data.stopping = True
         self.ramp_to(0.0, limits)
 
     def discard(self) -> None:
@@ -196,26 +235,26 @@ class Executor:
         The ramp lasts at least :data:`RAMP_TIME` and long enough that slowing the current motion
         down stays within the acceleration limit of ``limits``.
         """
-        if target == self._ramp_to and self._ramp_u >= 1.0:
+        if target == self.data.ramp_to and self.data.ramp_u >= 1.0:
             return
         duration = RAMP_TIME
-        if self.plan is not None and limits is not None:
-            duration = max(duration, _SMOOTHSTEP_PEAK * self.plan.stop_time(self.t, limits))
-        self._ramp_from = self.rate
-        self._ramp_to = target
-        self._ramp_u = 0.0
-        self._ramp_time = duration
+        if self.data.plan is not None and limits is not None:
+            duration = max(duration, _SMOOTHSTEP_PEAK * self.data.plan.stop_time(self.data.t, limits))
+        self.data.ramp_from = self.data.rate
+        self.data.ramp_to = target
+        self.data.ramp_u = 0.0
+        self.data.ramp_time = duration
 
     def _advance_rate(self, dt: float) -> None:
-        if self._ramp_u < 1.0:
-            self._ramp_u = min(1.0, self._ramp_u + dt / self._ramp_time)
-            u = self._ramp_u
+        if self.data.ramp_u < 1.0:
+            self.data.ramp_u = min(1.0, self.data.ramp_u + dt / self.data.ramp_time)
+            u = self.data.ramp_u
             s = u * u * (3.0 - 2.0 * u)  # smoothstep: bounded acceleration of the path rate
-            self.rate = self._ramp_from + (self._ramp_to - self._ramp_from) * s
+            self.data.rate = self.data.ramp_from + (self.data.ramp_to - self.data.ramp_from) * s
 
     @property
     def at_rest(self) -> bool:
-        return self.rate == 0.0 and self._ramp_u >= 1.0
+        return self.data.rate == 0.0 and self.data.ramp_u >= 1.0
 
     # -- stepping ----------------------------------------------------------------------------
     def step(self, dt: float, q: np.ndarray, limits: Limits,
@@ -225,24 +264,25 @@ class Executor:
 
         Raises :class:`CommandError` for errors found while planning or moving.
         """
+        d = self.data
         self._advance_rate(dt)
-        if self.stopping and self.at_rest:
+        if d.stopping and self.at_rest:
             self.clear()
             return q
-        if self.plan is None:
-            if not self.buffer or self.rate == 0.0:
-                self.tcp_speed = 0.0
+        if d.plan is None:
+            if not d.buffer or d.rate == 0.0:
+                d.tcp_speed = 0.0
                 return q
-            self.current = self.buffer.popleft()
-            self.t = 0.0
-            self.plan = self._plan(self.current, q, limits, to_flange, tcp_pose)
-        elif isinstance(self.plan, _CartesianPlan) and self.plan.blend_into is not None:
+            d.current = d.buffer.popleft()
+            d.t = 0.0
+            d.plan = self._plan(d.current, q, limits, to_flange, tcp_pose)
+        elif isinstance(d.plan, _CartesianPlan) and d.plan.blend_into is not None:
             self._blend_late_arrival(q, limits, to_flange)
-        elif isinstance(self.plan, _JointPlan) and self.plan.blend is not None:
+        elif isinstance(d.plan, _JointPlan) and d.plan.blend is not None:
             self._blend_joint_moves(q, limits, tcp_pose)
-        self.t += dt * self.rate
-        plan = self.plan
-        t = min(self.t, plan.duration)
+        d.t += dt * d.rate
+        plan = d.plan
+        t = min(d.t, plan.duration)
         new_q = plan.joints(t, q)
         if new_q is None:
             self.clear()
@@ -256,12 +296,12 @@ class Executor:
             if speed > limits.max_joint_speed * SPEED_TOLERANCE:
                 self.clear()
                 raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")
-        self.tcp_speed = plan.tcp_speed * self.rate
-        if self.t >= plan.duration:
-            self.completed += 1 + self.merged
-            self.plan = None
-            self.current = None
-            self.merged = 0
+        d.tcp_speed = plan.tcp_speed * d.rate
+        if d.t >= plan.duration:
+            d.completed += 1 + d.merged
+            d.plan = None
+            d.current = None
+            d.merged = 0
         return np.asarray(new_q, dtype=float)
 
     def _blend_late_arrival(self, q: np.ndarray, limits: Limits,
@@ -272,11 +312,12 @@ class Executor:
         re-planned through the new targets from the current path speed and acceleration, without
         stopping. Until then (or when the blend zone has begun) nothing changes.
         """
-        plan = self.plan
+        d = self.data
+        plan = d.plan
         assert isinstance(plan, _CartesianPlan) and plan.blend_into is not None
-        if not self.buffer or not isinstance(self.buffer[0], LineMove) or self.rate != 1.0 or self.stopping:
+        if not d.buffer or not isinstance(d.buffer[0], LineMove) or d.rate != 1.0 or d.stopping:
             return
-        found = plan.last_run(self.t)
+        found = plan.last_run(self.data.t)
         if found is None:
             return
         run, t_run = found
@@ -290,10 +331,10 @@ class Executor:
         radii: list[float | None] = [radius]
         last: LineMove | None = None
         extra = 0
-        while self.buffer and isinstance(self.buffer[0], LineMove) and (last is None or last.radius > 0.0):
-            nxt = self.buffer.popleft()
+        while d.buffer and isinstance(d.buffer[0], LineMove) and (last is None or last.radius > 0.0):
+            nxt = self.data.buffer.popleft()
             assert isinstance(nxt, LineMove)
-            poses.append(resolve_line_target(nxt, poses[-1]))
+            poses.append(line_target(nxt, poses[-1]))
             radii.append(nxt.radius if nxt.radius > 0.0 else None)
             extra += 1
             last = nxt
@@ -315,9 +356,9 @@ class Executor:
         move: motion.CartesianMove | motion.MoveChain = (moves[0] if len(moves) == 1
                                                          else motion.MoveChain(moves))
         blend = (poses[-1], last.radius, first) if last.radius > 0.0 else None
-        self.plan = _CartesianPlan(move, to_flange, self.model, blend)
-        self.t = 0.0
-        self.merged += extra
+        self.data.plan = _CartesianPlan(move, to_flange, self.model, blend)
+        self.data.t = 0.0
+        self.data.merged += extra
 
     def _blend_joint_moves(self, q: np.ndarray, limits: Limits,
                            tcp_pose: Callable[[np.ndarray], np.ndarray]) -> None:
@@ -325,29 +366,40 @@ class Executor:
         radius of the move's target and the next joint move is queued, the arm heads for the next
         target from its current joint positions, speeds and accelerations without stopping
         (a jerk-limited ruckig move from the moving state)."""
-        plan = self.plan
+        d = self.data
+        plan = d.plan
         assert isinstance(plan, _JointPlan) and plan.blend is not None
-        if (not self.buffer or not isinstance(self.buffer[0], JointMove) or self.buffer[0].relative
-                or self.rate != 1.0 or self.stopping):
+        if not d.buffer or not isinstance(d.buffer[0], JointMove) or d.rate != 1.0 or d.stopping:
             return
         radius, target_tcp = plan.blend
         if float(np.linalg.norm(tcp_pose(q)[:3, 3] - target_tcp)) > radius:
             return
-        _, qd, qdd = plan.traj.at(min(self.t, plan.duration))
-        nxt = self.buffer.popleft()
+        _, qd, qdd = plan.traj.at(min(self.data.t, plan.duration))
+        nxt = self.data.buffer.popleft()
         assert isinstance(nxt, JointMove)
-        self.completed += 1  # the blended-away command is done
-        self.current = nxt
+        nxt = self._absolute(nxt, plan.traj.at(plan.duration)[0])
+        self.data.completed += 1  # the blended-away command is done
+        self.data.current = nxt
         acc = min(nxt.acc, limits.joint_maxacc)
         speed = min(nxt.speed, limits.joint_speed_cap)
         traj = motion.plan_joint_move(q, nxt.target, speed, acc, limits.joint_jerk, qd0=qd, qdd0=qdd)
-        self.plan = _JointPlan(traj, self._joint_blend(nxt, tcp_pose))
-        self.t = 0.0
+        self.data.plan = _JointPlan(traj, self._joint_blend(nxt, tcp_pose))
+        self.data.t = 0.0
+
+    def _absolute(self, cmd: JointMove, start: np.ndarray) -> JointMove:
+        """``cmd`` with an absolute target from the joints ``start`` it begins at: a relative move's
+        deltas added (register 83; C23 beyond the limits), +inf joints kept (register 23)."""
+        if cmd.relative:
+            target = start + cmd.target
+            if not kin.within_limits(self.model, target):
+                raise CommandError(C_JOINT_LIMIT, "relative joint target outside the limits")
+            return replace(cmd, target=target, relative=False)
+        return replace(cmd, target=keep_unchanged_joints(cmd.target, start))
 
     @staticmethod
     def _joint_blend(cmd: JointMove, tcp_pose: Callable[[np.ndarray], np.ndarray]
                      ) -> tuple[float, np.ndarray] | None:
-        if cmd.radius <= 0.0 or cmd.relative:
+        if cmd.radius <= 0.0:
             return None
         return (cmd.radius, tcp_pose(cmd.target)[:3, 3].copy())
 
@@ -359,20 +411,22 @@ class Executor:
             return _DwellPlan(q, cmd.seconds)
         if isinstance(cmd, JointMove):
             acc = min(cmd.acc, limits.joint_maxacc)
-            target = q + cmd.target if cmd.relative else cmd.target
-            if cmd.relative and not kin.within_limits(self.model, target):
-                raise CommandError(C_JOINT_LIMIT, "relative joint target outside the limits")
+            cmd = self._absolute(cmd, q)
+            self.data.current = cmd
             speed = min(cmd.speed, limits.joint_speed_cap)
-            traj = motion.plan_joint_move(q, target, speed, acc, limits.joint_jerk)
+            traj = motion.plan_joint_move(q, cmd.target, speed, acc, limits.joint_jerk)
             return _JointPlan(traj, self._joint_blend(cmd, tcp_pose))
         start = tcp_pose(q)
         acc = min(cmd.acc, limits.tcp_maxacc)
-        blend_next = bool(self.buffer) and isinstance(self.buffer[0], LineMove)
+        blend_next = bool(self.data.buffer) and isinstance(self.data.buffer[0], LineMove)
         if isinstance(cmd, LineMove) and cmd.radius > 0.0 and blend_next:
             return self._plan_blended(cmd, start, q, acc, limits, to_flange)
         if isinstance(cmd, LineMove):
-            target = resolve_line_target(cmd, start)
-            path: motion.Path = motion.LinePath(start, target)
+            target = line_target(cmd, start)
+            line = motion.LinePath(start, target)
+            if cmd.motion_type == 2 or (cmd.motion_type == 1 and not self._line_feasible(line, q, to_flange)):
+                return self._joint_plan_to(cmd, target, q, limits, to_flange)
+            path: motion.Path = line
             end_check = target
         else:
             assert isinstance(cmd, CircleMove)
@@ -388,6 +442,32 @@ class Executor:
         blend = (end_check, cmd.radius, cmd) if isinstance(cmd, LineMove) and cmd.radius > 0.0 else None
         return _CartesianPlan(move, to_flange, self.model, blend)
 
+    def _line_feasible(self, path: motion.LinePath, q: np.ndarray,
+                       to_flange: Callable[[np.ndarray], np.ndarray]) -> bool:
+        """Whether a TCP line has joint solutions within the limits at :data:`LINE_SAMPLES` points."""
+        seed = q
+        for u in np.linspace(0.0, 1.0, LINE_SAMPLES):
+            sol = kin.ik(self.model, to_flange(path.pose_u(float(u))), seed, limited=False)
+            if sol is None or not kin.within_limits(self.model, sol):
+                return False
+            seed = sol
+        return True
+
+    def _joint_plan_to(self, cmd: LineMove, target: np.ndarray, q: np.ndarray, limits: Limits,
+                       to_flange: Callable[[np.ndarray], np.ndarray]) -> _Plan:
+        """Register 21's motion type 2 (and 1 where no line is possible): a joint move to the target
+        pose, at the fraction of the joint maxima that the TCP speed and acceleration are of theirs
+        (Table 1.2)."""
+        m = self.model
+        sol = kin.ik(m, to_flange(target), q, limited=False, restarts=True)
+        if sol is None:
+            raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
+        if not kin.within_limits(m, sol):
+            raise CommandError(C_JOINT_LIMIT, "target pose needs joints outside the limits")
+        speed = m.max_joint_speed * min(1.0, cmd.speed / m.max_tcp_speed)
+        acc = min(m.max_joint_acc * min(1.0, cmd.acc / m.max_tcp_acc), limits.joint_maxacc)
+        q_end = np.asarray(sol, dtype=float)
+        return _JointPlan(motion.plan_joint_move(q, q_end, speed, acc, limits.joint_jerk))
 
     def _plan_blended(self, cmd: LineMove, start: np.ndarray, q: np.ndarray, acc: float, limits: Limits,
                       to_flange: Callable[[np.ndarray], np.ndarray]) -> _Plan:
@@ -398,15 +478,15 @@ class Executor:
         TCP does not stop there. The chain uses the first move's speed and acceleration, and the
         buffer count drops by the whole chain when it ends.
         """
-        poses = [start, resolve_line_target(cmd, start)]
+        poses = [start, line_target(cmd, start)]
         radii: list[float | None] = [cmd.radius]
         last = cmd
-        while self.buffer and isinstance(self.buffer[0], LineMove) and last.radius > 0.0:
-            nxt = self.buffer.popleft()
+        while self.data.buffer and isinstance(self.data.buffer[0], LineMove) and last.radius > 0.0:
+            nxt = self.data.buffer.popleft()
             assert isinstance(nxt, LineMove)
-            poses.append(resolve_line_target(nxt, poses[-1]))
+            poses.append(line_target(nxt, poses[-1]))
             radii.append(nxt.radius if nxt.radius > 0.0 else None)
-            self.merged += 1
+            self.data.merged += 1
             last = nxt
         radii[-1] = None  # the chain ends at rest on its last target
         seed = q

@@ -57,10 +57,10 @@ class OnlinePlanner:
 
 
 def planner_of(ctl: Any) -> OnlinePlanner:
-    p = getattr(ctl, _ATTR, None)
+    p = getattr(ctl.data, _ATTR, None)
     if p is None:
         p = OnlinePlanner()
-        setattr(ctl, _ATTR, p)
+        setattr(ctl.data, _ATTR, p)
     return p
 
 

@@ -175,10 +175,10 @@ class TrajectoryStore:
 
 def store_of(ctl: Any) -> TrajectoryStore:
     """The trajectory store of ``ctl`` (in memory until :func:`attach` gives it a directory)."""
-    st = getattr(ctl, _ATTR, None)
+    st = getattr(ctl.data, _ATTR, None)
     if st is None:
         st = TrajectoryStore(record_period=ctl.period)
-        setattr(ctl, _ATTR, st)
+        setattr(ctl.data, _ATTR, st)
     return st
 
 
@@ -201,7 +201,7 @@ def set_recording(ctl: Any, on: bool) -> None:
 def record_step(ctl: Any, dt: float) -> None:
     """Every control period: keep the joints while recording; a playback whose mode 11 was left
     (register 19) ends unfinished."""
-    st = getattr(ctl, _ATTR, None)
+    st = getattr(ctl.data, _ATTR, None)
     if st is None:
         return
     if st.playback is not None and ctl.mode != MODE_PLAYBACK:

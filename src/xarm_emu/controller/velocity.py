@@ -60,10 +60,10 @@ class VelocityControl:
 
 def control_of(ctl: Any) -> VelocityControl:
     """The velocity control state of ``ctl`` (created at rest on first use)."""
-    vc = getattr(ctl, _ATTR, None)
+    vc = getattr(ctl.data, _ATTR, None)
     if vc is None:
         vc = VelocityControl()
-        setattr(ctl, _ATTR, vc)
+        setattr(ctl.data, _ATTR, vc)
     return vc
 
 

@@ -1,1 +1,12 @@
-"""xarm-emu."""
+"""Constant robot descriptions and the math over them; nothing here ever mutates.
+
+- :mod:`.robots`: the arms (joint frames, limits, identity, tool IO) and :func:`~.robots.get_model`.
+- :mod:`.inertials`: link masses, centres of mass, inertia tensors, torque constants.
+- :mod:`.rotations`: roll/pitch/yaw, axis-angle, quaternions, pose <-> 4x4 matrix (manual 1.5).
+- :mod:`.kinematics`: forward and inverse kinematics, Jacobian, TCP and user offsets
+  (its unrolled scalar code comes from :mod:`._unroll`).
+- :mod:`.dynamics`: gravity and inverse-dynamics joint torques.
+- :mod:`.collision`: self-collision geometry derived from the joint frames.
+"""
+
+__all__ = ["collision", "dynamics", "inertials", "kinematics", "robots", "rotations"]

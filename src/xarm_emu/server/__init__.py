@@ -3,3 +3,6 @@
 ``admin_port`` (socket), ``faults`` (schedules), ``thread`` (ServerThread), ``fleet``, ``trace``,
 ``clock``; ``app`` gathers the names users import. Nothing here imports the viewer, the CLI or the
 client: the composers above (``xarm-emu serve``, ``xarm_emu.testing``) wire those."""
+
+__all__ = ["admin", "admin_port", "app", "clock", "command_port", "core", "faults", "fleet", "report_ports",
+           "thread", "trace"]

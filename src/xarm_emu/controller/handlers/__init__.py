@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..base import Handler, Values
-from . import motion2, reduced, trajectory
+from . import kinematics, motion, motion2, reduced, settings, state, trajectory
 
 if TYPE_CHECKING:
     from ..core import ControllerCore
@@ -30,7 +30,15 @@ CtlHandler = Callable[["Any", Values], "dict[str, Any] | None"]
 
 #: Every handler table of this package, in the order they bind (a later table never rebinds a code:
 #: :func:`bind` refuses duplicates).
-TABLES: tuple[Mapping[int, CtlHandler], ...] = (motion2.HANDLERS, reduced.HANDLERS, trajectory.HANDLERS)
+TABLES: tuple[Mapping[int, CtlHandler], ...] = (
+    state.HANDLERS,
+    motion.HANDLERS,
+    settings.HANDLERS,
+    kinematics.HANDLERS,
+    motion2.HANDLERS,
+    reduced.HANDLERS,
+    trajectory.HANDLERS,
+)
 
 
 def bind(ctl: ControllerCore,

@@ -5,8 +5,8 @@ Register 83 (the SDK's relative ``set_position`` / ``set_servo_angle`` from firm
 deltas are resolved when the move starts, from where the previous move of the buffer ended. A TCP
 delta adds its position to the start's and applies its rotation in the base frame (as register 92's
 relative form); a joint delta adds to each joint. From 2.4.101 a +inf component means "unchanged",
-which for a delta is 0. ``only_check_type`` above 0 queues nothing and answers the check result in
-the reply's third byte (0: reachable; 1: no inverse kinematics solution or outside the joint limits).
+which for a delta is 0. ``only_check_type`` 1-3 queues nothing and answers the check result in the
+reply's third byte, as registers 21 and 23 do (0, or the error code the move would raise).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from ..base import C_JOINT_LIMIT, CommandError, ParameterError, Values
 from ..commands import JointMove, LineMove
 from ..poses import resolve_line_target
 from ..settings import in_range
+from . import motion
 
 
 def _check_speed(speed: float, acc: float, vmax: float, amax: float) -> None:
@@ -36,35 +37,44 @@ def _unchanged_as_zero(values: Any) -> tuple[float, ...]:
 
 
 def move_relative(ctl: Any, v: Values) -> dict[str, Any]:
-    """Register 83: a relative TCP (is_joint_motion 0) or joint (1) move, queued."""
+    """Register 83: a relative TCP (is_joint_motion 0) or joint (1) move, queued; or only checked
+    (``only_check_type`` 1-3, as the common forms of registers 21 and 23 check)."""
     deltas = _unchanged_as_zero(v["deltas"])
     joint = int(v.get("is_joint_motion", 0))
     axis_angle = int(v.get("is_axis_angle", 0))
-    only_check = int(v.get("only_check_type", 0) or 0)
-    if joint not in (0, 1) or axis_angle not in (0, 1):
-        raise ParameterError("is_joint_motion and is_axis_angle are 0 or 1")
+    check = int(v.get("only_check_type", 0) or 0)
+    if joint not in (0, 1) or axis_angle not in (0, 1) or check > 3:
+        raise ParameterError("is_joint_motion and is_axis_angle are 0 or 1, only_check_type 0..3")
     m = ctl.model
     radius = float(v.get("radius", -1.0))
     if joint:
         _check_speed(v["speed"], v["acc"], m.max_joint_speed, m.max_joint_acc)
-        ctl._require_motion_allowed()
         delta = np.asarray(deltas[: ctl.dof], dtype=float)
-        if only_check > 0:
-            ok = kin.within_limits(m, ctl.q + delta)
-            return {"cmdnum": ctl.executor.cmdnum, "check_result": 0 if ok else 1}
+        if check:
+            q0 = motion.check_start(ctl, check)
+            return _checked(ctl, check, q0 + delta, motion.check_joint_path(ctl, q0, q0 + delta))
+        ctl.require_motion_allowed()
         if not ctl.executor.active and not kin.within_limits(m, ctl.q + delta):
             raise CommandError(C_JOINT_LIMIT, "relative joint target outside the limits")
         cmd: JointMove | LineMove = JointMove(83, delta, v["speed"], v["acc"], radius=radius, relative=True)
     else:
         _check_speed(v["speed"], v["acc"], m.max_tcp_speed, m.max_tcp_acc)
-        ctl._require_motion_allowed()
         cmd = LineMove(83, deltas[:6], v["speed"], v["acc"], radius=radius, relative=True,
                        axis_angle=bool(axis_angle))
-        if only_check > 0:
-            target = resolve_line_target(cmd, ctl.tcp_matrix())
-            ok = kin.ik(m, ctl.flange_target(target), ctl.q, limited=True, restarts=True) is not None
-            return {"cmdnum": ctl.executor.cmdnum, "check_result": 0 if ok else 1}
-    return dict(ctl._queue(cmd))
+        if check:
+            q0 = motion.check_start(ctl, check)
+            result, end = motion.check_line_path(ctl, q0, resolve_line_target(cmd, ctl.tcp_matrix(q0)))
+            return _checked(ctl, check, end, result)
+        ctl.require_motion_allowed()
+    ctl.queue(cmd)
+    return {"cmdnum": ctl.executor.cmdnum, "check_result": 0}
+
+
+def _checked(ctl: Any, check: int, end: np.ndarray | None, result: int) -> dict[str, Any]:
+    """Keep the intermediate state of an only-check (types 1 and 3: where it ended; type 2: back to
+    the actual joints) and reply its result (0, or the error code the move would raise)."""
+    ctl.data.check_q = None if check == 2 or end is None else end
+    return {"cmdnum": ctl.executor.cmdnum, "check_result": result}
 
 
 def _duration(ctl: Any, v: Values) -> float | None:

@@ -1,0 +1,116 @@
+"""The controller's mutable state as one data object, beside the constant robot model and the
+settings (registers 31-79, :mod:`.settings`).
+
+:class:`ControllerState` holds every value that changes while the box runs: the clock, the joints,
+the motion state and mode (registers 13 and 19), enable and brake switches (registers 11 and 18),
+the fault group (chapter 3), the servo target (registers 29, 30, 93), virtual robot mode (register 79),
+the collision tool (register 78) and the command buffer with its running plan (:class:`PlanState`,
+section 2.1.3 "command buffer"). Copying it (with the settings and the components) copies the whole
+control box; derived values such as cached poses and torques are not part of it.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
+
+import numpy as np
+
+from ..model import collision
+from .faults import Faults
+from .states import MODE_POSITION, STATE_STOP
+
+if TYPE_CHECKING:
+    from .commands import QueuedCommand
+    from .motion import ServoTracker
+
+T = TypeVar("T")
+
+#: Shortest time to ramp the path rate between full speed and rest for suspend/stop (s); faster
+#: motion ramps longer so that the deceleration stays within the acceleration limit.
+RAMP_TIME = 0.2
+
+
+@dataclass
+class PlanState:
+    """The command buffer and the motion that runs from it (:class:`~.executor.Executor`)."""
+
+    #: Commands waiting, oldest first (the running one is :attr:`current`).
+    buffer: deque[QueuedCommand] = field(default_factory=deque)
+    #: The planned motion of the running command (an executor plan), or ``None``.
+    plan: Any = None
+    current: QueuedCommand | None = None
+    t: float = 0.0  # path time within the current plan, s
+    rate: float = 1.0  # path time per control time, 0..1
+    ramp_from: float = 1.0
+    ramp_to: float = 1.0
+    ramp_u: float = 1.0  # progress of the current ramp, 0..1
+    ramp_time: float = RAMP_TIME  # s
+    stopping: bool = False  # a stop ramp is running; the plan ends when it reaches rest
+    tcp_speed: float = 0.0  # mm/s
+    merged: int = 0  # further commands of a blended chain that the current plan runs
+    completed: int = 0  # commands run to their end (the report's command counter)
+
+    @property
+    def cmdnum(self) -> int:
+        """Commands in the buffer, the running one included (register 14); 0 once a stop (state 4)
+        discarded them, even while the arm is still coming to rest."""
+        if self.stopping:
+            return 0
+        return len(self.buffer) + (1 + self.merged if self.current is not None else 0)
+
+
+@dataclass
+class ControllerState:
+    """Every mutable value of the controller core and its executor (see the module docstring)."""
+
+    dof: int
+    time: float = 0.0  # controller time, s
+    steps: int = 0  # control periods since power-on
+    q: np.ndarray = field(default_factory=lambda: np.zeros(0))  # joints, rad
+    qd: np.ndarray = field(default_factory=lambda: np.zeros(0))  # rad/s
+    qdd: np.ndarray = field(default_factory=lambda: np.zeros(0))  # rad/s^2
+    #: Motion state (register 13); only :func:`.states.fire` changes it.
+    motion_state: int = STATE_STOP
+    mode: int = MODE_POSITION  # register 19
+    enabled: list[bool] = field(default_factory=list)  # register 11, per joint
+    brakes: list[bool] = field(default_factory=list)  # True: brake released (motor holds the joint)
+    faults: Faults = field(default_factory=Faults)
+    #: Servo mode (registers 29, 30, 93): the joint target and the tracker that follows it.
+    servo_target: np.ndarray | None = None
+    servo_tracker: ServoTracker | None = None
+    simulation_robot: bool = False  # register 79
+    #: The physical arm's joints while virtual robot mode is on.
+    physical_q: np.ndarray | None = None
+    collision_tool: collision.ToolModel = collision.NO_TOOL  # register 78
+    #: The joints where the last only-check move ended (the SDK's "intermediate state"), if kept.
+    check_q: np.ndarray | None = None
+    motion: PlanState = field(default_factory=PlanState)
+
+    @classmethod
+    def initial(cls, dof: int) -> ControllerState:
+        """A box of ``dof`` joints at power-on: at zero, enabled, brakes released, state 4."""
+        return cls(dof, q=np.zeros(dof), qd=np.zeros(dof), qdd=np.zeros(dof), enabled=[True] * dof,
+                   brakes=[True] * dof, faults=Faults.none(dof))
+
+
+class StateField(Generic[T]):
+    """A value of the owner's ``data`` (a :class:`ControllerState`), read and written by the same
+    name on the owner: ``ctl.q`` is ``ctl.data.q``."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    @overload
+    def __get__(self, obj: None, owner: type) -> StateField[T]: ...
+    @overload
+    def __get__(self, obj: object, owner: type) -> T: ...
+    def __get__(self, obj: object | None, owner: type) -> StateField[T] | T:
+        if obj is None:
+            return self
+        value: T = getattr(obj.data, self.name)  # type: ignore[attr-defined]
+        return value
+
+    def __set__(self, obj: object, value: T) -> None:
+        setattr(obj.data, self.name, value)  # type: ignore[attr-defined]
