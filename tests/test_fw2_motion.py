@@ -390,3 +390,10 @@ def test_restore_to_before_a_velocity_command_forgets_it() -> None:
     emu.restore(cp)
     emu.advance(0.5)
     assert emu.controller.q == pytest.approx(np.zeros(6), abs=1e-12) and emu.controller.state == 2
+
+
+@pytest.mark.parametrize("code", [47, 48, 49, 50, 53, 58, 60, 61, 62, 63, 64, 65, 81, 82, 83, 230])
+def test_firmware_1_6_0_still_answers_the_2x_motion_registers_with_warning_13(code: int) -> None:
+    emu = _emu("1.6.0")
+    state, reply = emu.handle(code, b"")
+    assert bits(state)[1] and reply == b"" and emu.controller.warning_code == 13
