@@ -375,11 +375,11 @@ class Executor:
         if float(np.linalg.norm(tcp_pose(q)[:3, 3] - target_tcp)) > radius:
             return
         _, qd, qdd = plan.traj.at(min(self.data.t, plan.duration))
-        nxt = self.data.buffer.popleft()
-        assert isinstance(nxt, JointMove)
-        nxt = self._absolute(nxt, plan.traj.at(plan.duration)[0])
+        queued = self.data.buffer.popleft()
+        assert isinstance(queued, JointMove)
+        nxt = self._absolute(queued, plan.traj.at(plan.duration)[0])
         self.data.completed += 1  # the blended-away command is done
-        self.data.current = nxt
+        self.data.current = queued
         acc = min(nxt.acc, limits.joint_maxacc)
         speed = min(nxt.speed, limits.joint_speed_cap)
         traj = motion.plan_joint_move(q, nxt.target, speed, acc, limits.joint_jerk, qd0=qd, qdd0=qdd)
@@ -411,8 +411,9 @@ class Executor:
             return _DwellPlan(q, cmd.seconds)
         if isinstance(cmd, JointMove):
             acc = min(cmd.acc, limits.joint_maxacc)
+            # The queued command stays ``current`` (feedback frames and the buffer count follow it);
+            # only the plan sees its target resolved (+inf joints kept, relative deltas added).
             cmd = self._absolute(cmd, q)
-            self.data.current = cmd
             speed = min(cmd.speed, limits.joint_speed_cap)
             traj = motion.plan_joint_move(q, cmd.target, speed, acc, limits.joint_jerk)
             return _JointPlan(traj, self._joint_blend(cmd, tcp_pose))

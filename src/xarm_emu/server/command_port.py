@@ -2,7 +2,12 @@
 
 Each reply is one write on a TCP_NODELAY socket, so the SDK reads it in one piece. Protocol 1 (SDK
 heartbeat) gets no reply; protocol 0 (standard Modbus TCP) is answered by the standard map
-(:mod:`xarm_emu.protocol.modbus`); a frame that cannot be framed closes that connection only. Decoding is
+(:mod:`xarm_emu.protocol.modbus`); a frame that cannot be framed closes that connection only. Protocol
+ids 2 and 3 are answered alike and echoed (the SDK switches between them on one connection).
+
+Firmware >= 2.0.102 also pushes unsolicited 21-byte 0xFF feedback frames on the connection whose
+command they report (:meth:`CommandProtocol.send_feedback`), as whole writes between replies; a
+connection that does not read them gets none (dropped and counted). Decoding is
 :class:`~xarm_emu.protocol.frame.FrameDecoder` (sans-IO); the answers come from the server's
 :meth:`CommandTarget.answer`.
 """
@@ -11,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import itertools
 import logging
 import socket
 from typing import Any, Protocol
@@ -30,6 +36,10 @@ from ..protocol.frame import (
 from .trace import CommandTrace
 
 log = logging.getLogger("xarm_emu.server")
+
+#: A command connection whose unsent data (beyond the kernel's buffer) exceeds this many bytes gets no
+#: feedback frames (they are dropped and counted, as report frames to a slow reader are skipped).
+FEEDBACK_SLOW_BYTES = 16 * 1024
 
 #: Registers whose reply with no parameters is a pure read of the controller's state (manual 2.1.3:
 #: version, serial number, state, cmdnum, error/warning, TCP pose, joints). Between two control steps,
@@ -73,9 +83,15 @@ class CommandTarget(Protocol):
     @property
     def reply_delay(self) -> float: ...
 
-    def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "") -> bytes: ...
+    def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "",
+               client: int = 0) -> bytes: ...
+
+    def command_closed(self, client: int) -> None: ...
 
     def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
+
+
+_client_ids = itertools.count(1)
 
 
 class CommandProtocol(asyncio.Protocol):
@@ -86,6 +102,10 @@ class CommandProtocol(asyncio.Protocol):
         self.decoder = FrameDecoder()
         self.transport: asyncio.Transport | None = None
         self.peer = ""
+        #: This connection's key in the controller's feedback queue (never 0, never reused).
+        self.client_id = next(_client_ids)
+        self.feedback_sent = 0
+        self.feedback_dropped = 0
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         self.transport = transport  # type: ignore[assignment]  # uvloop's transports are not subclasses
@@ -98,6 +118,7 @@ class CommandProtocol(asyncio.Protocol):
 
     def connection_lost(self, exc: Exception | None) -> None:
         self.server.command_clients.discard(self)
+        self.server.command_closed(self.client_id)
         if self.server.trace is not None:
             self.server.trace.event(self.server.emulator.time, self.peer, "close")
 
@@ -110,7 +131,8 @@ class CommandProtocol(asyncio.Protocol):
         if n > HEADER_SIZE and not self.decoder.pending:
             tid, prot, length = HEADER.unpack_from(data)
             if length + HEADER_SIZE == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS:
-                self._reply(transport, self.server.answer(tid, prot, data[6], data[7:], self.peer))
+                self._reply(transport, self.server.answer(tid, prot, data[6], data[7:], self.peer,
+                                                          self.client_id))
                 return
         try:
             frames = self.decoder.feed(data)
@@ -123,7 +145,8 @@ class CommandProtocol(asyncio.Protocol):
         for req in frames:
             prot = req.protocol  # type: ignore[union-attr]
             if prot in PRIVATE_PROTOCOLS:
-                out.append(answer(req.tid, prot, req.register, req.params, self.peer))  # type: ignore[union-attr]
+                out.append(answer(req.tid, prot, req.register, req.params, self.peer,  # type: ignore[union-attr]
+                                  self.client_id))
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
@@ -146,3 +169,17 @@ class CommandProtocol(asyncio.Protocol):
     def _send(self, payload: bytes) -> None:
         if self.transport is not None and not self.transport.is_closing():
             self.transport.write(payload)
+
+    # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
+    def send_feedback(self, frame: bytes) -> bool:
+        """Write one unsolicited 0xFF feedback frame as one whole write between replies; ``False``
+        (the frame dropped and counted) when the connection is closing or its reader is not keeping
+        up."""
+        transport = self.transport
+        if transport is None or transport.is_closing() or (
+                transport.get_write_buffer_size() > FEEDBACK_SLOW_BYTES):
+            self.feedback_dropped += 1
+            return False
+        transport.write(frame)
+        self.feedback_sent += 1
+        return True

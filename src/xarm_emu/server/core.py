@@ -1,7 +1,10 @@
 """The server core: one arm's ports and the control loop that keeps its clock (:class:`EmulatorServer`).
 
 - Command port (502), :mod:`.command_port`: frames of manual section 2.1.2.
-- Report ports (30001-30003), :mod:`.report_ports`: section 2.1.6.
+- Report ports (30001-30003, and 30000 for firmware >= 2.1.0), :mod:`.report_ports`: section 2.1.6.
+- Feedback frames (firmware >= 2.0.102): the controller's feedback events
+  (:mod:`xarm_emu.controller.feedback`), drained after every command and every catch-up and written
+  to the command connection each belongs to (:meth:`EmulatorServer.deliver_feedback`).
 - The admin channel (fault injection, :mod:`.admin` over :mod:`.admin_port`) listens on loopback
   only, and only when ``ServerConfig.admin`` is set.
 - The control loop steps the controller on its period in real or scaled time; commands, report
@@ -24,13 +27,14 @@ from typing import Any, Protocol
 from ..controller import modbus_map
 from ..controller.base import PERIOD
 from ..controller.emulator import Emulator
+from ..controller.feedback import FeedbackQueue, feedback_queue
 from ..protocol import reports
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.frame import COMMAND_PORT, encode_reply
 from .admin_port import AdminProtocol
 from .clock import ScaledClock, Ticker
 from .command_port import PURE_READS, CommandProtocol, ReadCache
-from .report_ports import KIND_PORTS, ReportStreams
+from .report_ports import ALL_KIND_PORTS, REALTIME_KIND, ReportStreams, firmware2_fields
 from .trace import CommandTrace
 
 log = logging.getLogger("xarm_emu.server")
@@ -43,6 +47,15 @@ class ServerConfig:
     normal_port: int = reports.NORMAL_PORT
     rich_port: int = reports.RICH_PORT
     develop_port: int = reports.DEVELOP_PORT
+    #: The real-time report of firmware >= 2.1.0 (0: a free port; a 1.x box has none). ``None``: two
+    #: below the rich port, as the standard ports are (30000 beside 30002; free when that is 0).
+    realtime_port: int | None = None
+
+    def realtime_port_number(self) -> int:
+        """The port the real-time report listens on (see :attr:`realtime_port`)."""
+        if self.realtime_port is not None:
+            return self.realtime_port
+        return self.rich_port - (reports.RICH_PORT - reports.REALTIME_PORT) if self.rich_port > 2 else 0
     speed: float = 1.0  # controller seconds per wall second
     admin: bool = False  # fault-injection channel (server/admin.py), off by default
     admin_port: int | None = None  # None: command port + admin.ADMIN_PORT_OFFSET (0 if port is 0)
@@ -58,7 +71,8 @@ class ServerConfig:
     #: the code that composes the server (faults.schedule_file), not by the server.
     faults: Path | None = None
     report_rates: dict[str, float] = field(default_factory=lambda: {
-        "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE})
+        "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE,
+        REALTIME_KIND: reports.REALTIME_RATE})
 
 
 class Attachment(Protocol):
@@ -89,7 +103,18 @@ class EmulatorServer:
         self.config = config or ServerConfig()
         self.clock = ScaledClock(PERIOD, self.config.speed)
         self.command_clients: set[CommandProtocol] = set()
-        self.reports = ReportStreams(self._report_snapshot, self.reports_paused, self.config.report_rates)
+        profile = emulator.firmware
+        defaults = reports.rates_for(profile)
+        rates = {kind: defaults[port] for kind, port in ALL_KIND_PORTS.items() if port in defaults}
+        rates.update(self.config.report_rates)
+        self.reports = ReportStreams(self._report_snapshot, self.reports_paused, rates, profile)
+        #: The controller's feedback events (firmware >= 2.0.102), else ``None``.
+        self.feedback: FeedbackQueue | None = (feedback_queue(emulator.controller) if profile.feedback
+                                               else None)
+        #: Feedback frames dropped because their connection was gone or not reading.
+        self.feedback_dropped = 0
+        self.feedback_sent = 0
+        self._feedback_soon = False
         self._servers: list[asyncio.AbstractServer] = []
         self._tasks: list[asyncio.Task[None]] = []
         self.ports: dict[str, int] = {}
@@ -165,7 +190,10 @@ class EmulatorServer:
 
     def _report_snapshot(self) -> reports.ReportSnapshot:
         self.catch_up()
-        return self.emulator.snapshot()
+        snap = self.emulator.snapshot()
+        if not self.emulator.firmware.is_v1:
+            firmware2_fields(self.emulator, snap)
+        return snap
 
     async def start(self) -> None:
         loop = asyncio.get_running_loop()
@@ -180,8 +208,11 @@ class EmulatorServer:
         srv = await loop.create_server(lambda: CommandProtocol(self), cfg.host, cfg.port, reuse_address=True)
         self._servers.append(srv)
         self.ports["command"] = srv.sockets[0].getsockname()[1]
-        report_ports = (("normal", cfg.normal_port), ("rich", cfg.rich_port), ("develop", cfg.develop_port))
+        report_ports = (("normal", cfg.normal_port), ("rich", cfg.rich_port), ("develop", cfg.develop_port),
+                        (REALTIME_KIND, cfg.realtime_port_number()))
         for kind, port in report_ports:
+            if kind not in self.reports.kinds:
+                continue
             s = await asyncio.start_server(self.reports.on_client(kind), cfg.host, port, reuse_address=True)
             self._servers.append(s)
             self.ports[kind] = s.sockets[0].getsockname()[1]
@@ -204,7 +235,7 @@ class EmulatorServer:
         self._loop = loop
         self.clock.start(loop.time())
         self._tasks.append(asyncio.create_task(self._control_loop()))
-        for kind in KIND_PORTS:
+        for kind in self.reports.kinds:
             self._tasks.append(asyncio.create_task(self.reports.run(kind, self._ticker)))
 
     def catch_up(self) -> int:
@@ -221,20 +252,76 @@ class EmulatorServer:
         n = self.clock.due(loop.time(), MAX_CATCH_UP)
         if n:
             self.emulator.step(n)
+            if self.feedback is not None and self.feedback.pending:
+                self.deliver_feedback()
         return n
 
-    def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "") -> bytes:
-        """The reply frame to one private-protocol request (manual 2.1.2)."""
+    def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "",
+               client: int = 0) -> bytes:
+        """The reply frame to one private-protocol request (manual 2.1.2) from command connection
+        ``client`` (its :attr:`CommandProtocol.client_id`; 0: none)."""
         self.catch_up()
         emu = self.emulator
         if not params and register in PURE_READS:
             frame = self._read_cache.reply(emu, tid, protocol, register)
+        elif self.feedback is not None:
+            frame = self._answer_with_feedback(tid, protocol, register, params, client)
         else:
             state, reply = emu.handle(register, params)
             frame = encode_reply(tid, protocol, register, state, reply)
         if self.trace is not None:
             self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
         return frame
+
+    # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
+    def _answer_with_feedback(self, tid: int, protocol: int, register: int, params: bytes,
+                              client: int) -> bytes:
+        """Handle one request with its origin known to the feedback queue; the frames it causes go
+        out after its reply (the next turn of the loop)."""
+        fb = self.feedback
+        assert fb is not None
+        ctl = self.emulator.controller
+        fb.begin(ctl, client, tid, protocol, register)
+        state = 0
+        try:
+            state, reply = self.emulator.handle(register, params)
+        finally:
+            fb.end(ctl, state)
+        if fb.pending and not self._feedback_soon and self._loop is not None:
+            self._feedback_soon = True  # after the reply, also when an injected delay holds it back
+            if self._reply_delay > 0.0:
+                self._loop.call_later(self._reply_delay, self._deliver_soon)
+            else:
+                self._loop.call_soon(self._deliver_soon)
+        return encode_reply(tid, protocol, register, state, reply)
+
+    def _deliver_soon(self) -> None:
+        self._feedback_soon = False
+        self.deliver_feedback()
+
+    def deliver_feedback(self) -> int:
+        """Write the controller's pending feedback events as 0xFF frames, each to the command
+        connection whose request it reports; returns the number written. A frame whose connection
+        is gone, or whose reader is not keeping up (as report frames are skipped), is dropped and
+        counted in :attr:`feedback_dropped`."""
+        fb = self.feedback
+        if fb is None or not fb.pending:
+            return 0
+        by_id = {c.client_id: c for c in self.command_clients}
+        n = 0
+        for ev in fb.drain():
+            conn = by_id.get(ev.client)
+            if conn is None or not conn.send_feedback(ev.encode()):
+                self.feedback_dropped += 1
+                continue
+            n += 1
+        self.feedback_sent += n
+        return n
+
+    def command_closed(self, client: int) -> None:
+        """Command connection ``client`` closed: its feedback mask and pending reports go."""
+        if self.feedback is not None:
+            self.feedback.forget(client)
 
     def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes:
         """The reply frame to one standard Modbus-TCP request (protocol id 0): the map of

@@ -1,7 +1,9 @@
-"""The report ports (30001 normal 5 Hz, 30002 rich 5 Hz, 30003 develop 100 Hz), manual section 2.1.6.
+"""The report ports (30001 normal 5 Hz, 30002 rich 5 Hz, 30003 develop 100 Hz), manual section 2.1.6,
+and for firmware >= 2.1.0 the real-time report (30000, 250 Hz).
 
-Each tick encodes one frame (``protocol.reports.ENCODERS``) and writes it to every client whose
-socket is keeping up; a slow reader skips frames instead of slowing anyone down. Clients never
+Each tick encodes one frame with the encoder of the box's firmware (``reports.encoders_for``: the
+manual's 87/145/433-byte frames for 1.x, 135/145/587 bytes for 2.x) and writes it to every client
+whose socket is keeping up; a slow reader skips frames instead of slowing anyone down. Clients never
 write on report ports; a connection is read only until EOF.
 """
 
@@ -9,11 +11,15 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import math
 import socket
 import time
 from collections.abc import Awaitable, Callable
+from typing import Any
 
+from ..model import rotations as rot
 from ..protocol import reports
+from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from .clock import Ticker
 from .command_port import set_nodelay
 
@@ -25,6 +31,51 @@ REPORT_SNDBUF = 32 * 1024
 
 #: Report kind -> its standard port, the key of ``reports.ENCODERS`` (section 2.1.6).
 KIND_PORTS = {"normal": reports.NORMAL_PORT, "rich": reports.RICH_PORT, "develop": reports.DEVELOP_PORT}
+#: The real-time report of firmware >= 2.1.0 (port 30000), beside :data:`KIND_PORTS`.
+REALTIME_KIND = "realtime"
+ALL_KIND_PORTS = {**KIND_PORTS, REALTIME_KIND: reports.REALTIME_PORT}
+
+
+def kinds_for(profile: FirmwareProfile) -> dict[str, int]:
+    """Report kind -> standard port of the streams a box of ``profile`` serves."""
+    ports = reports.encoders_for(profile)
+    return {k: p for k, p in ALL_KIND_PORTS.items() if p in ports}
+
+
+def encoders_by_kind(profile: FirmwareProfile) -> dict[str, Callable[[reports.ReportSnapshot], bytes]]:
+    """Report kind -> the frame encoder of ``profile``'s firmware."""
+    enc = reports.encoders_for(profile)
+    return {k: enc[p] for k, p in kinds_for(profile).items()}
+
+
+def firmware2_fields(emu: Any, snap: reports.ReportSnapshot) -> reports.ReportSnapshot:
+    """Fill what the firmware 2.x frames carry beyond the manual's (rich bytes 284-287 and 433-586,
+    the real-time report) from the controller, for a box of a 2.x profile.
+
+    Bytes 284-287 carry the counter of registers 74/75 (``user_counter``), which both SDKs read there.
+    Values a register of another group keeps are read where present, else left at their defaults.
+    """
+    ctl = emu.controller
+    s = ctl.settings
+    snap.counter = int(getattr(ctl, "user_counter", 0)) & 0xFFFFFFFF
+    roll, pitch, yaw = snap.pose[3:6]
+    if all(math.isfinite(x) for x in (roll, pitch, yaw)):
+        snap.pose_aa = tuple(float(x) for x in rot.rpy_to_axis_angle(roll, pitch, yaw))
+    snap.report_current = bool(s.report_current)
+    snap.approx_motion = bool(getattr(s, "approx_motion", False))
+    snap.cart_continuous = bool(getattr(s, "cart_continuous", False))
+    snap.reduced_mode = bool(getattr(s, "reduced_mode", False))
+    snap.reduced_tcp_boundary = tuple(int(x) for x in s.boundary)
+    snap.fence = bool(s.boundary_on)
+    snap.reduced_max_tcp_speed = float(getattr(s, "reduced_tcp_speed", 0.0))
+    snap.reduced_max_joint_speed = float(getattr(s, "reduced_joint_speed", 0.0))
+    ranges = getattr(s, "reduced_joint_ranges", None)
+    if ranges is not None:
+        snap.reduced_joint_ranges = tuple(float(x) for x in ranges)
+    snap.collision_rebound = bool(getattr(s, "collision_rebound", False))
+    snap.timestamp_us = int(round(ctl.time * 1e6))
+    snap.joint_accelerations = tuple(float(x) for x in ctl.qdd) + (0.0,) * (7 - ctl.dof)
+    return snap
 
 
 class ReportStreams:
@@ -35,15 +86,18 @@ class ReportStreams:
     """
 
     def __init__(self, snapshot: Callable[[], reports.ReportSnapshot], paused: Callable[[], bool],
-                 rates: dict[str, float]) -> None:
+                 rates: dict[str, float], profile: FirmwareProfile = DEFAULT_PROFILE) -> None:
         self.snapshot = snapshot
         self.paused = paused
         self.rates = rates
-        self.clients: dict[str, set[asyncio.StreamWriter]] = {k: set() for k in KIND_PORTS}
+        #: Report kind -> standard port of the streams this box serves (its firmware's).
+        self.kinds = kinds_for(profile)
+        self.encoders = encoders_by_kind(profile)
+        self.clients: dict[str, set[asyncio.StreamWriter]] = {k: set() for k in self.kinds}
         #: Set while a stream has clients; its loop sleeps without waking up otherwise.
-        self._has_clients: dict[str, asyncio.Event] = {k: asyncio.Event() for k in KIND_PORTS}
-        self.frames_sent: dict[str, int] = {k: 0 for k in KIND_PORTS}
-        self.frames_skipped: dict[str, int] = {k: 0 for k in KIND_PORTS}  # per slow client and frame
+        self._has_clients: dict[str, asyncio.Event] = {k: asyncio.Event() for k in self.kinds}
+        self.frames_sent: dict[str, int] = {k: 0 for k in self.kinds}
+        self.frames_skipped: dict[str, int] = {k: 0 for k in self.kinds}  # per slow client and frame
         # Set to a dict to record each report frame's send time (time.perf_counter(); benchmarks).
         self.frame_times: dict[str, list[float]] | None = None
         self.client_tasks: set[asyncio.Task[None]] = set()
@@ -77,7 +131,7 @@ class ReportStreams:
     async def run(self, kind: str, ticker: Ticker | None) -> None:
         """Send the ``kind`` stream at its rate until cancelled."""
         interval = 1.0 / self.rates[kind]
-        encode = reports.ENCODERS[KIND_PORTS[kind]]
+        encode = self.encoders[kind]
         clients = self.clients[kind]
         next_t = time.perf_counter()
         has_clients = self._has_clients[kind]

@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..base import Handler, Values
-from . import kinematics, motion, motion2, reduced, settings, state, trajectory
+from . import feedback, kinematics, motion, motion2, reduced, settings, state, trajectory
 
 if TYPE_CHECKING:
     from ..core import ControllerCore
@@ -35,6 +35,7 @@ TABLES: tuple[Mapping[int, CtlHandler], ...] = (
     motion.HANDLERS,
     settings.HANDLERS,
     kinematics.HANDLERS,
+    feedback.HANDLERS,
     motion2.HANDLERS,
     reduced.HANDLERS,
     trajectory.HANDLERS,
