@@ -230,3 +230,17 @@ def test_set_position_aa_relative_goes_through_register_83(fw_server: ServerThre
     c, s = math.cos(math.radians(10)), math.sin(math.radians(10))
     rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
     assert T1[:3, :3] == pytest.approx(rz @ T0[:3, :3], abs=1e-6)  # rotation applied in the base frame
+
+
+def test_relative_moves_with_wait_return_when_they_end(fw_server: ServerThread, sdk_arm: SDKArm) -> None:
+    arm = sdk_arm(fw_server)
+    sdk_ready(arm)
+    ctl = fw_server.emulator.controller
+    start = ctl.tcp_pose().copy()
+    assert arm.set_position(x=20, relative=True, speed=100, mvacc=2000, wait=True) == 0
+    assert ctl.executor.cmdnum == 0
+    assert (ctl.tcp_pose() - start)[:3] == pytest.approx([20.0, 0.0, 0.0], abs=1e-3)
+    q0 = ctl.q.copy()
+    assert arm.set_servo_angle(angle=[10, 0, 0, 0, 0, 0], relative=True, speed=30, wait=True) == 0
+    assert ctl.executor.cmdnum == 0
+    assert ctl.q[0] - q0[0] == pytest.approx(math.radians(10), abs=1e-6)
