@@ -41,3 +41,16 @@ def test_register_106_reports_the_gripper_error_through_the_hooks() -> None:
     emu.inject_gripper_error(0x19)
     _, reply = emu.handle(106, b"")
     assert reply[14:16] == bytes([1, 0x19])
+
+
+#: Registers of the newest profile whose handlers have landed (relative moves, velocity control,
+#: trajectories).
+LANDED_FW2 = frozenset({61, 62, 63, 64, 65, 81, 82, 83, 230})
+
+
+@pytest.mark.parametrize("firmware", ["1.11.100", "2.0.102", "2.7.103"])
+def test_newer_firmware_binds_the_handlers_of_its_table(firmware: str) -> None:
+    emu = Emulator(6, firmware=firmware)
+    table = frozenset(emu.controller.registers)
+    assert frozenset(REGISTERS) <= emu.controller.handler_codes <= table
+    assert LANDED_FW2 <= emu.controller.handler_codes

@@ -8,6 +8,9 @@
 - :mod:`.state`: :class:`~.state.ControllerState`, every mutable value of the controller.
 - :mod:`.settings`, :mod:`.config`: settable parameters and their saved files.
 - :mod:`.executor`, :mod:`.commands`, :mod:`.motion`, :mod:`.poses`: the command buffer and motion.
+- :mod:`.mode_steps`: modes 4-7 and 11 of register 19 (:mod:`.velocity` control, :mod:`.online`
+  trajectory planning, :mod:`.trajectory` playback), what the core runs for them each period.
+- :mod:`.reduced`: reduced mode, its speed caps and joint ranges.
 - :mod:`.safety`, :mod:`.faults`, :mod:`.thermal`: safety checks, the fault group, joint temperatures.
 - :mod:`.feedback`: the queue of feedback events of firmware 2.x (registers 253/254), drained by the
   server into 0xFF frames.
@@ -17,6 +20,5 @@
 """
 
 __all__ = ["base", "commands", "config", "core", "emulator", "executor", "faults", "feedback", "gripper",
-           "handlers",
-           "io", "modbus_map", "motion", "poses", "safety", "settings", "state", "states", "thermal",
-           "vacuum"]
+           "handlers", "io", "modbus_map", "mode_steps", "motion", "online", "poses", "reduced", "safety",
+           "settings", "state", "states", "thermal", "trajectory", "vacuum", "velocity"]

@@ -17,6 +17,7 @@ class JointMove:
     speed: float  # rad/s
     acc: float  # rad/s^2
     radius: float = -1.0
+    relative: bool = False  # register 83: ``target`` is a delta added to the joints at the start
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ from ..protocol import registers as regs
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError, all_within
-from . import motion, safety
+from . import motion, reduced, safety
 from .base import (
     C_OTHER,
     C_PLANNING,
@@ -47,6 +47,7 @@ from .base import (
 from .commands import QueuedCommand
 from .executor import Executor, Limits
 from .faults import Faults
+from .mode_steps import EVERY_STEP, MODE_STEPS, route
 from .settings import Settings
 from .state import ControllerState, StateField
 from .states import (
@@ -157,11 +158,15 @@ class Controller:
     # -- saved configuration (registers 39/40) --------------------------------------------------
     def config_values(self) -> dict[str, Any]:
         """The settings register 40 saves."""
-        return self.settings.to_dict()
+        values = self.settings.to_dict()
+        if (saved := reduced.config_of(self)) is not None:
+            values[reduced.CONFIG_KEY] = saved
+        return values
 
     def load_config(self, data: dict[str, Any]) -> None:
         """Apply saved settings (invalid entries keep their defaults) and the collision tool."""
         self.settings = Settings.from_dict(data, self.model)
+        reduced.load_config(self, data.get(reduced.CONFIG_KEY))
         tool = self.settings.collision_tool
         try:
             self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])
@@ -293,7 +298,7 @@ class Controller:
     def handle(self, code: int, params: bytes) -> tuple[int, bytes]:
         """Handle one command; returns (reply state byte, reply parameter bytes)."""
         reg = self.registers.get(code)
-        handler = self._handlers.get(code)
+        handler = route(self, code) or self._handlers.get(code)
         if reg is None or handler is None:
             log.info("register %d is unknown to firmware %s: warning 13", code, self.firmware)
             self.raise_warning(WARN_UNKNOWN_COMMAND)
@@ -360,6 +365,8 @@ class Controller:
                     self._step_position(dt)
                 elif state == STATE_STOP and d.motion.stopping:
                     self._step_position(dt)
+                elif (mode_step := MODE_STEPS.get(d.mode)) is not None:
+                    mode_step(self, dt)
                 if d.q is not q_prev:
                     self._check_safety(q_prev)
         except CommandError as e:
@@ -377,6 +384,8 @@ class Controller:
         d.qd = qd
         for c in self.components:
             c.step(dt, self)
+        for hook in EVERY_STEP:
+            hook(self, dt)
 
     def _tracker(self) -> motion.ServoTracker:
         d = self.data
@@ -388,6 +397,7 @@ class Controller:
     def _check_safety(self, q_prev: np.ndarray) -> None:
         """Safety boundary (52, 59: C35) and self-collision (77, 78: C22) on the step just planned:
         the arm stops on the boundary or before contact (controller/safety.py)."""
+        reduced.check_step(self, q_prev)  # reduced-mode joint ranges: C23
         s = self.settings
         if not (s.boundary_on or s.self_collision_on):
             return
@@ -405,7 +415,9 @@ class Controller:
     def limits(self) -> Limits:
         """The motion limits of the settings (registers 31-34) and the model (Table 1.2)."""
         s = self.settings
-        return Limits(s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed)
+        tcp_cap, joint_cap = reduced.speed_caps(self)
+        return Limits(s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed,
+                      tcp_cap, joint_cap)
 
     def _step_position(self, dt: float) -> None:
         ex = self.executor

@@ -27,7 +27,7 @@ from ..model.inertials import NOMINAL_JOINT_VOLTAGE, joint_sizes
 from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
-from . import safety
+from . import safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
@@ -182,6 +182,7 @@ class Emulator:
         self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
         self._schedule_seq = 0
         self.config_dir = config_dir
+        trajectory.attach(self.controller, config_dir)  # trajectory files (registers 62/63)
         self.config_message: str | None = None
         self._store: Any = None
         #: Changes whenever anything a register or a report could show may have changed (every

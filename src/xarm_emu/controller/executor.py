@@ -73,6 +73,9 @@ class Limits:
     joint_jerk: float
     joint_maxacc: float
     max_joint_speed: float = math.pi  # Table 1.2; a Cartesian path needing more is error C24
+    #: Speed caps of queued moves (reduced mode, registers 47/48): mm/s for Cartesian, rad/s joint.
+    tcp_speed_cap: float = math.inf
+    joint_speed_cap: float = math.inf
 
 
 class _Plan:
@@ -346,9 +349,10 @@ class Executor:
         radii[-1] = None
         acc = min(first.acc, limits.tcp_maxacc)
         runs = motion.blend_runs(poses, radii)
-        profile = motion.MovingProfile(runs[0].length, v, a, first.speed, acc, limits.tcp_jerk)
-        moves = [motion.CartesianMove(runs[0], first.speed, acc, limits.tcp_jerk, profile=profile)]
-        moves += [motion.CartesianMove(r, first.speed, acc, limits.tcp_jerk) for r in runs[1:]]
+        speed = min(first.speed, limits.tcp_speed_cap)
+        profile = motion.MovingProfile(runs[0].length, v, a, speed, acc, limits.tcp_jerk)
+        moves = [motion.CartesianMove(runs[0], speed, acc, limits.tcp_jerk, profile=profile)]
+        moves += [motion.CartesianMove(r, speed, acc, limits.tcp_jerk) for r in runs[1:]]
         move: motion.CartesianMove | motion.MoveChain = (moves[0] if len(moves) == 1
                                                          else motion.MoveChain(moves))
         blend = (poses[-1], last.radius, first) if last.radius > 0.0 else None
@@ -373,18 +377,31 @@ class Executor:
         _, qd, qdd = plan.traj.at(min(self.data.t, plan.duration))
         queued = self.data.buffer.popleft()
         assert isinstance(queued, JointMove)
-        nxt = replace(queued, target=keep_unchanged_joints(queued.target, plan.traj.at(plan.duration)[0]))
+        nxt = self._absolute(queued, plan.traj.at(plan.duration)[0])
         self.data.completed += 1  # the blended-away command is done
         self.data.current = queued
         acc = min(nxt.acc, limits.joint_maxacc)
-        traj = motion.plan_joint_move(q, nxt.target, nxt.speed, acc, limits.joint_jerk, qd0=qd, qdd0=qdd)
+        speed = min(nxt.speed, limits.joint_speed_cap)
+        traj = motion.plan_joint_move(q, nxt.target, speed, acc, limits.joint_jerk, qd0=qd, qdd0=qdd)
         self.data.plan = _JointPlan(traj, self._joint_blend(nxt, tcp_pose))
         self.data.t = 0.0
+
+    def _absolute(self, cmd: JointMove, start: np.ndarray) -> JointMove:
+        """``cmd`` with an absolute target from the joints ``start`` it begins at: a relative move's
+        deltas added (register 83; C23 beyond the limits), +inf joints kept (register 23)."""
+        if cmd.relative:
+            target = start + cmd.target
+            if not kin.within_limits(self.model, target):
+                raise CommandError(C_JOINT_LIMIT, "relative joint target outside the limits")
+            return replace(cmd, target=target, relative=False)
+        return replace(cmd, target=keep_unchanged_joints(cmd.target, start))
 
     @staticmethod
     def _joint_blend(cmd: JointMove, tcp_pose: Callable[[np.ndarray], np.ndarray]
                      ) -> tuple[float, np.ndarray] | None:
-        return (cmd.radius, tcp_pose(cmd.target)[:3, 3].copy()) if cmd.radius > 0.0 else None
+        if cmd.radius <= 0.0:
+            return None
+        return (cmd.radius, tcp_pose(cmd.target)[:3, 3].copy())
 
     # -- planning ----------------------------------------------------------------------------
     def _plan(self, cmd: QueuedCommand, q: np.ndarray, limits: Limits,
@@ -395,9 +412,10 @@ class Executor:
         if isinstance(cmd, JointMove):
             acc = min(cmd.acc, limits.joint_maxacc)
             # The queued command stays ``current`` (feedback frames and the buffer count follow it);
-            # only the plan sees its +inf joints resolved.
-            cmd = replace(cmd, target=keep_unchanged_joints(cmd.target, q))
-            traj = motion.plan_joint_move(q, cmd.target, cmd.speed, acc, limits.joint_jerk)
+            # only the plan sees its target resolved (+inf joints kept, relative deltas added).
+            cmd = self._absolute(cmd, q)
+            speed = min(cmd.speed, limits.joint_speed_cap)
+            traj = motion.plan_joint_move(q, cmd.target, speed, acc, limits.joint_jerk)
             return _JointPlan(traj, self._joint_blend(cmd, tcp_pose))
         start = tcp_pose(q)
         acc = min(cmd.acc, limits.tcp_maxacc)
@@ -421,7 +439,7 @@ class Executor:
             end_check = path.pose(path.length)
         if kin.ik(self.model, to_flange(end_check), q, limited=False, restarts=True) is None:
             raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
-        move = motion.CartesianMove(path, cmd.speed, acc, limits.tcp_jerk)
+        move = motion.CartesianMove(path, min(cmd.speed, limits.tcp_speed_cap), acc, limits.tcp_jerk)
         blend = (end_check, cmd.radius, cmd) if isinstance(cmd, LineMove) and cmd.radius > 0.0 else None
         return _CartesianPlan(move, to_flange, self.model, blend)
 
@@ -478,6 +496,6 @@ class Executor:
             if sol is None:
                 raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
             seed = sol
-        move = motion.plan_blended(poses, radii, cmd.speed, acc, limits.tcp_jerk)
+        move = motion.plan_blended(poses, radii, min(cmd.speed, limits.tcp_speed_cap), acc, limits.tcp_jerk)
         blend = (poses[-1], last.radius, cmd) if last.radius > 0.0 else None
         return _CartesianPlan(move, to_flange, self.model, blend)

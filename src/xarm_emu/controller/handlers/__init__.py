@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..base import Handler, Values
-from . import feedback, kinematics, motion, settings, state
+from . import feedback, kinematics, motion, motion2, reduced, settings, state, trajectory
 
 if TYPE_CHECKING:
     from ..core import ControllerCore
@@ -36,17 +36,24 @@ TABLES: tuple[Mapping[int, CtlHandler], ...] = (
     settings.HANDLERS,
     kinematics.HANDLERS,
     feedback.HANDLERS,
+    motion2.HANDLERS,
+    reduced.HANDLERS,
+    trajectory.HANDLERS,
 )
 
 
 def bind(ctl: ControllerCore,
          tables: tuple[Mapping[int, CtlHandler], ...] | None = None) -> dict[int, Handler]:
     """The dispatch table of ``ctl``: each handler of ``tables`` (default :data:`TABLES`) with the
-    controller bound as its first argument."""
+    controller bound as its first argument, for the registers of ``ctl``'s firmware only."""
+    from ..mode_steps import create_state
+
+    create_state(ctl)  # the state behind these handlers exists from construction (checkpoints)
     out: dict[int, Handler] = {}
     for table in TABLES if tables is None else tables:
         for code, fn in table.items():
             if code in out:
                 raise ValueError(f"register {code} is bound twice")
-            out[code] = functools.partial(fn, ctl)
+            if code in ctl.registers:
+                out[code] = functools.partial(fn, ctl)
     return out
