@@ -1,4 +1,5 @@
 """The 3D view and pendant in the browser (``serve --view``, viser): :mod:`.scene` computes what is
-drawn from the emulator's state (pure), :mod:`.app` serves it and attaches to a server."""
+drawn from the emulator's state (pure), :mod:`.pendant` is the status panel, the actions and the
+plot, :mod:`.app` serves them and attaches to a server (or a fleet)."""
 
-__all__ = ["app", "scene"]
+__all__ = ["app", "pendant", "scene"]
