@@ -84,7 +84,9 @@ def _one(value: Any) -> Any:
 
 
 def _number(v: Any) -> float:
-    return v if isinstance(v, (int, float)) else float(v) if v in ("NaN", "Infinity", "-Infinity") else math.nan
+    if isinstance(v, (int, float)):
+        return float(v)
+    return float(v) if v in ("NaN", "Infinity", "-Infinity") else math.nan
 
 
 def read_trace(path: Path) -> Series:
@@ -161,7 +163,7 @@ def plot(series: Series, out: Path, title: str = "", dof: int | None = None) -> 
     ax_j.set_ylabel("joints (deg)")
     if ax_j.lines:
         ax_j.legend(loc="upper right", fontsize="small", ncol=2)
-    for axis, colour in zip("xyz", ("#1f77b4", "#2ca02c", "#9467bd"), strict=True):
+    for axis, colour in zip("xyz", ("#17becf", "#bcbd22", "#7f7f7f"), strict=True):
         if f"tcp/{axis}" in series.curves:
             ts, vs = series.curves[f"tcp/{axis}"]
             ax_t.plot(ts, vs, color=colour, label=axis)
