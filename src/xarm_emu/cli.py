@@ -220,7 +220,7 @@ def _attach_record(srv: EmulatorServer, path: Path) -> None:
         attach_recorder(srv, path)
     except (RecordError, ValueError) as exc:
         _user_error(f"--record: {exc}")
-    console.print(f"recording to {path}; open it with: rerun {path}")
+    console.print(f"recording to {path}; open it with: rerun {path}", soft_wrap=True)
 
 
 def _attach_event_log(srv: EmulatorServer) -> None:
@@ -671,7 +671,7 @@ def record_session(
     except RecordError as exc:
         _user_error(str(exc))
     recorder.event(f"recording {host}: {version}")
-    console.print(f"recording {host} ({version}) to {out}; Ctrl-C ends it")
+    console.print(f"recording {host} ({version}) to {out}; Ctrl-C ends it", soft_wrap=True)
     try:
         frames = record_reports(recorder, host, develop_port, rich_port, duration=duration)
     except OSError as exc:
@@ -681,7 +681,7 @@ def record_session(
         frames = recorder.reports
     finally:
         recorder.close()
-    console.print(f"{frames} report frames in {out}; open it with: rerun {out}")
+    console.print(f"{frames} report frames in {out}; open it with: rerun {out}", soft_wrap=True)
 
 
 @app.command("plot")
@@ -700,7 +700,7 @@ def plot_session(
         plot(read(source), out, title=source.name, dof=dof)
     except PlotError as exc:
         _user_error(str(exc))
-    console.print(f"wrote {out}")
+    console.print(f"wrote {out}", soft_wrap=True)
 
 
 @app.command("replay")
@@ -734,12 +734,12 @@ def replay_trace(
     except ReplayError as exc:
         _user_error(str(exc))
     if not result.differences:
-        console.print(f"{result.requests} requests replayed: every reply is the same")
+        console.print(f"{result.requests} requests replayed: every reply is the same", soft_wrap=True)
         return
     first = result.differences[0].describe()
-    console.print(f"{result.requests} requests replayed; first difference: {first}")
+    console.print(f"{result.requests} requests replayed; first difference: {first}", soft_wrap=True)
     for diff in result.differences[1:]:
-        console.print(f"  {diff.describe()}")
+        console.print(f"  {diff.describe()}", soft_wrap=True)
     raise typer.Exit(1)
 
 

@@ -151,7 +151,8 @@ def plot(series: Series, out: Path, title: str = "", dof: int | None = None) -> 
     if not series.curves and not series.events:
         raise PlotError("nothing to plot: no joints, poses, torques or events in the input")
     fig, (ax_j, ax_t, ax_tau, ax_e) = plt.subplots(4, 1, sharex=True, figsize=(10, 9),
-                                                   gridspec_kw={"height_ratios": [3, 2, 2, 1]})
+                                                   gridspec_kw={"height_ratios": [3, 2, 2, 1]},
+                                                   layout="constrained")
     joints = series.joints()[:dof] if dof else series.joints()
     for i, name in enumerate(joints):
         ts, vs = series.curves[name]
@@ -162,14 +163,14 @@ def plot(series: Series, out: Path, title: str = "", dof: int | None = None) -> 
             ax_j.plot(ts, vs, "x", color=JOINT_COLOURS[(i - 1) % 7], label=f"J{i} target")
     ax_j.set_ylabel("joints (deg)")
     if ax_j.lines:
-        ax_j.legend(loc="upper right", fontsize="small", ncol=2)
+        ax_j.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")  # off the curves
     for axis, colour in zip("xyz", ("#17becf", "#bcbd22", "#7f7f7f"), strict=True):
         if f"tcp/{axis}" in series.curves:
             ts, vs = series.curves[f"tcp/{axis}"]
             ax_t.plot(ts, vs, color=colour, label=axis)
     ax_t.set_ylabel("TCP (mm)")
     if ax_t.lines:
-        ax_t.legend(loc="upper left", fontsize="small")
+        ax_t.legend(loc="upper left", bbox_to_anchor=(1.08, 1.0), fontsize="small")
     if "tcp/speed" in series.curves:
         ax_s = ax_t.twinx()
         ts, vs = series.curves["tcp/speed"]
@@ -184,7 +185,8 @@ def plot(series: Series, out: Path, title: str = "", dof: int | None = None) -> 
     for t, level, text in shown[:60]:
         colour = EVENT_COLOURS.get(level, "#7f7f7f")
         ax_e.axvline(t, color=colour, linewidth=1.5)
-        ax_e.text(t, 0.5, text, rotation=90, fontsize=6, va="center", ha="right", color=colour)
+        ax_e.text(t, 0.5, text, rotation=90, fontsize=6, va="center", ha="right", color=colour,
+                  clip_on=True)
         if level in ("ERROR", "WARN"):
             for ax in (ax_j, ax_t, ax_tau):
                 ax.axvline(t, color=colour, linewidth=0.8, linestyle="--")
@@ -193,7 +195,6 @@ def plot(series: Series, out: Path, title: str = "", dof: int | None = None) -> 
     ax_e.set_xlabel("time (s)")
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
     out = Path(out)
     fig.savefig(out, dpi=100)
     plt.close(fig)
