@@ -116,3 +116,27 @@ def test_record_command_against_a_running_box(tmp_path: Path) -> None:
 def test_record_unreachable_box_is_one_line(tmp_path: Path) -> None:
     code, out = run_cli("record", str(tmp_path / "x.rrd"), "--port", "1")
     assert code == 1 and out.startswith("cannot reach the control box at 127.0.0.1:1")
+
+
+def test_serve_record_writes_a_recording_that_sigterm_completes(tmp_path: Path) -> None:
+    from helpers import free_ports, port_args, serve_subprocess
+
+    path = tmp_path / "served.rrd"
+    cmd, normal, rich, develop = free_ports(4)
+    with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop), "--speed", "5",
+                          "--record", str(path)) as proc:
+        assert run_cli("status", "--wait", "20", "--port", str(cmd))[0] == 0
+        with Client("127.0.0.1", cmd) as c:
+            c.motion_enable(True)
+            c.set_mode(0)
+            c.set_state(0)
+            c.call(23, joints=(0.4, 0, 0, 0, 0, 0, 0), speed=1.0, acc=10.0, mvtime=0.0)
+            assert wait_for(lambda: c.get_state() == 2)
+        time.sleep(0.3)
+        proc.terminate()
+        out, _ = proc.communicate(timeout=10)
+    assert proc.returncode == 0
+    assert f"recording to {path}; open it with: rerun {path}" in out.replace("\n", " ")
+    rec = read_back(path)
+    assert rec["/joints/j1"]["value"][-1] == pytest.approx(math.degrees(0.4), abs=0.05)
+    assert any(t.startswith("23 MOVE_JOINT from 127.0.0.1:") for t in rec["/commands"]["value"])
