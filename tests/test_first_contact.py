@@ -142,10 +142,10 @@ def test_fault_after_motion_counts_from_the_first_move(tmp_path: Path) -> None:
 
 
 def test_server_log_tells_connects_states_and_errors(tmp_path: Path) -> None:
-    cmd, normal, rich, develop = free_ports(4)
+    cmd, normal, rich, develop, admin = free_ports(5)
     proc = subprocess.Popen(
         [sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(cmd, normal, rich, develop), "--admin",
-         "--config-dir", str(tmp_path), "--log-json"],
+         "--admin-port", str(admin), "--config-dir", str(tmp_path), "--log-json"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert run_cli("status", "--wait", "20", "--port", str(cmd))[0] == 0
@@ -153,7 +153,7 @@ def test_server_log_tells_connects_states_and_errors(tmp_path: Path) -> None:
             c.motion_enable(True)
             c.set_state(0)
             time.sleep(0.2)
-            assert run_cli("inject", "error", "C31", "--port", str(cmd))[0] == 0
+            assert run_cli("inject", "error", "C31", "--port", str(cmd), "--admin-port", str(admin))[0] == 0
             time.sleep(0.3)
     finally:
         proc.terminate()
@@ -174,3 +174,17 @@ def test_serve_without_checks_failing_still_starts(tmp_path: Path) -> None:
     with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop), "--host", "localhost"):
         code, _ = run_cli("status", "--wait", "20", "--port", str(cmd))
     assert code == 0
+
+
+def test_inject_collision_names_an_error_already_active() -> None:
+    with running_emulator(admin=True) as st:
+        where = ("--port", str(st.ports["command"]), "--admin-port", str(st.ports["admin"]))
+        with Client("127.0.0.1", st.ports["command"]) as c:
+            c.motion_enable(True)
+            c.set_state(0)
+            assert run_cli("inject", "error", "C24", *where)[0] == 0
+            code, out = run_cli("inject", "collision", "--joint", "2", "--torque", "100", *where)
+            assert code == 0 and out.strip().startswith(
+                "collision of 100 N m on joint 2 not detected (error C24")
+            assert out.strip().endswith("is already active)")
+            assert c.get_err_warn()[0] == 24
