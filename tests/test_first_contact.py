@@ -188,3 +188,14 @@ def test_inject_collision_names_an_error_already_active() -> None:
                 "collision of 100 N m on joint 2 not detected (error C24")
             assert out.strip().endswith("is already active)")
             assert c.get_err_warn()[0] == 24
+
+
+def test_view_without_viser_shows_the_extra_in_brackets(tmp_path: Path) -> None:
+    cmd, normal, rich, develop = free_ports(4)
+    argv = ["xarm-emu", "serve", *port_args(cmd, normal, rich, develop), "--view",
+            "--config-dir", str(tmp_path)]
+    code = ("import sys; sys.modules['viser'] = None; sys.argv = " + repr(argv)
+            + "; from xarm_emu.cli import main; main()")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
+    assert done.returncode == 2
+    assert done.stderr.strip() == "--view: the 3D view needs viser: pip install 'xarm-emu[view]'"

@@ -92,7 +92,7 @@ def serve(
     """Run the emulator with its command port and report ports."""
     from .server.app import ServerConfig
 
-    _check_serve_options(log_level, host, view_host, {
+    _check_serve_options(log_level, host, view_host if view else None, {
         "--port": port, "--normal-port": normal_port, "--rich-port": rich_port,
         "--develop-port": develop_port, "--admin-port": admin_port, "--view-port": view_port})
     _setup_logging(log_level, log_json)
@@ -185,16 +185,23 @@ def _check_host(name: str, host: str) -> str | None:
     return None
 
 
-def _check_serve_options(log_level: str, host: str, view_host: str, ports: dict[str, int | None]) -> None:
-    """Every option of ``serve`` that can be checked without opening a port: exit 2 with one line."""
+def _check_serve_options(log_level: str, host: str, view_host: str | None,
+                         ports: dict[str, int | None]) -> None:
+    """Every option of ``serve`` that can be checked without opening a port: exit 2 with one line.
+    ``view_host`` is None without --view."""
     if log_level.upper() not in _LOG_LEVELS:
         _user_error(f"--log-level: one of {', '.join(_LOG_LEVELS)} (any case), got {log_level!r}")
     for name, value in ports.items():
         _check_port(name, value)
     for name, h in (("--host", host), ("--view-host", view_host)):
-        problem = _check_host(name, h)
+        problem = None if h is None else _check_host(name, h)
         if problem is not None:
             _user_error(problem)
+    if view_host is not None:
+        try:
+            import viser  # noqa: F401  # the "view" extra
+        except ImportError:
+            _user_error("--view: the 3D view needs viser: pip install 'xarm-emu[view]'")
 
 
 class _JsonFormatter(logging.Formatter):
