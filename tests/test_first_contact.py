@@ -110,6 +110,13 @@ def test_fault_entry_with_an_unknown_key_is_refused(tmp_path: Path) -> None:
         read_schedule(path)
 
 
+def test_every_schedulable_command_has_its_arguments_listed() -> None:
+    from xarm_emu.server.admin import SCHEDULABLE
+    from xarm_emu.server.faults import ARGUMENTS
+
+    assert set(ARGUMENTS) == set(SCHEDULABLE)  # else its arguments would be refused as unknown keys
+
+
 def _error(st: object) -> int:
     return st.emulator.controller.error_code  # type: ignore[attr-defined]
 
@@ -123,7 +130,7 @@ def test_fault_after_connect_counts_from_the_first_connection(tmp_path: Path) ->
             t0 = st.call(lambda: st.emulator.time)
             assert wait_for(lambda: c.get_err_warn()[0] == 31)
             fired = st.call(lambda: st.emulator.time)
-    assert 0.5 <= fired - t0 <= 0.5 + 0.3
+    assert 0.4 <= fired - t0 <= 0.5 + 0.3  # t0 is read a little after the connection itself
 
 
 def test_fault_after_motion_counts_from_the_first_move(tmp_path: Path) -> None:
