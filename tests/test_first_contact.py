@@ -206,3 +206,12 @@ def test_view_without_viser_shows_the_extra_in_brackets(tmp_path: Path) -> None:
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert done.returncode == 2
     assert done.stderr.strip() == "--view: the 3D view needs viser: pip install 'xarm-emu[view]'"
+
+
+@pytest.mark.parametrize("args", [("status", "--port", "70000"), ("status", "--report-port", "-1"),
+                                  ("inject", "estop", "--port", "70000"), ("clear", "--admin-port", "99999"),
+                                  ("step", "1s", "--port", "-5")])
+def test_client_commands_refuse_a_port_out_of_range(args: tuple[str, ...]) -> None:
+    code, out = run_cli(*args)
+    assert code == 2
+    assert len(out.strip().splitlines()) == 1 and ": a port is 0..65535 (0: any free port), got " in out

@@ -213,10 +213,14 @@ class _JsonFormatter(logging.Formatter):
 
 
 def _setup_logging(log_level: str, as_json: bool) -> None:
+    """The root logger on stderr, plain or JSON; left alone when something (a test harness) has
+    configured it already, as logging.basicConfig does."""
+    if logging.getLogger().handlers:
+        return
     handler = logging.StreamHandler()
     handler.setFormatter(_JsonFormatter() if as_json else
                          logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
-    logging.basicConfig(level=log_level.upper(), handlers=[handler], force=True)
+    logging.basicConfig(level=log_level.upper(), handlers=[handler])
 
 
 def _attach_record(srv: EmulatorServer, path: Path) -> None:
@@ -369,6 +373,8 @@ def status(
     """
     from .client import Client, ClientError, subscribe
 
+    _check_port("--port", port)
+    _check_port("--report-port", report_port)
     deadline = time.monotonic() + max(0.0, wait)
     while True:
         try:
@@ -503,6 +509,8 @@ def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_ex
     from .client.admin import admin_port as derive
     from .protocol.admin import admin_host
 
+    _check_port("--port", port)
+    _check_port("--admin-port", admin_port)
     try:
         aport = derive(port, admin_port)
     except ValueError as exc:
