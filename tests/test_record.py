@@ -72,8 +72,10 @@ def test_served_session_of_a_20_s_program_reads_back(tmp_path: Path) -> None:
     rec = read_back(path)
     j1 = rec["/joints/j1"]
     assert j1["value"][-1] == pytest.approx(math.degrees(0.3), abs=0.05)
-    assert max(j1["value"]) == pytest.approx(math.degrees(0.6), abs=0.05)
-    assert min(j1["value"]) == pytest.approx(math.degrees(-0.6), abs=0.05)
+    # The turning points, sampled at 100 Hz of wall time while the controller runs ten times faster
+    # (and a loaded machine skips frames): within half a degree.
+    assert max(j1["value"]) == pytest.approx(math.degrees(0.6), abs=0.5)
+    assert min(j1["value"]) == pytest.approx(math.degrees(-0.6), abs=0.5)
     assert len(j1["value"]) > 100  # the develop report at 100 Hz over about 2 s of wall time
     assert j1["time"] == sorted(j1["time"])
     assert rec["/error"]["value"][-1] == 31 and rec["/error"]["value"][0] == 0
