@@ -2,19 +2,27 @@
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
+# `make serve` installs only what `xarm-emu serve` needs; `make test` (and lint, bench, fuzz) the rest.
+SERVE_STAMP := $(VENV)/.serve-installed
 STAMP := $(VENV)/.installed
 
 .PHONY: install serve test bench lint clean fuzz image image-test
 
-$(STAMP): pyproject.toml
+$(SERVE_STAMP): pyproject.toml
+	@echo "== make serve: creating $(VENV) and installing what xarm-emu serve needs"
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test,view]'
-	touch $(STAMP)
+	$(PY) -m pip install --disable-pip-version-check --progress-bar on -e .
+	@touch $(SERVE_STAMP)
+	@echo "== installed: run the CLI as $(VENV)/bin/xarm-emu, or activate the venv: . $(VENV)/bin/activate"
+
+$(STAMP): $(SERVE_STAMP)
+	@echo "== installing the test, lint, 3D view and recording tools"
+	$(PY) -m pip install --disable-pip-version-check --progress-bar on -e '.[test,view,record]'
+	@touch $(STAMP)
 
 install: $(STAMP)
 
-serve: $(STAMP)
+serve: $(SERVE_STAMP)
 	$(VENV)/bin/xarm-emu serve $(ARGS)
 
 test: $(STAMP)

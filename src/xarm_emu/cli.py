@@ -12,7 +12,7 @@ import math
 import signal
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 from rich.console import Console
@@ -31,8 +31,9 @@ if TYPE_CHECKING:
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Emulator of the UFACTORY xArm control box (xArm 5/6/7, Lite 6, 850, 7T; "
                        "Developer Manual V1.6.0 and firmware 2.x).")
-console = Console()
-err_console = Console(stderr=True)
+# Markup off: messages show square brackets as written (``xarm-emu[view]``, ``[[arm]]``).
+console = Console(markup=False, highlight=False)
+err_console = Console(stderr=True, markup=False, highlight=False, soft_wrap=True)
 
 _STATES = {1: "in motion", 2: "sleep (ready)", 3: "suspend", 4: "stop", 5: "system reset"}
 _MODES = {0: "position", 1: "servo", 2: "joint teaching", 3: "cartesian teaching"}
@@ -81,11 +82,23 @@ def serve(
     fleet: Annotated[Path | None, typer.Option(help="Serve the arms a TOML fleet file lists, in this one "
                                                     "process (see src/xarm_emu/server/fleet.py); the "
                                                     "per-arm options above then come from the file.")] = None,
+    record: Annotated[Path | None, typer.Option(help="Record the session (reports, commands, errors, the "
+                                                     "arm's geometry) to this Rerun .rrd file; open it "
+                                                     "with `rerun FILE` (needs the 'record' extra).")
+                      ] = None,
+    log_json: Annotated[bool, typer.Option("--log-json", help="Log one JSON object per line (time, "
+                                                              "level, logger, message).")] = False,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .server.app import ServerConfig
 
-    logging.basicConfig(level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    _check_serve_options(log_level, host, view_host if view else None, {
+        "--port": port, "--normal-port": normal_port, "--rich-port": rich_port,
+        "--develop-port": develop_port, "--admin-port": admin_port, "--view-port": view_port})
+    _setup_logging(log_level, log_json)
+    if record is not None and fleet is not None:
+        err_console.print("--record: with --fleet, record each arm with `xarm-emu record --port ...`")
+        raise typer.Exit(2)
     if loop not in ("asyncio", "uvloop"):
         err_console.print("--loop is asyncio or uvloop")
         raise typer.Exit(2)
@@ -117,9 +130,12 @@ def serve(
     except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
         err_console.print(str(exc))
         raise typer.Exit(2) from None
+    if record is not None:
+        _attach_record(servers[0], record)
     for srv in servers:
+        _attach_event_log(srv)
         if srv.emulator.config_message:
-            err_console.print(f"[yellow]{srv.emulator.config_message}[/yellow]")
+            err_console.print(srv.emulator.config_message, style="yellow")
     try:
         _run(_serve_all(servers, cdir), loop)
     except (PermissionError, ValueError, RuntimeError, OSError) as exc:
@@ -136,6 +152,94 @@ def serve(
 #: --view beside --fleet serves one view of every arm.
 _PER_ARM = ("host", "port", "normal_port", "rich_port", "develop_port", "speed", "admin", "admin_port",
             "stepped", "trace", "faults")
+
+
+_LOG_LEVELS = ("CRITICAL", "ERROR", "WARNING", "INFO", "DEBUG")
+
+
+def _user_error(message: str) -> NoReturn:
+    """One line on stderr and exit 2: a bad option, found before any port opens."""
+    err_console.print(message)
+    raise typer.Exit(2)
+
+
+def _check_port(name: str, value: int | None) -> None:
+    if value is not None and not 0 <= value <= 65535:
+        _user_error(f"{name}: a port is 0..65535 (0: any free port), got {value}")
+
+
+def _check_host(name: str, host: str) -> str | None:
+    """None if ``host`` is an address of this machine that a server can bind, else why not."""
+    import socket
+
+    try:
+        infos = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)
+    except (socket.gaierror, UnicodeError) as exc:
+        return f"{name}: cannot resolve {host!r} ({getattr(exc, 'strerror', None) or exc})"
+    family, _, _, _, addr = infos[0]
+    try:
+        with socket.socket(family, socket.SOCK_STREAM) as probe:
+            probe.bind((addr[0], 0, *addr[2:]))
+    except OSError as exc:
+        return (f"{name}: {host!r} is not an address of this machine ({exc.strerror or exc}); "
+                "use 127.0.0.1, 0.0.0.0 or one of its own addresses")
+    return None
+
+
+def _check_serve_options(log_level: str, host: str, view_host: str | None,
+                         ports: dict[str, int | None]) -> None:
+    """Every option of ``serve`` that can be checked without opening a port: exit 2 with one line.
+    ``view_host`` is None without --view."""
+    if log_level.upper() not in _LOG_LEVELS:
+        _user_error(f"--log-level: one of {', '.join(_LOG_LEVELS)} (any case), got {log_level!r}")
+    for name, value in ports.items():
+        _check_port(name, value)
+    for name, h in (("--host", host), ("--view-host", view_host)):
+        problem = None if h is None else _check_host(name, h)
+        if problem is not None:
+            _user_error(problem)
+    if view_host is not None:
+        try:
+            import viser  # noqa: F401  # the "view" extra
+        except ImportError:
+            _user_error("--view: the 3D view needs viser: pip install 'xarm-emu[view]'")
+
+
+class _JsonFormatter(logging.Formatter):
+    """``--log-json``: one JSON object a line."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return json.dumps({"time": record.created, "level": record.levelname, "logger": record.name,
+                           "message": record.getMessage()})
+
+
+def _setup_logging(log_level: str, as_json: bool) -> None:
+    """The root logger on stderr, plain or JSON; left alone when something (a test harness) has
+    configured it already, as logging.basicConfig does."""
+    if logging.getLogger().handlers:
+        return
+    handler = logging.StreamHandler()
+    handler.setFormatter(_JsonFormatter() if as_json else
+                         logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    logging.basicConfig(level=log_level.upper(), handlers=[handler])
+
+
+def _attach_record(srv: EmulatorServer, path: Path) -> None:
+    """``serve --record``: the session goes to a Rerun recording (record.py)."""
+    from .record import RecordError, attach_recorder
+
+    try:
+        attach_recorder(srv, path)
+    except (RecordError, ValueError) as exc:
+        _user_error(f"--record: {exc}")
+    console.print(f"recording to {path}; open it with: rerun {path}", soft_wrap=True)
+
+
+def _attach_event_log(srv: EmulatorServer) -> None:
+    """Client connections, state changes, errors and warnings at INFO (record.py EventLog)."""
+    from .record import attach_event_log
+
+    attach_event_log(srv)
 
 
 def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmware: bool) -> None:
@@ -165,6 +269,10 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
 
     if fleet is not None:
         spec = load_fleet(fleet)
+        for i, arm in enumerate(spec.arms, start=1):
+            problem = _check_host(f"{fleet}: arm {i} host", arm.server.host)
+            if problem is not None:
+                raise ValueError(problem)
         cdir = spec.config_dir if spec.config_dir is not None else cdir
         arms = [(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum,
                           firmware=a.firmware), a.server) for a in spec.arms]
@@ -268,6 +376,8 @@ def status(
     """
     from .client import Client, ClientError, subscribe
 
+    _check_port("--port", port)
+    _check_port("--report-port", report_port)
     deadline = time.monotonic() + max(0.0, wait)
     while True:
         try:
@@ -291,7 +401,11 @@ def status(
         mode = None
     axis = int(version.split(",")[0]) if version[:1].isdigit() else 7
     data = {"version": version, "state": state, "mode": mode, "error": error, "warning": warning,
-            "joints": list(joints[:axis]), "pose": list(pose)}
+            "joints": list(joints[:axis]), "pose": list(pose),
+            "joints_deg": [math.degrees(j) for j in joints[:axis]],
+            "pose_mm_deg": [*pose[:3], *(math.degrees(p) for p in pose[3:])],
+            "units": {"joints": "rad", "pose": "x, y, z mm; roll, pitch, yaw rad",
+                      "joints_deg": "deg", "pose_mm_deg": "x, y, z mm; roll, pitch, yaw deg"}}
     if as_json:
         print(json.dumps(data))
         return
@@ -338,15 +452,13 @@ def registers(
 
 @app.command(name="codes")
 def show_codes(
-    label: Annotated[str | None, typer.Argument(help="One code, e.g. C31, W11, S23 or G11.")] = None,
+    label: Annotated[str | None, typer.Argument(help="One code, e.g. C31, W11, S23 or G11; a bare number "
+                                                     "(31) is the control box error and warning of that "
+                                                     "number, as registers 15 answers them.")] = None,
 ) -> None:
     """List the error and warning codes of manual chapter 3 with their handling, or explain one."""
     if label is not None:
-        try:
-            console.print(codes.parse_label(label).describe())
-        except ValueError as exc:
-            err_console.print(str(exc))
-            raise typer.Exit(2) from None
+        _explain_code(label)
         return
     for title, table in (("Control box errors (3.2.1)", codes.CONTROLLER_ERRORS),
                          ("Warnings (3.2.2)", codes.WARNINGS),
@@ -359,6 +471,22 @@ def show_codes(
         for entry in table.values():
             t.add_row(entry.label, entry.name, entry.handling)
         console.print(t)
+
+
+def _explain_code(label: str) -> None:
+    """``codes C31`` or ``codes 31`` (the control box error, then the warning, of that number)."""
+    text = label.strip()
+    if text.isdigit():
+        found = [e for e in (codes.lookup("C", int(text)), codes.lookup("W", int(text))) if e is not None]
+        if not found:
+            _user_error(f"{text} is neither a control box error nor a warning of the manual (3.2.1, 3.2.2)")
+        for entry in found:
+            console.print(entry.describe())
+        return
+    try:
+        console.print(codes.parse_label(text).describe())
+    except ValueError as exc:
+        _user_error(str(exc))
 
 
 # -- fault injection through the admin channel (server/admin.py) --------------------------------------
@@ -384,6 +512,8 @@ def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_ex
     from .client.admin import admin_port as derive
     from .protocol.admin import admin_host
 
+    _check_port("--port", port)
+    _check_port("--admin-port", admin_port)
     try:
         aport = derive(port, admin_port)
     except ValueError as exc:
@@ -526,6 +656,109 @@ def checkpoint_list(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
     names = json.loads(_admin(host, port, admin_port, "checkpoint-list", refused_exit=2))
     for name in names:
         console.print(name, markup=False, highlight=False)
+
+
+# -- sessions: recorded, plotted, replayed ------------------------------------------------------------
+@app.command("record")
+def record_session(
+    out: Annotated[Path, typer.Argument(help="Rerun recording to write, e.g. session.rrd.")],
+    host: Annotated[str, typer.Option(help="Control box address (real or emulated).")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="Command port, asked for the arm's model.")] = COMMAND_PORT,
+    develop_port: Annotated[int, typer.Option(help="Develop report port (100 Hz).")] = DEVELOP_PORT,
+    rich_port: Annotated[int, typer.Option(help="Rich report port (5 Hz).")] = RICH_PORT,
+    duration: Annotated[float | None, typer.Option(help="Seconds to record (default: until Ctrl-C or "
+                                                        "the box closes its reports).")] = None,
+) -> None:
+    """Record a control box's reports (joints, TCP, torques, state, errors, IO) and the arm's geometry
+    to a Rerun recording; open it with `rerun FILE` (native) or `rerun --web-viewer FILE`."""
+    from .client import Client, ClientError
+    from .record import RecordError, SessionRecorder, model_of, record_reports
+
+    for name, value in (("--port", port), ("--develop-port", develop_port), ("--rich-port", rich_port)):
+        _check_port(name, value)
+    if duration is not None and not (math.isfinite(duration) and duration > 0):
+        _user_error("--duration must be a positive number of seconds")
+    try:
+        with Client(host, port, timeout=3.0) as c:
+            version = c.get_version()
+    except (OSError, ClientError) as exc:
+        err_console.print(f"cannot reach the control box at {host}:{port}: {exc}")
+        raise typer.Exit(1) from None
+    try:
+        recorder = SessionRecorder(out, model_of(version))
+    except RecordError as exc:
+        _user_error(str(exc))
+    recorder.event(f"recording {host}: {version}")
+    console.print(f"recording {host} ({version}) to {out}; Ctrl-C ends it", soft_wrap=True)
+    try:
+        frames = record_reports(recorder, host, develop_port, rich_port, duration=duration)
+    except OSError as exc:
+        err_console.print(f"cannot read the reports of {host}: {exc}")
+        raise typer.Exit(1) from None
+    except KeyboardInterrupt:
+        frames = recorder.reports
+    finally:
+        recorder.close()
+    console.print(f"{frames} report frames in {out}; open it with: rerun {out}", soft_wrap=True)
+
+
+@app.command("plot")
+def plot_session(
+    source: Annotated[Path, typer.Argument(help="A Rerun recording (.rrd, xarm-emu record) or a command "
+                                                "trace (serve --trace).")],
+    out: Annotated[Path, typer.Option("-o", "--output", help="PNG to write.")] = Path("run.png"),
+    dof: Annotated[int | None, typer.Option(help="Joints to draw (default: all recorded).")] = None,
+) -> None:
+    """Draw joints, TCP path and speed, torques and events against time to a PNG."""
+    from .plot import PlotError, plot, read
+
+    if not source.exists():
+        _user_error(f"no such file: {source}")
+    try:
+        plot(read(source), out, title=source.name, dof=dof)
+    except PlotError as exc:
+        _user_error(str(exc))
+    console.print(f"wrote {out}", soft_wrap=True)
+
+
+@app.command("replay")
+def replay_trace(
+    trace_file: Annotated[Path, typer.Argument(help="A command trace of `serve --trace`.")],
+    model: Annotated[str, typer.Option(help="Arm model the trace was recorded with.")] = "6",
+    firmware: Annotated[str, typer.Option(help="Firmware version of the recorded box.")] = DEFAULT_VERSION,
+    vacuum: Annotated[bool, typer.Option("--vacuum", help="The box had a vacuum gripper.")] = False,
+    tolerance: Annotated[float, typer.Option(help="Largest difference of a decoded value that still "
+                                                  "counts as the same.")] = 1e-6,
+    all_differences: Annotated[bool, typer.Option("--all", help="List every differing reply, not only "
+                                                               "the first.")] = False,
+) -> None:
+    """Send a recorded command trace into a fresh emulator in stepped time and compare the replies.
+
+    Exit status 0 when every reply is the same, 1 at the first difference (printed), 2 for a bad
+    trace or option."""
+    from .replay import ReplayError, replay
+
+    try:
+        robot = get_model(model)
+        check = profile_for(firmware)
+        from .controller.emulator import check_firmware
+
+        check_firmware(robot, check)
+    except (ValueError, VersionError) as exc:
+        _user_error(f"--model/--firmware: {exc}")
+    try:
+        result = replay(trace_file, model=model, firmware=firmware, vacuum=vacuum, tolerance=tolerance,
+                        stop_at_first=not all_differences)
+    except ReplayError as exc:
+        _user_error(str(exc))
+    if not result.differences:
+        console.print(f"{result.requests} requests replayed: every reply is the same", soft_wrap=True)
+        return
+    first = result.differences[0].describe()
+    console.print(f"{result.requests} requests replayed; first difference: {first}", soft_wrap=True)
+    for diff in result.differences[1:]:
+        console.print(f"  {diff.describe()}", soft_wrap=True)
+    raise typer.Exit(1)
 
 
 @app.command()

@@ -241,10 +241,14 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
         torque = _float(request.get("torque"), "torque")
 
         def push() -> str:
-            level = emu.controller.settings.collision_sensitivity
+            ctl = emu.controller
+            level = ctl.settings.collision_sensitivity
+            active, enabled = ctl.error_code, all(ctl.enabled)  # detection needs no error, enabled joints
             if emu.inject_collision(joint, torque):
                 return f"collision of {torque:g} N m on joint {joint} detected at sensitivity {level}: C31"
-            return f"collision of {torque:g} N m on joint {joint} not detected (sensitivity {level})"
+            why = (f"error {codes.describe_error(active)} is already active" if active else
+                   "the joints are not enabled" if not enabled else f"sensitivity {level}")
+            return f"collision of {torque:g} N m on joint {joint} not detected ({why})"
 
         return push
     if cmd == "report-pause":

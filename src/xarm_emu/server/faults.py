@@ -24,8 +24,19 @@ arguments::
     do = "report-pause"
     seconds = "2s"
 
+An entry may count ``at`` from another moment with ``after``: ``"start"`` (the default, the
+emulator's start), ``"connect"`` (the first client connection to the command port) or
+``"motion"`` (the first motion: the arm's state becomes 1, in motion, manual 2.1.3 register 13).
+So a schedule written for a program lands on the program's moves at any ``--speed``::
+
+    [[fault]]
+    after = "motion"
+    at = 2.0
+    do = "estop"
+
 Each entry runs right after the first control period ending at or after ``at`` (Emulator.at) and
-acts exactly as the same admin request would. Every entry is checked when the emulator starts; a
+acts exactly as the same admin request would. Keys other than ``at``, ``after``, ``do`` and the
+admin command's own arguments are refused. Every entry is checked when the emulator starts; a
 bad one stops the start with one message naming it. The code that composes a server (``xarm-emu
 serve``, :class:`~xarm_emu.server.thread.ServerThread`, :func:`~xarm_emu.testing.running_emulator`)
 calls :func:`schedule_file`; the server itself never reads the file.
@@ -42,6 +53,12 @@ from typing import Any
 from .admin import SCHEDULABLE, AdminError, AdminTarget, prepare
 
 log = logging.getLogger("xarm_emu.faults")
+
+
+#: The moments ``at`` may count from.
+AFTER = ("start", "connect", "motion")
+#: How often (controller seconds) a schedule waiting for a connection or a motion looks again.
+_WATCH = 0.01
 
 
 class FaultScheduleError(ValueError):
@@ -62,6 +79,9 @@ def read_schedule(path: Path) -> list[dict[str, Any]]:
         raise FaultScheduleError(f"{path}: the schedule is a list of [[fault]] tables"
                                  + (f" (unknown key {extra[0]!r})" if extra else ""))
     for i, e in enumerate(entries, start=1):
+        after = e.get("after", "start")
+        if after not in AFTER:
+            raise FaultScheduleError(f"fault {i}: after is one of {', '.join(AFTER)}, got {after!r}")
         at = e.get("at")
         if isinstance(at, bool) or not isinstance(at, (int, float)) or not (math.isfinite(at) and at >= 0):
             raise FaultScheduleError(f"fault {i}: at is controller seconds >= 0, got {at!r}")
@@ -69,6 +89,10 @@ def read_schedule(path: Path) -> list[dict[str, Any]]:
         if not isinstance(do, str) or do not in SCHEDULABLE:
             raise FaultScheduleError(f"fault {i}: do is one of {', '.join(sorted(SCHEDULABLE))}, "
                                      f"got {e.get('do')!r}")
+        known = ("at", "after", "do", *ARGUMENTS.get(do, ()))
+        extra = sorted(set(e) - set(known))
+        if extra:
+            raise FaultScheduleError(f"fault {i} ({do}): unknown key {extra[0]!r}; known: {', '.join(known)}")
     return entries
 
 
@@ -76,15 +100,51 @@ def schedule(server: AdminTarget, entries: list[dict[str, Any]]) -> int:
     """Check every entry against ``server`` and schedule it on its emulator; returns how many."""
     actions = []
     for i, e in enumerate(entries, start=1):
-        request = {k: v for k, v in e.items() if k not in ("at", "do")}
+        request = {k: v for k, v in e.items() if k not in ("at", "do", "after")}
         request["cmd"] = e["do"]
         try:
-            actions.append((float(e["at"]), i, prepare(server, request)))
+            action = prepare(server, request)
         except AdminError as exc:
             raise FaultScheduleError(f"fault {i} ({e['do']} at {e['at']} s): {exc}") from None
-    for at, i, action in actions:
-        server.emulator.at(at, _logged(server, i, action))
+        actions.append((float(e["at"]), str(e.get("after", "start")), i, action))
+    for at, after, i, action in actions:
+        if after == "start":
+            server.emulator.at(at, _logged(server, i, action))
+        else:
+            _watch(server, after, at, _logged(server, i, action))
     return len(actions)
+
+
+#: The arguments each schedulable admin command takes (server/admin.py), beside ``at``, ``after``
+#: and ``do``.
+ARGUMENTS: dict[str, tuple[str, ...]] = {
+    "estop": (), "error": ("code",), "warning": ("code",), "servo-error": ("code", "joint"),
+    "gripper-error": ("code",), "end-module-lost": (), "collision": ("joint", "torque"),
+    "report-pause": ("seconds",), "reply-delay": ("seconds",), "drop-clients": (), "clear": (),
+    "set-input": ("kind", "index", "value"),
+}
+
+
+def _started(server: AdminTarget, after: str) -> bool:
+    """Whether the moment ``after`` names has come."""
+    if after == "connect":
+        return bool(getattr(server, "command_clients", ()))
+    return server.emulator.controller.state == 1
+
+
+def _watch(server: AdminTarget, after: str, at: float, action: Any) -> None:
+    """Schedule ``action`` ``at`` seconds after the moment ``after`` names, looking for it every
+    :data:`_WATCH` seconds of controller time."""
+    emu = server.emulator
+
+    def look() -> None:
+        if _started(server, after):
+            log.info("fault schedule: %s at t = %.3f s; entry due %.3f s later", after, emu.time, at)
+            emu.at(emu.time + at, action)
+        else:
+            emu.at(emu.time + _WATCH, look)
+
+    emu.at(emu.time, look)
 
 
 def _logged(server: AdminTarget, i: int, action: Any) -> Any:

@@ -1,0 +1,144 @@
+"""``xarm-emu replay trace.jsonl``: a recorded program run again without the program.
+
+Each request of a command trace (``serve --trace``, server/trace.py) is sent, with its recorded
+transaction id, protocol id and parameter bytes, to a fresh emulator in stepped time that is first
+run up to the controller time at which the recorded request was answered. Its reply (state byte and
+parameters, manual 2.1.2) is compared with the recorded one: the same bytes, or the same decoded
+values within ``tolerance`` where the register table decodes them. An unchanged emulator and
+program give no difference; a change shows as the first reply that differs.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .protocol import registers as regs
+from .protocol.layouts import LayoutError
+from .server.trace import _plain
+
+PERIOD_TOLERANCE = 1e-6
+
+
+class ReplayError(ValueError):
+    """The trace cannot be replayed; the message says which line and why."""
+
+
+@dataclass(frozen=True)
+class Difference:
+    """One reply of the new run that differs from the recorded one."""
+
+    line: int
+    t: float
+    register: int
+    name: str | None
+    field: str  # "state", "reply" or a decoded value's name
+    recorded: Any
+    replayed: Any
+
+    def describe(self) -> str:
+        return (f"line {self.line}, t = {self.t:.3f} s, register {self.register} ({self.name or '?'}): "
+                f"{self.field} was {self.recorded!r}, now {self.replayed!r}")
+
+
+@dataclass
+class ReplayResult:
+    """What a replay compared and what differed, in trace order."""
+
+    requests: int = 0
+    differences: list[Difference] = field(default_factory=list)
+
+    @property
+    def first(self) -> Difference | None:
+        return self.differences[0] if self.differences else None
+
+
+def read_requests(path: Path) -> list[tuple[int, dict[str, Any]]]:
+    """The request lines of a trace as (line number, record), connection events left out."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ReplayError(f"cannot read {path}: {exc.strerror or exc}") from None
+    out = []
+    for n, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            rec = json.loads(line)
+        except ValueError:
+            raise ReplayError(f"{path} line {n} is not JSON (a trace of serve --trace)") from None
+        if not isinstance(rec, dict):
+            raise ReplayError(f"{path} line {n} is not a trace line")
+        if "event" in rec:
+            continue
+        try:
+            float(rec["t"]), int(rec["tid"]), int(rec["register"]), bytes.fromhex(rec["params"])
+            int(rec["protocol"]), bytes.fromhex(rec["reply"])
+        except (KeyError, TypeError, ValueError):
+            raise ReplayError(f"{path} line {n}: a request line needs t, tid, protocol, register, "
+                              "params and reply") from None
+        out.append((n, rec))
+    return out
+
+
+def _close(a: Any, b: Any, tolerance: float) -> bool:
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_close(x, y, tolerance) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) or isinstance(b, float):
+        if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+            return math.isclose(a, b, rel_tol=tolerance, abs_tol=tolerance)
+    return bool(a == b)
+
+
+def _compare(n: int, rec: dict[str, Any], state: int, reply: bytes, tolerance: float) -> Difference | None:
+    register = int(rec["register"])
+    name = rec.get("name")
+    t = float(rec["t"])
+    if rec.get("state") != state:
+        return Difference(n, t, register, name, "state", rec.get("state"), state)
+    if bytes.fromhex(rec["reply"]) == reply:
+        return None
+    reg = regs.get(register)
+    recorded = rec.get("values")
+    if reg is not None and recorded is not None and reply:
+        try:
+            replayed = _plain(reg.reply.decode(reply))
+        except LayoutError:
+            replayed = None
+        if replayed is not None:
+            for key in sorted(set(recorded) | set(replayed)):
+                if not _close(recorded.get(key), replayed.get(key), tolerance):
+                    return Difference(n, t, register, name, key, recorded.get(key), replayed.get(key))
+            return None
+    return Difference(n, t, register, name, "reply", rec["reply"], reply.hex())
+
+
+def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum: bool = False,
+           tolerance: float = PERIOD_TOLERANCE, stop_at_first: bool = False) -> ReplayResult:
+    """Replay the trace at ``path`` into a fresh emulator of ``model`` (module docstring)."""
+    from .controller.emulator import Emulator
+    from .protocol.firmware import DEFAULT_VERSION
+    from .server.core import EmulatorServer, ServerConfig
+
+    requests = read_requests(path)
+    result = ReplayResult()
+    with tempfile.TemporaryDirectory(prefix="xarm-emu-replay-") as cdir:
+        emu = Emulator(model, config_dir=Path(cdir), vacuum=vacuum, firmware=firmware or DEFAULT_VERSION)
+        server = EmulatorServer(emu, ServerConfig(stepped=True, admin=True, port=0))
+        for n, rec in requests:
+            t = float(rec["t"])
+            if t > emu.time:
+                server.advance(t - emu.time)
+            frame = server.answer(int(rec["tid"]), int(rec["protocol"]), int(rec["register"]),
+                                  bytes.fromhex(rec["params"]))
+            result.requests += 1
+            diff = _compare(n, rec, frame[7] if len(frame) >= 8 else -1, bytes(frame[8:]), tolerance)
+            if diff is not None:
+                result.differences.append(diff)
+                if stop_at_first:
+                    break
+    return result

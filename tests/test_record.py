@@ -1,0 +1,144 @@
+"""Sessions recorded to Rerun (`serve --record`, `xarm-emu record`), read back with rerun-sdk's own
+reader: the joints the reports carried, the commands sent, the errors raised, the arm's geometry."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from helpers import run_cli, wait_for
+
+from xarm_emu.client import Client
+from xarm_emu.client.admin import AdminClient
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.record import attach_recorder
+from xarm_emu.server.app import ServerConfig, ServerThread
+from xarm_emu.testing import running_emulator
+
+rr_chunk = pytest.importorskip("rerun.chunk")
+
+
+def read_back(path: Path) -> dict[str, dict[str, list[Any]]]:
+    """Entity path -> {"time": seconds, "value": scalar or text, "level": ...}, through rerun-sdk."""
+    out: dict[str, dict[str, list[Any]]] = {}
+    for chunk in rr_chunk.RrdReader(str(path)).stream().collect().stream():
+        batch = chunk.to_record_batch()
+        names = batch.schema.names
+        if "time" not in names:
+            continue
+        entry = out.setdefault(chunk.entity_path, {"time": [], "value": [], "level": []})
+        entry["time"] += [ns / 1e9 for ns in batch.column("time").cast("int64").to_pylist()]
+        if "Scalars:scalars" in names:
+            entry["value"] += [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
+        elif "TextLog:text" in names:
+            entry["value"] += [v[0] for v in batch.column("TextLog:text").to_pylist()]
+            entry["level"] += [v[0] for v in batch.column("TextLog:level").to_pylist()]
+        elif "LineStrips3D:strips" in names:
+            entry["value"] += batch.column("LineStrips3D:strips").to_pylist()
+    for entry in out.values():  # chunks come in any order
+        order = sorted(range(len(entry["time"])), key=entry["time"].__getitem__)
+        for key in ("time", "value", "level"):
+            if entry[key]:
+                entry[key] = [entry[key][i] for i in order]
+    return out
+
+
+def test_served_session_of_a_20_s_program_reads_back(tmp_path: Path) -> None:
+    path = tmp_path / "session.rrd"
+    cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0, speed=10.0,
+                       admin=True)
+    st = ServerThread(Emulator(6, config_dir=tmp_path / "config"), cfg,
+                      compose=(lambda srv: attach_recorder(srv, path),)).start()
+    try:
+        with Client("127.0.0.1", st.ports["command"]) as c:
+            c.motion_enable(True)
+            c.set_mode(0)
+            c.set_state(0)
+            t0 = st.call(lambda: st.emulator.time)
+            for target in (0.6, -0.6, 0.3):  # about 20 s of controller time in all
+                c.call(23, joints=(target, -0.2, -0.3, 0, 0.5, 0, 0), speed=0.13, acc=2.0, mvtime=0.0)
+            assert wait_for(lambda: c.get_cmdnum() == 0 and c.get_state() == 2, timeout=30.0)
+            assert st.call(lambda: st.emulator.time) - t0 >= 20.0
+            with AdminClient("127.0.0.1", st.ports["admin"]) as a:
+                a.request("error", code="C31")
+            assert wait_for(lambda: c.get_err_warn()[0] == 31)
+            time.sleep(0.5)  # the rich report (5 Hz) carries the error
+    finally:
+        st.stop()
+    rec = read_back(path)
+    j1 = rec["/joints/j1"]
+    assert j1["value"][-1] == pytest.approx(math.degrees(0.3), abs=0.05)
+    # The turning points, sampled at 100 Hz of wall time while the controller runs ten times faster
+    # (and a loaded machine skips frames): within half a degree.
+    assert max(j1["value"]) == pytest.approx(math.degrees(0.6), abs=0.5)
+    assert min(j1["value"]) == pytest.approx(math.degrees(-0.6), abs=0.5)
+    assert len(j1["value"]) > 100  # the develop report at 100 Hz over about 2 s of wall time
+    assert j1["time"] == sorted(j1["time"])
+    assert rec["/error"]["value"][-1] == 31 and rec["/error"]["value"][0] == 0
+    events = rec["/events"]
+    assert any(text.startswith("error C31") for text in events["value"])
+    assert events["level"][[t.startswith("error C31") for t in events["value"]].index(True)] == "ERROR"
+    assert any(text.startswith("state 1") for text in events["value"])
+    moves = [t for t in rec["/commands"]["value"] if t.startswith("23 MOVE_JOINT")]
+    assert len(moves) == 3
+    links = rec["/arm/links"]["value"][-1][0]  # one strip: base, then each joint origin
+    assert links[0] == [0.0, 0.0, 0.0] and len(links) >= 7
+    tcp_x = rec["/tcp/x"]["value"][-1]
+    assert links[-1][0] == pytest.approx(tcp_x, abs=60.0)  # the last frame sits near the TCP
+
+
+def test_record_command_against_a_running_box(tmp_path: Path) -> None:
+    path = tmp_path / "box.rrd"
+    with running_emulator(speed=5.0) as st:
+        with Client("127.0.0.1", st.ports["command"]) as c:
+            c.motion_enable(True)
+            c.set_mode(0)
+            c.set_state(0)
+            result: list[tuple[int, str]] = []
+            th = threading.Thread(target=lambda: result.append(run_cli(
+                "record", str(path), "--port", str(st.ports["command"]), "--develop-port",
+                str(st.ports["develop"]), "--rich-port", str(st.ports["rich"]), "--duration", "1.5")))
+            th.start()
+            time.sleep(0.3)
+            c.call(23, joints=(-0.4, 0, 0, 0, 0, 0, 0), speed=1.0, acc=10.0, mvtime=0.0)
+            th.join(10)
+    code, out = result[0]
+    assert code == 0 and f"rerun {path}" in out
+    rec = read_back(path)
+    assert rec["/joints/j1"]["value"][0] == pytest.approx(0.0, abs=1e-3)
+    assert rec["/joints/j1"]["value"][-1] == pytest.approx(math.degrees(-0.4), abs=0.05)
+    assert "/joints/j7" not in rec  # an xArm6: six joints
+    assert rec["/events"]["value"][0].startswith("recording 127.0.0.1: 6,6,")
+
+
+def test_record_unreachable_box_is_one_line(tmp_path: Path) -> None:
+    code, out = run_cli("record", str(tmp_path / "x.rrd"), "--port", "1")
+    assert code == 1 and out.startswith("cannot reach the control box at 127.0.0.1:1")
+
+
+def test_serve_record_writes_a_recording_that_sigterm_completes(tmp_path: Path) -> None:
+    from helpers import free_ports, port_args, serve_subprocess
+
+    path = tmp_path / "served.rrd"
+    cmd, normal, rich, develop = free_ports(4)
+    with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop), "--speed", "5",
+                          "--record", str(path)) as proc:
+        assert run_cli("status", "--wait", "20", "--port", str(cmd))[0] == 0
+        with Client("127.0.0.1", cmd) as c:
+            c.motion_enable(True)
+            c.set_mode(0)
+            c.set_state(0)
+            c.call(23, joints=(0.4, 0, 0, 0, 0, 0, 0), speed=1.0, acc=10.0, mvtime=0.0)
+            assert wait_for(lambda: c.get_state() == 2)
+        time.sleep(0.3)
+        proc.terminate()
+        out, _ = proc.communicate(timeout=10)
+    assert proc.returncode == 0
+    assert f"recording to {path}; open it with: rerun {path}" in out.replace("\n", " ")
+    rec = read_back(path)
+    assert rec["/joints/j1"]["value"][-1] == pytest.approx(math.degrees(0.4), abs=0.05)
+    assert any(t.startswith("23 MOVE_JOINT from 127.0.0.1:") for t in rec["/commands"]["value"])
