@@ -19,7 +19,7 @@ from ..model import kinematics as kin
 from ..model.robots import RobotModel
 from . import motion
 from .base import C_CIRCLE, C_JOINT_LIMIT, C_KINEMATIC, C_SPEED, CommandError
-from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
+from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand, Task
 from .poses import resolve_line_target, wire_pose_to_matrix
 
 #: Shortest time to ramp the path rate between full speed and rest for suspend/stop (s); faster
@@ -349,6 +349,9 @@ class Executor:
               tcp_pose: Callable[[np.ndarray], np.ndarray]) -> _Plan:
         if isinstance(cmd, Dwell):
             return _DwellPlan(q, cmd.seconds)
+        if isinstance(cmd, Task):
+            cmd.run()
+            return _DwellPlan(q, 0.0)
         if isinstance(cmd, JointMove):
             acc = min(cmd.acc, limits.joint_maxacc)
             traj = motion.plan_joint_move(q, cmd.target, cmd.speed, acc, limits.joint_jerk)

@@ -18,6 +18,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..base import Handler, Values
+from . import extras, ft_sensor
 
 if TYPE_CHECKING:
     from ..core import ControllerCore
@@ -29,7 +30,10 @@ CtlHandler = Callable[["Any", Values], "dict[str, Any] | None"]
 
 #: Every handler table of this package, in the order they bind (a later table never rebinds a code:
 #: :func:`bind` refuses duplicates).
-TABLES: tuple[Mapping[int, CtlHandler], ...] = ()
+TABLES: tuple[Mapping[int, CtlHandler], ...] = (
+    extras.HANDLERS,
+    ft_sensor.HANDLERS,
+)
 
 
 def bind(ctl: ControllerCore,
