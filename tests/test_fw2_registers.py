@@ -386,3 +386,15 @@ def test_user_frame_calibration(box: Emulator) -> None:
     assert np.allclose(rot.rpy_to_matrix(*got), np.eye(3), atol=1e-6)  # the points span the base's xy
     origin = struct.unpack("<3f", call(box, 114, struct.pack("<6f", 0, 0, math.pi / 2, 100, 0, 0)))
     assert np.allclose(origin, (0.0, -100.0, 0.0), atol=1e-4)
+
+
+def test_restore_puts_the_counter_and_settings_back(box: Emulator) -> None:
+    cp = box.checkpoint()
+    call(box, 75)
+    call(box, 66, b"\x01")
+    call(box, 123, struct.pack(">H", 3))
+    call(box, 205, struct.pack("<10f", 0.8, 0, 0, 0, 0, 0, 0, 0, 0, 0))
+    box.restore(cp)
+    assert box.controller.user_counter == 0
+    assert call(box, 7) == b"\x00"
+    assert struct.unpack("<f", call(box, 212)[6:10])[0] == 0.0

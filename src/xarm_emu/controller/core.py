@@ -83,7 +83,7 @@ class ControllerCore:
 
     #: Motion state (register 13); only :func:`.states.fire` changes it.
     motion_state: int = STATE_STOP
-    #: The counter of registers 74/75 (rich report bytes 285-288).
+    #: The counter of registers 74/75 (rich report bytes 285-288); set up with the handlers.
     user_counter: int = 0
 
     def __init__(self, model: RobotModel, *, robot_sn: str = "XI1300", box_sn: str = "AC1300",

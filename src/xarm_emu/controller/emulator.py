@@ -57,7 +57,8 @@ DEFAULT_ROBOT_SN = {5: "XF1300", 6: "XI1300", 7: "XS1300"}
 #: Controller attributes that are machinery, not state: constant, wired at construction, or a test
 #: switch. A checkpoint leaves them as they are.
 _CONTROLLER_MACHINERY = frozenset({"model", "dof", "period", "robot_sn", "box_sn", "components", "_handlers",
-                                   "hooks", "executor", "strict"})
+                                   "hooks", "executor", "strict", "firmware", "registers",
+                                   "_float_checked", "_inf_unchanged"})
 
 
 @dataclass(frozen=True)

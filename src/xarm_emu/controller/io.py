@@ -32,6 +32,7 @@ from __future__ import annotations
 import copy
 import functools
 import math
+import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -278,22 +279,32 @@ class IOModule:
         self.now = 0.0
         self._last_tcp: tuple[float, float, float] | None = None
         self._last_state: int | None = None
-        #: Runs a task in its turn in the motion queue (set by :meth:`attach`); ``None``: at once.
-        self.defer: Callable[[int, Callable[[], None]], None] | None = None
+        #: The controller whose command buffer queues IO in its turn (:meth:`attach`); a weak
+        #: reference, so checkpoints copy the IO state without the controller.
+        self._ctl: weakref.ref[Any] | None = None
         #: The firmware reads the sync byte of registers 127/134/135/136 (>= 2.4.101).
         self.sync_io = False
 
     def attach(self, ctl: Any) -> None:
         """Queue through ``ctl``'s command buffer: IO sent with sync byte 1 (profiles that read it)
         and position triggers (144, 145, 147) sent while moves are queued wait their turn there."""
-        from .handlers.extras import queue_behind_moves
-
-        self.defer = functools.partial(queue_behind_moves, ctl)
+        self._ctl = weakref.ref(ctl)
         self.sync_io = bool(ctl.firmware.io_sync_byte)
 
+    @property
+    def defer(self) -> Callable[[int, Callable[[], None]], None] | None:
+        """Runs a task in its turn in the controller's command buffer; ``None`` when unattached."""
+        ctl = self._ctl() if self._ctl is not None else None
+        if ctl is None:
+            return None
+        from .handlers.extras import queue_behind_moves
+
+        return functools.partial(queue_behind_moves, ctl)
+
     def _in_turn(self, register: int, run: Callable[[], None], queued: bool = True) -> None:
-        if queued and self.defer is not None:
-            self.defer(register, run)
+        defer = self.defer
+        if queued and defer is not None:
+            defer(register, run)
         else:
             run()
 
@@ -427,14 +438,15 @@ class IOModule:
                           xyz: Sequence[float], radius: float) -> None:
         """Registers 144/145/147 through the controller: a trigger sent behind queued moves is armed
         when the queue reaches it, so only armed triggers count toward the limit of 36 (C36)."""
-        if self.defer is None:
+        defer = self.defer
+        if defer is None:
             self.position_output(target, index, value, xyz, radius)
             return
         self._check_target(target, index, value)
         if len(xyz) != 3 or not all(math.isfinite(c) for c in xyz) or not math.isfinite(radius) or radius < 0:
             raise ParameterError("trigger point or tolerance radius")
         point = tuple(float(c) for c in xyz)
-        self.defer(register, lambda: self.position_output(target, index, value, point, radius))
+        defer(register, lambda: self.position_output(target, index, value, point, radius))
 
     def set_reset_on_stop(self, io_type: int, on: int) -> None:
         """Register 146: io_type 0 control box, 1 tool."""

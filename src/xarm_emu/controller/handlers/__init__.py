@@ -40,6 +40,11 @@ def bind(ctl: ControllerCore,
          tables: tuple[Mapping[int, CtlHandler], ...] | None = None) -> dict[int, Handler]:
     """The dispatch table of ``ctl``: each handler of ``tables`` (default :data:`TABLES`) with the
     controller bound as its first argument."""
+    # The state behind these registers lives on the controller from the start, so a checkpoint
+    # (which copies the controller's attributes) always holds it.
+    ctl.user_counter = 0
+    extras.extra_state(ctl)
+    ft_sensor.ft_config(ctl)
     out: dict[int, Handler] = {}
     for table in TABLES if tables is None else tables:
         for code, fn in table.items():
