@@ -10,10 +10,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from xarm_emu.controller.base import WARN_PARAMETER, WARN_UNKNOWN_COMMAND
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.controller.gripper import GRIPPER_ID, crc16_modbus
+from xarm_emu.controller.handlers import extras, ft_sensor
 from xarm_emu.model import rotations as rot
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.firmware import NEWEST_PROFILE
@@ -145,8 +148,6 @@ def test_no_register_the_sdk_can_send_answers_warning_13() -> None:
 def test_the_registers_of_this_part_answer_their_reply_length_without_a_warning(box: Emulator) -> None:
     table = registers_for(NEWEST_PROFILE)
     refuse = {201, 202, 204, 206}  # they need the F/T sensor
-    from xarm_emu.controller.handlers import extras, ft_sensor
-
     codes = sorted(set(extras.HANDLERS) | set(ft_sensor.HANDLERS) | {123, 125, 129, 130, 240, 241})
     for code in codes:
         if code in refuse:
@@ -398,3 +399,32 @@ def test_restore_puts_the_counter_and_settings_back(box: Emulator) -> None:
     assert box.controller.user_counter == 0
     assert call(box, 7) == b"\x00"
     assert struct.unpack("<f", call(box, 212)[6:10])[0] == 0.0
+
+
+# --- bad input --------------------------------------------------------------------------------------
+
+_TABLE2 = registers_for(NEWEST_PROFILE)
+_MINE = sorted(set(extras.HANDLERS) | set(ft_sensor.HANDLERS)
+               | {123, 125, 127, 129, 130, 134, 135, 136, 144, 145, 147, 240, 241})
+
+
+def test_random_requests_get_a_clear_answer() -> None:
+    emu = Emulator(6, firmware=FW2)
+    emu.controller.strict = True  # an unexpected exception fails instead of being logged
+    for code, params in ((11, bytes([8, 1])), (19, bytes([0, 0])), (12, bytes([0]))):
+        emu.handle(code, params)
+
+    @settings(max_examples=400, deadline=None)
+    @given(st.sampled_from(_MINE), st.binary(max_size=300))
+    def run(code: int, params: bytes) -> None:
+        status, reply = emu.handle(code, params)
+        layout = _TABLE2[code].reply
+        assert layout.rest or len(reply) == layout.size
+        assert emu.controller.warning_code != WARN_UNKNOWN_COMMAND
+        emu.step()
+        emu.handle(17, b"")
+        if status & STATE_ERROR:
+            emu.handle(16, b"")
+            emu.handle(12, bytes([0]))
+
+    run()
