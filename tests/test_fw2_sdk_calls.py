@@ -173,3 +173,42 @@ def test_1_6_0_keeps_warning_13_for_registers_beyond_the_manual() -> None:
             assert st.call(lambda: st.emulator.controller.user_counter) == 0
         finally:
             arm.disconnect()
+
+
+def test_calibration_calls(fw2: tuple[Any, ServerThread]) -> None:
+    arm, _ = fw2
+    import numpy as np
+
+    from xarm_emu.model import rotations as rot
+
+    tool, point = np.array([0.0, 10.0, 120.0]), np.array([350.0, -40.0, 150.0])
+    poses = []
+    for rpy in ((180.0, 0.0, 0.0), (180.0, 15.0, 0.0), (165.0, 0.0, 30.0), (180.0, -10.0, 60.0)):
+        R = rot.rpy_to_matrix(*np.radians(rpy))
+        poses.append([*(point - R @ tool), *rpy])
+    code, offset = arm.calibrate_tcp_coordinate_offset(poses)
+    assert code == 0 and offset == pytest.approx(list(tool), abs=0.05)
+    code, rpy = arm.calibrate_tcp_orientation_offset([180, 0, 0], [180, 0, 30])
+    assert code == 0 and rpy == pytest.approx([0, 0, -30], abs=1e-3)  # in the flipped flange frame
+
+
+@pytest.mark.parametrize("version", ["1.11.100", "2.0.102", "2.4.101"])
+def test_calls_return_0_on_earlier_2x_profiles(version: str) -> None:
+    from xarm.wrapper import XArmAPI
+
+    with running_emulator(firmware=version) as st, sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1", report_type="rich", forbid_uds=True)
+        try:
+            sdk_ready(arm)
+            assert arm.set_counter_increase() == 0
+            assert wait_for(lambda: st.call(lambda: st.emulator.controller.user_counter) == 1)
+            assert arm.is_tcp_limit([207, 0, 112, 180, 0, 0]) == (0, False)
+            assert arm.get_servo_version(servo_id=2) == (0, ".".join(map(str, SERVO_VERSION)))
+            assert arm.set_tgpio_modbus_timeout(9) == 0
+            assert st.call(lambda: st.emulator.gripper.modbus_timeout_ms) == 9
+            assert arm.get_ft_sensor_data() == (0, [0.0] * 6)
+            assert arm.set_cgpio_digital(2, 1) == 0  # no sync byte below 2.4.101: at once
+            assert wait_for(lambda: st.call(lambda: st.emulator.io.cgpio.output(2)) == 1)
+            assert st.call(lambda: st.emulator.controller.warning_code) == 0
+        finally:
+            arm.disconnect()
