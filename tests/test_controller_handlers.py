@@ -5,27 +5,24 @@ from __future__ import annotations
 import pytest
 
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.protocol.firmware import NEWEST_PROFILE
+from xarm_emu.protocol.firmware import SUPPORTED_VERSIONS, profile_for
 from xarm_emu.protocol.frame import STATE_WARNING
 from xarm_emu.protocol.registers import REGISTERS, registers_for
-
-#: Registers of the newest firmware's table that have a handler so far (feedback: 253, 254).
-FIRMWARE2_HANDLED = frozenset({253, 254})
 
 
 @pytest.mark.parametrize("vacuum", [False, True])
 def test_handler_codes_are_the_register_table(vacuum: bool) -> None:
     emu = Emulator(6, vacuum=vacuum)
-    assert emu.controller.handler_codes & frozenset(REGISTERS) == frozenset(REGISTERS)
-    assert emu.controller.handler_codes - frozenset(REGISTERS) <= frozenset(registers_for(NEWEST_PROFILE))
+    assert emu.controller.handler_codes == frozenset(REGISTERS)
 
 
-def test_the_newest_firmware_registers_covered_so_far_have_handlers() -> None:
-    emu = Emulator(6, firmware=str(NEWEST_PROFILE))
-    table = frozenset(registers_for(NEWEST_PROFILE))
-    assert FIRMWARE2_HANDLED <= table
-    assert FIRMWARE2_HANDLED <= emu.controller.handler_codes
-    assert emu.controller.handler_codes <= table
+@pytest.mark.parametrize("version", SUPPORTED_VERSIONS)
+@pytest.mark.parametrize("vacuum", [False, True])
+def test_every_profile_handles_exactly_its_register_table(version: str, vacuum: bool) -> None:
+    """No register a box of that firmware answers is left to warning 13, and none beyond its table
+    is answered."""
+    emu = Emulator(6, firmware=version, vacuum=vacuum)
+    assert emu.controller.handler_codes == frozenset(registers_for(profile_for(version)))
 
 
 def test_a_code_outside_the_table_is_warning_13() -> None:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,4 +60,14 @@ class Dwell:
     seconds: float
 
 
-QueuedCommand = JointMove | LineMove | CircleMove | Dwell
+@dataclass(frozen=True)
+class Task:
+    """A non-motion command that waits its turn in the buffer (the counter of registers 74/75, IO
+    sent with the sync byte, position triggers queued behind moves): ``run`` is called when the
+    buffer reaches it, and it takes one control period."""
+
+    register: int
+    run: Callable[[], None]
+
+
+QueuedCommand = JointMove | LineMove | CircleMove | Dwell | Task

@@ -154,6 +154,7 @@ class Controller:
     servo_tracker = StateField[motion.ServoTracker | None]()
     simulation_robot = StateField[bool]()  # register 79
     collision_tool = StateField[collision.ToolModel]()  # register 78
+    user_counter = StateField[int]()  # registers 74/75 (rich report bytes 285-288)
 
     # -- saved configuration (registers 39/40) --------------------------------------------------
     def config_values(self) -> dict[str, Any]:
@@ -216,8 +217,10 @@ class Controller:
 
     # -- components ----------------------------------------------------------------------------
     def add_component(self, component: Component) -> None:
+        """Plug in a component: it steps with the controller, and its handlers answer the registers
+        of this box's firmware (a register its table lacks stays unknown, warning 13)."""
         self.components.append(component)
-        self._handlers.update(component.handlers())
+        self._handlers.update({code: h for code, h in component.handlers().items() if code in self.registers})
 
     # -- ControllerView ------------------------------------------------------------------------
     @property

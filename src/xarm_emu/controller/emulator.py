@@ -171,6 +171,7 @@ class Emulator:
         self.io = IOModule(n_digital=16 if box_number >= 1300 else 8)
         self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9])
         self.controller.add_component(self.io)
+        self.io.attach(self.controller)
         self.controller.add_component(self.gripper)
         self.controller.hooks.tool_error = self._tool_error
         #: The vacuum gripper's pressure switch on TI0 (controller/vacuum.py), when attached.

@@ -25,7 +25,7 @@ from ..model import rotations as rot
 from ..model.robots import RobotModel
 from . import motion
 from .base import C_CIRCLE, C_JOINT_LIMIT, C_KINEMATIC, C_SPEED, CommandError
-from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand
+from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand, Task
 from .poses import resolve_line_target, wire_pose_to_matrix
 from .state import RAMP_TIME, PlanState
 
@@ -409,6 +409,9 @@ class Executor:
               tcp_pose: Callable[[np.ndarray], np.ndarray]) -> _Plan:
         if isinstance(cmd, Dwell):
             return _DwellPlan(q, cmd.seconds)
+        if isinstance(cmd, Task):
+            cmd.run()
+            return _DwellPlan(q, 0.0)
         if isinstance(cmd, JointMove):
             acc = min(cmd.acc, limits.joint_maxacc)
             # The queued command stays ``current`` (feedback frames and the buffer count follow it);

@@ -250,29 +250,98 @@ class XArmGripper:
             self.position += max_step if delta > 0 else -max_step
 
 
+#: The gripper's turnaround, ms: from the end of a request to the start of its reply. The public
+#: material gives none; 1 ms is the emulator's choice (a Modbus-RTU slave at these rates answers
+#: within a few bit times plus its processing).
+DEVICE_TURNAROUND_MS = 1.0
+
+#: Default timeouts (ms) of the tool RS-485 Modbus bridge (register 123) and of its transparent
+#: transfer (register 240); the emulator's choice, longer than any reply the gripper takes.
+DEFAULT_MODBUS_TIMEOUT_MS = 20
+DEFAULT_TRANSPARENT_TIMEOUT_MS = 20
+
+BITS_PER_BYTE = 11  # Modbus-RTU: start, 8 data, parity or second stop, stop
+
+#: Old (non-Modbus) gripper path, registers 129/130: 32-bit gripper registers by address.
+REG32_TARGET = REG_TARGET
+REG32_POSITION = REG_POSITION
+REG32_SPEED = REG_SPEED
+REG32_ENABLE = REG_ENABLE
+
+
+def crc16_modbus(data: bytes) -> bytes:
+    """The Modbus-RTU CRC of ``data``, low byte first (as it goes on the wire)."""
+    crc = 0xFFFF
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+    return bytes((crc & 0xFF, crc >> 8))
+
+
+def _baud(index: int) -> int:
+    from .io import BAUD_RATES
+
+    return BAUD_RATES[index] if 0 <= index < len(BAUD_RATES) else BAUD_RATES[-1]
+
+
 class GripperModule:
-    """Controller component for register 124: the tool RS-485 bus with the gripper on it.
+    """Controller component for the tool RS-485 bus with the gripper on it: register 124 (Modbus-RTU
+    through the bridge), 123 (the bridge's timeout), 240/241 (transparent transfer and its timeout)
+    and the old non-Modbus gripper path, 125/129/130.
 
     ``tool_baud`` returns the tool bus baud index (the IO component's, register 127
     address 0x0A0B); when it differs from the gripper's the gripper does not
-    answer (exception 0x0B), as on a real bus.
+    answer (exception 0x0B), as on a real bus. Neither does it when the reply takes longer than the
+    bridge's timeout (register 123): the request and reply bytes at the bus baud rate, plus
+    :data:`DEVICE_TURNAROUND_MS`.
     """
 
     def __init__(self, gripper: XArmGripper | None = None,
                  tool_baud: Callable[[], int] | None = None) -> None:
         self.gripper = gripper or XArmGripper()
         self.tool_baud = tool_baud
+        self.modbus_timeout_ms = DEFAULT_MODBUS_TIMEOUT_MS
+        self.transparent_timeout_ms = DEFAULT_TRANSPARENT_TIMEOUT_MS
+
+    def _bus_baud_index(self) -> int:
+        return self.tool_baud() if self.tool_baud else self.gripper.baud_index
+
+    def response_ms(self, request_len: int, reply_len: int) -> float:
+        """How long a request of ``request_len`` bytes and its reply take on the tool bus (ms, CRC
+        included)."""
+        n = request_len + reply_len + 4
+        return n * BITS_PER_BYTE * 1000.0 / _baud(self._bus_baud_index()) + DEVICE_TURNAROUND_MS
 
     def rtu(self, host: int, pdu: bytes) -> bytes:
         """Answer one register-124 request: RTU reply PDU (without the host byte)."""
         devices: dict[int, rtu.RegisterDevice] = {}
         if host == TOOL_HOST:
-            baud = self.tool_baud() if self.tool_baud else self.gripper.baud_index
-            if baud == self.gripper.baud_index:
+            if self._bus_baud_index() == self.gripper.baud_index:
                 devices[GRIPPER_ID] = self.gripper
         elif host != CONTROL_BOX_HOST:
             raise ParameterError(f"RS-485 host id {host}")
-        return rtu.serve(pdu, devices)
+        reply = rtu.serve(pdu, devices)
+        if devices and self.response_ms(len(pdu), len(reply)) > self.modbus_timeout_ms:
+            slave = pdu[0] if pdu else 0
+            func = pdu[1] if len(pdu) > 1 else 0
+            return rtu.exception_reply(slave, func, rtu.GATEWAY_NO_RESPONSE)
+        return reply
+
+    def transparent(self, host: int, data: bytes) -> bytes:
+        """Register 241: raw bytes on the bus. A Modbus-RTU frame with a valid CRC for the gripper
+        gets the gripper's reply frame (CRC appended) within the transparent timeout; anything else
+        gets no reply bytes."""
+        if host not in (TOOL_HOST, CONTROL_BOX_HOST):
+            raise ParameterError(f"RS-485 host id {host}")
+        if host != TOOL_HOST or len(data) < 4 or crc16_modbus(data[:-2]) != data[-2:]:
+            return b""
+        if self._bus_baud_index() != self.gripper.baud_index or data[0] != GRIPPER_ID:
+            return b""
+        reply = rtu.serve(data[:-2], {GRIPPER_ID: self.gripper})
+        if self.response_ms(len(data) - 2, len(reply)) > self.transparent_timeout_ms:
+            return b""
+        return reply + crc16_modbus(reply)
 
     def step(self, dt: float, ctl: ControllerView) -> None:
         self.gripper.step(dt)
@@ -283,5 +352,64 @@ class GripperModule:
         host = int(values["host"])
         return {"host": host, "rtu": self.rtu(host, bytes(values["rtu"]))}
 
+    @staticmethod
+    def _timeout(values: Any) -> int:
+        ms = int(values["timeout"])
+        if ms <= 0:
+            raise ParameterError(f"timeout {ms} ms")
+        return ms
+
+    def _handle_123(self, values: Any) -> None:
+        """Register 123: the tool RS-485 Modbus bridge's timeout (ms)."""
+        self.modbus_timeout_ms = self._timeout(values)
+
+    def _handle_240(self, values: Any) -> None:
+        """Register 240: the transparent transfer's timeout (ms)."""
+        self.transparent_timeout_ms = self._timeout(values)
+
+    def _handle_241(self, values: Any) -> dict[str, Any]:
+        host = int(values["host"])
+        return {"host": host, "data": self.transparent(host, bytes(values["data"]))}
+
+    def _old_path(self, values: Any) -> XArmGripper:
+        if int(values["host"]) != GRIPPER_ID:
+            raise ParameterError(f"gripper id {values['host']} (8)")
+        return self.gripper
+
+    def _handle_125(self, values: Any) -> dict[str, Any]:
+        """Register 125: the gripper error code (old path): the second byte carries it."""
+        return {"error": 0, "code": self.gripper.error & 0xFF}
+
+    def _handle_129(self, values: Any) -> None:
+        """Register 129 (old path): write a 32-bit gripper register (enable, speed, target)."""
+        g = self._old_path(values)
+        raw = float(values["value"])
+        if raw != int(raw):
+            raise ParameterError(f"value {raw} is not an integer")
+        addr, value = int(values["addr"]), int(raw)
+        if addr == REG32_TARGET:
+            g.set_target(value)
+        elif addr == REG32_SPEED:
+            g.set_speed(value)
+        elif addr == REG32_ENABLE:
+            try:
+                g.set_enable(value)
+            except rtu.RtuError as exc:
+                raise ParameterError(f"enable {value}") from exc
+        else:
+            raise ParameterError(f"gripper address {addr:#06x} is not writable on the old path")
+
+    def _handle_130(self, values: Any) -> dict[str, Any]:
+        """Register 130 (old path): read a 32-bit gripper register (position, target, speed)."""
+        g = self._old_path(values)
+        addr = int(values["addr"])
+        table = {REG32_POSITION: g.position_pulses, REG32_TARGET: g.target, REG32_SPEED: g.speed,
+                 REG32_ENABLE: int(g.enabled), REG_ERROR: g.error, REG_STATUS: g.status}
+        if addr not in table:
+            raise ParameterError(f"gripper address {addr:#06x} is not readable on the old path")
+        return {"value": int(table[addr])}
+
     def handlers(self) -> dict[int, Handler]:
-        return {124: self._handle_124}
+        return {123: self._handle_123, 124: self._handle_124, 125: self._handle_125,
+                129: self._handle_129, 130: self._handle_130, 240: self._handle_240,
+                241: self._handle_241}

@@ -29,8 +29,11 @@ general digital outputs of the control box / tool are cleared.
 
 from __future__ import annotations
 
+import copy
+import functools
 import math
-from collections.abc import Sequence
+import weakref
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -276,6 +279,38 @@ class IOModule:
         self.now = 0.0
         self._last_tcp: tuple[float, float, float] | None = None
         self._last_state: int | None = None
+        #: The controller whose command buffer queues IO in its turn (:meth:`attach`); a weak
+        #: reference, so checkpoints copy the IO state without the controller.
+        self._ctl: weakref.ref[Any] | None = None
+        #: The firmware reads the sync byte of registers 127/134/135/136 (>= 2.4.101).
+        self.sync_io = False
+
+    def attach(self, ctl: Any) -> None:
+        """Queue through ``ctl``'s command buffer: IO sent with sync byte 1 (profiles that read it)
+        and position triggers (144, 145, 147) sent while moves are queued wait their turn there."""
+        self._ctl = weakref.ref(ctl)
+        self.sync_io = bool(ctl.firmware.io_sync_byte)
+
+    @property
+    def defer(self) -> Callable[[int, Callable[[], None]], None] | None:
+        """Runs a task in its turn in the controller's command buffer; ``None`` when unattached."""
+        ctl = self._ctl() if self._ctl is not None else None
+        if ctl is None:
+            return None
+        from .handlers.extras import queue_behind_moves
+
+        return functools.partial(queue_behind_moves, ctl)
+
+    def _in_turn(self, register: int, run: Callable[[], None], queued: bool = True) -> None:
+        defer = self.defer
+        if queued and defer is not None:
+            defer(register, run)
+        else:
+            run()
+
+    def _synced(self, v: Any) -> bool:
+        """Sync byte 1 (the SDK's default): the IO change waits in the motion queue; 0: at once."""
+        return self.sync_io and int(v.get("sync", 0)) == 1
 
     # --- inputs from outside (tests, admin channel) ------------------------------------------------
 
@@ -399,6 +434,20 @@ class IOModule:
             raise ParameterError("trigger point or tolerance radius")
         self._add_pending(PendingIO(target, index, value, center=(xyz[0], xyz[1], xyz[2]), radius=radius))
 
+    def _position_in_turn(self, register: int, target: str, index: int, value: int,
+                          xyz: Sequence[float], radius: float) -> None:
+        """Registers 144/145/147 through the controller: a trigger sent behind queued moves is armed
+        when the queue reaches it, so only armed triggers count toward the limit of 36 (C36)."""
+        defer = self.defer
+        if defer is None:
+            self.position_output(target, index, value, xyz, radius)
+            return
+        self._check_target(target, index, value)
+        if len(xyz) != 3 or not all(math.isfinite(c) for c in xyz) or not math.isfinite(radius) or radius < 0:
+            raise ParameterError("trigger point or tolerance radius")
+        point = tuple(float(c) for c in xyz)
+        defer(register, lambda: self.position_output(target, index, value, point, radius))
+
     def set_reset_on_stop(self, io_type: int, on: int) -> None:
         """Register 146: io_type 0 control box, 1 tool."""
         if io_type not in (0, 1) or on not in (0, 1):
@@ -470,7 +519,12 @@ class IOModule:
     def handlers(self) -> dict[int, Handler]:
         # The handlers read self.cgpio / self.tool at call time: a restored checkpoint replaces them.
         def r127(v: Any) -> None:
-            self.tool.write(int(v["host"]), int(v["addr"]), float(v["value"]))
+            args = (int(v["host"]), int(v["addr"]), float(v["value"]))
+            if not self._synced(v):
+                self.tool.write(*args)
+                return
+            copy.deepcopy(self.tool).write(*args)  # refuse bad values now, apply in turn
+            self._in_turn(127, lambda: self.tool.write(*args))
 
         def r128(v: Any) -> dict[str, Any]:
             return {"value": self.tool.read(int(v["host"]), int(v["addr"]))}
@@ -479,11 +533,20 @@ class IOModule:
             words = [int(v["digital"])]
             if "digital_hi" in v:
                 words.append(int(v["digital_hi"]))
-            self.cgpio_set_digital(words)
+            if not self._synced(v):
+                self.cgpio_set_digital(words)
+                return
+            copy.deepcopy(self.cgpio).apply_word(words[0], high=False)
+            self._in_turn(134, lambda: self.cgpio_set_digital(words))
 
         def analog_out(i: int) -> Handler:
             def h(v: Any) -> None:
-                self.cgpio.set_analog_output(i, int(v["analog"]))
+                raw = int(v["analog"])
+                if not self._synced(v):
+                    self.cgpio.set_analog_output(i, raw)
+                    return
+                copy.deepcopy(self.cgpio).set_analog_output(i, raw)
+                self._in_turn(135 + i, lambda: self.cgpio.set_analog_output(i, raw))
             return h
 
         def r146(v: Any) -> dict[str, Any]:
@@ -504,13 +567,13 @@ class IOModule:
             139: lambda v: self.cgpio.state_values(),
             142: lambda v: self.delayed_digital("cgpio", int(v["ionum"]), int(v["on"]), float(v["delay"])),
             143: lambda v: self.delayed_digital("tgpio", int(v["ionum"]), int(v["on"]), float(v["delay"])),
-            144: lambda v: self.position_output("cgpio", int(v["ionum"]), int(v["on"]), v["xyz"],
-                                                float(v["tol_r"])),
-            145: lambda v: self.position_output("tgpio", int(v["ionum"]), int(v["on"]), v["xyz"],
-                                                float(v["tol_r"])),
+            144: lambda v: self._position_in_turn(144, "cgpio", int(v["ionum"]), int(v["on"]), v["xyz"],
+                                                  float(v["tol_r"])),
+            145: lambda v: self._position_in_turn(145, "tgpio", int(v["ionum"]), int(v["on"]), v["xyz"],
+                                                  float(v["tol_r"])),
             146: r146,
-            147: lambda v: self.position_output("analog", int(v["ionum"]), int(v["value"]), v["xyz"],
-                                                float(v["tol_r"])),
+            147: lambda v: self._position_in_turn(147, "analog", int(v["ionum"]), int(v["value"]), v["xyz"],
+                                                  float(v["tol_r"])),
         }
 
     def cgpio_set_digital(self, words: Sequence[int]) -> None:

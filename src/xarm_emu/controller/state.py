@@ -84,6 +84,7 @@ class ControllerState:
     #: The physical arm's joints while virtual robot mode is on.
     physical_q: np.ndarray | None = None
     collision_tool: collision.ToolModel = collision.NO_TOOL  # register 78
+    user_counter: int = 0  # registers 74/75, the counter of rich report bytes 285-288
     #: The joints where the last only-check move ended (the SDK's "intermediate state"), if kept.
     check_q: np.ndarray | None = None
     motion: PlanState = field(default_factory=PlanState)

@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..base import Handler, Values
-from . import feedback, kinematics, motion, motion2, reduced, settings, state, trajectory
+from . import extras, feedback, ft_sensor, kinematics, motion, motion2, reduced, settings, state, trajectory
 
 if TYPE_CHECKING:
     from ..core import ControllerCore
@@ -39,6 +39,8 @@ TABLES: tuple[Mapping[int, CtlHandler], ...] = (
     motion2.HANDLERS,
     reduced.HANDLERS,
     trajectory.HANDLERS,
+    extras.HANDLERS,
+    ft_sensor.HANDLERS,
 )
 
 
@@ -49,6 +51,8 @@ def bind(ctl: ControllerCore,
     from ..mode_steps import create_state
 
     create_state(ctl)  # the state behind these handlers exists from construction (checkpoints)
+    extras.extra_state(ctl)
+    ft_sensor.ft_config(ctl)
     out: dict[int, Handler] = {}
     for table in TABLES if tables is None else tables:
         for code, fn in table.items():

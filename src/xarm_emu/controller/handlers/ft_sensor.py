@@ -1,0 +1,166 @@
+"""The six-axis force/torque sensor registers (150, 200-212), answered as a box with no F/T sensor
+attached: readings are zeros, the configuration registers store what they are sent and register
+212 reads it back, and what needs the sensor itself (switching it on, an application mode,
+zeroing, load identification) is refused with warning 12 (parameter abnormal, manual 3.2.2):
+there is nothing on the tool flange to switch. The reply lengths are the ones the SDK reads.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..base import ParameterError, Values
+
+NO_SENSOR = "no F/T sensor attached"
+ZEROS6 = (0.0,) * 6
+
+
+@dataclass
+class FtConfig:
+    """What registers 205 and 207-211 set, as register 212 reports it."""
+
+    mass: float = 0.0
+    centroid: tuple[float, ...] = (0.0, 0.0, 0.0)
+    offsets: tuple[float, ...] = ZEROS6
+    imp_coord: int = 0
+    imp_c_axis: tuple[int, ...] = (0,) * 6
+    M: tuple[float, ...] = ZEROS6
+    K: tuple[float, ...] = ZEROS6
+    B: tuple[float, ...] = ZEROS6
+    fc_coord: int = 0
+    fc_c_axis: tuple[int, ...] = (0,) * 6
+    f_ref: tuple[float, ...] = ZEROS6
+    limits: tuple[float, ...] = ZEROS6
+    pid: dict[str, tuple[float, ...]] = field(
+        default_factory=lambda: {k: ZEROS6 for k in ("kp", "ki", "kd", "xe_limit")})
+
+
+def ft_config(ctl: Any) -> FtConfig:
+    """The F/T configuration of ``ctl``, created on first use."""
+    cfg = getattr(ctl.data, "ft_config", None)
+    if not isinstance(cfg, FtConfig):
+        cfg = FtConfig()
+        ctl.data.ft_config = cfg  # in the controller's state, so a checkpoint holds it
+    return cfg
+
+
+def _floats(values: Any) -> tuple[float, ...]:
+    return tuple(float(x) for x in values)
+
+
+def _coord_axes(v: Values) -> tuple[int, tuple[int, ...]]:
+    coord, axes = int(v["coord"]), tuple(int(x) for x in v["c_axis"])
+    if coord not in (0, 1) or any(a not in (0, 1) for a in axes):
+        raise ParameterError("coord 0/1 and compliant axes 0/1")
+    return coord, axes
+
+
+def get_data(ctl: Any, v: Values) -> dict[str, Any]:
+    """Registers 150/200: forces and torques; zeros with no sensor."""
+    raw = int(v.get("raw", 0))
+    if raw not in (0, 1):
+        raise ParameterError(f"raw {raw} (0/1)")
+    return {"forces": ZEROS6}
+
+
+def enable(ctl: Any, v: Values) -> None:
+    """Register 201: switching the sensor on needs a sensor; switching it off is accepted."""
+    on = int(v["on"])
+    if on not in (0, 1):
+        raise ParameterError(f"switch {on} (0/1)")
+    if on:
+        raise ParameterError(NO_SENSOR)
+
+
+def set_mode(ctl: Any, v: Values) -> None:
+    """Register 202: application 0 (none) is accepted; 1 and 2 need a sensor."""
+    app = int(v["app"])
+    if app not in (0, 1, 2):
+        raise ParameterError(f"application {app} (0-2)")
+    if app:
+        raise ParameterError(NO_SENSOR)
+
+
+def get_mode(ctl: Any, v: Values) -> dict[str, Any]:
+    """Register 203: the application mode, 0."""
+    return {"app": 0}
+
+
+def identify_load(ctl: Any, v: Values) -> None:
+    """Register 204: identification runs on the sensor's readings; refused."""
+    if int(v["iden_type"]) not in (0, 1):
+        raise ParameterError("identification type 0/1")
+    raise ParameterError(NO_SENSOR)
+
+
+def set_load_offset(ctl: Any, v: Values) -> None:
+    """Register 205: the load (kg, centre of mass in m) and the six offsets, stored."""
+    cfg = ft_config(ctl)
+    cfg.mass, cfg.centroid, cfg.offsets = float(v["mass"]), _floats(v["center"]), _floats(v["offsets"])
+
+
+def set_zero(ctl: Any, v: Values) -> None:
+    """Register 206: zeroing reads the sensor; refused."""
+    raise ParameterError(NO_SENSOR)
+
+
+def admittance_config(ctl: Any, v: Values) -> None:
+    """Register 207: admittance frame, compliant axes and M, K, B."""
+    cfg = ft_config(ctl)
+    cfg.imp_coord, cfg.imp_c_axis = _coord_axes(v)
+    cfg.M, cfg.K, cfg.B = _floats(v["M"]), _floats(v["K"]), _floats(v["B"])
+
+
+def force_pid(ctl: Any, v: Values) -> None:
+    """Register 208: force-control PID and the position limit."""
+    ft_config(ctl).pid = {k: _floats(v[k]) for k in ("kp", "ki", "kd", "xe_limit")}
+
+
+def force_config(ctl: Any, v: Values) -> None:
+    """Register 209: force-control frame, axes, reference and limits."""
+    cfg = ft_config(ctl)
+    cfg.fc_coord, cfg.fc_c_axis = _coord_axes(v)
+    cfg.f_ref, cfg.limits = _floats(v["f_ref"]), _floats(v["limits"])
+
+
+def admittance_mkb(ctl: Any, v: Values) -> None:
+    """Register 210: admittance M, K, B."""
+    cfg = ft_config(ctl)
+    cfg.M, cfg.K, cfg.B = _floats(v["M"]), _floats(v["K"]), _floats(v["B"])
+
+
+def admittance_frame(ctl: Any, v: Values) -> None:
+    """Register 211: admittance frame and compliant axes."""
+    cfg = ft_config(ctl)
+    cfg.imp_coord, cfg.imp_c_axis = _coord_axes(v)
+
+
+def get_config(ctl: Any, v: Values) -> dict[str, Any]:
+    """Register 212: the 280-byte configuration; application 0, not started, sensor type and id 0,
+    rate 0 (no sensor), then what 205 and 207-211 stored."""
+    cfg = ft_config(ctl)
+    return {"app_status": 0, "started": 0, "type": 0, "id": 0, "freq": 0, "mass": cfg.mass,
+            "dir_bias": 0.0, "centroid": cfg.centroid, "zero": cfg.offsets,
+            "imp_coord": cfg.imp_coord, "imp_c_axis": cfg.imp_c_axis, "M": cfg.M, "K": cfg.K, "B": cfg.B,
+            "fc_coord": cfg.fc_coord, "fc_c_axis": cfg.fc_c_axis, "f_ref": cfg.f_ref, "limits": cfg.limits,
+            **cfg.pid}
+
+
+HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
+    150: get_data,
+    200: get_data,
+    201: enable,
+    202: set_mode,
+    203: get_mode,
+    204: identify_load,
+    205: set_load_offset,
+    206: set_zero,
+    207: admittance_config,
+    208: force_pid,
+    209: force_config,
+    210: admittance_mkb,
+    211: admittance_frame,
+    212: get_config,
+}
