@@ -1,4 +1,4 @@
-"""Stepped-clock speed (issue 4): a 60-second program of mixed moves run in process, as a factor
+"""Stepped-clock speed: a 60-second program of mixed moves run in process, as a factor
 of real time (the baseline: the program's own 60 s of controller time)."""
 
 from __future__ import annotations

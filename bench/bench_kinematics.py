@@ -1,6 +1,6 @@
 """Kinematics benchmark: FK and IK time per call (xArm6) beside a plain-numpy reference, IK success rate.
 
-Targets (issue 3): FK <= 10 us, IK <= 100 us (seed within 0.2 rad), IK success >= 99 % from seeds within
+Targets: FK <= 10 us, IK <= 100 us (seed within 0.2 rad), IK success >= 99 % from seeds within
 0.5 rad of a solution. Run: ``python -m bench.bench_kinematics``.
 """
 

@@ -1,4 +1,4 @@
-"""Develop-report timing under load (issue 2 item 6): inter-frame jitter (|interval - 10 ms|: p50, p99,
+"""Develop-report timing under load: inter-frame jitter (|interval - 10 ms|: p50, p99,
 max) of the 100 Hz develop report (manual 2.1.6) while 20 develop-report clients are connected and one
 client streams servoj (register 29, mode 1) at 250 Hz. Target: p99 <= 1 ms.
 

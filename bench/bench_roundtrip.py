@@ -1,4 +1,4 @@
-"""Command-port round trips per second (issue 2, "What must be true"): a blocking raw-socket client
+"""Command-port round trips per second: a blocking raw-socket client
 sends GET_STATE (13) and GET_POSITION (41) one at a time, against the emulator server and against a
 minimal asyncio-protocol echo server started in the same run (it answers every request frame with a
 fixed reply of the same size, TCP_NODELAY, one write). Target: emulator / echo >= 0.85.

@@ -1,7 +1,7 @@
 """Safety benchmark: one self-collision check (xArm7, xArm Gripper and cuboid tool) and one per-step check,
 beside a plain-numpy reference (4x4 frame chain, vectorised segment distances) timed in the same run.
 
-Target (issue 5 brief): one self-collision check <= 100 us on xArm7. Run: ``python -m bench.bench_safety``.
+Target: one self-collision check <= 100 us on xArm7. Run: ``python -m bench.bench_safety``.
 """
 
 from __future__ import annotations
