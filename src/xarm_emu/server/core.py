@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import errno
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,6 +31,7 @@ from ..protocol.frame import COMMAND_PORT, encode_reply
 from .admin_port import AdminProtocol
 from .clock import ScaledClock, Ticker
 from .command_port import PURE_READS, CommandProtocol, ReadCache
+from .fairness import BurstLog, CommandScheduler, Limits
 from .report_ports import KIND_PORTS, ReportStreams
 from .trace import CommandTrace
 
@@ -59,6 +61,8 @@ class ServerConfig:
     faults: Path | None = None
     report_rates: dict[str, float] = field(default_factory=lambda: {
         "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE})
+    #: Connection caps, the partial-frame timeout and the listen backlog (server/fairness.py).
+    limits: Limits = field(default_factory=Limits)
 
 
 class Attachment(Protocol):
@@ -106,6 +110,45 @@ class EmulatorServer:
         self.admin_clients: set[AdminProtocol] = set()
         #: Named checkpoints of the emulator (admin ``checkpoint-save``), in memory only.
         self.checkpoints: dict[str, object] = {}
+        self._init_bounds()
+
+    # -- bounds and fairness (server/fairness.py) ----------------------------------------------------
+    def _init_bounds(self) -> None:
+        self.scheduler = CommandScheduler()
+        self.burst_log = BurstLog(log)
+        self.reports.admit = self._admit_report
+
+    @property
+    def limits(self) -> Limits:
+        return self.config.limits
+
+    def _admit_report(self, kind: str) -> bool:
+        """Whether a new ``kind`` report client may stay (under the per-port cap)."""
+        cap = self.limits.cap()
+        if len(self.reports.clients[kind]) < cap:
+            return True
+        self.burst_log.event(f"cap-{kind}", "%s report port: %d connections (the cap), refusing new ones "
+                             "(serve --max-connections)", kind, cap)
+        return False
+
+    def _quiet_accept_errors(self, loop: asyncio.AbstractEventLoop) -> None:
+        """Out of file descriptors, asyncio stops accepting for a second and resumes; say so once
+        per burst, without a traceback per attempt (unless the loop already has a handler)."""
+        if loop.get_exception_handler() is not None:
+            return
+        burst = self.burst_log
+
+        def handler(lp: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+            exc = context.get("exception")
+            if isinstance(exc, OSError) and exc.errno in (errno.EMFILE, errno.ENFILE, errno.ENOBUFS,
+                                                          errno.ENOMEM):
+                burst.event("accept-fds", "cannot accept connections: %s; accepting pauses and resumes "
+                            "(lower serve --max-connections or raise the open-file limit)",
+                            exc.strerror or exc)
+                return
+            lp.default_exception_handler(context)
+
+        loop.set_exception_handler(handler)
 
     # -- what the admin channel needs (server/admin.py AdminTarget) ---------------------------------
     @property
@@ -177,12 +220,16 @@ class EmulatorServer:
                 self.trace = CommandTrace(cfg.trace)
             except OSError as exc:
                 raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
-        srv = await loop.create_server(lambda: CommandProtocol(self), cfg.host, cfg.port, reuse_address=True)
+        self._quiet_accept_errors(loop)
+        backlog = max(1, cfg.limits.backlog)
+        srv = await loop.create_server(lambda: CommandProtocol(self), cfg.host, cfg.port, reuse_address=True,
+                                       backlog=backlog)
         self._servers.append(srv)
         self.ports["command"] = srv.sockets[0].getsockname()[1]
         report_ports = (("normal", cfg.normal_port), ("rich", cfg.rich_port), ("develop", cfg.develop_port))
         for kind, port in report_ports:
-            s = await asyncio.start_server(self.reports.on_client(kind), cfg.host, port, reuse_address=True)
+            s = await asyncio.start_server(self.reports.on_client(kind), cfg.host, port, reuse_address=True,
+                                           backlog=backlog)
             self._servers.append(s)
             self.ports[kind] = s.sockets[0].getsockname()[1]
         if cfg.admin:

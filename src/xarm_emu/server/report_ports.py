@@ -47,10 +47,15 @@ class ReportStreams:
         # Set to a dict to record each report frame's send time (time.perf_counter(); benchmarks).
         self.frame_times: dict[str, list[float]] | None = None
         self.client_tasks: set[asyncio.Task[None]] = set()
+        #: Whether a new client of a kind may stay (the server's per-port cap); ``None``: always.
+        self.admit: Callable[[str], bool] | None = None
 
     def on_client(self, kind: str) -> Callable[[asyncio.StreamReader, asyncio.StreamWriter], Awaitable[None]]:
         """The ``asyncio.start_server`` callback of the ``kind`` port."""
         async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            if self.admit is not None and not self.admit(kind):
+                writer.close()
+                return
             set_nodelay(writer)
             sock = writer.get_extra_info("socket")
             if sock is not None:
