@@ -17,6 +17,7 @@ detected at load. A file that cannot be read or checked is renamed aside to
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import logging
@@ -24,6 +25,8 @@ import os
 import re
 import tempfile
 import time
+from collections.abc import Callable
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Any
 
@@ -94,6 +97,13 @@ class ConfigStore:
         self.path = self.directory / file_name_for(self.robot_sn)
         #: One human-readable message about the last ``load`` that found an unusable file, else ``None``.
         self.last_error: str | None = None
+        #: When set, :meth:`save` and :meth:`delete` hand their disk work to this function (a disk
+        #: worker's ``submit``) instead of doing it in place; the job's future is :attr:`inflight`.
+        self.writer: Callable[[Callable[[], Any]], Future[Any]] | None = None
+        #: The future of the last job handed to :attr:`writer` (taken by whoever waits for it).
+        self.inflight: Future[Any] | None = None
+        #: Why the last save or delete failed (``None`` after one that succeeded).
+        self.last_save_error: str | None = None
 
     # -- reading ---------------------------------------------------------------------------------------
 
@@ -178,7 +188,16 @@ class ConfigStore:
 
     def save(self, values: dict[str, Any]) -> None:
         """Write ``values`` atomically. Raises ``TypeError``/``ValueError`` for values JSON cannot hold
-        exactly (e.g. NaN) and ``OSError`` when the directory is not writable; the old file then stays."""
+        exactly (e.g. NaN) and ``OSError`` when the directory is not writable; the old file then stays.
+        With a :attr:`writer` the write runs there and its outcome is in :attr:`inflight`."""
+        data = self.encode(values)
+        if self.writer is None:
+            self.write_encoded(data)
+        else:
+            self.inflight = self.writer(lambda: self.write_encoded(data))
+
+    def encode(self, values: dict[str, Any]) -> bytes:
+        """The file's bytes for ``values`` (format name, version, checksum)."""
         if not isinstance(values, dict):
             raise TypeError("configuration values must be a dict")
         body = _canonical(self.robot_sn, values)
@@ -190,26 +209,73 @@ class ConfigStore:
             "sha256": hashlib.sha256(body).hexdigest(),
             "values": values,
         }
-        data = json.dumps(doc, indent=1, sort_keys=True, allow_nan=False).encode("utf-8") + b"\n"
-        self.directory.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f"{self._temp_prefix()}{os.getpid()}-", dir=self.directory)
+        return json.dumps(doc, indent=1, sort_keys=True, allow_nan=False).encode("utf-8") + b"\n"
+
+    def write_encoded(self, data: bytes) -> None:
+        """Replace the file with ``data``: temporary file, fsync, rename, fsync of the directory."""
         try:
-            with os.fdopen(fd, "wb") as f:
-                f.write(data)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, self.path)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
+            self.directory.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=f"{self._temp_prefix()}{os.getpid()}-", dir=self.directory)
+            try:
+                with os.fdopen(fd, "wb") as f:
+                    f.write(data)
+                    f.flush()
+                    os.fsync(f.fileno())
+                os.replace(tmp, self.path)
+            except BaseException:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+                raise
+            _fsync_dir(self.directory)
+        except OSError as exc:
+            self._save_failed("save", exc)
             raise
-        _fsync_dir(self.directory)
+        self.last_save_error = None
+
+    def _save_failed(self, what: str, exc: OSError) -> None:
+        cause = describe_os_error(exc)
+        first = self.last_save_error != cause
+        self.last_save_error = cause
+        if first:  # one line per cause, not one per failed save
+            log.warning("cannot %s the configuration %s: %s; the saved file is unchanged",
+                        what, self.path, cause)
 
     def delete(self) -> bool:
-        """Remove the saved configuration; ``True`` if there was one."""
+        """Remove the saved configuration; ``True`` if there was one (with a :attr:`writer`, the
+        removal runs there and ``True`` means it was asked for)."""
+        if self.writer is not None:
+            self.inflight = self.writer(self._delete)
+            return True
+        return self._delete()
+
+    def _delete(self) -> bool:
         try:
             self.path.unlink()
         except FileNotFoundError:
             return False
+        except OSError as exc:
+            self._save_failed("delete", exc)
+            raise
         _fsync_dir(self.directory)
         return True
+
+
+_CAUSES = {
+    errno.ENOSPC: "disk full",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EROFS: "read-only file system",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "permission denied",
+    errno.EIO: "input/output error",
+    errno.ENOENT: "directory missing",
+}
+
+
+def describe_os_error(exc: BaseException) -> str:
+    """A short cause for a failed write: "disk full (ENOSPC)", "read-only file system (EROFS)", ..."""
+    if isinstance(exc, OSError) and exc.errno is not None:
+        name = errno.errorcode.get(exc.errno, str(exc.errno))
+        cause = _CAUSES.get(exc.errno, exc.strerror or str(exc))
+        where = f": {exc.filename}" if exc.filename else ""
+        return f"{cause} ({name}){where}"
+    return str(exc) or type(exc).__name__

@@ -10,6 +10,7 @@ heartbeat) gets no reply; protocol 0 (standard Modbus TCP) is answered by the st
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import logging
 import socket
@@ -45,6 +46,10 @@ log = logging.getLogger("xarm_emu.server")
 #: version, serial number, state, cmdnum, error/warning, TCP pose, joints). Between two control steps,
 #: and until any other command or injection, their answer cannot change, so it is computed once.
 PURE_READS = frozenset({1, 2, 13, 14, 15, 41, 42})
+#: Registers whose work reaches the disk (39 delete and 40 save the configuration, manual 2.1.3):
+#: their reply goes out when the server's disk worker is done, and the connection's later requests
+#: wait behind it; other connections are not held.
+DISK_REGISTERS = frozenset({39, 40})
 
 
 def set_nodelay(endpoint: Any) -> None:
@@ -92,6 +97,11 @@ class CommandTarget(Protocol):
 
     def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
 
+    def disk_job(self) -> concurrent.futures.Future[Any] | None: ...
+
+    def answer_after_disk(self, frame: bytes,
+                          job: concurrent.futures.Future[Any]) -> asyncio.Future[bytes]: ...
+
 
 class CommandProtocol(asyncio.Protocol):
     """One command-port connection; sans-IO decoding, controller calls in the loop thread.
@@ -119,6 +129,8 @@ class CommandProtocol(asyncio.Protocol):
         self._refused = False
         self._partial_since: float | None = None
         self._timer: asyncio.TimerHandle | None = None
+        #: The reply of a save/delete waiting for the disk (DISK_REGISTERS); later requests wait.
+        self._waiting: asyncio.Future[bytes] | None = None
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         self.transport = transport  # type: ignore[assignment]  # uvloop's transports are not subclasses
@@ -225,8 +237,8 @@ class CommandProtocol(asyncio.Protocol):
 
     def has_work(self) -> bool:
         transport = self.transport
-        return bool(self.pending or self.inbox) and not self._write_paused and transport is not None \
-            and not transport.is_closing()
+        return bool(self.pending or self.inbox) and not self._write_paused and self._waiting is None \
+            and transport is not None and not transport.is_closing()
 
     # -- requests -----------------------------------------------------------------------------------
     def data_received(self, data: bytes) -> None:
@@ -235,9 +247,11 @@ class CommandProtocol(asyncio.Protocol):
             return
         # Fast path: the usual case, exactly one whole private-protocol frame in this read.
         n = len(data)
-        if n > HEADER_SIZE and not self.decoder.pending and not self.inbox and not self.pending:
+        if n > HEADER_SIZE and not self.decoder.pending and not self.inbox and not self.pending \
+                and self._waiting is None:
             tid, prot, length = HEADER.unpack_from(data)
-            if length + HEADER_SIZE == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS:
+            if length + HEADER_SIZE == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS \
+                    and data[6] not in DISK_REGISTERS:
                 self._partial_since = None
                 self._reply(transport, self.server.answer(tid, prot, data[6], data[7:], self.peer))
                 return
@@ -285,7 +299,13 @@ class CommandProtocol(asyncio.Protocol):
             prot, tid, register, params = pending.popleft()
             taken += 1
             if prot in PRIVATE_PROTOCOLS:
-                out.append(answer(tid, prot, register, params, self.peer))
+                frame = answer(tid, prot, register, params, self.peer)
+                job = self.server.disk_job() if register in DISK_REGISTERS else None
+                if job is not None:  # this reply when the disk is done; the replies before it now
+                    self._waiting = self.server.answer_after_disk(frame, job)
+                    self._waiting.add_done_callback(self._disk_done)
+                    break
+                out.append(frame)
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
@@ -302,6 +322,17 @@ class CommandProtocol(asyncio.Protocol):
             self._reply(transport, out[0] if len(out) == 1 else b"".join(out))
         self._update_reading()
         return taken
+
+    def _disk_done(self, fut: asyncio.Future[bytes]) -> None:
+        """The disk has answered a save/delete: its reply goes out and the connection goes on."""
+        self._waiting = None
+        transport = self.transport
+        if transport is None or transport.is_closing() or fut.cancelled():
+            return
+        self._reply(transport, fut.result())
+        self._update_reading()
+        if self.pending or self.inbox:
+            self.server.scheduler.wake(self)
 
     def _reply(self, transport: asyncio.Transport, payload: bytes) -> None:
         """One write per read, now or after the injected reply delay."""

@@ -14,6 +14,7 @@ Extras beside the server (the 3D view) are attached by the code that composes it
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import errno
 import logging
@@ -23,7 +24,8 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from ..controller import modbus_map
-from ..controller.base import PERIOD
+from ..controller.base import PERIOD, WARN_PARAMETER
+from ..controller.config import ConfigStore
 from ..controller.emulator import Emulator
 from ..protocol import reports
 from ..protocol.admin import admin_host, derive_admin_port
@@ -31,6 +33,7 @@ from ..protocol.frame import COMMAND_PORT, encode_reply
 from .admin_port import AdminProtocol
 from .clock import ScaledClock, Ticker
 from .command_port import PURE_READS, CommandProtocol, ReadCache
+from .disk import DiskWorker
 from .fairness import BurstLog, CommandScheduler, Limits
 from .report_ports import KIND_PORTS, ReportStreams
 from .trace import CommandTrace
@@ -111,6 +114,7 @@ class EmulatorServer:
         #: Named checkpoints of the emulator (admin ``checkpoint-save``), in memory only.
         self.checkpoints: dict[str, object] = {}
         self._init_bounds()
+        self.disk: DiskWorker | None = None  # started by start(): saves and the trace write through it
 
     # -- bounds and fairness (server/fairness.py) ----------------------------------------------------
     def _init_bounds(self) -> None:
@@ -130,6 +134,70 @@ class EmulatorServer:
         self.burst_log.event(f"cap-{kind}", "%s report port: %d connections (the cap), refusing new ones "
                              "(serve --max-connections)", kind, cap)
         return False
+
+    # -- disk work off the loop (server/disk.py) -----------------------------------------------------
+    def _start_disk(self) -> None:
+        """The disk worker; the trace and the saved configuration write through it."""
+        if self.disk is None:
+            self.disk = DiskWorker()
+        store = self.config_store()
+        if store is not None:
+            store.writer = self.disk.submit
+
+    def _stop_disk(self) -> None:
+        store = self.config_store()
+        if store is not None:
+            store.writer = None
+        if self.disk is not None:
+            self.disk.close()
+            self.disk = None
+
+    def config_store(self) -> ConfigStore | None:
+        """The emulator's saved-configuration store (registers 39/40), if it has one."""
+        store = getattr(self.emulator, "_store", None)
+        return store if isinstance(store, ConfigStore) else None
+
+    def disk_job(self) -> concurrent.futures.Future[Any] | None:
+        """The disk job the last command handed to the worker (a save or delete), taken."""
+        store = self.config_store()
+        if store is None or store.inflight is None:
+            return None
+        job, store.inflight = store.inflight, None
+        return job
+
+    def answer_after_disk(self, frame: bytes, job: concurrent.futures.Future[Any]) -> asyncio.Future[bytes]:
+        """``frame`` once ``job`` is done; when the job failed, the reply a failed save gets
+        (warning 12, manual 2.1.3 state byte) with the cause in the log and ``status``."""
+        loop = asyncio.get_running_loop()
+        fut: asyncio.Future[bytes] = loop.create_future()
+
+        def landed(j: concurrent.futures.Future[Any]) -> None:  # on the worker thread
+            with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
+                loop.call_soon_threadsafe(self._disk_answered, fut, frame, j)
+
+        job.add_done_callback(landed)
+        return fut
+
+    def _disk_answered(self, fut: asyncio.Future[bytes], frame: bytes,
+                       job: concurrent.futures.Future[Any]) -> None:
+        if fut.done():
+            return
+        if job.exception() is not None and len(frame) > 7:
+            self.catch_up()
+            ctl = self.emulator.controller
+            ctl.raise_warning(WARN_PARAMETER)
+            self.emulator.touch()
+            frame = frame[:7] + bytes([ctl.status_byte()]) + frame[8:]
+        fut.set_result(frame)
+
+    def health(self) -> dict[str, Any]:
+        """What the admin ``status`` adds: why the last save failed and why the trace stopped
+        (``None`` when they did not), the trace lines lost."""
+        store = self.config_store()
+        trace = self.trace
+        return {"save_error": store.last_save_error if store is not None else None,
+                "trace_stopped": trace.stopped if trace is not None else None,
+                "trace_dropped": trace.dropped if trace is not None else 0}
 
     def _quiet_accept_errors(self, loop: asyncio.AbstractEventLoop) -> None:
         """Out of file descriptors, asyncio stops accepting for a second and resumes; say so once
@@ -215,9 +283,10 @@ class EmulatorServer:
         cfg = self.config
         if cfg.stepped and not cfg.admin:
             raise ValueError("lockstep (stepped) time is driven through the admin channel: add --admin")
+        self._start_disk()
         if cfg.trace is not None and self.trace is None:
             try:
-                self.trace = CommandTrace(cfg.trace)
+                self.trace = CommandTrace(cfg.trace, self.disk)
             except OSError as exc:
                 raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
         self._quiet_accept_errors(loop)
@@ -362,6 +431,7 @@ class EmulatorServer:
         if self.trace is not None:
             self.trace.close()
             self.trace = None
+        self._stop_disk()
         self._stopped.set()
 
     async def serve_forever(self) -> None:
