@@ -78,9 +78,19 @@ def serve(
     fleet: Annotated[Path | None, typer.Option(help="Serve the arms a TOML fleet file lists, in this one "
                                                     "process (see src/xarm_emu/server/fleet.py); the "
                                                     "per-arm options above then come from the file.")] = None,
+    max_connections: Annotated[int, typer.Option(help="Connections accepted per port (command and each "
+                                                      "report port); beyond it new ones are closed at once. "
+                                                      "0: what the open-file limit allows, at most 1000.",
+                                                 min=0)] = 0,
+    frame_timeout: Annotated[float, typer.Option(help="Close a command connection whose first or partial "
+                                                      "frame is older than this (seconds; 0: never).",
+                                                 min=0.0)] = 60.0,
+    backlog: Annotated[int, typer.Option(help="Listen backlog of every port (bursts of connects).",
+                                         min=1)] = 4096,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .server.app import ServerConfig
+    from .server.fairness import Limits
 
     logging.basicConfig(level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if loop not in ("asyncio", "uvloop"):
@@ -94,6 +104,7 @@ def serve(
                        develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
                        view=view, view_host=view_host, view_port=view_port, stepped=stepped,
                        trace=trace, faults=faults)
+    cfg.limits = Limits(max_connections=max_connections, frame_timeout=frame_timeout, backlog=backlog)
     try:
         profile = profile_for(firmware)
     except VersionError as exc:
@@ -160,6 +171,10 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: int, vacuum: 
         arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware), cfg)]
     servers = []
     for emu, arm_cfg in arms:
+        arm_cfg.limits = cfg.limits
+        store = getattr(emu, "_store", None)
+        if store is not None:  # one running box per saved configuration (controller/config.py)
+            store.lock()
         srv = EmulatorServer(emu, arm_cfg)
         schedule_file(srv, arm_cfg.faults)
         attach_viewer(srv)

@@ -12,6 +12,10 @@ format name, a format version and a SHA-256 checksum of its content, so a torn o
 detected at load. A file that cannot be read or checked is renamed aside to
 ``<name>.corrupt-<UTC timestamp>`` with one message in :attr:`ConfigStore.last_error`, and ``load`` returns
 ``None`` (the emulator then starts with defaults).
+
+One box per file: ``xarm-emu serve`` locks each arm's file (:meth:`ConfigStore.lock`), so a second
+emulator with the same serial number and directory (e.g. two of the same model with default options)
+refuses to start instead of loading and overwriting the first one's settings.
 """
 
 from __future__ import annotations
@@ -28,7 +32,12 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
+
+try:
+    import fcntl
+except ImportError:  # Windows: no advisory locks, one emulator per directory is up to the user
+    fcntl = None  # type: ignore[assignment]
 
 log = logging.getLogger(__name__)
 
@@ -88,6 +97,10 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+class ConfigLocked(ValueError):
+    """Another running emulator holds this saved configuration (:meth:`ConfigStore.lock`)."""
+
+
 class ConfigStore:
     """The saved configuration of one robot (by serial number) in ``directory``."""
 
@@ -104,6 +117,39 @@ class ConfigStore:
         self.inflight: Future[Any] | None = None
         #: Why the last save or delete failed (``None`` after one that succeeded).
         self.last_save_error: str | None = None
+        self._lock_file: IO[str] | None = None
+
+    # -- one box per file (serve) ---------------------------------------------------------------------
+
+    def lock(self) -> None:
+        """Claim this configuration for this process: an exclusive lock on ``<file>.lock`` (POSIX
+        ``flock``, released when the process ends). Raises :class:`ConfigLocked` when another
+        running emulator holds it, so two boxes never load and save each other's settings."""
+        if fcntl is None or self._lock_file is not None:
+            return
+        self.directory.mkdir(parents=True, exist_ok=True)
+        lock_path = self.path.with_name(self.path.name + ".lock")
+        f = open(lock_path, "a+")  # noqa: SIM115 - held for the life of the process
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.seek(0)
+            holder = f.read().strip() or "another process"
+            f.close()
+            raise ConfigLocked(
+                f"the saved configuration {self.path} is in use by a running emulator (pid {holder}); "
+                f"two boxes with the same serial number must not share it: give this one its own "
+                f"--config-dir (or a fleet file with distinct robot_sn)") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"{os.getpid()}\n")
+        f.flush()
+        self._lock_file = f
+
+    def unlock(self) -> None:
+        f, self._lock_file = self._lock_file, None
+        if f is not None:
+            f.close()
 
     # -- reading ---------------------------------------------------------------------------------------
 
