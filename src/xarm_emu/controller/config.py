@@ -27,6 +27,7 @@ import json
 import logging
 import os
 import re
+import secrets
 import tempfile
 import time
 from collections.abc import Callable
@@ -57,6 +58,56 @@ def default_config_dir() -> Path:
     if xdg and os.path.isabs(xdg):
         return Path(xdg) / APP_DIR_NAME
     return Path.home() / ".config" / APP_DIR_NAME
+
+
+#: File of the admin channel's token in the per-user configuration directory (owner-only permissions);
+#: ``$XARM_EMU_ADMIN_TOKEN_FILE`` names another one for server and clients alike.
+ADMIN_TOKEN_NAME = "admin-token"
+ADMIN_TOKEN_ENV = "XARM_EMU_ADMIN_TOKEN_FILE"
+
+
+def admin_token_path() -> Path:
+    """Where the admin token is: ``$XARM_EMU_ADMIN_TOKEN_FILE``, else ``admin-token`` in
+    :func:`default_config_dir`."""
+    env = os.environ.get(ADMIN_TOKEN_ENV, "")
+    return Path(env) if env else default_config_dir() / ADMIN_TOKEN_NAME
+
+
+def read_admin_token(path: Path | None = None) -> str | None:
+    """The admin token in ``path`` (default :func:`admin_token_path`), or ``None`` without one."""
+    try:
+        text = (path or admin_token_path()).read_text(encoding="ascii").strip()
+    except (OSError, UnicodeDecodeError):
+        return None
+    return text or None
+
+
+def load_or_create_admin_token(path: Path | None = None) -> str:
+    """The admin token in ``path``, created (random, mode 0600, directory 0700) when missing; a
+    token file others can read is made owner-only again with a log line."""
+    path = path or admin_token_path()
+    token = read_admin_token(path)
+    if token is not None:
+        if os.name != "nt" and path.stat().st_mode & 0o077:
+            log.warning("admin token %s was readable by other users; made owner-only", path)
+            os.chmod(path, 0o600)
+        return token
+    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.tmp-", dir=path.parent)  # mode 0600
+    try:
+        with os.fdopen(fd, "w", encoding="ascii") as f:
+            f.write(secrets.token_hex(16) + "\n")
+        try:
+            os.link(tmp, path)  # never replaces a token another server created meanwhile
+        except FileExistsError:
+            pass
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+    token = read_admin_token(path)
+    if token is None:
+        raise OSError(f"cannot read the admin token {path}")
+    return token
 
 
 def file_name_for(robot_sn: str) -> str:

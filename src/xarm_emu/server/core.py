@@ -25,7 +25,7 @@ from typing import Any, Protocol
 
 from ..controller import modbus_map
 from ..controller.base import PERIOD, WARN_PARAMETER
-from ..controller.config import ConfigStore
+from ..controller.config import ConfigStore, load_or_create_admin_token
 from ..controller.emulator import Emulator
 from ..protocol import reports
 from ..protocol.admin import admin_host, derive_admin_port
@@ -59,6 +59,9 @@ class ServerConfig:
     view_port: int = 8080
     #: Append every command-port request and reply to this JSON-lines file (server/trace.py).
     trace: Path | None = None
+    #: The admin channel's token; ``None``: the per-user token file's (created when missing,
+    #: controller/config.py ``load_or_create_admin_token``).
+    admin_token: str | None = None
     #: Faults and inputs at given controller times, from this TOML file (server/faults.py); read by
     #: the code that composes the server (faults.schedule_file), not by the server.
     faults: Path | None = None
@@ -111,6 +114,7 @@ class EmulatorServer:
         self.attachments: dict[str, Attachment] = {}
         self.trace: CommandTrace | None = None  # opened by start() when ``config.trace`` is set
         self.admin_clients: set[AdminProtocol] = set()
+        self.admin_token: str | None = None  # set by start() with the admin channel
         #: Named checkpoints of the emulator (admin ``checkpoint-save``), in memory only.
         self.checkpoints: dict[str, object] = {}
         self._init_bounds()
@@ -302,6 +306,10 @@ class EmulatorServer:
             self._servers.append(s)
             self.ports[kind] = s.sockets[0].getsockname()[1]
         if cfg.admin:
+            try:
+                self.admin_token = cfg.admin_token or load_or_create_admin_token()
+            except OSError as exc:
+                raise ValueError(f"cannot create the admin token: {exc}") from None
             admin_port = cfg.admin_port
             if admin_port is None:
                 admin_port = 0 if cfg.port == 0 else derive_admin_port(self.ports["command"])
