@@ -7,7 +7,6 @@ import contextlib
 import errno
 import inspect
 import json
-import logging
 import math
 import signal
 import time
@@ -87,12 +86,19 @@ def serve(
                                                  min=0.0)] = 60.0,
     backlog: Annotated[int, typer.Option(help="Listen backlog of every port (bursts of connects).",
                                          min=1)] = 4096,
+    log_file: Annotated[Path | None, typer.Option(help="Write the log to this file instead of stderr.")
+                        ] = None,
+    log_max_bytes: Annotated[int, typer.Option(help="Rotate --log-file at this size, keeping 3 old "
+                                                    "files (0: never).", min=0)] = 0,
+    trace_max_bytes: Annotated[int, typer.Option(help="Rotate --trace to FILE.1 at this size (0: never).",
+                                                 min=0)] = 0,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .server.app import ServerConfig
     from .server.fairness import Limits
+    from .server.logs import configure
 
-    logging.basicConfig(level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    configure(log_level, log_file, log_max_bytes)  # repeated identical lines are held back and counted
     if loop not in ("asyncio", "uvloop"):
         err_console.print("--loop is asyncio or uvloop")
         raise typer.Exit(2)
@@ -105,6 +111,7 @@ def serve(
                        view=view, view_host=view_host, view_port=view_port, stepped=stepped,
                        trace=trace, faults=faults)
     cfg.limits = Limits(max_connections=max_connections, frame_timeout=frame_timeout, backlog=backlog)
+    cfg.trace_max_bytes = trace_max_bytes
     try:
         profile = profile_for(firmware)
     except VersionError as exc:

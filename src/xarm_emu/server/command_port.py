@@ -60,6 +60,11 @@ def set_nodelay(endpoint: Any) -> None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 
 
+def _host_of(peer: str) -> str:
+    """The address part of ``host:port`` (so a flood from one host repeats one log line)."""
+    return peer.rsplit(":", 1)[0] if ":" in peer else peer
+
+
 class ReadCache:
     """Reply frames of :data:`PURE_READS`, reused while the emulator's generation stays the same."""
 
@@ -146,6 +151,7 @@ class CommandProtocol(asyncio.Protocol):
         with contextlib.suppress(AttributeError, ValueError):
             transport.set_write_buffer_limits(high=WRITE_HIGH_WATER)  # type: ignore[attr-defined]
         self.server.command_clients.add(self)
+        log.info("command client connected from %s", _host_of(self.peer))
         self._arm_timer()
         if self.server.trace is not None:
             self.server.trace.event(self.server.emulator.time, self.peer, "connect")
@@ -159,6 +165,7 @@ class CommandProtocol(asyncio.Protocol):
         if self._refused:
             return
         self.server.command_clients.discard(self)
+        log.info("command client from %s left%s", _host_of(self.peer), f" ({exc})" if exc else "")
         if self.server.trace is not None:
             self.server.trace.event(self.server.emulator.time, self.peer, "close")
 

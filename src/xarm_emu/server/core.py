@@ -35,6 +35,7 @@ from .clock import ScaledClock, Ticker
 from .command_port import PURE_READS, CommandProtocol, ReadCache
 from .disk import DiskWorker
 from .fairness import BurstLog, CommandScheduler, Limits
+from .logs import CodeWatch
 from .report_ports import KIND_PORTS, ReportStreams
 from .trace import CommandTrace
 
@@ -59,6 +60,8 @@ class ServerConfig:
     view_port: int = 8080
     #: Append every command-port request and reply to this JSON-lines file (server/trace.py).
     trace: Path | None = None
+    #: Rotate the trace to ``<file>.1`` when it reaches this many bytes (0: never).
+    trace_max_bytes: int = 0
     #: The admin channel's token; ``None``: the per-user token file's (created when missing,
     #: controller/config.py ``load_or_create_admin_token``).
     admin_token: str | None = None
@@ -125,6 +128,7 @@ class EmulatorServer:
         self.scheduler = CommandScheduler()
         self.burst_log = BurstLog(log)
         self.reports.admit = self._admit_report
+        self.code_watch = CodeWatch(log)
 
     @property
     def limits(self) -> Limits:
@@ -290,7 +294,7 @@ class EmulatorServer:
         self._start_disk()
         if cfg.trace is not None and self.trace is None:
             try:
-                self.trace = CommandTrace(cfg.trace, self.disk)
+                self.trace = CommandTrace(cfg.trace, self.disk, max_bytes=cfg.trace_max_bytes)
             except OSError as exc:
                 raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
         self._quiet_accept_errors(loop)
@@ -345,6 +349,8 @@ class EmulatorServer:
         n = self.clock.due(loop.time(), MAX_CATCH_UP)
         if n:
             self.emulator.step(n)
+            ctl = self.emulator.controller
+            self.code_watch.check(ctl.error_code, ctl.warning_code)
         return n
 
     def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "") -> bytes:
@@ -356,6 +362,8 @@ class EmulatorServer:
         else:
             state, reply = emu.handle(register, params)
             frame = encode_reply(tid, protocol, register, state, reply)
+            ctl = emu.controller
+            self.code_watch.check(ctl.error_code, ctl.warning_code)
         if self.trace is not None:
             self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
         return frame

@@ -24,6 +24,7 @@ import contextlib
 import json
 import logging
 import math
+import os
 import time
 from pathlib import Path
 from typing import IO, Any
@@ -64,9 +65,12 @@ class CommandTrace:
     error) stops the trace with one log line naming the cause; the emulator goes on without it.
     """
 
-    def __init__(self, path: Path | str, worker: DiskWorker | None = None) -> None:
+    def __init__(self, path: Path | str, worker: DiskWorker | None = None, max_bytes: int = 0) -> None:
         self.path = Path(path)
         self.worker = worker
+        #: At this size the file is renamed to ``<file>.1`` (replacing an older one) and a new one
+        #: begun; 0: never.
+        self.max_bytes = max_bytes
         self._file: IO[str] | None = open(self.path, "a", encoding="utf-8", buffering=1 << 16)  # noqa: SIM115
         self._lines: list[str] = []
         #: Why the trace stopped (``None`` while it runs), e.g. "disk full (ENOSPC)".
@@ -132,6 +136,11 @@ class CommandTrace:
         try:
             f.write(text)
             f.flush()
+            if self.max_bytes > 0 and f.tell() >= self.max_bytes:
+                f.close()
+                self._file = None
+                os.replace(self.path, self.path.with_name(self.path.name + ".1"))
+                self._file = open(self.path, "a", encoding="utf-8", buffering=1 << 16)  # noqa: SIM115
         except OSError as exc:
             self._stop(exc)
 
