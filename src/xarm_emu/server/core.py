@@ -18,6 +18,7 @@ import concurrent.futures
 import contextlib
 import errno
 import logging
+import socket
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -92,6 +93,25 @@ IDLE_WAKE = 0.02
 MAX_CATCH_UP = 250
 
 
+
+
+def listen_args(host: str, port: int, backlog: int) -> dict[str, Any]:
+    """Keyword arguments of ``create_server``/``start_server`` for one port. ``::`` (or ``[::]``)
+    is dual stack: one IPv6 socket with ``IPV6_V6ONLY`` off, so IPv4 clients reach it too (asyncio
+    alone would listen on IPv6 only); other hosts are bound as given."""
+    if host.strip("[]") == "::" and socket.has_ipv6:
+        sock = socket.socket(socket.AF_INET6, socket.SOCK_STREAM)
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            with contextlib.suppress(OSError, AttributeError):
+                sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 0)
+            sock.bind(("::", port))
+        except OSError:
+            sock.close()
+            raise
+        sock.setblocking(False)
+        return {"sock": sock, "backlog": backlog}
+    return {"host": host, "port": port, "reuse_address": True, "backlog": backlog}
 
 
 class EmulatorServer:
@@ -205,7 +225,8 @@ class EmulatorServer:
         trace = self.trace
         return {"save_error": store.last_save_error if store is not None else None,
                 "trace_stopped": trace.stopped if trace is not None else None,
-                "trace_dropped": trace.dropped if trace is not None else 0}
+                "trace_dropped": trace.dropped if trace is not None else 0,
+                "report_frames_missed": dict(self.reports.frames_missed)}
 
     def _quiet_accept_errors(self, loop: asyncio.AbstractEventLoop) -> None:
         """Out of file descriptors, asyncio stops accepting for a second and resumes; say so once
@@ -299,14 +320,14 @@ class EmulatorServer:
                 raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
         self._quiet_accept_errors(loop)
         backlog = max(1, cfg.limits.backlog)
-        srv = await loop.create_server(lambda: CommandProtocol(self), cfg.host, cfg.port, reuse_address=True,
-                                       backlog=backlog)
+        srv = await loop.create_server(lambda: CommandProtocol(self),
+                                       **listen_args(cfg.host, cfg.port, backlog))
         self._servers.append(srv)
         self.ports["command"] = srv.sockets[0].getsockname()[1]
         report_ports = (("normal", cfg.normal_port), ("rich", cfg.rich_port), ("develop", cfg.develop_port))
         for kind, port in report_ports:
-            s = await asyncio.start_server(self.reports.on_client(kind), cfg.host, port, reuse_address=True,
-                                           backlog=backlog)
+            s = await asyncio.start_server(self.reports.on_client(kind),
+                                           **listen_args(cfg.host, port, backlog))
             self._servers.append(s)
             self.ports[kind] = s.sockets[0].getsockname()[1]
         if cfg.admin:

@@ -1,0 +1,76 @@
+"""Addresses and delivery: ``--host ::`` serves IPv4 and IPv6 clients on one dual-stack socket per
+port; every develop frame that is due (manual 2.1.6, 100 Hz) reaches every reader."""
+
+from __future__ import annotations
+
+import socket
+import struct
+import threading
+import time
+
+import pytest
+
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.protocol.frame import encode_request
+from xarm_emu.server.app import ServerConfig, ServerThread
+
+GET_STATE = 13
+
+
+def _has_ipv6_loopback() -> bool:
+    try:
+        with socket.socket(socket.AF_INET6) as s:
+            s.bind(("::1", 0))
+    except OSError:
+        return False
+    return True
+
+
+def _get_state(host: str, port: int, tid: int) -> int:
+    with socket.create_connection((host, port), timeout=3.0) as s:
+        s.sendall(encode_request(tid, GET_STATE))
+        head = s.recv(6)
+        return int(struct.unpack(">H", head[:2])[0])
+
+
+@pytest.mark.skipif(not _has_ipv6_loopback(), reason="no IPv6 loopback")
+def test_host_double_colon_serves_ipv4_and_ipv6_clients() -> None:
+    cfg = ServerConfig(host="::", port=0, normal_port=0, rich_port=0, develop_port=0)
+    with ServerThread(Emulator(6), cfg) as st:
+        assert _get_state("127.0.0.1", st.ports["command"], 4) == 4
+        assert _get_state("::1", st.ports["command"], 6) == 6
+        for host in ("127.0.0.1", "::1"):
+            with socket.create_connection((host, st.ports["develop"]), timeout=3.0) as r:
+                assert len(r.recv(4)) == 4
+
+
+def _count_frames(port: int, seconds: float, out: list[int], i: int, start: threading.Barrier) -> None:
+    with socket.create_connection(("127.0.0.1", port), timeout=3.0) as s:
+        start.wait(5)
+        end = time.monotonic() + seconds
+        buf = b""
+        got = 0
+        while time.monotonic() < end:
+            buf += s.recv(65536)
+            while len(buf) >= 4 and len(buf) >= struct.unpack(">I", buf[:4])[0]:
+                buf = buf[struct.unpack(">I", buf[:4])[0]:]
+                got += 1
+        out[i] = got
+
+
+def test_ten_develop_readers_each_get_every_due_frame() -> None:
+    cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0)
+    seconds = 3.0
+    with ServerThread(Emulator(6), cfg) as st:
+        got = [0] * 10
+        start = threading.Barrier(10)
+        readers = [threading.Thread(target=_count_frames, args=(st.ports["develop"], seconds, got, i, start))
+                   for i in range(10)]
+        for t in readers:
+            t.start()
+        for t in readers:
+            t.join(10)
+        assert st.server.frames_skipped["develop"] == 0
+        assert st.server.reports.frames_missed["develop"] == 0
+    due = seconds * 100
+    assert min(got) >= due - 2, got  # every due frame, one of slack at each end of the window
