@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: install serve test bench lint clean fuzz
+.PHONY: install serve test bench lint clean fuzz stress
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -28,6 +28,11 @@ FUZZ_SCALE ?= 25
 fuzz: $(STAMP)
 	HYPOTHESIS_PROFILE=explore XARM_EMU_FUZZ_SCALE=$(FUZZ_SCALE) $(PY) -m pytest -q tests/test_controller_fuzz.py \
 		tests/test_protocol_frame.py tests/test_model_rotations.py
+
+# The reliability suite at full length: a one-minute pipelining flood, the ten-minute ten-reader
+# develop soak, plus the bounded floods of `make test` (tests/test_robust_*.py).
+stress: $(STAMP)
+	XARM_EMU_STRESS=1 $(PY) -m pytest -q -p no:randomly tests/test_robust_*.py
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests bench

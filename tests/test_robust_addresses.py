@@ -3,6 +3,7 @@ port; every develop frame that is due (manual 2.1.6, 100 Hz) reaches every reade
 
 from __future__ import annotations
 
+import os
 import socket
 import struct
 import threading
@@ -15,6 +16,8 @@ from xarm_emu.protocol.frame import encode_request
 from xarm_emu.server.app import ServerConfig, ServerThread
 
 GET_STATE = 13
+#: Seconds of the 10-reader soak: short in `make test`, ten minutes in `make stress`.
+SOAK_SECONDS = 600.0 if os.environ.get("XARM_EMU_STRESS") == "1" else 3.0
 
 
 def _has_ipv6_loopback() -> bool:
@@ -60,7 +63,7 @@ def _count_frames(port: int, seconds: float, out: list[int], i: int, start: thre
 
 def test_ten_develop_readers_each_get_every_due_frame() -> None:
     cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0)
-    seconds = 3.0
+    seconds = SOAK_SECONDS
     with ServerThread(Emulator(6), cfg) as st:
         got = [0] * 10
         start = threading.Barrier(10)
@@ -69,8 +72,8 @@ def test_ten_develop_readers_each_get_every_due_frame() -> None:
         for t in readers:
             t.start()
         for t in readers:
-            t.join(10)
+            t.join(seconds + 10)
         assert st.server.frames_skipped["develop"] == 0
         assert st.server.reports.frames_missed["develop"] == 0
     due = seconds * 100
-    assert min(got) >= due - 2, got  # every due frame, one of slack at each end of the window
+    assert min(got) >= min(due - 2, 0.999 * due), got  # every due frame (slack at the ends)
