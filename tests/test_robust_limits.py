@@ -209,3 +209,47 @@ def test_a_second_serve_of_the_same_model_and_directory_refuses_to_start(tmp_pat
     finally:
         first.terminate()
         first.wait(5)
+
+
+def _limit_files_64() -> None:
+    resource.setrlimit(resource.RLIMIT_NOFILE, (64, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="needs /proc (Linux)")
+def test_out_of_file_descriptors_accept_pauses_and_resumes_with_one_log_line(tmp_path: Path) -> None:
+    """A cap above what the open-file limit allows: the process runs out of descriptors; accepting
+    pauses and resumes (no spinning, no traceback per attempt) and serves again once clients leave."""
+    ports = free_ports(4)
+    log_path = tmp_path / "serve.log"
+    with open(log_path, "w") as log_file:
+        proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
+                                 "--config-dir", str(tmp_path), "--log-level", "INFO",
+                                 "--max-connections", "1000"],
+                                stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files_64,
+                                env={**os.environ, "COLUMNS": "500"})
+    try:
+        assert wait_for(lambda: _accepts(ports[3]), 15.0)
+        with contextlib.ExitStack() as stack:
+            flood = []
+            for _ in range(200):
+                s = socket.socket()
+                s.setblocking(False)
+                stack.callback(s.close)
+                with contextlib.suppress(BlockingIOError):
+                    s.connect(("127.0.0.1", ports[0]))
+                flood.append(s)
+            time.sleep(1.0)
+            cpu0 = _cpu_seconds(proc.pid)
+            time.sleep(2.0)
+            cpu = (_cpu_seconds(proc.pid) - cpu0) / 2.0
+        time.sleep(1.5)  # the flood has gone: accepting resumes within its retry delay
+        with _connect(ports[0]) as again:
+            assert _get_state(again, 5) == 5
+    finally:
+        proc.terminate()
+        proc.wait(5)
+    log = log_path.read_text()
+    assert cpu < 0.20, log
+    fds = [line for line in log.splitlines() if "cannot accept connections" in line]
+    assert 1 <= len(fds) <= 3, log
+    assert "Traceback" not in log
