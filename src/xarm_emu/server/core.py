@@ -19,6 +19,7 @@ import contextlib
 import errno
 import logging
 import socket
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -95,23 +96,57 @@ MAX_CATCH_UP = 250
 
 
 
-def listen_args(host: str, port: int, backlog: int) -> dict[str, Any]:
-    """Keyword arguments of ``create_server``/``start_server`` for one port. ``::`` (or ``[::]``)
-    is dual stack: one IPv6 socket with ``IPV6_V6ONLY`` off, so IPv4 clients reach it too (asyncio
-    alone would listen on IPv6 only); other hosts are bound as given."""
-    if host.strip("[]") == "::" and socket.has_ipv6:
-        sock = socket.socket(socket.AF_INET6, socket.SOCK_STREAM)
+class ListenSocket(socket.socket):
+    """A listening socket whose ``accept`` fails once per pause when the process is out of file
+    descriptors. asyncio's accept loop goes on calling ``accept`` up to ``backlog`` times after such
+    a failure, each scheduling another retry; the :class:`BlockingIOError` here ends that loop after
+    the first one, so accepting pauses for asyncio's retry delay (1 s) and resumes, without spinning."""
+
+    _paused_until = 0.0
+
+    def accept(self) -> tuple[socket.socket, Any]:
+        if time.monotonic() < self._paused_until:
+            raise BlockingIOError(errno.EAGAIN, "accepting paused: out of file descriptors")
         try:
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            with contextlib.suppress(OSError, AttributeError):
-                sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 0)
-            sock.bind(("::", port))
-        except OSError:
-            sock.close()
+            return super().accept()
+        except OSError as exc:
+            if exc.errno in OUT_OF_FDS:
+                self._paused_until = time.monotonic() + ACCEPT_PAUSE
             raise
-        sock.setblocking(False)
-        return {"sock": sock, "backlog": backlog}
-    return {"host": host, "port": port, "reuse_address": True, "backlog": backlog}
+
+
+#: accept() errors that mean the process (or system) is out of descriptors or buffers.
+OUT_OF_FDS = frozenset({errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM})
+#: Seconds accept stays paused after running out of descriptors (asyncio retries after 1 s).
+ACCEPT_PAUSE = 0.5
+
+
+def listen_args(host: str, port: int, backlog: int) -> dict[str, Any]:
+    """Keyword arguments of ``create_server``/``start_server`` for one port: a :class:`ListenSocket`
+    bound to ``host`` when that is one address. ``::`` (or ``[::]``) is dual stack: one IPv6 socket
+    with ``IPV6_V6ONLY`` off, so IPv4 clients reach it too (asyncio alone would listen on IPv6
+    only). A name with several addresses is left to asyncio (one socket per address)."""
+    bare = host.strip("[]")
+    try:
+        infos = socket.getaddrinfo(bare or None, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except socket.gaierror:
+        infos = []
+    dual = bare == "::" and socket.has_ipv6
+    if not dual and len({(i[0], i[4][:2]) for i in infos}) != 1:
+        return {"host": host, "port": port, "reuse_address": True, "backlog": backlog}
+    family, addr = (socket.AF_INET6, ("::", port)) if dual else (infos[0][0], infos[0][4])
+    sock = ListenSocket(family, socket.SOCK_STREAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        if family == socket.AF_INET6:
+            with contextlib.suppress(OSError, AttributeError):
+                sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 0 if dual else 1)
+        sock.bind(addr)
+    except OSError:
+        sock.close()
+        raise
+    sock.setblocking(False)
+    return {"sock": sock, "backlog": backlog}
 
 
 class EmulatorServer:
