@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 SERVE_STAMP := $(VENV)/.serve-installed
 STAMP := $(VENV)/.installed
 
-.PHONY: install serve test bench lint clean fuzz image image-test
+.PHONY: install serve test bench lint clean fuzz stress image image-test
 
 $(SERVE_STAMP): pyproject.toml
 	@echo "== make serve: creating $(VENV) and installing what xarm-emu serve needs"
@@ -36,6 +36,11 @@ FUZZ_SCALE ?= 25
 fuzz: $(STAMP)
 	HYPOTHESIS_PROFILE=explore XARM_EMU_FUZZ_SCALE=$(FUZZ_SCALE) $(PY) -m pytest -q tests/test_controller_fuzz.py \
 		tests/test_protocol_frame.py tests/test_model_rotations.py
+
+# The reliability suite at full length: a one-minute pipelining flood, the ten-minute ten-reader
+# develop soak, plus the bounded floods of `make test` (tests/test_robust_*.py).
+stress: $(STAMP)
+	XARM_EMU_STRESS=1 $(PY) -m pytest -q -p no:randomly tests/test_robust_*.py
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests bench examples

@@ -7,7 +7,6 @@ import contextlib
 import errno
 import inspect
 import json
-import logging
 import math
 import signal
 import time
@@ -88,14 +87,31 @@ def serve(
                       ] = None,
     log_json: Annotated[bool, typer.Option("--log-json", help="Log one JSON object per line (time, "
                                                               "level, logger, message).")] = False,
+    max_connections: Annotated[int, typer.Option(help="Connections accepted per port (command and each "
+                                                      "report port); beyond it new ones are closed at once. "
+                                                      "0: what the open-file limit allows, at most 1000.",
+                                                 min=0)] = 0,
+    frame_timeout: Annotated[float, typer.Option(help="Close a command connection whose first or partial "
+                                                      "frame is older than this (seconds; 0: never).",
+                                                 min=0.0)] = 60.0,
+    backlog: Annotated[int, typer.Option(help="Listen backlog of every port (bursts of connects).",
+                                         min=1)] = 4096,
+    log_file: Annotated[Path | None, typer.Option(help="Write the log to this file instead of stderr.")
+                        ] = None,
+    log_max_bytes: Annotated[int, typer.Option(help="Rotate --log-file at this size, keeping 3 old "
+                                                    "files (0: never).", min=0)] = 0,
+    trace_max_bytes: Annotated[int, typer.Option(help="Rotate --trace to FILE.1 at this size (0: never).",
+                                                 min=0)] = 0,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .server.app import ServerConfig
+    from .server.fairness import Limits
+    from .server.logs import configure
 
     _check_serve_options(log_level, host, view_host if view else None, {
         "--port": port, "--normal-port": normal_port, "--rich-port": rich_port,
         "--develop-port": develop_port, "--admin-port": admin_port, "--view-port": view_port})
-    _setup_logging(log_level, log_json)
+    configure(log_level, log_file, log_max_bytes, json_lines=log_json)
     if record is not None and fleet is not None:
         err_console.print("--record: with --fleet, record each arm with `xarm-emu record --port ...`")
         raise typer.Exit(2)
@@ -110,6 +126,8 @@ def serve(
                        develop_port=develop_port, speed=speed, admin=admin, admin_port=admin_port,
                        view=view, view_host=view_host or host, view_port=view_port, stepped=stepped,
                        trace=trace, faults=faults)
+    cfg.limits = Limits(max_connections=max_connections, frame_timeout=frame_timeout, backlog=backlog)
+    cfg.trace_max_bytes = trace_max_bytes
     try:
         profile = profile_for(firmware)
     except VersionError as exc:
@@ -205,25 +223,6 @@ def _check_serve_options(log_level: str, host: str, view_host: str | None,
             _user_error("--view: the 3D view needs viser: pip install 'xarm-emu[view]'")
 
 
-class _JsonFormatter(logging.Formatter):
-    """``--log-json``: one JSON object a line."""
-
-    def format(self, record: logging.LogRecord) -> str:
-        return json.dumps({"time": record.created, "level": record.levelname, "logger": record.name,
-                           "message": record.getMessage()})
-
-
-def _setup_logging(log_level: str, as_json: bool) -> None:
-    """The root logger on stderr, plain or JSON; left alone when something (a test harness) has
-    configured it already, as logging.basicConfig does."""
-    if logging.getLogger().handlers:
-        return
-    handler = logging.StreamHandler()
-    handler.setFormatter(_JsonFormatter() if as_json else
-                         logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
-    logging.basicConfig(level=log_level.upper(), handlers=[handler])
-
-
 def _attach_record(srv: EmulatorServer, path: Path) -> None:
     """``serve --record``: the session goes to a Rerun recording (record.py)."""
     from .record import RecordError, attach_recorder
@@ -280,6 +279,10 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
         arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware), cfg)]
     servers = []
     for emu, arm_cfg in arms:
+        arm_cfg.limits = cfg.limits
+        store = getattr(emu, "_store", None)
+        if store is not None:  # one running box per saved configuration (controller/config.py)
+            store.lock()
         srv = EmulatorServer(emu, arm_cfg)
         schedule_file(srv, arm_cfg.faults)
         attach_viewer(srv)

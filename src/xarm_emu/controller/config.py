@@ -12,20 +12,33 @@ format name, a format version and a SHA-256 checksum of its content, so a torn o
 detected at load. A file that cannot be read or checked is renamed aside to
 ``<name>.corrupt-<UTC timestamp>`` with one message in :attr:`ConfigStore.last_error`, and ``load`` returns
 ``None`` (the emulator then starts with defaults).
+
+One box per file: ``xarm-emu serve`` locks each arm's file (:meth:`ConfigStore.lock`), so a second
+emulator with the same serial number and directory (e.g. two of the same model with default options)
+refuses to start instead of loading and overwriting the first one's settings.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import logging
 import os
 import re
+import secrets
 import tempfile
 import time
+from collections.abc import Callable
+from concurrent.futures import Future
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
+
+try:
+    import fcntl
+except ImportError:  # Windows: no advisory locks, one emulator per directory is up to the user
+    fcntl = None  # type: ignore[assignment]
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +58,56 @@ def default_config_dir() -> Path:
     if xdg and os.path.isabs(xdg):
         return Path(xdg) / APP_DIR_NAME
     return Path.home() / ".config" / APP_DIR_NAME
+
+
+#: File of the admin channel's token in the per-user configuration directory (owner-only permissions);
+#: ``$XARM_EMU_ADMIN_TOKEN_FILE`` names another one for server and clients alike.
+ADMIN_TOKEN_NAME = "admin-token"
+ADMIN_TOKEN_ENV = "XARM_EMU_ADMIN_TOKEN_FILE"
+
+
+def admin_token_path() -> Path:
+    """Where the admin token is: ``$XARM_EMU_ADMIN_TOKEN_FILE``, else ``admin-token`` in
+    :func:`default_config_dir`."""
+    env = os.environ.get(ADMIN_TOKEN_ENV, "")
+    return Path(env) if env else default_config_dir() / ADMIN_TOKEN_NAME
+
+
+def read_admin_token(path: Path | None = None) -> str | None:
+    """The admin token in ``path`` (default :func:`admin_token_path`), or ``None`` without one."""
+    try:
+        text = (path or admin_token_path()).read_text(encoding="ascii").strip()
+    except (OSError, UnicodeDecodeError):
+        return None
+    return text or None
+
+
+def load_or_create_admin_token(path: Path | None = None) -> str:
+    """The admin token in ``path``, created (random, mode 0600, directory 0700) when missing; a
+    token file others can read is made owner-only again with a log line."""
+    path = path or admin_token_path()
+    token = read_admin_token(path)
+    if token is not None:
+        if os.name != "nt" and path.stat().st_mode & 0o077:
+            log.warning("admin token %s was readable by other users; made owner-only", path)
+            os.chmod(path, 0o600)
+        return token
+    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.tmp-", dir=path.parent)  # mode 0600
+    try:
+        with os.fdopen(fd, "w", encoding="ascii") as f:
+            f.write(secrets.token_hex(16) + "\n")
+        try:
+            os.link(tmp, path)  # never replaces a token another server created meanwhile
+        except FileExistsError:
+            pass
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+    token = read_admin_token(path)
+    if token is None:
+        raise OSError(f"cannot read the admin token {path}")
+    return token
 
 
 def file_name_for(robot_sn: str) -> str:
@@ -85,6 +148,10 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+class ConfigLocked(ValueError):
+    """Another running emulator holds this saved configuration (:meth:`ConfigStore.lock`)."""
+
+
 class ConfigStore:
     """The saved configuration of one robot (by serial number) in ``directory``."""
 
@@ -94,6 +161,46 @@ class ConfigStore:
         self.path = self.directory / file_name_for(self.robot_sn)
         #: One human-readable message about the last ``load`` that found an unusable file, else ``None``.
         self.last_error: str | None = None
+        #: When set, :meth:`save` and :meth:`delete` hand their disk work to this function (a disk
+        #: worker's ``submit``) instead of doing it in place; the job's future is :attr:`inflight`.
+        self.writer: Callable[[Callable[[], Any]], Future[Any]] | None = None
+        #: The future of the last job handed to :attr:`writer` (taken by whoever waits for it).
+        self.inflight: Future[Any] | None = None
+        #: Why the last save or delete failed (``None`` after one that succeeded).
+        self.last_save_error: str | None = None
+        self._lock_file: IO[str] | None = None
+
+    # -- one box per file (serve) ---------------------------------------------------------------------
+
+    def lock(self) -> None:
+        """Claim this configuration for this process: an exclusive lock on ``<file>.lock`` (POSIX
+        ``flock``, released when the process ends). Raises :class:`ConfigLocked` when another
+        running emulator holds it, so two boxes never load and save each other's settings."""
+        if fcntl is None or self._lock_file is not None:
+            return
+        self.directory.mkdir(parents=True, exist_ok=True)
+        lock_path = self.path.with_name(self.path.name + ".lock")
+        f = open(lock_path, "a+")  # noqa: SIM115 - held for the life of the process
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.seek(0)
+            holder = f.read().strip() or "another process"
+            f.close()
+            raise ConfigLocked(
+                f"the saved configuration {self.path} is in use by a running emulator (pid {holder}); "
+                f"two boxes with the same serial number must not share it: give this one its own "
+                f"--config-dir (or a fleet file with distinct robot_sn)") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"{os.getpid()}\n")
+        f.flush()
+        self._lock_file = f
+
+    def unlock(self) -> None:
+        f, self._lock_file = self._lock_file, None
+        if f is not None:
+            f.close()
 
     # -- reading ---------------------------------------------------------------------------------------
 
@@ -178,7 +285,16 @@ class ConfigStore:
 
     def save(self, values: dict[str, Any]) -> None:
         """Write ``values`` atomically. Raises ``TypeError``/``ValueError`` for values JSON cannot hold
-        exactly (e.g. NaN) and ``OSError`` when the directory is not writable; the old file then stays."""
+        exactly (e.g. NaN) and ``OSError`` when the directory is not writable; the old file then stays.
+        With a :attr:`writer` the write runs there and its outcome is in :attr:`inflight`."""
+        data = self.encode(values)
+        if self.writer is None:
+            self.write_encoded(data)
+        else:
+            self.inflight = self.writer(lambda: self.write_encoded(data))
+
+    def encode(self, values: dict[str, Any]) -> bytes:
+        """The file's bytes for ``values`` (format name, version, checksum)."""
         if not isinstance(values, dict):
             raise TypeError("configuration values must be a dict")
         body = _canonical(self.robot_sn, values)
@@ -190,26 +306,73 @@ class ConfigStore:
             "sha256": hashlib.sha256(body).hexdigest(),
             "values": values,
         }
-        data = json.dumps(doc, indent=1, sort_keys=True, allow_nan=False).encode("utf-8") + b"\n"
-        self.directory.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f"{self._temp_prefix()}{os.getpid()}-", dir=self.directory)
+        return json.dumps(doc, indent=1, sort_keys=True, allow_nan=False).encode("utf-8") + b"\n"
+
+    def write_encoded(self, data: bytes) -> None:
+        """Replace the file with ``data``: temporary file, fsync, rename, fsync of the directory."""
         try:
-            with os.fdopen(fd, "wb") as f:
-                f.write(data)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, self.path)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
+            self.directory.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=f"{self._temp_prefix()}{os.getpid()}-", dir=self.directory)
+            try:
+                with os.fdopen(fd, "wb") as f:
+                    f.write(data)
+                    f.flush()
+                    os.fsync(f.fileno())
+                os.replace(tmp, self.path)
+            except BaseException:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+                raise
+            _fsync_dir(self.directory)
+        except OSError as exc:
+            self._save_failed("save", exc)
             raise
-        _fsync_dir(self.directory)
+        self.last_save_error = None
+
+    def _save_failed(self, what: str, exc: OSError) -> None:
+        cause = describe_os_error(exc)
+        first = self.last_save_error != cause
+        self.last_save_error = cause
+        if first:  # one line per cause, not one per failed save
+            log.warning("cannot %s the configuration %s: %s; the saved file is unchanged",
+                        what, self.path, cause)
 
     def delete(self) -> bool:
-        """Remove the saved configuration; ``True`` if there was one."""
+        """Remove the saved configuration; ``True`` if there was one (with a :attr:`writer`, the
+        removal runs there and ``True`` means it was asked for)."""
+        if self.writer is not None:
+            self.inflight = self.writer(self._delete)
+            return True
+        return self._delete()
+
+    def _delete(self) -> bool:
         try:
             self.path.unlink()
         except FileNotFoundError:
             return False
+        except OSError as exc:
+            self._save_failed("delete", exc)
+            raise
         _fsync_dir(self.directory)
         return True
+
+
+_CAUSES = {
+    errno.ENOSPC: "disk full",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EROFS: "read-only file system",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "permission denied",
+    errno.EIO: "input/output error",
+    errno.ENOENT: "directory missing",
+}
+
+
+def describe_os_error(exc: BaseException) -> str:
+    """A short cause for a failed write: "disk full (ENOSPC)", "read-only file system (EROFS)", ..."""
+    if isinstance(exc, OSError) and exc.errno is not None:
+        name = errno.errorcode.get(exc.errno, str(exc.errno))
+        cause = _CAUSES.get(exc.errno, exc.strerror or str(exc))
+        where = f": {exc.filename}" if exc.filename else ""
+        return f"{cause} ({name}){where}"
+    return str(exc) or type(exc).__name__

@@ -35,7 +35,8 @@ drop-clients       -                                             close every cli
 clear              -                                             clear all faults and delays
 set-input          kind cgpio/tgpio/analog/tool-analog,          a sensor input
                    index, value
-status             -                                             time, error, warning, delays
+status             -                                             time, error, warning, delays,
+                                                                 why saves or the trace fail
 step               seconds (controller time)                     lockstep (--stepped) only: run them
 checkpoint-save    name                                          keep the emulator's whole state
 checkpoint-restore name                                          back to a kept state
@@ -293,9 +294,13 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
 
         def status() -> str:
             ctl = emu.controller
-            return json.dumps({"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
-                               "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
-                               "reports_paused": server.reports_paused()})
+            out = {"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
+                   "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
+                   "reports_paused": server.reports_paused()}
+            health = getattr(server, "health", None)  # disk and trace state, where the server has it
+            if callable(health):
+                out.update(health())
+            return json.dumps(out)
 
         return status
     if cmd in ("checkpoint-save", "checkpoint-restore", "checkpoint-list"):

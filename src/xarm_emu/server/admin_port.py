@@ -1,15 +1,20 @@
 """The admin channel's socket: moves bytes between a connection and :mod:`.admin`.
 
 Framing is :class:`~xarm_emu.protocol.admin.LineDecoder` (sans-IO); the requests are checked and
-carried out by :func:`.admin.execute`. Loopback peers only (:func:`~xarm_emu.protocol.admin.is_loopback`).
+carried out by :func:`.admin.execute`. Loopback peers only (:func:`~xarm_emu.protocol.admin.is_loopback`),
+and every request carries the admin token (``"token"``, the file of
+:func:`~xarm_emu.controller.config.admin_token_path`, owner-only), so another local user cannot inject
+faults.
 """
 
 from __future__ import annotations
 
 import asyncio
+import hmac
 import logging
 from typing import Any, Protocol
 
+from ..controller.config import admin_token_path
 from ..protocol.admin import LineDecoder, LineTooLong, encode_answer, is_loopback, ok, refused
 from .admin import AdminError, AdminTarget, execute
 
@@ -20,6 +25,8 @@ class AdminHost(AdminTarget, Protocol):
     """An admin target that also keeps its admin connections and its clock up to date."""
 
     admin_clients: set[AdminProtocol]
+    #: Every request must carry it (``"token"``); ``None``: none required.
+    admin_token: str | None
 
     def catch_up(self) -> int: ...
 
@@ -60,6 +67,15 @@ class AdminProtocol(asyncio.Protocol):
 
     def handle(self, request: dict[str, Any]) -> dict[str, Any]:
         """The answer to one request object."""
+        expected = getattr(self.server, "admin_token", None)  # a host without one requires none
+        if expected is not None:
+            token = request.pop("token", None)
+            if not isinstance(token, str) or not hmac.compare_digest(token, expected):
+                log.warning("admin: refused a request without the right token (%s)", request.get("cmd"))
+                return refused(f"refused: {'wrong' if token else 'no'} admin token; clients read it from "
+                               f"{admin_token_path()} (readable by the emulator's user only)")
+        else:
+            request.pop("token", None)
         self.server.catch_up()  # the fault lands after every control period that has elapsed
         try:
             message = execute(self.server, request)

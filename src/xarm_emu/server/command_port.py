@@ -15,10 +15,12 @@ connection that does not read them gets none (dropped and counted). Decoding is
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import itertools
 import logging
 import socket
+from collections import deque
 from typing import Any, Protocol
 
 from ..controller.emulator import Emulator
@@ -33,6 +35,15 @@ from ..protocol.frame import (
     FrameError,
     encode_reply,
 )
+from .fairness import (
+    COMMAND_SNDBUF,
+    DECODE_SLICE,
+    MAX_INBOX,
+    WRITE_HIGH_WATER,
+    BurstLog,
+    CommandScheduler,
+    Limits,
+)
 from .trace import CommandTrace
 
 log = logging.getLogger("xarm_emu.server")
@@ -45,6 +56,10 @@ FEEDBACK_SLOW_BYTES = 16 * 1024
 #: version, serial number, state, cmdnum, error/warning, TCP pose, joints). Between two control steps,
 #: and until any other command or injection, their answer cannot change, so it is computed once.
 PURE_READS = frozenset({1, 2, 13, 14, 15, 41, 42})
+#: Registers whose work reaches the disk (39 delete and 40 save the configuration, manual 2.1.3):
+#: their reply goes out when the server's disk worker is done, and the connection's later requests
+#: wait behind it; other connections are not held.
+DISK_REGISTERS = frozenset({39, 40})
 
 
 def set_nodelay(endpoint: Any) -> None:
@@ -53,6 +68,11 @@ def set_nodelay(endpoint: Any) -> None:
     if sock is not None:
         with contextlib.suppress(OSError):
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+
+
+def _host_of(peer: str) -> str:
+    """The address part of ``host:port`` (so a flood from one host repeats one log line)."""
+    return peer.rsplit(":", 1)[0] if ":" in peer else peer
 
 
 class ReadCache:
@@ -79,6 +99,11 @@ class CommandTarget(Protocol):
     emulator: Emulator
     trace: CommandTrace | None
     command_clients: set[CommandProtocol]
+    scheduler: CommandScheduler
+    burst_log: BurstLog
+
+    @property
+    def limits(self) -> Limits: ...
 
     @property
     def reply_delay(self) -> float: ...
@@ -90,12 +115,25 @@ class CommandTarget(Protocol):
 
     def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
 
+    def disk_job(self) -> concurrent.futures.Future[Any] | None: ...
+
+    def answer_after_disk(self, frame: bytes,
+                          job: concurrent.futures.Future[Any]) -> asyncio.Future[bytes]: ...
+
 
 _client_ids = itertools.count(1)
 
 
 class CommandProtocol(asyncio.Protocol):
-    """One command-port connection; sans-IO decoding, controller calls in the loop thread."""
+    """One command-port connection; sans-IO decoding, controller calls in the loop thread.
+
+    A read holding exactly one frame, on a connection with nothing waiting, is answered at once;
+    otherwise the requests wait in :attr:`pending` and the server's
+    :class:`~xarm_emu.server.fairness.CommandScheduler` answers them round-robin with the other
+    connections'. Reading stops while :data:`~xarm_emu.server.fairness.MAX_PENDING` requests wait or
+    the peer leaves its replies unread (write buffer above the high-water mark), and resumes when
+    both have drained: a client that floods the port costs only itself.
+    """
 
     def __init__(self, server: CommandTarget) -> None:
         self.server = server
@@ -106,57 +144,224 @@ class CommandProtocol(asyncio.Protocol):
         self.client_id = next(_client_ids)
         self.feedback_sent = 0
         self.feedback_dropped = 0
+        #: Requests read but not answered yet, in order (protocol, tid, register/unit, params).
+        self.pending: deque[tuple[int, int, int, bytes]] = deque()
+        #: Bytes read but not decoded yet (at most about :data:`MAX_INBOX` before reading stops).
+        self.inbox = bytearray()
+        self.queued = False  # in the scheduler's ready queue
+        self._write_paused = False
+        self._read_paused = False
+        self._refused = False
+        self._partial_since: float | None = None
+        self._timer: asyncio.TimerHandle | None = None
+        #: The reply of a save/delete waiting for the disk (DISK_REGISTERS); later requests wait.
+        self._waiting: asyncio.Future[bytes] | None = None
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         self.transport = transport  # type: ignore[assignment]  # uvloop's transports are not subclasses
-        set_nodelay(transport)
         peer = transport.get_extra_info("peername")
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) and len(peer) >= 2 else str(peer)
+        if not self._admit(transport):
+            return
+        set_nodelay(transport)
+        sock = transport.get_extra_info("socket")
+        if sock is not None:  # a fixed kernel buffer: unread replies stop the reading early
+            with contextlib.suppress(OSError):
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, COMMAND_SNDBUF)
+        with contextlib.suppress(AttributeError, ValueError):
+            transport.set_write_buffer_limits(high=WRITE_HIGH_WATER)  # type: ignore[attr-defined]
         self.server.command_clients.add(self)
+        log.info("command client connected from %s", _host_of(self.peer))
+        self._arm_timer()
         if self.server.trace is not None:
             self.server.trace.event(self.server.emulator.time, self.peer, "connect")
 
     def connection_lost(self, exc: Exception | None) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        self.pending.clear()
+        self.inbox.clear()
+        if self._refused:
+            return
         self.server.command_clients.discard(self)
         self.server.command_closed(self.client_id)
+        log.info("command client from %s left%s", _host_of(self.peer), f" ({exc})" if exc else "")
         if self.server.trace is not None:
             self.server.trace.event(self.server.emulator.time, self.peer, "close")
 
+    # -- bounds (fairness.Limits) -------------------------------------------------------------------
+    def _admit(self, transport: asyncio.BaseTransport) -> bool:
+        """Refuse the connection (close it at once) when the port already has its cap of clients."""
+        cap = self.server.limits.cap()
+        if len(self.server.command_clients) < cap:
+            return True
+        self._refused = True
+        self.server.burst_log.event("cap-command", "command port: %d connections (the cap), refusing new "
+                                    "ones (serve --max-connections)", cap)
+        transport.close()
+        return False
+
+    def _arm_timer(self) -> None:
+        timeout = self.server.limits.frame_timeout
+        if timeout > 0:
+            self._partial_since = asyncio.get_running_loop().time()
+            self._timer = asyncio.get_running_loop().call_later(timeout, self._check_partial)
+
+    def _check_partial(self) -> None:
+        """Close a connection whose first or partial frame is older than the frame timeout."""
+        self._timer = None
+        transport = self.transport
+        if transport is None or transport.is_closing():
+            return
+        since = self._partial_since
+        loop = asyncio.get_running_loop()
+        timeout = self.server.limits.frame_timeout
+        if since is None:
+            return
+        age = loop.time() - since
+        if age >= timeout:
+            self.server.burst_log.event("frame-timeout", "closing command connection %s: no complete "
+                                        "frame for %.0f s (serve --frame-timeout)", self.peer, age,
+                                        level=logging.INFO)
+            transport.close()
+            return
+        self._timer = loop.call_later(timeout - age, self._check_partial)
+
+    def _track_partial(self) -> None:
+        """Note when the buffered partial frame began (``None`` once whole frames are decoded)."""
+        if self.decoder.pending:
+            if self._partial_since is None:
+                self._partial_since = asyncio.get_running_loop().time()
+                if self._timer is None and self.server.limits.frame_timeout > 0:
+                    self._timer = asyncio.get_running_loop().call_later(
+                        self.server.limits.frame_timeout, self._check_partial)
+        else:
+            self._partial_since = None
+
+    # -- flow control -------------------------------------------------------------------------------
+    def pause_writing(self) -> None:
+        """The peer leaves its replies unread: stop reading its requests."""
+        self._write_paused = True
+        self._update_reading()
+
+    def resume_writing(self) -> None:
+        self._write_paused = False
+        self._update_reading()
+        if self.pending or self.inbox:
+            self.server.scheduler.wake(self)
+
+    def _update_reading(self) -> None:
+        transport = self.transport
+        if transport is None or transport.is_closing():
+            return
+        stop = self._write_paused or len(self.inbox) >= MAX_INBOX
+        if stop and not self._read_paused:
+            self._read_paused = True
+            transport.pause_reading()
+        elif not stop and self._read_paused:
+            self._read_paused = False
+            transport.resume_reading()
+
+    def has_work(self) -> bool:
+        transport = self.transport
+        return bool(self.pending or self.inbox) and not self._write_paused and self._waiting is None \
+            and transport is not None and not transport.is_closing()
+
+    # -- requests -----------------------------------------------------------------------------------
     def data_received(self, data: bytes) -> None:
         transport = self.transport
         if transport is None or transport.is_closing():
             return
         # Fast path: the usual case, exactly one whole private-protocol frame in this read.
         n = len(data)
-        if n > HEADER_SIZE and not self.decoder.pending:
+        if n > HEADER_SIZE and not self.decoder.pending and not self.inbox and not self.pending \
+                and self._waiting is None:
             tid, prot, length = HEADER.unpack_from(data)
-            if length + HEADER_SIZE == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS:
+            if length + HEADER_SIZE == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS \
+                    and data[6] not in DISK_REGISTERS:
+                self._partial_since = None
                 self._reply(transport, self.server.answer(tid, prot, data[6], data[7:], self.peer,
                                                           self.client_id))
                 return
+        # Otherwise the bytes wait and are decoded a slice at a time as the scheduler serves them,
+        # so one large read never holds the loop.
+        self.inbox += data
+        self._update_reading()
+        self.server.scheduler.wake(self)
+
+    def _decode_slice(self) -> bool:
+        """Decode the next :data:`DECODE_SLICE` bytes of :attr:`inbox` into :attr:`pending`;
+        ``False`` when the bytes cannot be framed (the connection is then closed)."""
+        chunk = bytes(self.inbox[:DECODE_SLICE])
+        del self.inbox[:DECODE_SLICE]
         try:
-            frames = self.decoder.feed(data)
+            frames = self.decoder.feed(chunk)
         except FrameError as exc:
             log.info("closing command connection: %s", exc)
-            transport.close()
-            return
+            self.inbox.clear()
+            self.pending.clear()
+            if self.transport is not None:
+                self.transport.close()
+            return False
+        for req in frames:
+            self.pending.append((req.protocol, req.tid, req.register, req.params))  # type: ignore[union-attr]
+        self._track_partial()
+        return True
+
+    def serve(self, batch: int) -> int:
+        """Answer up to ``batch`` waiting requests in one write; returns how many were taken."""
+        transport = self.transport
+        pending = self.pending
+        if transport is None or transport.is_closing():
+            pending.clear()
+            self.inbox.clear()
+            return 0
         answer = self.server.answer
         out = []
-        for req in frames:
-            prot = req.protocol  # type: ignore[union-attr]
+        taken = 0
+        while taken < batch:
+            if not pending:
+                if not self.inbox or not self._decode_slice():
+                    break
+                continue
+            prot, tid, register, params = pending.popleft()
+            taken += 1
             if prot in PRIVATE_PROTOCOLS:
-                out.append(answer(req.tid, prot, req.register, req.params, self.peer,  # type: ignore[union-attr]
-                                  self.client_id))
+                frame = answer(tid, prot, register, params, self.peer, self.client_id)
+                job = self.server.disk_job() if register in DISK_REGISTERS else None
+                if job is not None:  # this reply when the disk is done; the replies before it now
+                    self._waiting = self.server.answer_after_disk(frame, job)
+                    self._waiting.add_done_callback(self._disk_done)
+                    break
+                out.append(frame)
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
-                out.append(self.server.answer_modbus(req.tid, req.register, req.params))  # type: ignore[union-attr]
+                out.append(self.server.answer_modbus(tid, register, params))
             else:
                 log.info("closing command connection: unknown protocol id %d", prot)
+                pending.clear()
+                self.inbox.clear()
                 transport.close()
-                return
+                return taken
+        if transport.is_closing():
+            return taken
         if out:
             self._reply(transport, out[0] if len(out) == 1 else b"".join(out))
+        self._update_reading()
+        return taken
+
+    def _disk_done(self, fut: asyncio.Future[bytes]) -> None:
+        """The disk has answered a save/delete: its reply goes out and the connection goes on."""
+        self._waiting = None
+        transport = self.transport
+        if transport is None or transport.is_closing() or fut.cancelled():
+            return
+        self._reply(transport, fut.result())
+        self._update_reading()
+        if self.pending or self.inbox:
+            self.server.scheduler.wake(self)
 
     def _reply(self, transport: asyncio.Transport, payload: bytes) -> None:
         """One write per read, now or after the injected reply delay."""

@@ -17,15 +17,20 @@ Extras beside the server (the 3D view) are attached by the code that composes it
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
+import errno
 import logging
+import socket
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
 from ..controller import modbus_map
-from ..controller.base import PERIOD
+from ..controller.base import PERIOD, WARN_PARAMETER
+from ..controller.config import ConfigStore, load_or_create_admin_token
 from ..controller.emulator import Emulator
 from ..controller.feedback import FeedbackQueue, feedback_queue
 from ..protocol import reports
@@ -34,6 +39,9 @@ from ..protocol.frame import COMMAND_PORT, encode_reply
 from .admin_port import AdminProtocol
 from .clock import ScaledClock, Ticker
 from .command_port import PURE_READS, CommandProtocol, ReadCache
+from .disk import DiskWorker
+from .fairness import BurstLog, CommandScheduler, Limits
+from .logs import CodeWatch
 from .report_ports import ALL_KIND_PORTS, REALTIME_KIND, ReportStreams, firmware2_fields
 from .trace import CommandTrace
 
@@ -67,12 +75,19 @@ class ServerConfig:
     view_port: int = 8080
     #: Append every command-port request and reply to this JSON-lines file (server/trace.py).
     trace: Path | None = None
+    #: Rotate the trace to ``<file>.1`` when it reaches this many bytes (0: never).
+    trace_max_bytes: int = 0
+    #: The admin channel's token; ``None``: the per-user token file's (created when missing,
+    #: controller/config.py ``load_or_create_admin_token``).
+    admin_token: str | None = None
     #: Faults and inputs at given controller times, from this TOML file (server/faults.py); read by
     #: the code that composes the server (faults.schedule_file), not by the server.
     faults: Path | None = None
     report_rates: dict[str, float] = field(default_factory=lambda: {
         "develop": reports.DEVELOP_RATE, "normal": reports.NORMAL_RATE, "rich": reports.RICH_RATE,
         REALTIME_KIND: reports.REALTIME_RATE})
+    #: Connection caps, the partial-frame timeout and the listen backlog (server/fairness.py).
+    limits: Limits = field(default_factory=Limits)
 
 
 class Attachment(Protocol):
@@ -93,6 +108,59 @@ IDLE_WAKE = 0.02
 MAX_CATCH_UP = 250
 
 
+
+
+class ListenSocket(socket.socket):
+    """A listening socket whose ``accept`` fails once per pause when the process is out of file
+    descriptors. asyncio's accept loop goes on calling ``accept`` up to ``backlog`` times after such
+    a failure, each scheduling another retry; the :class:`BlockingIOError` here ends that loop after
+    the first one, so accepting pauses for asyncio's retry delay (1 s) and resumes, without spinning."""
+
+    _paused_until = 0.0
+
+    def accept(self) -> tuple[socket.socket, Any]:
+        if time.monotonic() < self._paused_until:
+            raise BlockingIOError(errno.EAGAIN, "accepting paused: out of file descriptors")
+        try:
+            return super().accept()
+        except OSError as exc:
+            if exc.errno in OUT_OF_FDS:
+                self._paused_until = time.monotonic() + ACCEPT_PAUSE
+            raise
+
+
+#: accept() errors that mean the process (or system) is out of descriptors or buffers.
+OUT_OF_FDS = frozenset({errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM})
+#: Seconds accept stays paused after running out of descriptors (asyncio retries after 1 s).
+ACCEPT_PAUSE = 0.5
+
+
+def listen_args(host: str, port: int, backlog: int) -> dict[str, Any]:
+    """Keyword arguments of ``create_server``/``start_server`` for one port: a :class:`ListenSocket`
+    bound to ``host`` when that is one address. ``::`` (or ``[::]``) is dual stack: one IPv6 socket
+    with ``IPV6_V6ONLY`` off, so IPv4 clients reach it too (asyncio alone would listen on IPv6
+    only). A name with several addresses is left to asyncio (one socket per address)."""
+    bare = host.strip("[]")
+    try:
+        infos = socket.getaddrinfo(bare or None, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except socket.gaierror:
+        infos = []
+    dual = bare == "::" and socket.has_ipv6
+    if not dual and len({(i[0], i[4][:2]) for i in infos}) != 1:
+        return {"host": host, "port": port, "reuse_address": True, "backlog": backlog}
+    family, addr = (socket.AF_INET6, ("::", port)) if dual else (infos[0][0], infos[0][4])
+    sock = ListenSocket(family, socket.SOCK_STREAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        if family == socket.AF_INET6:
+            with contextlib.suppress(OSError, AttributeError):
+                sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 0 if dual else 1)
+        sock.bind(addr)
+    except OSError:
+        sock.close()
+        raise
+    sock.setblocking(False)
+    return {"sock": sock, "backlog": backlog}
 
 
 class EmulatorServer:
@@ -129,8 +197,115 @@ class EmulatorServer:
         self.attachments: dict[str, Attachment] = {}
         self.trace: CommandTrace | None = None  # opened by start() when ``config.trace`` is set
         self.admin_clients: set[AdminProtocol] = set()
+        self.admin_token: str | None = None  # set by start() with the admin channel
         #: Named checkpoints of the emulator (admin ``checkpoint-save``), in memory only.
         self.checkpoints: dict[str, object] = {}
+        self._init_bounds()
+        self.disk: DiskWorker | None = None  # started by start(): saves and the trace write through it
+
+    # -- bounds and fairness (server/fairness.py) ----------------------------------------------------
+    def _init_bounds(self) -> None:
+        self.scheduler = CommandScheduler()
+        self.burst_log = BurstLog(log)
+        self.reports.admit = self._admit_report
+        self.code_watch = CodeWatch(log)
+
+    @property
+    def limits(self) -> Limits:
+        return self.config.limits
+
+    def _admit_report(self, kind: str) -> bool:
+        """Whether a new ``kind`` report client may stay (under the per-port cap)."""
+        cap = self.limits.cap()
+        if len(self.reports.clients[kind]) < cap:
+            return True
+        self.burst_log.event(f"cap-{kind}", "%s report port: %d connections (the cap), refusing new ones "
+                             "(serve --max-connections)", kind, cap)
+        return False
+
+    # -- disk work off the loop (server/disk.py) -----------------------------------------------------
+    def _start_disk(self) -> None:
+        """The disk worker; the trace and the saved configuration write through it."""
+        if self.disk is None:
+            self.disk = DiskWorker()
+        store = self.config_store()
+        if store is not None:
+            store.writer = self.disk.submit
+
+    def _stop_disk(self) -> None:
+        store = self.config_store()
+        if store is not None:
+            store.writer = None
+        if self.disk is not None:
+            self.disk.close()
+            self.disk = None
+
+    def config_store(self) -> ConfigStore | None:
+        """The emulator's saved-configuration store (registers 39/40), if it has one."""
+        store = getattr(self.emulator, "_store", None)
+        return store if isinstance(store, ConfigStore) else None
+
+    def disk_job(self) -> concurrent.futures.Future[Any] | None:
+        """The disk job the last command handed to the worker (a save or delete), taken."""
+        store = self.config_store()
+        if store is None or store.inflight is None:
+            return None
+        job, store.inflight = store.inflight, None
+        return job
+
+    def answer_after_disk(self, frame: bytes, job: concurrent.futures.Future[Any]) -> asyncio.Future[bytes]:
+        """``frame`` once ``job`` is done; when the job failed, the reply a failed save gets
+        (warning 12, manual 2.1.3 state byte) with the cause in the log and ``status``."""
+        loop = asyncio.get_running_loop()
+        fut: asyncio.Future[bytes] = loop.create_future()
+
+        def landed(j: concurrent.futures.Future[Any]) -> None:  # on the worker thread
+            with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
+                loop.call_soon_threadsafe(self._disk_answered, fut, frame, j)
+
+        job.add_done_callback(landed)
+        return fut
+
+    def _disk_answered(self, fut: asyncio.Future[bytes], frame: bytes,
+                       job: concurrent.futures.Future[Any]) -> None:
+        if fut.done():
+            return
+        if job.exception() is not None and len(frame) > 7:
+            self.catch_up()
+            ctl = self.emulator.controller
+            ctl.raise_warning(WARN_PARAMETER)
+            self.emulator.touch()
+            frame = frame[:7] + bytes([ctl.status_byte()]) + frame[8:]
+        fut.set_result(frame)
+
+    def health(self) -> dict[str, Any]:
+        """What the admin ``status`` adds: why the last save failed and why the trace stopped
+        (``None`` when they did not), the trace lines lost."""
+        store = self.config_store()
+        trace = self.trace
+        return {"save_error": store.last_save_error if store is not None else None,
+                "trace_stopped": trace.stopped if trace is not None else None,
+                "trace_dropped": trace.dropped if trace is not None else 0,
+                "report_frames_missed": dict(self.reports.frames_missed)}
+
+    def _quiet_accept_errors(self, loop: asyncio.AbstractEventLoop) -> None:
+        """Out of file descriptors, asyncio stops accepting for a second and resumes; say so once
+        per burst, without a traceback per attempt (unless the loop already has a handler)."""
+        if loop.get_exception_handler() is not None:
+            return
+        burst = self.burst_log
+
+        def handler(lp: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+            exc = context.get("exception")
+            if isinstance(exc, OSError) and exc.errno in (errno.EMFILE, errno.ENFILE, errno.ENOBUFS,
+                                                          errno.ENOMEM):
+                burst.event("accept-fds", "cannot accept connections: %s; accepting pauses and resumes "
+                            "(lower serve --max-connections or raise the open-file limit)",
+                            exc.strerror or exc)
+                return
+            lp.default_exception_handler(context)
+
+        loop.set_exception_handler(handler)
 
     # -- what the admin channel needs (server/admin.py AdminTarget) ---------------------------------
     @property
@@ -200,12 +375,16 @@ class EmulatorServer:
         cfg = self.config
         if cfg.stepped and not cfg.admin:
             raise ValueError("lockstep (stepped) time is driven through the admin channel: add --admin")
+        self._start_disk()
         if cfg.trace is not None and self.trace is None:
             try:
-                self.trace = CommandTrace(cfg.trace)
+                self.trace = CommandTrace(cfg.trace, self.disk, max_bytes=cfg.trace_max_bytes)
             except OSError as exc:
                 raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
-        srv = await loop.create_server(lambda: CommandProtocol(self), cfg.host, cfg.port, reuse_address=True)
+        self._quiet_accept_errors(loop)
+        backlog = max(1, cfg.limits.backlog)
+        srv = await loop.create_server(lambda: CommandProtocol(self),
+                                       **listen_args(cfg.host, cfg.port, backlog))
         self._servers.append(srv)
         self.ports["command"] = srv.sockets[0].getsockname()[1]
         report_ports = (("normal", cfg.normal_port), ("rich", cfg.rich_port), ("develop", cfg.develop_port),
@@ -213,10 +392,15 @@ class EmulatorServer:
         for kind, port in report_ports:
             if kind not in self.reports.kinds:
                 continue
-            s = await asyncio.start_server(self.reports.on_client(kind), cfg.host, port, reuse_address=True)
+            s = await asyncio.start_server(self.reports.on_client(kind),
+                                           **listen_args(cfg.host, port, backlog))
             self._servers.append(s)
             self.ports[kind] = s.sockets[0].getsockname()[1]
         if cfg.admin:
+            try:
+                self.admin_token = cfg.admin_token or load_or_create_admin_token()
+            except OSError as exc:
+                raise ValueError(f"cannot create the admin token: {exc}") from None
             admin_port = cfg.admin_port
             if admin_port is None:
                 admin_port = 0 if cfg.port == 0 else derive_admin_port(self.ports["command"])
@@ -254,6 +438,8 @@ class EmulatorServer:
             self.emulator.step(n)
             if self.feedback is not None and self.feedback.pending:
                 self.deliver_feedback()
+            ctl = self.emulator.controller
+            self.code_watch.check(ctl.error_code, ctl.warning_code)
         return n
 
     def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "",
@@ -269,6 +455,8 @@ class EmulatorServer:
         else:
             state, reply = emu.handle(register, params)
             frame = encode_reply(tid, protocol, register, state, reply)
+            ctl = emu.controller
+            self.code_watch.check(ctl.error_code, ctl.warning_code)
         if self.trace is not None:
             self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
         return frame
@@ -402,6 +590,7 @@ class EmulatorServer:
         if self.trace is not None:
             self.trace.close()
             self.trace = None
+        self._stop_disk()
         self._stopped.set()
 
     async def serve_forever(self) -> None:

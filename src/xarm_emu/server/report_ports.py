@@ -29,6 +29,10 @@ SLOW_READER_BYTES = 16 * 1024
 #: when it resumes instead of megabytes of old ones (about 4 s of develop frames).
 REPORT_SNDBUF = 32 * 1024
 
+#: A stream this many periods behind its schedule or less sends the due frames at once; further
+#: behind, it re-anchors and counts the frames it missed (``ReportStreams.frames_missed``).
+LATE_FRAMES = 10
+
 #: Report kind -> its standard port, the key of ``reports.ENCODERS`` (section 2.1.6).
 KIND_PORTS = {"normal": reports.NORMAL_PORT, "rich": reports.RICH_PORT, "develop": reports.DEVELOP_PORT}
 #: The real-time report of firmware >= 2.1.0 (port 30000), beside :data:`KIND_PORTS`.
@@ -98,13 +102,21 @@ class ReportStreams:
         self._has_clients: dict[str, asyncio.Event] = {k: asyncio.Event() for k in self.kinds}
         self.frames_sent: dict[str, int] = {k: 0 for k in self.kinds}
         self.frames_skipped: dict[str, int] = {k: 0 for k in self.kinds}  # per slow client and frame
+        #: Due frames never sent because the stream fell more than LATE_FRAMES periods behind (the
+        #: process was suspended or starved of CPU); counted, not sent late.
+        self.frames_missed: dict[str, int] = {k: 0 for k in self.kinds}
         # Set to a dict to record each report frame's send time (time.perf_counter(); benchmarks).
         self.frame_times: dict[str, list[float]] | None = None
         self.client_tasks: set[asyncio.Task[None]] = set()
+        #: Whether a new client of a kind may stay (the server's per-port cap); ``None``: always.
+        self.admit: Callable[[str], bool] | None = None
 
     def on_client(self, kind: str) -> Callable[[asyncio.StreamReader, asyncio.StreamWriter], Awaitable[None]]:
         """The ``asyncio.start_server`` callback of the ``kind`` port."""
         async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            if self.admit is not None and not self.admit(kind):
+                writer.close()
+                return
             set_nodelay(writer)
             sock = writer.get_extra_info("socket")
             if sock is not None:
@@ -142,8 +154,12 @@ class ReportStreams:
                 next_t = time.perf_counter()
             next_t += interval
             now = time.perf_counter()
-            if next_t < now - interval:  # fell far behind (suspended process): re-anchor
+            if next_t < now - LATE_FRAMES * interval:  # fell far behind (suspended process): re-anchor
+                missed = int((now - next_t) / interval)
+                self.frames_missed[kind] += missed
                 next_t = now + interval
+            # A tick that is late by fewer than LATE_FRAMES periods is sent at once: every due frame
+            # goes out, the late ones back to back.
             if ticker is not None:
                 await ticker.wait_until(next_t)
             else:

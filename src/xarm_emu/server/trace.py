@@ -14,18 +14,29 @@ One JSON object per line, appended to ``FILE``:
 ``t`` is controller time in seconds (the clock the motion runs on, scaled or stepped), ``wall`` the
 Unix time. Lines are buffered and written at least every control-loop wake-up (20 ms) and on close,
 so a trace read while the emulator runs may lag by that much; a killed emulator loses at most that.
+The writes run on the server's disk worker; a write that fails stops the trace with one log line
+(the cause: disk full, read-only, ...) and the emulator goes on.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import math
+import os
 import time
 from pathlib import Path
 from typing import IO, Any
 
 from ..protocol import registers as regs
 from ..protocol.layouts import LayoutError
+from .disk import DiskBusy, DiskWorker, describe_os_error
+
+log = logging.getLogger("xarm_emu.server")
+
+#: Lines collected between two flushes beyond which new ones are dropped (and counted).
+MAX_BUFFERED_LINES = 100_000
 
 
 def _json_value(v: Any) -> Any:
@@ -46,15 +57,35 @@ def _plain(values: dict[str, Any]) -> dict[str, Any]:
 
 
 class CommandTrace:
-    """Appends trace lines to a file (module docstring)."""
+    """Appends trace lines to a file (module docstring).
 
-    def __init__(self, path: Path | str) -> None:
+    Lines are collected in the loop and handed to ``worker`` (the server's
+    :class:`~xarm_emu.server.disk.DiskWorker`) at each :meth:`flush`, so the disk never holds the loop;
+    without a worker they are written in place. A write that fails (disk full, read-only, I/O
+    error) stops the trace with one log line naming the cause; the emulator goes on without it.
+    """
+
+    def __init__(self, path: Path | str, worker: DiskWorker | None = None, max_bytes: int = 0) -> None:
         self.path = Path(path)
+        self.worker = worker
+        #: At this size the file is renamed to ``<file>.1`` (replacing an older one) and a new one
+        #: begun; 0: never.
+        self.max_bytes = max_bytes
         self._file: IO[str] | None = open(self.path, "a", encoding="utf-8", buffering=1 << 16)  # noqa: SIM115
+        self._lines: list[str] = []
+        #: Why the trace stopped (``None`` while it runs), e.g. "disk full (ENOSPC)".
+        self.stopped: str | None = None
+        #: Lines lost to a full disk queue or after the trace stopped.
+        self.dropped = 0
 
     def _write(self, record: dict[str, Any]) -> None:
-        if self._file is not None:
-            self._file.write(json.dumps(record, allow_nan=False) + "\n")  # strict JSON: _json_value
+        if self.stopped is not None:
+            self.dropped += 1
+            return
+        if len(self._lines) >= MAX_BUFFERED_LINES:
+            self.dropped += 1
+            return
+        self._lines.append(json.dumps(record, allow_nan=False) + "\n")  # strict JSON: _json_value
 
     def event(self, t: float, peer: str, what: str) -> None:
         self._write({"event": what, "t": round(t, 6), "wall": time.time(), "peer": peer})
@@ -83,10 +114,62 @@ class CommandTrace:
         self._write(record)
 
     def flush(self) -> None:
-        if self._file is not None:
-            self._file.flush()
+        """Hand the collected lines to the disk (the worker, else in place)."""
+        if not self._lines or self.stopped is not None:
+            return
+        text = "".join(self._lines)
+        n = len(self._lines)
+        self._lines = []
+        if self.worker is None:
+            self._append(text)
+            return
+        try:
+            self.worker.submit(lambda: self._append(text))
+        except DiskBusy:
+            self.dropped += n
+
+    def _append(self, text: str) -> None:
+        """Write and flush ``text`` (on the worker); a failure stops the trace."""
+        f = self._file
+        if f is None or self.stopped is not None:
+            return
+        try:
+            f.write(text)
+            f.flush()
+            if self.max_bytes > 0 and f.tell() >= self.max_bytes:
+                f.close()
+                self._file = None
+                os.replace(self.path, self.path.with_name(self.path.name + ".1"))
+                self._file = open(self.path, "a", encoding="utf-8", buffering=1 << 16)  # noqa: SIM115
+        except OSError as exc:
+            self._stop(exc)
+
+    def _stop(self, exc: OSError) -> None:
+        self.stopped = describe_os_error(exc)
+        log.warning("trace %s stopped: %s; the emulator goes on without it", self.path, self.stopped)
+        f, self._file = self._file, None
+        if f is not None:
+            with contextlib.suppress(OSError):
+                f.close()
+
+    def _close_file(self) -> None:
+        f, self._file = self._file, None
+        if f is not None:
+            try:
+                f.close()
+            except OSError as exc:
+                if self.stopped is None:
+                    self.stopped = describe_os_error(exc)
+                    log.warning("trace %s stopped: %s; the last lines are lost", self.path, self.stopped)
 
     def close(self) -> None:
-        if self._file is not None:
-            self._file.close()
-            self._file = None
+        """Write what is collected and close the file (on the worker when there is one: the
+        server's close then waits for it a bounded time)."""
+        self.flush()
+        if self.worker is None:
+            self._close_file()
+            return
+        try:
+            self.worker.submit(self._close_file)
+        except DiskBusy:
+            pass

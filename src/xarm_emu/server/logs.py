@@ -1,0 +1,95 @@
+"""The server's log, bounded: identical lines repeated within a window are held back and counted
+(:class:`RepeatFilter`), and ``serve --log-file`` writes a size-capped, rotated file
+(:func:`configure`). Errors and warnings the controller raises (manual chapter 3) and client
+connects and drops are logged at INFO by the server (:class:`CodeWatch`)."""
+
+from __future__ import annotations
+
+import json
+import logging
+import logging.handlers
+import time
+from pathlib import Path
+
+#: Seconds during which a line identical to one just written is held back (and counted).
+REPEAT_WINDOW = 10.0
+#: Distinct lines remembered for :class:`RepeatFilter` before the oldest are forgotten.
+MAX_KEYS = 1024
+
+
+class RepeatFilter(logging.Filter):
+    """Drops a record identical (logger, level, message) to one passed less than ``window`` s ago;
+    the next one that passes says how many were dropped meanwhile."""
+
+    def __init__(self, window: float = REPEAT_WINDOW) -> None:
+        super().__init__()
+        self.window = window
+        self._seen: dict[tuple[str, int, str], tuple[float, int]] = {}
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        try:
+            text = record.getMessage()
+        except Exception:  # noqa: BLE001 - a bad format string is the formatter's to report
+            return True
+        key = (record.name, record.levelno, text)
+        now = time.monotonic()
+        seen = self._seen.get(key)
+        if seen is not None and now - seen[0] < self.window:
+            self._seen[key] = (seen[0], seen[1] + 1)
+            return False
+        if len(self._seen) >= MAX_KEYS:
+            self._seen.clear()
+        self._seen[key] = (now, 0)
+        if seen is not None and seen[1]:
+            record.msg = f"{text} (repeated {seen[1]} more times in {now - seen[0]:.0f} s)"
+            record.args = ()
+        return True
+
+
+class JsonFormatter(logging.Formatter):
+    """``serve --log-json``: one JSON object a line (time, level, logger, message)."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return json.dumps({"time": record.created, "level": record.levelname, "logger": record.name,
+                           "message": record.getMessage()})
+
+
+def configure(level: str, log_file: Path | None = None, max_bytes: int = 0, backups: int = 3,
+              json_lines: bool = False) -> None:
+    """The CLI's logging: one line per record on stderr, or in ``log_file`` rotated at ``max_bytes``
+    (0: never) keeping ``backups`` old files, plain or as JSON objects (``json_lines``); identical
+    repeats held back (:class:`RepeatFilter`). Like :func:`logging.basicConfig`, it does nothing when
+    the root logger has handlers already."""
+    root = logging.getLogger()
+    if root.handlers:
+        return
+    fmt: logging.Formatter = JsonFormatter() if json_lines else logging.Formatter(
+        "%(asctime)s %(levelname)s %(name)s: %(message)s")
+    handler: logging.Handler
+    if log_file is not None:
+        handler = logging.handlers.RotatingFileHandler(log_file, maxBytes=max(0, max_bytes),
+                                                       backupCount=max(0, backups), encoding="utf-8")
+    else:
+        handler = logging.StreamHandler()
+    handler.setFormatter(fmt)
+    handler.addFilter(RepeatFilter())
+    root.addHandler(handler)
+    root.setLevel(level.upper())
+
+
+class CodeWatch:
+    """Logs at INFO each change of the controller's error and warning codes (manual chapter 3)."""
+
+    def __init__(self, logger: logging.Logger) -> None:
+        self.logger = logger
+        self._last = (0, 0)
+
+    def check(self, error: int, warning: int) -> None:
+        last = self._last
+        if (error, warning) == last:
+            return
+        self._last = (error, warning)
+        if error != last[0]:
+            self.logger.info("controller error code %d%s", error, " (cleared)" if not error else "")
+        if warning != last[1]:
+            self.logger.info("controller warning code %d%s", warning, " (cleared)" if not warning else "")

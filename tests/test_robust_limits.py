@@ -1,0 +1,255 @@
+"""Bounds on clients (``serve --max-connections/--frame-timeout/--backlog``): beyond the per-port
+cap new connections are closed at once with one log line per burst while existing clients keep
+working; a partial frame (manual 2.1.2) older than the frame timeout closes its connection; with a
+1024 open-file limit a flood of 2000 connects neither locks clients out nor burns the CPU; two
+emulators never share a saved configuration."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import resource
+import socket
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from helpers import free_ports, port_args, wait_for
+
+from xarm_emu.controller.config import ConfigLocked, ConfigStore
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.protocol.frame import encode_request
+from xarm_emu.server.app import ServerConfig, ServerThread
+from xarm_emu.server.fairness import Limits
+
+GET_STATE = 13
+
+
+def _connect(port: int) -> socket.socket:
+    s = socket.create_connection(("127.0.0.1", port), timeout=3.0)
+    s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    return s
+
+
+def _recv_exact(s: socket.socket, n: int) -> bytes:
+    buf = b""
+    while len(buf) < n:
+        chunk = s.recv(n - len(buf))
+        if not chunk:
+            raise ConnectionError("closed")
+        buf += chunk
+    return buf
+
+
+def _get_state(s: socket.socket, tid: int = 1) -> int:
+    s.sendall(encode_request(tid, GET_STATE))
+    head = _recv_exact(s, 6)
+    _recv_exact(s, struct.unpack(">H", head[4:6])[0])
+    return int(struct.unpack(">H", head[:2])[0])
+
+
+def _closed_by_peer(s: socket.socket, timeout: float = 2.0) -> bool:
+    s.settimeout(timeout)
+    try:
+        return s.recv(1) == b""
+    except ConnectionResetError:
+        return True
+    except TimeoutError:
+        return False
+
+
+def _config(**limits: float) -> ServerConfig:
+    return ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0,
+                        limits=Limits(**limits))  # type: ignore[arg-type]
+
+
+def test_beyond_the_cap_new_connections_are_refused_with_one_log_line(
+        caplog: pytest.LogCaptureFixture) -> None:
+    with ServerThread(Emulator(6), _config(max_connections=4)) as st, contextlib.ExitStack() as stack:
+        kept = [stack.enter_context(_connect(st.ports["command"])) for _ in range(4)]
+        for i, s in enumerate(kept):
+            assert _get_state(s, i) == i
+        with caplog.at_level(logging.INFO, logger="xarm_emu"):
+            extra = [stack.enter_context(_connect(st.ports["command"])) for _ in range(30)]
+            assert all(_closed_by_peer(s) for s in extra)
+            reports = [stack.enter_context(_connect(st.ports["develop"])) for _ in range(4)]
+            late = stack.enter_context(_connect(st.ports["develop"]))
+            assert _closed_by_peer(late)
+            assert not any(_closed_by_peer(s, 0.05) for s in reports)
+        for i, s in enumerate(kept):  # the existing clients keep working
+            assert _get_state(s, 100 + i) == 100 + i
+        refusals = [r for r in caplog.records if "refusing new ones" in r.getMessage()]
+        assert len(refusals) == 2  # one per port and burst, not one per attempt
+        assert "command port" in refusals[0].getMessage()
+        assert "develop report port" in refusals[1].getMessage()
+
+
+def test_a_partial_frame_older_than_the_timeout_closes_its_connection() -> None:
+    with ServerThread(Emulator(6), _config(frame_timeout=0.3)) as st:
+        with _connect(st.ports["command"]) as partial, _connect(st.ports["command"]) as silent, \
+                _connect(st.ports["command"]) as good:
+            assert _get_state(good) == 1
+            partial.sendall(encode_request(2, GET_STATE)[:4])
+            t0 = time.monotonic()
+            assert _closed_by_peer(partial)
+            assert 0.25 < time.monotonic() - t0 < 1.5
+            assert _closed_by_peer(silent)  # connected and never completed a frame
+            time.sleep(0.4)
+            assert _get_state(good, 3) == 3  # whole frames, then idle: kept
+
+
+def test_a_slow_but_whole_frame_within_the_timeout_is_answered() -> None:
+    with ServerThread(Emulator(6), _config(frame_timeout=0.5)) as st, _connect(st.ports["command"]) as s:
+        frame = encode_request(7, GET_STATE)
+        s.sendall(frame[:3])
+        time.sleep(0.2)
+        s.sendall(frame[3:])
+        head = _recv_exact(s, 6)
+        assert struct.unpack(">H", head[:2])[0] == 7
+
+
+def _cpu_seconds(pid: int) -> float:
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _accepts(port: int) -> bool:
+    try:
+        socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+    except OSError:
+        return False
+    return True
+
+
+def _limit_files() -> None:
+    resource.setrlimit(resource.RLIMIT_NOFILE, (1024, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="needs /proc (Linux)")
+def test_2000_connects_under_a_1024_file_limit_lock_nobody_out(tmp_path: Path) -> None:
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if hard != resource.RLIM_INFINITY and hard < 2300:
+        pytest.skip("this test opens 2000 sockets")
+    if soft != resource.RLIM_INFINITY and soft < 2300:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, 4096) if hard != resource.RLIM_INFINITY
+                                                    else 4096, hard))
+    ports = free_ports(4)
+    log_path = tmp_path / "serve.log"
+    with open(log_path, "w") as log_file:
+        proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
+                                 "--config-dir", str(tmp_path), "--log-level", "INFO"],
+                                stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files,
+                                env={**os.environ, "COLUMNS": "500"})
+    try:
+        assert wait_for(lambda: _accepts(ports[3]), 15.0)
+        with contextlib.ExitStack() as stack:
+            first = stack.enter_context(_connect(ports[0]))
+            assert _get_state(first) == 1
+            flood = []
+            for _ in range(2000):  # idle connections: connect and send nothing
+                s = socket.socket()
+                s.setblocking(False)
+                stack.callback(s.close)
+                with contextlib.suppress(BlockingIOError):
+                    s.connect(("127.0.0.1", ports[0]))
+                flood.append(s)
+            time.sleep(1.0)
+            cpu0 = _cpu_seconds(proc.pid)
+            time.sleep(2.0)  # idle-flooded: nothing more happens
+            cpu = (_cpu_seconds(proc.pid) - cpu0) / 2.0
+            assert _get_state(first, 2) == 2  # the existing client keeps working
+            with _connect(ports[0]) as late:  # beyond the cap: refused at once, cleanly
+                assert _closed_by_peer(late)
+            with _connect(ports[3]) as report:  # the other ports still take clients
+                assert len(_recv_exact(report, 4)) == 4
+        for s in flood:
+            s.close()
+        time.sleep(0.5)
+        with _connect(ports[0]) as again:  # once the flood has gone, new clients are served
+            assert _get_state(again, 3) == 3
+    finally:
+        proc.terminate()
+        proc.wait(5)
+    log = log_path.read_text()
+    assert cpu < 0.20, log  # no accept loop spinning on EMFILE
+    assert len(log.splitlines()) < 20, log
+    assert "Traceback" not in log
+
+
+def test_two_boxes_with_the_same_serial_number_never_share_a_saved_configuration(tmp_path: Path) -> None:
+    first = ConfigStore(tmp_path, "XI1300000001")
+    first.lock()
+    second = ConfigStore(tmp_path, "XI1300000001")
+    with pytest.raises(ConfigLocked, match="in use by a running emulator"):
+        second.lock()
+    other = ConfigStore(tmp_path, "XI1300000002")
+    other.lock()  # another serial number: its own file, its own lock
+    first.unlock()
+    second.lock()  # released: the next box may have it
+    second.unlock()
+    other.unlock()
+
+
+def test_a_second_serve_of_the_same_model_and_directory_refuses_to_start(tmp_path: Path) -> None:
+    a, b = free_ports(4), free_ports(4)
+    cmd = [sys.executable, "-m", "xarm_emu.cli", "serve", "--config-dir", str(tmp_path)]
+    first = subprocess.Popen([*cmd, *port_args(*a)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        assert wait_for(lambda: _accepts(a[3]), 15.0)
+        second = subprocess.run([*cmd, *port_args(*b)], capture_output=True, text=True, timeout=30,
+                                env={**os.environ, "COLUMNS": "500"})
+        assert second.returncode == 2
+        assert "in use by a running emulator" in second.stderr + second.stdout
+        assert not _accepts(b[0])
+    finally:
+        first.terminate()
+        first.wait(5)
+
+
+def _limit_files_64() -> None:
+    resource.setrlimit(resource.RLIMIT_NOFILE, (64, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="needs /proc (Linux)")
+def test_out_of_file_descriptors_accept_pauses_and_resumes_with_one_log_line(tmp_path: Path) -> None:
+    """A cap above what the open-file limit allows: the process runs out of descriptors; accepting
+    pauses and resumes (no spinning, no traceback per attempt) and serves again once clients leave."""
+    ports = free_ports(4)
+    log_path = tmp_path / "serve.log"
+    with open(log_path, "w") as log_file:
+        proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
+                                 "--config-dir", str(tmp_path), "--log-level", "INFO",
+                                 "--max-connections", "1000"],
+                                stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files_64,
+                                env={**os.environ, "COLUMNS": "500"})
+    try:
+        assert wait_for(lambda: _accepts(ports[3]), 15.0)
+        with contextlib.ExitStack() as stack:
+            flood = []
+            for _ in range(200):
+                s = socket.socket()
+                s.setblocking(False)
+                stack.callback(s.close)
+                with contextlib.suppress(BlockingIOError):
+                    s.connect(("127.0.0.1", ports[0]))
+                flood.append(s)
+            time.sleep(1.0)
+            cpu0 = _cpu_seconds(proc.pid)
+            time.sleep(2.0)
+            cpu = (_cpu_seconds(proc.pid) - cpu0) / 2.0
+        time.sleep(1.5)  # the flood has gone: accepting resumes within its retry delay
+        with _connect(ports[0]) as again:
+            assert _get_state(again, 5) == 5
+    finally:
+        proc.terminate()
+        proc.wait(5)
+    log = log_path.read_text()
+    assert cpu < 0.20, log  # no accept loop spinning on EMFILE
+    fds = [line for line in log.splitlines() if "cannot accept connections" in line]
+    assert 1 <= len(fds) <= 3, log
+    assert "Traceback" not in log

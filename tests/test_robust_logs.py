@@ -1,0 +1,65 @@
+"""Bounded logs and traces: identical log lines repeated within the window are held back and
+counted; the trace rotates at its size cap; controller errors and warnings (manual chapter 3) and
+client connects and drops are logged at INFO."""
+
+from __future__ import annotations
+
+import json
+import logging
+import socket
+import struct
+from pathlib import Path
+
+import pytest
+
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.protocol.frame import encode_request
+from xarm_emu.server.app import ServerConfig, ServerThread
+from xarm_emu.server.logs import RepeatFilter
+from xarm_emu.server.trace import CommandTrace
+
+
+def _record(msg: str, *args: object) -> logging.LogRecord:
+    return logging.LogRecord("xarm_emu.server", logging.WARNING, __file__, 1, msg, args, None)
+
+
+def test_identical_lines_are_held_back_and_counted(monkeypatch: pytest.MonkeyPatch) -> None:
+    clock = [100.0]
+    monkeypatch.setattr("xarm_emu.server.logs.time.monotonic", lambda: clock[0])
+    f = RepeatFilter(window=10.0)
+    assert f.filter(_record("cannot accept: %s", "EMFILE"))
+    assert [f.filter(_record("cannot accept: %s", "EMFILE")) for _ in range(500)] == [False] * 500
+    assert f.filter(_record("another line"))  # a different line passes at once
+    clock[0] += 11.0
+    rec = _record("cannot accept: %s", "EMFILE")
+    assert f.filter(rec)
+    assert rec.getMessage() == "cannot accept: EMFILE (repeated 500 more times in 11 s)"
+
+
+def test_the_trace_rotates_at_its_size_cap(tmp_path: Path) -> None:
+    path = tmp_path / "t.jsonl"
+    trace = CommandTrace(path, max_bytes=2000)
+    for i in range(100):
+        trace.event(float(i), "127.0.0.1:1", "connect")
+        trace.flush()
+    trace.close()
+    old = tmp_path / "t.jsonl.1"
+    assert old.exists()
+    assert 2000 <= old.stat().st_size < 2200
+    assert path.stat().st_size < 2200
+    lines = [json.loads(x) for x in (old.read_text() + path.read_text()).splitlines()]
+    assert [x["t"] for x in lines] == sorted(x["t"] for x in lines)  # recent lines kept in order
+
+
+def test_errors_warnings_and_clients_are_logged_at_info(caplog: pytest.LogCaptureFixture) -> None:
+    cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0)
+    with caplog.at_level(logging.INFO, logger="xarm_emu"), ServerThread(Emulator(6), cfg) as st:
+        with socket.create_connection(("127.0.0.1", st.ports["command"]), timeout=3.0) as s:
+            s.sendall(encode_request(1, 250))  # not a register of this firmware: warning 13
+            head = s.recv(6)
+            s.recv(struct.unpack(">H", head[4:6])[0])
+        st.call(lambda: None)
+    text = [r.getMessage() for r in caplog.records if r.levelno == logging.INFO]
+    assert "command client connected from 127.0.0.1" in text
+    assert any(t.startswith("command client from 127.0.0.1 left") for t in text)
+    assert "controller warning code 13" in text
