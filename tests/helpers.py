@@ -7,6 +7,7 @@ import contextlib
 import math
 import os
 import socket
+import struct
 import subprocess
 import sys
 import time
@@ -140,3 +141,37 @@ def run_cli(*args: str) -> tuple[int, str]:
 
     result = CliRunner().invoke(cli.app, list(args))
     return result.exit_code, result.output
+
+
+def connect(port: int, timeout: float = 3.0) -> socket.socket:
+    """A TCP_NODELAY connection to a loopback port (the command port's clients set it, manual 2.1.2)."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=timeout)
+    s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    return s
+
+
+def recv_exact(s: socket.socket, n: int) -> bytes:
+    """Exactly ``n`` bytes from ``s``; ConnectionError if it closes first."""
+    buf = b""
+    while len(buf) < n:
+        chunk = s.recv(n - len(buf))
+        if not chunk:
+            raise ConnectionError("closed")
+        buf += chunk
+    return buf
+
+
+def recv_frame(s: socket.socket) -> bytes:
+    """One command-port frame (manual 2.1.2: 6-byte header whose last u16 is the length after it)."""
+    head = recv_exact(s, 6)
+    (length,) = struct.unpack(">H", head[4:6])
+    return head + recv_exact(s, length)
+
+
+def accepts(port: int) -> bool:
+    """Whether a loopback port accepts a connection now."""
+    try:
+        socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+    except OSError:
+        return False
+    return True

@@ -4,36 +4,14 @@ answer without disturbing a second client."""
 
 from __future__ import annotations
 
-import socket
 import struct
 from typing import Any
 
-from helpers import sdk_ready, wait_for
+from helpers import connect, recv_frame, sdk_ready, wait_for
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from xarm_emu.server.app import ServerThread
-
-
-def connect(port: int) -> socket.socket:
-    s = socket.create_connection(("127.0.0.1", port), timeout=2.0)
-    s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-    return s
-
-
-def recv_exact(s: socket.socket, n: int) -> bytes:
-    buf = b""
-    while len(buf) < n:
-        chunk = s.recv(n - len(buf))
-        assert chunk, "connection closed"
-        buf += chunk
-    return buf
-
-
-def recv_frame(s: socket.socket) -> bytes:
-    head = recv_exact(s, 6)
-    (length,) = struct.unpack(">H", head[4:6])
-    return head + recv_exact(s, length)
 
 
 def adu(tid: int, unit: int, pdu: bytes) -> bytes:

@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import free_ports, port_args, serve_subprocess, wait_for
+from helpers import accepts, free_ports, port_args, serve_subprocess, wait_for
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import encode_request
@@ -64,21 +64,13 @@ def _count_frames(port: int, seconds: float, out: list[int], i: int, start: thre
         out[i] = got
 
 
-def _accepts(port: int) -> bool:
-    try:
-        socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
-    except OSError:
-        return False
-    return True
-
-
 def test_ten_develop_readers_each_get_every_due_frame(tmp_path: Path) -> None:
     """Against `xarm-emu serve` in its own process, as users run it. The bounded run allows 1 % for
     a machine shared with other jobs; the ten-minute soak of `make stress` asserts 99.9 %."""
     seconds = SOAK_SECONDS
     ports = free_ports(4)
     with serve_subprocess(tmp_path, *port_args(*ports)):
-        assert wait_for(lambda: _accepts(ports[3]), 15.0)
+        assert wait_for(lambda: accepts(ports[3]), 15.0)
         got = [0] * 10
         start = threading.Barrier(10)
         readers = [threading.Thread(target=_count_frames, args=(ports[3], seconds, got, i, start))

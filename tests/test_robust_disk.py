@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from helpers import free_ports, port_args, wait_for
+from helpers import accepts, connect, free_ports, port_args, recv_exact, wait_for
 
 from xarm_emu.client.admin import AdminClient
 from xarm_emu.controller import config as config_mod
@@ -31,34 +31,10 @@ GET_STATE = 13
 SET_TCP_LOAD = 136
 
 
-def _connect(port: int) -> socket.socket:
-    s = socket.create_connection(("127.0.0.1", port), timeout=3.0)
-    s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-    return s
-
-
-def _recv_exact(s: socket.socket, n: int) -> bytes:
-    buf = b""
-    while len(buf) < n:
-        chunk = s.recv(n - len(buf))
-        if not chunk:
-            raise ConnectionError("closed")
-        buf += chunk
-    return buf
-
-
 def _ask(s: socket.socket, tid: int, register: int, params: bytes = b"") -> bytes:
     s.sendall(encode_request(tid, register, params))
-    head = _recv_exact(s, 6)
-    return head + _recv_exact(s, struct.unpack(">H", head[4:6])[0])
-
-
-def _accepts(port: int) -> bool:
-    try:
-        socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
-    except OSError:
-        return False
-    return True
+    head = recv_exact(s, 6)
+    return head + recv_exact(s, struct.unpack(">H", head[4:6])[0])
 
 
 def _serve(tmp_path: Path, *args: str) -> tuple[Any, list[int]]:
@@ -71,7 +47,7 @@ def _serve(tmp_path: Path, *args: str) -> tuple[Any, list[int]]:
                              "--config-dir", str(tmp_path / "cfg"), "--log-level", "INFO", *args],
                             stdout=open(log_path, "w"), stderr=subprocess.STDOUT,  # noqa: SIM115
                             env={**os.environ, "COLUMNS": "500"})
-    assert wait_for(lambda: _accepts(ports[3]), 15.0)
+    assert wait_for(lambda: accepts(ports[3]), 15.0)
     return proc, ports
 
 
@@ -79,7 +55,7 @@ def _serve(tmp_path: Path, *args: str) -> tuple[Any, list[int]]:
 def test_a_trace_on_a_full_disk_stops_once_and_sigterm_still_ends_the_process(tmp_path: Path) -> None:
     proc, ports = _serve(tmp_path, "--trace", "/dev/full")
     try:
-        with _connect(ports[0]) as s:
+        with connect(ports[0]) as s:
             for tid in range(3000):  # every request answered although no trace line can be written
                 reply = _ask(s, tid & 0xFFFF, GET_STATE)
                 assert struct.unpack(">H", reply[:2])[0] == tid & 0xFFFF
@@ -105,7 +81,7 @@ def test_a_save_on_a_failing_disk_keeps_the_old_file_and_names_the_cause(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
     cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0, admin=True,
                        admin_port=0)
-    with ServerThread(Emulator(6, config_dir=tmp_path), cfg) as st, _connect(st.ports["command"]) as s:
+    with ServerThread(Emulator(6, config_dir=tmp_path), cfg) as st, connect(st.ports["command"]) as s:
         reply = _ask(s, 1, SAVE_CONF)
         assert not reply[7] & STATE_WARNING
         path = st.server.config_store().path  # type: ignore[union-attr]
@@ -134,7 +110,7 @@ def test_a_save_on_a_failing_disk_keeps_the_old_file_and_names_the_cause(
 
 def _develop_frames(port: int, seconds: float) -> int:
     got = 0
-    with _connect(port) as s:
+    with connect(port) as s:
         s.settimeout(0.5)
         end = time.monotonic() + seconds
         buf = b""
@@ -151,7 +127,7 @@ def _develop_frames(port: int, seconds: float) -> int:
 
 def _p50(port: int, n: int = 300) -> float:
     times = []
-    with _connect(port) as s:
+    with connect(port) as s:
         for tid in range(n):
             t0 = time.perf_counter()
             _ask(s, tid, GET_STATE)
@@ -165,7 +141,7 @@ def test_a_client_looping_save_conf_slows_neither_the_report_nor_the_others(tmp_
     saves = [0]
 
     def saver() -> None:
-        with _connect(ports[0]) as s:
+        with connect(ports[0]) as s:
             tid = 0
             while not stop.is_set():
                 tid = (tid + 1) & 0xFFFF

@@ -6,7 +6,6 @@ again once it reads."""
 from __future__ import annotations
 
 import os
-import socket
 import struct
 import threading
 import time
@@ -14,7 +13,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from helpers import free_ports, port_args, serve_subprocess, wait_for
+from helpers import accepts, connect, free_ports, port_args, recv_exact, serve_subprocess, wait_for
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import encode_request
@@ -25,31 +24,15 @@ GET_STATE = 13
 FLOOD_SECONDS = 60.0 if os.environ.get("XARM_EMU_STRESS") == "1" else 3.0
 
 
-def _connect(port: int) -> socket.socket:
-    s = socket.create_connection(("127.0.0.1", port), timeout=3.0)
-    s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-    return s
-
-
-def _recv_exact(s: socket.socket, n: int) -> bytes:
-    buf = b""
-    while len(buf) < n:
-        chunk = s.recv(n - len(buf))
-        if not chunk:
-            raise ConnectionError("closed")
-        buf += chunk
-    return buf
-
-
 def _get_state_times(port: int, n: int) -> list[float]:
     """Round-trip times of ``n`` get_state requests, one at a time."""
     out = []
-    with _connect(port) as s:
+    with connect(port) as s:
         for tid in range(n):
             t0 = time.perf_counter()
             s.sendall(encode_request(tid, GET_STATE))
-            head = _recv_exact(s, 6)
-            _recv_exact(s, struct.unpack(">H", head[4:6])[0])
+            head = recv_exact(s, 6)
+            recv_exact(s, struct.unpack(">H", head[4:6])[0])
             out.append(time.perf_counter() - t0)
     return out
 
@@ -58,7 +41,7 @@ def _develop_frames(port: int, seconds: float) -> int:
     """Develop report frames received in ``seconds``."""
     n = 0
     got = 0
-    with _connect(port) as s:
+    with connect(port) as s:
         s.settimeout(0.5)
         end = time.monotonic() + seconds
         buf = b""
@@ -77,7 +60,7 @@ def _develop_frames(port: int, seconds: float) -> int:
 def _flood(port: int, stop: threading.Event, sent: list[int]) -> None:
     """Pipeline get_state requests as fast as the socket takes them, never reading."""
     burst = b"".join(encode_request(i & 0xFFFF, GET_STATE) for i in range(512))
-    with _connect(port) as s:
+    with connect(port) as s:
         s.settimeout(0.05)
         while not stop.is_set():
             try:
@@ -96,20 +79,12 @@ def _rss_mb(pid: int) -> float:
     raise AssertionError("no VmRSS")
 
 
-def _accepts(port: int) -> bool:
-    try:
-        socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
-    except OSError:
-        return False
-    return True
-
-
 @pytest.fixture
 def served(tmp_path: Path) -> Iterator[tuple[int, dict[str, int]]]:
     """`xarm-emu serve` in a child process (its own interpreter, as users run it): (pid, ports)."""
     cmd, normal, rich, develop = free_ports(4)
     with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop)) as proc:
-        assert wait_for(lambda: _accepts(develop), 15.0)
+        assert wait_for(lambda: accepts(develop), 15.0)
         yield proc.pid, {"command": cmd, "develop": develop}
 
 
@@ -142,14 +117,14 @@ def test_a_flooder_that_starts_reading_gets_every_reply_in_order() -> None:
                                                 develop_port=0)) as st:
         n = 20000
         payload = b"".join(encode_request(i & 0xFFFF, GET_STATE) for i in range(n))
-        with _connect(st.ports["command"]) as s:
+        with connect(st.ports["command"]) as s:
             writer = threading.Thread(target=s.sendall, args=(payload,))
             writer.start()
             time.sleep(0.5)  # nothing read yet: the server has stopped reading this connection
             tids = []
             for _ in range(n):
-                head = _recv_exact(s, 6)
-                _recv_exact(s, struct.unpack(">H", head[4:6])[0])
+                head = recv_exact(s, 6)
+                recv_exact(s, struct.unpack(">H", head[4:6])[0])
                 tids.append(struct.unpack(">H", head[:2])[0])
             writer.join(5)
         assert tids == [i & 0xFFFF for i in range(n)]

@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import free_ports, port_args, wait_for
+from helpers import accepts, connect, free_ports, port_args, recv_exact, wait_for
 
 from xarm_emu.controller.config import ConfigLocked, ConfigStore
 from xarm_emu.controller.emulator import Emulator
@@ -29,26 +29,10 @@ from xarm_emu.server.fairness import Limits
 GET_STATE = 13
 
 
-def _connect(port: int) -> socket.socket:
-    s = socket.create_connection(("127.0.0.1", port), timeout=3.0)
-    s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-    return s
-
-
-def _recv_exact(s: socket.socket, n: int) -> bytes:
-    buf = b""
-    while len(buf) < n:
-        chunk = s.recv(n - len(buf))
-        if not chunk:
-            raise ConnectionError("closed")
-        buf += chunk
-    return buf
-
-
 def _get_state(s: socket.socket, tid: int = 1) -> int:
     s.sendall(encode_request(tid, GET_STATE))
-    head = _recv_exact(s, 6)
-    _recv_exact(s, struct.unpack(">H", head[4:6])[0])
+    head = recv_exact(s, 6)
+    recv_exact(s, struct.unpack(">H", head[4:6])[0])
     return int(struct.unpack(">H", head[:2])[0])
 
 
@@ -70,14 +54,14 @@ def _config(**limits: float) -> ServerConfig:
 def test_beyond_the_cap_new_connections_are_refused_with_one_log_line(
         caplog: pytest.LogCaptureFixture) -> None:
     with ServerThread(Emulator(6), _config(max_connections=4)) as st, contextlib.ExitStack() as stack:
-        kept = [stack.enter_context(_connect(st.ports["command"])) for _ in range(4)]
+        kept = [stack.enter_context(connect(st.ports["command"])) for _ in range(4)]
         for i, s in enumerate(kept):
             assert _get_state(s, i) == i
         with caplog.at_level(logging.INFO, logger="xarm_emu"):
-            extra = [stack.enter_context(_connect(st.ports["command"])) for _ in range(30)]
+            extra = [stack.enter_context(connect(st.ports["command"])) for _ in range(30)]
             assert all(_closed_by_peer(s) for s in extra)
-            reports = [stack.enter_context(_connect(st.ports["develop"])) for _ in range(4)]
-            late = stack.enter_context(_connect(st.ports["develop"]))
+            reports = [stack.enter_context(connect(st.ports["develop"])) for _ in range(4)]
+            late = stack.enter_context(connect(st.ports["develop"]))
             assert _closed_by_peer(late)
             assert not any(_closed_by_peer(s, 0.05) for s in reports)
         for i, s in enumerate(kept):  # the existing clients keep working
@@ -90,8 +74,8 @@ def test_beyond_the_cap_new_connections_are_refused_with_one_log_line(
 
 def test_a_partial_frame_older_than_the_timeout_closes_its_connection() -> None:
     with ServerThread(Emulator(6), _config(frame_timeout=0.3)) as st:
-        with _connect(st.ports["command"]) as partial, _connect(st.ports["command"]) as silent, \
-                _connect(st.ports["command"]) as good:
+        with connect(st.ports["command"]) as partial, connect(st.ports["command"]) as silent, \
+                connect(st.ports["command"]) as good:
             assert _get_state(good) == 1
             partial.sendall(encode_request(2, GET_STATE)[:4])
             t0 = time.monotonic()
@@ -103,12 +87,12 @@ def test_a_partial_frame_older_than_the_timeout_closes_its_connection() -> None:
 
 
 def test_a_slow_but_whole_frame_within_the_timeout_is_answered() -> None:
-    with ServerThread(Emulator(6), _config(frame_timeout=0.5)) as st, _connect(st.ports["command"]) as s:
+    with ServerThread(Emulator(6), _config(frame_timeout=0.5)) as st, connect(st.ports["command"]) as s:
         frame = encode_request(7, GET_STATE)
         s.sendall(frame[:3])
         time.sleep(0.2)
         s.sendall(frame[3:])
-        head = _recv_exact(s, 6)
+        head = recv_exact(s, 6)
         assert struct.unpack(">H", head[:2])[0] == 7
 
 
@@ -116,14 +100,6 @@ def _cpu_seconds(pid: int) -> float:
     with open(f"/proc/{pid}/stat") as f:
         fields = f.read().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
-def _accepts(port: int) -> bool:
-    try:
-        socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
-    except OSError:
-        return False
-    return True
 
 
 def _limit_files() -> None:
@@ -146,9 +122,9 @@ def test_2000_connects_under_a_1024_file_limit_lock_nobody_out(tmp_path: Path) -
                                 stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files,
                                 env={**os.environ, "COLUMNS": "500"})
     try:
-        assert wait_for(lambda: _accepts(ports[3]), 15.0)
+        assert wait_for(lambda: accepts(ports[3]), 15.0)
         with contextlib.ExitStack() as stack:
-            first = stack.enter_context(_connect(ports[0]))
+            first = stack.enter_context(connect(ports[0]))
             assert _get_state(first) == 1
             flood = []
             for _ in range(2000):  # idle connections: connect and send nothing
@@ -163,14 +139,14 @@ def test_2000_connects_under_a_1024_file_limit_lock_nobody_out(tmp_path: Path) -
             time.sleep(2.0)  # idle-flooded: nothing more happens
             cpu = (_cpu_seconds(proc.pid) - cpu0) / 2.0
             assert _get_state(first, 2) == 2  # the existing client keeps working
-            with _connect(ports[0]) as late:  # beyond the cap: refused at once, cleanly
+            with connect(ports[0]) as late:  # beyond the cap: refused at once, cleanly
                 assert _closed_by_peer(late)
-            with _connect(ports[3]) as report:  # the other ports still take clients
-                assert len(_recv_exact(report, 4)) == 4
+            with connect(ports[3]) as report:  # the other ports still take clients
+                assert len(recv_exact(report, 4)) == 4
         for s in flood:
             s.close()
         time.sleep(0.5)
-        with _connect(ports[0]) as again:  # once the flood has gone, new clients are served
+        with connect(ports[0]) as again:  # once the flood has gone, new clients are served
             assert _get_state(again, 3) == 3
     finally:
         proc.terminate()
@@ -200,12 +176,12 @@ def test_a_second_serve_of_the_same_model_and_directory_refuses_to_start(tmp_pat
     cmd = [sys.executable, "-m", "xarm_emu.cli", "serve", "--config-dir", str(tmp_path)]
     first = subprocess.Popen([*cmd, *port_args(*a)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        assert wait_for(lambda: _accepts(a[3]), 15.0)
+        assert wait_for(lambda: accepts(a[3]), 15.0)
         second = subprocess.run([*cmd, *port_args(*b)], capture_output=True, text=True, timeout=30,
                                 env={**os.environ, "COLUMNS": "500"})
         assert second.returncode == 2
         assert "in use by a running emulator" in second.stderr + second.stdout
-        assert not _accepts(b[0])
+        assert not accepts(b[0])
     finally:
         first.terminate()
         first.wait(5)
@@ -228,7 +204,7 @@ def test_out_of_file_descriptors_accept_pauses_and_resumes_with_one_log_line(tmp
                                 stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files_64,
                                 env={**os.environ, "COLUMNS": "500"})
     try:
-        assert wait_for(lambda: _accepts(ports[3]), 15.0)
+        assert wait_for(lambda: accepts(ports[3]), 15.0)
         with contextlib.ExitStack() as stack:
             flood = []
             for _ in range(200):
@@ -243,7 +219,7 @@ def test_out_of_file_descriptors_accept_pauses_and_resumes_with_one_log_line(tmp
             time.sleep(2.0)
             cpu = (_cpu_seconds(proc.pid) - cpu0) / 2.0
         time.sleep(1.5)  # the flood has gone: accepting resumes within its retry delay
-        with _connect(ports[0]) as again:
+        with connect(ports[0]) as again:
             assert _get_state(again, 5) == 5
     finally:
         proc.terminate()

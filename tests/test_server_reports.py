@@ -9,6 +9,7 @@ import struct
 import time
 
 import pytest
+from helpers import recv_exact
 
 from xarm_emu.client import Client
 from xarm_emu.protocol import reports
@@ -39,15 +40,6 @@ def read_frames(sock: socket.socket, seconds: float) -> list[tuple[float, bytes]
             out.append((now, buf[:size]))
             buf = buf[size:]
     return out
-
-
-def recv_exact(sock: socket.socket, n: int) -> bytes:
-    buf = b""
-    while len(buf) < n:
-        chunk = sock.recv(n - len(buf))
-        assert chunk, "closed"
-        buf += chunk
-    return buf
 
 
 @pytest.fixture

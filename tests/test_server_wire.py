@@ -11,34 +11,13 @@ import struct
 import time
 
 import pytest
+from helpers import connect, recv_frame
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from xarm_emu.protocol.frame import FrameDecoder, Reply, encode_request
 from xarm_emu.protocol.registers import REGISTERS
 from xarm_emu.server.app import ServerThread
-
-
-def connect(port: int) -> socket.socket:
-    s = socket.create_connection(("127.0.0.1", port), timeout=2.0)
-    s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-    return s
-
-
-def recv_frame(s: socket.socket) -> bytes:
-    head = recv_exact(s, 6)
-    (length,) = struct.unpack(">H", head[4:6])
-    return head + recv_exact(s, length)
-
-
-def recv_exact(s: socket.socket, n: int) -> bytes:
-    buf = b""
-    while len(buf) < n:
-        chunk = s.recv(n - len(buf))
-        if not chunk:
-            raise ConnectionError("closed")
-        buf += chunk
-    return buf
 
 
 def reply(s: socket.socket) -> Reply:
