@@ -168,12 +168,11 @@ def test_server_log_tells_connects_states_and_errors(tmp_path: Path) -> None:
     records = [json.loads(line) for line in err.splitlines() if line.startswith("{")]
     messages = [r["message"] for r in records]
     assert all(set(r) == {"time", "level", "logger", "message"} for r in records)
-    assert any(m.startswith("client 127.0.0.1:") and m.endswith("connected to the command port")
-               for m in messages)
+    assert "command client connected from 127.0.0.1" in messages
     assert "state 2 (sleep (ready))" in messages
-    errors = [r for r in records if r["message"].startswith("error C31")]
+    errors = [r for r in records if r["message"].startswith("error C31 Collision")]
     assert errors and errors[0]["level"] == "WARNING"
-    assert any(m.endswith("disconnected") for m in messages)
+    assert any(m.startswith("command client from 127.0.0.1 left") for m in messages)
 
 
 def test_serve_without_checks_failing_still_starts(tmp_path: Path) -> None:

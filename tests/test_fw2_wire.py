@@ -284,10 +284,11 @@ def test_a_client_that_never_reads_does_not_slow_the_others(fw2: ServerThread) -
     flood.connect(("127.0.0.1", fw2.ports["command"]))
     good = _raw(fw2.ports["command"])
     try:
-        # replies it never reads (register 2, 48 bytes each) fill the socket, then 253s ask for frames
-        flood.sendall(encode_request(1, 254, bytes([0xFF])) + encode_request(2, 2) * 120000
-                      + encode_request(3, 253) * 10)
+        # a move of its own, then replies it never reads (register 2, 48 bytes each) fill the socket:
+        # the move's feedback frames find it full (the server also stops reading the flood)
         _ready(good)
+        flood.sendall(encode_request(1, 254, bytes([0xFF])) + encode_request(2, 23, _joint_move(-0.1))
+                      + encode_request(3, 2) * 120000)
         good.ask(120, 254, b"\x02")
         t0 = time.monotonic()
         good.ask(121, 23, _joint_move(0.1))

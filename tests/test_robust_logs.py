@@ -51,7 +51,7 @@ def test_the_trace_rotates_at_its_size_cap(tmp_path: Path) -> None:
     assert [x["t"] for x in lines] == sorted(x["t"] for x in lines)  # recent lines kept in order
 
 
-def test_errors_warnings_and_clients_are_logged_at_info(caplog: pytest.LogCaptureFixture) -> None:
+def test_errors_warnings_and_clients_are_logged(caplog: pytest.LogCaptureFixture) -> None:
     cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0)
     with caplog.at_level(logging.INFO, logger="xarm_emu"), ServerThread(Emulator(6), cfg) as st:
         with socket.create_connection(("127.0.0.1", st.ports["command"]), timeout=3.0) as s:
@@ -59,7 +59,7 @@ def test_errors_warnings_and_clients_are_logged_at_info(caplog: pytest.LogCaptur
             head = s.recv(6)
             s.recv(struct.unpack(">H", head[4:6])[0])
         st.call(lambda: None)
-    text = [r.getMessage() for r in caplog.records if r.levelno == logging.INFO]
+    text = [r.getMessage() for r in caplog.records if r.levelno >= logging.INFO]
     assert "command client connected from 127.0.0.1" in text
     assert any(t.startswith("command client from 127.0.0.1 left") for t in text)
-    assert "controller warning code 13" in text
+    assert "warning W13 Unknown command: Check the register of the command sent." in text

@@ -108,7 +108,7 @@ def serve(
     from .server.fairness import Limits
     from .server.logs import configure
 
-    _check_serve_options(log_level, host, view_host if view else None, {
+    _check_serve_options(log_level, host, (view_host or host) if view else None, {
         "--port": port, "--normal-port": normal_port, "--rich-port": rich_port,
         "--develop-port": develop_port, "--admin-port": admin_port, "--view-port": view_port})
     configure(log_level, log_file, log_max_bytes, json_lines=log_json)
@@ -151,7 +151,6 @@ def serve(
     if record is not None:
         _attach_record(servers[0], record)
     for srv in servers:
-        _attach_event_log(srv)
         if srv.emulator.config_message:
             err_console.print(srv.emulator.config_message, style="yellow")
     try:
@@ -232,13 +231,6 @@ def _attach_record(srv: EmulatorServer, path: Path) -> None:
     except (RecordError, ValueError) as exc:
         _user_error(f"--record: {exc}")
     console.print(f"recording to {path}; open it with: rerun {path}", soft_wrap=True)
-
-
-def _attach_event_log(srv: EmulatorServer) -> None:
-    """Client connections, state changes, errors and warnings at INFO (record.py EventLog)."""
-    from .record import attach_event_log
-
-    attach_event_log(srv)
 
 
 def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmware: bool) -> None:

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .client import ReportStream
+from .controller.states import MODE_NAMES, STATE_NAMES
 from .protocol import codes
 from .protocol.reports import DEVELOP_PORT, RICH_PORT, ReportSnapshot
 
@@ -49,8 +50,6 @@ SPEED_WINDOW = 0.05
 #: Reply state byte bits (manual 2.1.2): 0x40 an error is active, 0x20 a warning.
 ERROR_BIT, WARNING_BIT = 0x40, 0x20
 
-_STATES = {1: "in motion", 2: "sleep (ready)", 3: "suspend", 4: "stop", 5: "system reset"}
-_MODES = {0: "position", 1: "servo", 2: "joint teaching", 3: "cartesian teaching"}
 _AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 
 
@@ -140,9 +139,9 @@ class SessionRecorder:
                 self._scalar(name, getattr(snap, name))
             prev = self._last
             if prev is None or prev.state != snap.state:
-                self._log_event(f"state {snap.state} ({_STATES.get(snap.state, '?')})", "INFO")
+                self._log_event(f"state {snap.state} ({STATE_NAMES.get(snap.state, '?')})", "INFO")
             if prev is None or prev.mode != snap.mode:
-                self._log_event(f"mode {snap.mode} ({_MODES.get(snap.mode, '?')})", "INFO")
+                self._log_event(f"mode {snap.mode} ({MODE_NAMES.get(snap.mode, '?')})", "INFO")
             self._last = snap
             if t - self._last_geometry >= GEOMETRY_PERIOD:
                 self._last_geometry = t
@@ -333,76 +332,3 @@ def attach_recorder(server: EmulatorServer, path: Path) -> Callable[[], RecordAt
 
     server.attach("record", factory)
     return factory
-
-
-#: Seconds between two looks of the event log at the server.
-EVENT_LOG_PERIOD = 0.05
-server_log = logging.getLogger("xarm_emu.server")
-
-
-class EventLog:
-    """Client connections and disconnections, state and mode changes, every error and warning with
-    the manual's name for it (chapter 3), at INFO (WARNING for errors) in the server log: a thread
-    looking at the server every :data:`EVENT_LOG_PERIOD` seconds."""
-
-    port = 0
-
-    def __init__(self, server: EmulatorServer) -> None:
-        self.server = server
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self._peers: set[str] = set()
-        self._seen: dict[str, int] = {}
-
-    def look(self) -> None:
-        """Log what changed since the last look."""
-        srv = self.server
-        peers = {getattr(c, "peer", "?") for c in list(srv.command_clients)}
-        for peer in sorted(peers - self._peers):
-            server_log.info("client %s connected to the command port", peer)
-        for peer in sorted(self._peers - peers):
-            server_log.info("client %s disconnected", peer)
-        self._peers = peers
-        ctl = srv.emulator.controller
-        now = {"state": ctl.state, "error": ctl.error_code, "warning": ctl.warning_code}
-        mode = getattr(ctl, "mode", None)
-        if isinstance(mode, int):
-            now["mode"] = mode
-        for key, value in now.items():
-            before = self._seen.get(key)
-            if before == value:
-                continue
-            self._seen[key] = value
-            if key == "state":
-                server_log.info("state %d (%s)", value, _STATES.get(value, "?"))
-            elif key == "mode":
-                server_log.info("mode %d (%s)", value, _MODES.get(value, "?"))
-            elif key == "error" and (value or before):
-                level = logging.WARNING if value else logging.INFO
-                server_log.log(level, "error %s (t = %.3f s)", codes.describe_error(value), srv.emulator.time)
-            elif key == "warning" and (value or before):
-                level = logging.WARNING if value else logging.INFO
-                server_log.log(level, "warning %s (t = %.3f s)", codes.describe_warning(value),
-                               srv.emulator.time)
-
-    def start(self) -> None:
-        def run() -> None:
-            while not self._stop.wait(EVENT_LOG_PERIOD):
-                try:
-                    self.look()
-                except Exception:  # never let a log line take the server down
-                    log.exception("event log")
-
-        self._thread = threading.Thread(target=run, name="xarm-emu-event-log", daemon=True)
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-        self.look()
-
-
-def attach_event_log(server: EmulatorServer) -> None:
-    """Have ``server`` log its events (:class:`EventLog`) from its start to its close."""
-    server.attach("events", lambda: EventLog(server))

@@ -27,6 +27,14 @@ MODE_SERVO = 1
 MODE_JOINT_TEACH = 2
 MODE_CARTESIAN_TEACH = 3
 
+#: The manual's names of the states (register 13) and modes (register 19), for logs and displays;
+#: modes 4-7 and 11 belong to firmware 2.x.
+STATE_NAMES = {STATE_MOVING: "in motion", STATE_SLEEP: "sleep (ready)", STATE_SUSPEND: "suspend",
+               STATE_STOP: "stop", STATE_SYSTEM_RESET: "system reset"}
+MODE_NAMES = {MODE_POSITION: "position", MODE_SERVO: "servo", MODE_JOINT_TEACH: "joint teaching",
+              MODE_CARTESIAN_TEACH: "cartesian teaching", 4: "joint velocity", 5: "cartesian velocity",
+              6: "joint online planning", 7: "cartesian online planning", 11: "trajectory playback"}
+
 
 class Event(Enum):
     """What can change the motion state."""

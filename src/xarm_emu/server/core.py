@@ -438,8 +438,7 @@ class EmulatorServer:
             self.emulator.step(n)
             if self.feedback is not None and self.feedback.pending:
                 self.deliver_feedback()
-            ctl = self.emulator.controller
-            self.code_watch.check(ctl.error_code, ctl.warning_code)
+            self.code_watch.check(self.emulator.controller)
         return n
 
     def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "",
@@ -455,8 +454,7 @@ class EmulatorServer:
         else:
             state, reply = emu.handle(register, params)
             frame = encode_reply(tid, protocol, register, state, reply)
-            ctl = emu.controller
-            self.code_watch.check(ctl.error_code, ctl.warning_code)
+        self.code_watch.check(emu.controller)
         if self.trace is not None:
             self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
         return frame

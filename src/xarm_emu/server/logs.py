@@ -10,6 +10,10 @@ import logging
 import logging.handlers
 import time
 from pathlib import Path
+from typing import Any
+
+from ..controller.states import MODE_NAMES, STATE_NAMES
+from ..protocol import codes
 
 #: Seconds during which a line identical to one just written is held back (and counted).
 REPEAT_WINDOW = 10.0
@@ -78,18 +82,28 @@ def configure(level: str, log_file: Path | None = None, max_bytes: int = 0, back
 
 
 class CodeWatch:
-    """Logs at INFO each change of the controller's error and warning codes (manual chapter 3)."""
+    """Logs each change of the motion state and mode (INFO) and of the error and warning codes with
+    the manual's names (chapter 3: WARNING when raised, INFO when cleared)."""
 
     def __init__(self, logger: logging.Logger) -> None:
         self.logger = logger
-        self._last = (0, 0)
+        self._last: tuple[int, int, int, int] | None = None
 
-    def check(self, error: int, warning: int) -> None:
-        last = self._last
-        if (error, warning) == last:
+    def check(self, ctl: Any) -> None:
+        """Log what changed on controller ``ctl`` since the last call."""
+        now = (ctl.state, ctl.mode, ctl.error_code, ctl.warning_code)
+        if now == self._last:
             return
-        self._last = (error, warning)
-        if error != last[0]:
-            self.logger.info("controller error code %d%s", error, " (cleared)" if not error else "")
-        if warning != last[1]:
-            self.logger.info("controller warning code %d%s", warning, " (cleared)" if not warning else "")
+        last = self._last or (-1, -1, 0, 0)
+        self._last = now
+        state, mode, error, warning = now
+        if state != last[0]:
+            self.logger.info("state %d (%s)", state, STATE_NAMES.get(state, "?"))
+        if mode != last[1]:
+            self.logger.info("mode %d (%s)", mode, MODE_NAMES.get(mode, "?"))
+        if error != last[2]:
+            self.logger.log(logging.WARNING if error else logging.INFO, "error %s",
+                            codes.describe_error(error) if error else "cleared")
+        if warning != last[3]:
+            self.logger.log(logging.WARNING if warning else logging.INFO, "warning %s",
+                            codes.describe_warning(warning) if warning else "cleared")
