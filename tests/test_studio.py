@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import socket
+import time
 import urllib.request
 from typing import Any
 
@@ -113,8 +114,9 @@ def test_the_sdk_studio_calls(tmp_path: Any, sdk_arm: Any) -> None:
         ctl = srv.emulator.controller
         assert wait_for(lambda: ctl.mode == 2 and ctl.state == 2)
         assert arm.start_record_trajectory() == 0
+        time.sleep(0.3)
         assert arm.stop_record_trajectory() == 0
-        assert arm.save_record_trajectory("t1", wait=True) == 0
+        assert arm.save_record_trajectory("t1", wait=True, timeout=10) == 0
         code, trajs = arm.get_trajectories()
         assert code == 0 and [t["name"] for t in trajs] == ["t1"]
         assert arm.delete_trajectory("t1") == 0
