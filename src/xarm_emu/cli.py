@@ -102,6 +102,13 @@ def serve(
                                                     "files (0: never).", min=0)] = 0,
     trace_max_bytes: Annotated[int, typer.Option(help="Rotate --trace to FILE.1 at this size (0: never).",
                                                  min=0)] = 0,
+    modbus_port: Annotated[int | None, typer.Option(help="Also serve the standard Modbus-TCP map "
+                                                         "(protocol 0) on this port, for PLC and SCADA "
+                                                         "tools that cannot share the command port.")
+                           ] = None,
+    studio: Annotated[bool, typer.Option("--studio", help="Answer the SDK's xArm Studio HTTP calls "
+                                                           "(initial point, mount, trajectories).")] = False,
+    studio_port: Annotated[int, typer.Option(help="Port of --studio (the SDK uses 18333).")] = 18333,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .server.app import ServerConfig
@@ -110,7 +117,8 @@ def serve(
 
     _check_serve_options(log_level, host, (view_host or host) if view else None, {
         "--port": port, "--normal-port": normal_port, "--rich-port": rich_port,
-        "--develop-port": develop_port, "--admin-port": admin_port, "--view-port": view_port})
+        "--develop-port": develop_port, "--admin-port": admin_port, "--view-port": view_port,
+        "--modbus-port": modbus_port, "--studio-port": studio_port if studio else None})
     configure(log_level, log_file, log_max_bytes, json_lines=log_json)
     if record is not None and fleet is not None:
         err_console.print("--record: with --fleet, record each arm with `xarm-emu record --port ...`")
@@ -150,6 +158,7 @@ def serve(
         raise typer.Exit(2) from None
     if record is not None:
         _attach_record(servers[0], record)
+    _attach_plc_ports(servers, host, modbus_port, studio_port if studio else None)
     for srv in servers:
         if srv.emulator.config_message:
             err_console.print(srv.emulator.config_message, style="yellow")
@@ -233,6 +242,23 @@ def _attach_record(srv: EmulatorServer, path: Path) -> None:
     console.print(f"recording to {path}; open it with: rerun {path}", soft_wrap=True)
 
 
+def _attach_plc_ports(servers: list[EmulatorServer], host: str, modbus_port: int | None,
+                      studio_port: int | None) -> None:
+    """--modbus-port and --studio: the Modbus map on a port of its own, the Studio HTTP calls; one arm
+    only (a fleet's arms would need one port each)."""
+    if modbus_port is None and studio_port is None:
+        return
+    if len(servers) != 1:
+        _user_error("--modbus-port, --studio: one arm only, not with --fleet")
+    from .server.modbus_port import attach_modbus_port
+    from .server.studio import attach_studio
+
+    if modbus_port is not None:
+        attach_modbus_port(servers[0], host, modbus_port)
+    if studio_port is not None:
+        attach_studio(servers[0], host, studio_port)
+
+
 def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmware: bool) -> None:
     """Exit 2 naming every per-arm option given beside --fleet."""
     from .server.app import ServerConfig
@@ -301,6 +327,10 @@ async def _serve_all(servers: list[EmulatorServer], cdir: Path) -> None:
             console.print(f"admin channel (fault injection) on {where}")
         if "view" in srv.ports:
             console.print(f"3D view on http://{srv.viewer.host}:{srv.ports['view']}/")
+        if "modbus" in srv.ports:
+            console.print(f"standard Modbus TCP on {cfg.host}:{srv.ports['modbus']}")
+        if "studio" in srv.ports:
+            console.print(f"Studio HTTP calls on http://{cfg.host}:{srv.ports['studio']}/")
     # SIGTERM (docker stop, CI teardown) and Ctrl-C close every arm cleanly: connections end,
     # traces and logs are flushed, and the process exits 0.
     loop = asyncio.get_running_loop()
@@ -443,6 +473,33 @@ def registers(
     for reg in REGISTERS.values():
         print(f"{reg.code:3d} {reg.name:26s} {reg.title}\n    request: {reg.request.describe()}"
               f"\n    reply:   {reg.reply.describe()}")
+
+
+@app.command("modbus-map")
+def modbus_map(
+    as_json: Annotated[bool, typer.Option("--json", help="One JSON object per point.")] = False,
+) -> None:
+    """Print the standard Modbus-TCP map (protocol id 0, unit 1): every point, its scaling and what a
+    write does, from the emulator's own table."""
+    from .protocol.modbus import MODBUS_MAP
+
+    if as_json:
+        for p in MODBUS_MAP:
+            console.print(json.dumps({"table": p.kind.value, "address": p.address, "count": p.count,
+                                      "name": p.name, "unit": p.unit, "scale": p.scale, "signed": p.signed,
+                                      "writable": p.writable, "writes": p.writes, "doc": p.doc}),
+                          soft_wrap=True)
+        return
+    table = Table("table", "addresses", "name", "unit", "scale", "rw", "note")
+    for col in table.columns[1:3]:  # addresses and names stay whole on a narrow terminal
+        col.no_wrap = True
+    for p in MODBUS_MAP:
+        span = str(p.address) if p.count == 1 else f"{p.address}-{p.end - 1}"
+        note = "; ".join(x for x in (p.writes and f"as register {p.writes}", p.doc) if x)
+        table.add_row(p.kind.value, span, p.name, p.unit,
+                      "" if p.scale == 1 else f"x{p.scale:g}" + (" signed" if p.signed else ""),
+                      "rw" if p.writable else "r", note)
+    console.print(table)
 
 
 @app.command(name="codes")
