@@ -12,7 +12,7 @@ import pytest
 from xarm_emu.controller.base import WARN_UNKNOWN_COMMAND
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol import registers as regs
-from xarm_emu.protocol.firmware import SUPPORTED_VERSIONS, profile_for
+from xarm_emu.protocol.firmware import SERVE_VERSION, SUPPORTED_VERSIONS, profile_for
 from xarm_emu.server.fleet import FleetError, load_fleet
 from xarm_emu.testing import running_emulator
 
@@ -56,7 +56,7 @@ def test_fleet_key_firmware(tmp_path: Path) -> None:
     f = tmp_path / "fleet.toml"
     f.write_text('[[arm]]\nfirmware = "2.0.102"\n[[arm]]\nhost = "127.0.0.2"\n')
     fleet = load_fleet(f)
-    assert [str(a.firmware) for a in fleet.arms] == ["2.0.102", "1.6.0"]
+    assert [str(a.firmware) for a in fleet.arms] == ["2.0.102", SERVE_VERSION]  # serve's default
     f.write_text('[[arm]]\nfirmware = 2\n')
     with pytest.raises(FleetError, match="firmware is a version string"):
         load_fleet(f)

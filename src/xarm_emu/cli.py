@@ -20,7 +20,7 @@ from rich.table import Table
 from . import __version__
 from .model.robots import MODEL_NAMES, RobotModel, get_model
 from .protocol import codes
-from .protocol.firmware import DEFAULT_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, VersionError, profile_for
+from .protocol.firmware import SERVE_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, VersionError, profile_for
 from .protocol.frame import COMMAND_PORT
 from .protocol.reports import DEVELOP_PORT, NORMAL_PORT, RICH_PORT
 
@@ -70,7 +70,7 @@ def serve(
     loop: Annotated[str, typer.Option(help="Event loop: asyncio (default: the steadiest 100 Hz report in "
                                            "`make bench`) or uvloop.")] = "asyncio",
     firmware: Annotated[str, typer.Option(help="Firmware version the box claims and behaves as: "
-                                               + ", ".join(SUPPORTED_VERSIONS) + ".")] = DEFAULT_VERSION,
+                                               + ", ".join(SUPPORTED_VERSIONS) + ".")] = SERVE_VERSION,
     vacuum: Annotated[bool, typer.Option("--vacuum", help="Attach the xArm Vacuum Gripper: its pressure "
                                                            "switch answers on tool input 0.")] = False,
     trace: Annotated[Path | None, typer.Option(help="Append every command-port request and reply to "
@@ -150,7 +150,7 @@ def serve(
         err_console.print(f"--model: {exc}")
         raise typer.Exit(2) from None
     if fleet is not None:
-        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != DEFAULT_VERSION)
+        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != SERVE_VERSION)
     try:
         servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile)
     except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
@@ -777,7 +777,9 @@ def plot_session(
 def replay_trace(
     trace_file: Annotated[Path, typer.Argument(help="A command trace of `serve --trace`.")],
     model: Annotated[str, typer.Option(help="Arm model the trace was recorded with.")] = "6",
-    firmware: Annotated[str, typer.Option(help="Firmware version of the recorded box.")] = DEFAULT_VERSION,
+    firmware: Annotated[str | None, typer.Option(help="Firmware version of the recorded box (default: the "
+                                                      "version its register 1 reply claimed, else serve's "
+                                                      "default).")] = None,
     vacuum: Annotated[bool, typer.Option("--vacuum", help="The box had a vacuum gripper.")] = False,
     tolerance: Annotated[float, typer.Option(help="Largest difference of a decoded value that still "
                                                   "counts as the same.")] = 1e-6,
@@ -792,10 +794,10 @@ def replay_trace(
 
     try:
         robot = get_model(model)
-        check = profile_for(firmware)
-        from .controller.emulator import check_firmware
+        if firmware is not None:
+            from .controller.emulator import check_firmware
 
-        check_firmware(robot, check)
+            check_firmware(robot, profile_for(firmware))
     except (ValueError, VersionError) as exc:
         _user_error(f"--model/--firmware: {exc}")
     try:

@@ -117,17 +117,27 @@ def _compare(n: int, rec: dict[str, Any], state: int, reply: bytes, tolerance: f
     return Difference(n, t, register, name, "reply", rec["reply"], reply.hex())
 
 
+def recorded_firmware(requests: list[tuple[int, dict[str, Any]]]) -> str | None:
+    """The firmware version the recorded box claimed in its register 1 reply, if the trace has one."""
+    for _, rec in requests:
+        version = (rec.get("values") or {}).get("version") if rec.get("register") == 1 else None
+        if isinstance(version, str) and ",v" in version:
+            return version.rsplit(",v", 1)[1].strip("\0 ")
+    return None
+
+
 def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum: bool = False,
            tolerance: float = PERIOD_TOLERANCE, stop_at_first: bool = False) -> ReplayResult:
     """Replay the trace at ``path`` into a fresh emulator of ``model`` (module docstring)."""
     from .controller.emulator import Emulator
-    from .protocol.firmware import DEFAULT_VERSION
+    from .protocol.firmware import SERVE_VERSION
     from .server.core import EmulatorServer, ServerConfig
 
     requests = read_requests(path)
     result = ReplayResult()
+    firmware = firmware or recorded_firmware(requests) or SERVE_VERSION
     with tempfile.TemporaryDirectory(prefix="xarm-emu-replay-") as cdir:
-        emu = Emulator(model, config_dir=Path(cdir), vacuum=vacuum, firmware=firmware or DEFAULT_VERSION)
+        emu = Emulator(model, config_dir=Path(cdir), vacuum=vacuum, firmware=firmware)
         server = EmulatorServer(emu, ServerConfig(stepped=True, admin=True, port=0))
         for n, rec in requests:
             t = float(rec["t"])

@@ -212,6 +212,13 @@ SUPPORTED_VERSIONS: tuple[str, ...] = ("1.6.0", "1.11.100", "2.0.102", "2.4.101"
                                        "2.7.103")
 NEWEST_PROFILE = FirmwareProfile.for_version(SUPPORTED_VERSIONS[-1])
 
+#: What ``xarm-emu serve`` (and a fleet arm, and ``xarm-emu replay``) claims unless told: the newest
+#: firmware, as arms sold today run 2.x. The official SDK's example programs run against it at least
+#: as well as against 1.6.0 (several only there). The in-process ``Emulator`` and
+#: ``xarm_emu.testing.running_emulator`` keep :data:`DEFAULT_VERSION`, the manual's box, whose byte
+#: examples they reproduce.
+SERVE_VERSION = SUPPORTED_VERSIONS[-1]
+
 
 def profile_for(version: str) -> FirmwareProfile:
     """The profile of a CLI version, refusing versions not in :data:`SUPPORTED_VERSIONS`."""

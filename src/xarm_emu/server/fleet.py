@@ -42,7 +42,7 @@ from typing import Any
 from ..controller.emulator import check_firmware
 from ..model.robots import MODEL_NAMES, get_model
 from ..protocol.admin import admin_host, derive_admin_port
-from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, VersionError, profile_for
+from ..protocol.firmware import SERVE_VERSION, FirmwareProfile, VersionError, profile_for
 from .core import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
@@ -63,7 +63,7 @@ class ArmSpec:
     robot_sn: str
     server: ServerConfig = field(default_factory=ServerConfig)
     vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
-    firmware: FirmwareProfile = DEFAULT_PROFILE  # the firmware the box claims (serve --firmware)
+    firmware: FirmwareProfile = field(default_factory=lambda: profile_for(SERVE_VERSION))  # serve --firmware
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     for key, flag in (("admin", admin), ("vacuum", vacuum)):
         if not isinstance(flag, bool):
             raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
-    firmware = values.get("firmware", str(DEFAULT_PROFILE.version))
+    firmware = values.get("firmware", SERVE_VERSION)
     if not isinstance(firmware, str):
         raise FleetError(f"{where}: firmware is a version string such as \"2.7.103\", got {firmware!r}")
     try:
