@@ -150,3 +150,22 @@ def test_xarm_has_no_ti2() -> None:
             assert arm.get_tgpio_digital(2)[0] != 0  # 0x0A12 is not a register of the xArm tool board
         finally:
             arm.disconnect()
+
+
+def test_lite6_end_button_switches_manual_mode_as_studio_does(lite6) -> None:
+    """Studio polls TI2 (the end teaching button) and answers a press with ``set_mode(2, 1)`` and
+    ``set_state(0)``, the next with ``set_mode(0)``: the emulator's TI2 drives that loop."""
+    arm, st = lite6
+
+    def mode() -> int:
+        return st.call(lambda: st.emulator.controller.mode)  # type: ignore[no-any-return]
+
+    for pressed, want in ((1, 2), (0, 2), (1, 0)):
+        st.call(lambda p=pressed: st.emulator.set_input("tgpio", 2, p))
+        code, button = arm.get_tgpio_digital(2)
+        assert (code, button) == (0, pressed)
+        if button:
+            target = 0 if mode() == 2 else 2
+            assert arm.set_mode(target, 1 if target == 2 else 0) == 0
+            assert arm.set_state(0) == 0
+        assert wait_for(lambda w=want: mode() == w, timeout=2.0)
