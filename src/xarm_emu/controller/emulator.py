@@ -33,6 +33,7 @@ from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .gripper import GripperModule
 from .io import IOModule
+from .lite6_gripper import Lite6Gripper
 from .settings import Settings
 from .state import ControllerState
 from .thermal import ThermalModel
@@ -168,7 +169,8 @@ class Emulator:
                                      firmware=self.firmware)
         box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
         # Control boxes with SN >= 1300 have 16 digital IO, as the SDK expects.
-        self.io = IOModule(n_digital=16 if box_number >= 1300 else 8)
+        self.io = IOModule(n_digital=16 if box_number >= 1300 else 8,
+                           tool_ti2=self.model.tool_io.ti2_address is not None)
         self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9])
         self.controller.add_component(self.io)
         self.io.attach(self.controller)
@@ -179,6 +181,11 @@ class Emulator:
         if vacuum:
             self.vacuum = VacuumGripper(self.io.tool)
             self.controller.add_component(self.vacuum)
+        #: The Lite 6 gripper's jaws on TO0/TO1 (controller/lite6_gripper.py), on the arms wired for it.
+        self.lite6_gripper: Lite6Gripper | None = None
+        if self.model.tool_io.gripper is not None:
+            self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
+            self.controller.add_component(self.lite6_gripper)
         self.thermal = ThermalModel(self.model.dof, sizes=joint_sizes(self.model))
         self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
         self._schedule_seq = 0
@@ -291,6 +298,8 @@ class Emulator:
         }
         if self.vacuum is not None:
             parts["vacuum"] = {k: v for k, v in vars(self.vacuum).items() if k != "tool"}
+        if self.lite6_gripper is not None:
+            parts["lite6_gripper"] = {k: v for k, v in vars(self.lite6_gripper).items() if k != "tool"}
         return parts
 
     def _memo(self, parts: object) -> dict[int, object]:
@@ -319,6 +328,9 @@ class Emulator:
         if self.vacuum is not None:
             vars(self.vacuum).update(parts["vacuum"])
             self.vacuum.tool = self.io.tool
+        if self.lite6_gripper is not None:
+            vars(self.lite6_gripper).update(parts["lite6_gripper"])
+            self.lite6_gripper.tool = self.io.tool
 
     # -- in-process API ------------------------------------------------------------------------
     @property

@@ -2,10 +2,13 @@
 
 Tool IO (registers 127 write, 128 read; ``[host][address][value]``, host 9):
 
-- 0x0A14 digital inputs, bit n = TI n; 0x0A16 / 0x0A17 analog inputs, 0-4095 for 0-3.3 V;
+- 0x0A14 digital inputs: bit 0 TI0, bit 1 TI1, bit 2 TI3, bit 3 TI4 (the bits the SDK's
+  ``get_tgpio_digital`` reads); 0x0A12 bit 0 is TI2, on the arms that have one (Lite 6, 850);
+  0x0A16 / 0x0A17 analog inputs, 0-4095 for 0-3.3 V;
 - 0x0A15 digital outputs: a mask word sent as fp32, high byte = outputs to change,
   low byte = their values (256.0 "close 0", 257.0 "open 0", 512.0 "close 1", 514.0 "open 1");
-  0x0A18 reads the output word back (bit 0 TO0, bit 1 TO1);
+  bit 0 TO0, bit 1 TO1, bit 2 TO3, bit 3 TO4, bit 4 TO2, as the SDK's ``tgpio_set_digital`` masks;
+  0x0A18 reads the output word back in the same bits;
 - 0x0A0B reads the RS-485 baud-rate index, 0x1A0B writes it (index 11 = 2,000,000 bps, the
   gripper's); 0x0607 soft-reboots the tool board (outputs drop to 0); 0x0801-0x0803 board version.
 
@@ -47,6 +50,7 @@ ADDR_TOOL_DI = 0x0A14
 ADDR_TOOL_DO = 0x0A15
 ADDR_TOOL_AI = (0x0A16, 0x0A17)
 ADDR_TOOL_DO_READ = 0x0A18
+ADDR_TOOL_TI2 = 0x0A12  # TI2 in bit 0 (Lite 6, 850)
 ADDR_BAUD_READ = 0x0A0B
 ADDR_BAUD_WRITE = 0x1A0B
 ADDR_SOFT_REBOOT = 0x0607
@@ -57,6 +61,9 @@ BAUD_RATES = (4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600,
 DEFAULT_BAUD_INDEX = 11  # 2,000,000 bps, what the SDK checks before gripper commands
 
 TOOL_DIGITAL = 2  # TO0/TO1, TI0/TI1 of the xArm 5/6/7 tool connector
+#: Tool input number (TI n, the SDK's ``ionum``) -> bit of 0x0A14; TI2 lives at 0x0A12 instead.
+TOOL_INPUT_BITS = {0: 0, 1: 1, 3: 2, 4: 3}
+TI2 = 2
 TOOL_AI_FULL_SCALE = 3.3  # V at 4095
 # Control box analog IO: 12-bit counts for 0-10 V, the scale the rich report also uses (one home:
 # protocol/reports.py).
@@ -97,9 +104,12 @@ class PendingIO:
 class ToolIO:
     """The tool (end-effector) IO board on host 9, and the control box RS-485 baud on host 11."""
 
-    def __init__(self, version: tuple[int, int, int] = (1, 0, 0)) -> None:
+    def __init__(self, version: tuple[int, int, int] = (1, 0, 0), has_ti2: bool = False) -> None:
         self.version = version
-        self.digital_inputs = 0  # bit n = TI n
+        self.digital_inputs = 0  # 0x0A14: TI0, TI1, TI3, TI4 in bits 0-3 (TOOL_INPUT_BITS)
+        #: The arm has the third tool input TI2 at 0x0A12 (Lite 6, 850).
+        self.has_ti2 = has_ti2
+        self.ti2 = 0
         self.digital_outputs = 0  # bit n = TO n
         self.analog_inputs = [0, 0]  # raw 0..4095
         self.baud_index = {TOOL_HOST: DEFAULT_BAUD_INDEX, CONTROL_BOX_HOST: DEFAULT_BAUD_INDEX}
@@ -109,6 +119,30 @@ class ToolIO:
 
     def set_output(self, index: int, on: int) -> None:
         self.apply_mask(((1 << index) << 8) | ((1 if on else 0) << index))
+
+    def check_input(self, number: int) -> None:
+        """Raise ParameterError unless TI ``number`` exists on this tool board."""
+        if number == TI2:
+            if not self.has_ti2:
+                raise ParameterError("this arm has no tool input TI2 (Lite 6 and 850 have one)")
+        elif number not in TOOL_INPUT_BITS:
+            raise ParameterError(f"tool input {number} (0-4)")
+
+    def input(self, number: int) -> int:
+        """The level of tool input TI ``number``."""
+        self.check_input(number)
+        if number == TI2:
+            return self.ti2
+        return (self.digital_inputs >> TOOL_INPUT_BITS[number]) & 1
+
+    def set_input(self, number: int, on: int) -> None:
+        """Set tool input TI ``number`` (0x0A14 bit, or 0x0A12 for TI2)."""
+        self.check_input(number)
+        if number == TI2:
+            self.ti2 = 1 if on else 0
+            return
+        bit = 1 << TOOL_INPUT_BITS[number]
+        self.digital_inputs = (self.digital_inputs | bit) if on else (self.digital_inputs & ~bit)
 
     def apply_mask(self, word: int) -> None:
         """Apply a 0x0A15 word: high byte selects outputs, low byte gives their values."""
@@ -146,6 +180,8 @@ class ToolIO:
             raise ParameterError(f"address {addr:#06x} on host {host}")
         if addr == ADDR_TOOL_DI:
             return self.digital_inputs
+        if addr == ADDR_TOOL_TI2 and self.has_ti2:
+            return self.ti2
         if addr in (ADDR_TOOL_DO, ADDR_TOOL_DO_READ):
             return self.digital_outputs
         if addr in ADDR_TOOL_AI:
@@ -270,8 +306,9 @@ class ControlBoxGpio:
 class IOModule:
     """Controller component: tool IO, control box GPIO and special IO (registers 127-147)."""
 
-    def __init__(self, n_digital: int = 16, tool_version: tuple[int, int, int] = (1, 0, 0)) -> None:
-        self.tool = ToolIO(tool_version)
+    def __init__(self, n_digital: int = 16, tool_version: tuple[int, int, int] = (1, 0, 0),
+                 tool_ti2: bool = False) -> None:
+        self.tool = ToolIO(tool_version, has_ti2=tool_ti2)
         self.cgpio = ControlBoxGpio(n_digital)
         self.pending: list[PendingIO] = []
         self.cgpio_reset_on_stop = False
@@ -319,8 +356,7 @@ class IOModule:
         if kind == "cgpio":
             self.cgpio._check_index(index)
         elif kind == "tgpio":
-            if not 0 <= index < 4:
-                raise ParameterError(f"tool input {index} (0-3)")
+            self.tool.check_input(index)
         elif kind in ("analog", "tool-analog", "tool_analog", "tanalog"):
             self._analog_index(index)
         else:
@@ -328,16 +364,14 @@ class IOModule:
 
     def set_input(self, kind: str, index: int, value: float) -> None:
         """Play a sensor: ``cgpio`` / ``tgpio`` digital (0/1), ``analog`` (control box, V) or
-        ``tool-analog`` (V)."""
+        ``tool-analog`` (V). ``tgpio`` numbers are the SDK's: TI0-TI4, TI2 only on Lite 6 and 850."""
         self.check_input(kind, index)
         if kind == "cgpio":
             bit = 1 << index
             self.cgpio.digital_inputs = (self.cgpio.digital_inputs | bit) if value else (
                 self.cgpio.digital_inputs & ~bit)
         elif kind == "tgpio":
-            bit = 1 << index
-            self.tool.digital_inputs = (self.tool.digital_inputs | bit) if value else (
-                self.tool.digital_inputs & ~bit)
+            self.tool.set_input(index, 1 if value else 0)
         elif kind == "analog":
             self.cgpio.analog_inputs[index] = _volts_to_raw(value, CGPIO_AI_FULL_SCALE)
         else:
