@@ -194,3 +194,26 @@ def test_the_sdk_report_parsers_read_errors_and_warnings(sdk_arm: Callable[..., 
         if report_type == "rich":  # the develop stream carries no error code: only the rich one clears it
             assert _until(lambda: a.error_code == 0)
         a.disconnect()
+
+
+def test_rich_report_carries_the_reduced_mode_and_motion_flags_the_registers_set() -> None:
+    """Rich bytes 433-586 of a 2.x box show the reduced mode of registers 47, 48 and 50 and the
+    flags of registers 66 and 80, as registers 53 and the SDK's report parser read them."""
+    from xarm_emu.controller.emulator import Emulator
+    from xarm_emu.protocol import reports
+    from xarm_emu.server.report_ports import firmware2_fields
+
+    emu = Emulator(6, firmware="2.7.103")
+    table = emu.controller.registers
+    for code, values in ((47, {"speed": 250.0}), (48, {"speed": 1.5}), (50, {"on": 1}),
+                         (66, {"on": 1}), (80, {"on": 1})):
+        layout = table[code].request
+        values = {f.name: values.get(f.name, 1) for f in layout.fields}
+        state, _ = emu.handle(code, layout.encode(values))
+        assert state & 0x60 == 0, code
+    frame = reports.encode_rich2(firmware2_fields(emu, emu.snapshot()))
+    got = reports.decode_rich2(frame)
+    assert got.reduced_mode is True
+    assert got.reduced_max_tcp_speed == pytest.approx(250.0)
+    assert got.reduced_max_joint_speed == pytest.approx(1.5)
+    assert got.approx_motion is True and got.cart_continuous is True

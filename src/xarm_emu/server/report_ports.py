@@ -17,6 +17,8 @@ import time
 from collections.abc import Awaitable, Callable
 from typing import Any
 
+from ..controller.handlers.extras import extra_state
+from ..controller.reduced import reduced_of
 from ..model import rotations as rot
 from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
@@ -57,7 +59,7 @@ def firmware2_fields(emu: Any, snap: reports.ReportSnapshot) -> reports.ReportSn
     the real-time report) from the controller, for a box of a 2.x profile.
 
     Bytes 284-287 carry the counter of registers 74/75 (``user_counter``), which both SDKs read there.
-    Values a register of another group keeps are read where present, else left at their defaults.
+    The reduced-mode block and the motion flags are the values registers 53, 66 and 80 answer.
     """
     ctl = emu.controller
     s = ctl.settings
@@ -66,17 +68,18 @@ def firmware2_fields(emu: Any, snap: reports.ReportSnapshot) -> reports.ReportSn
     if all(math.isfinite(x) for x in (roll, pitch, yaw)):
         snap.pose_aa = tuple(float(x) for x in rot.rpy_to_axis_angle(roll, pitch, yaw))
     snap.report_current = bool(s.report_current)
-    snap.approx_motion = bool(getattr(s, "approx_motion", False))
-    snap.cart_continuous = bool(getattr(s, "cart_continuous", False))
-    snap.reduced_mode = bool(getattr(s, "reduced_mode", False))
+    extra = extra_state(ctl)
+    snap.approx_motion = bool(extra.approx_motion)
+    snap.cart_continuous = bool(extra.cartesian_velocity_continuous)
+    reduced = reduced_of(ctl)  # registers 47-50, 58 and 60, as register 53 reports them
+    snap.reduced_mode = bool(reduced.on)
     snap.reduced_tcp_boundary = tuple(int(x) for x in s.boundary)
     snap.fence = bool(s.boundary_on)
-    snap.reduced_max_tcp_speed = float(getattr(s, "reduced_tcp_speed", 0.0))
-    snap.reduced_max_joint_speed = float(getattr(s, "reduced_joint_speed", 0.0))
-    ranges = getattr(s, "reduced_joint_ranges", None)
-    if ranges is not None:
-        snap.reduced_joint_ranges = tuple(float(x) for x in ranges)
-    snap.collision_rebound = bool(getattr(s, "collision_rebound", False))
+    snap.reduced_max_tcp_speed = float(reduced.tcp_speed)
+    snap.reduced_max_joint_speed = float(reduced.joint_speed)
+    if reduced.joint_ranges:
+        snap.reduced_joint_ranges = tuple(float(x) for x in reduced.joint_ranges)
+    snap.collision_rebound = bool(reduced.rebound)
     snap.timestamp_us = int(round(ctl.time * 1e6))
     snap.joint_accelerations = tuple(float(x) for x in ctl.qdd) + (0.0,) * (7 - ctl.dof)
     return snap
