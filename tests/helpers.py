@@ -175,3 +175,21 @@ def accepts(port: int) -> bool:
     except OSError:
         return False
     return True
+
+
+def report_frames_in(port: int, seconds: float) -> int:
+    """Report frames (u32 BE length first, manual 2.1.6) received on ``port`` in ``seconds``."""
+    got = 0
+    with connect(port) as s:
+        s.settimeout(0.5)
+        end = time.monotonic() + seconds
+        buf = b""
+        while time.monotonic() < end:
+            buf += s.recv(65536)
+            while len(buf) >= 4:
+                size = struct.unpack(">I", buf[:4])[0]
+                if len(buf) < size:
+                    break
+                buf = buf[size:]
+                got += 1
+    return got

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from helpers import accepts, connect, free_ports, port_args, recv_exact, wait_for
+from helpers import accepts, connect, free_ports, port_args, recv_exact, report_frames_in, wait_for
 
 from xarm_emu.client.admin import AdminClient
 from xarm_emu.controller import config as config_mod
@@ -108,23 +108,6 @@ def test_a_save_on_a_failing_disk_keeps_the_old_file_and_names_the_cause(
             assert json.loads(a.request("status"))["save_error"] is None
 
 
-def _develop_frames(port: int, seconds: float) -> int:
-    got = 0
-    with connect(port) as s:
-        s.settimeout(0.5)
-        end = time.monotonic() + seconds
-        buf = b""
-        while time.monotonic() < end:
-            buf += s.recv(65536)
-            while len(buf) >= 4:
-                size = struct.unpack(">I", buf[:4])[0]
-                if len(buf) < size:
-                    break
-                buf = buf[size:]
-                got += 1
-    return got
-
-
 def _p50(port: int, n: int = 300) -> float:
     times = []
     with connect(port) as s:
@@ -154,7 +137,7 @@ def test_a_client_looping_save_conf_slows_neither_the_report_nor_the_others(tmp_
         th.start()
         try:
             time.sleep(0.3)
-            frames = _develop_frames(ports[3], 3.0)
+            frames = report_frames_in(ports[3], 3.0)
             p50 = _p50(ports[0])
         finally:
             stop.set()

@@ -13,7 +13,16 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from helpers import accepts, connect, free_ports, port_args, recv_exact, serve_subprocess, wait_for
+from helpers import (
+    accepts,
+    connect,
+    free_ports,
+    port_args,
+    recv_exact,
+    report_frames_in,
+    serve_subprocess,
+    wait_for,
+)
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import encode_request
@@ -35,26 +44,6 @@ def _get_state_times(port: int, n: int) -> list[float]:
             recv_exact(s, struct.unpack(">H", head[4:6])[0])
             out.append(time.perf_counter() - t0)
     return out
-
-
-def _develop_frames(port: int, seconds: float) -> int:
-    """Develop report frames received in ``seconds``."""
-    n = 0
-    got = 0
-    with connect(port) as s:
-        s.settimeout(0.5)
-        end = time.monotonic() + seconds
-        buf = b""
-        while time.monotonic() < end:
-            buf += s.recv(65536)
-            while len(buf) >= 4:
-                size = struct.unpack(">I", buf[:4])[0]
-                if len(buf) < size:
-                    break
-                buf = buf[size:]
-                got += 1
-        n = got
-    return n
 
 
 def _flood(port: int, stop: threading.Event, sent: list[int]) -> None:
@@ -99,7 +88,7 @@ def test_a_flood_that_reads_nothing_costs_only_its_sender(served: tuple[int, dic
     try:
         time.sleep(0.5)  # the flood fills the socket buffers and the server stops reading
         rss0 = _rss_mb(pid)
-        frames = _develop_frames(ports["develop"], FLOOD_SECONDS)
+        frames = report_frames_in(ports["develop"], FLOOD_SECONDS)
         times = sorted(_get_state_times(ports["command"], 200))
         rss1 = _rss_mb(pid)
     finally:
