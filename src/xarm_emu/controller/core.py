@@ -507,13 +507,9 @@ class Controller:
         return tuple(float(x) for x in t) + (0.0,) * (7 - self.dof)
 
 
-#: The name handler modules use for the controller in type hints.
-ControllerCore = Controller
-
 
 class NotReady(Exception):
     """A motion command while the arm cannot move: nothing queued, no warning, the reply shows 0x10."""
 
     def __init__(self) -> None:
         super().__init__("arm not ready for motion")
-

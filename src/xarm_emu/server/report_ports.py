@@ -63,7 +63,7 @@ def firmware2_fields(emu: Any, snap: reports.ReportSnapshot) -> reports.ReportSn
     """
     ctl = emu.controller
     s = ctl.settings
-    snap.counter = int(getattr(ctl, "user_counter", 0)) & 0xFFFFFFFF
+    snap.counter = int(ctl.user_counter) & 0xFFFFFFFF
     roll, pitch, yaw = snap.pose[3:6]
     if all(math.isfinite(x) for x in (roll, pitch, yaw)):
         snap.pose_aa = tuple(float(x) for x in rot.rpy_to_axis_angle(roll, pitch, yaw))

@@ -21,7 +21,7 @@ from ..base import Handler, Values
 from . import extras, feedback, ft_sensor, kinematics, motion, motion2, reduced, settings, state, trajectory
 
 if TYPE_CHECKING:
-    from ..core import ControllerCore
+    from ..core import Controller
 
 #: A register handler: the controller and the request values decoded by the register table in,
 #: the reply values (or ``None`` for an empty reply) out. It refuses by raising
@@ -44,7 +44,7 @@ TABLES: tuple[Mapping[int, CtlHandler], ...] = (
 )
 
 
-def bind(ctl: ControllerCore,
+def bind(ctl: Controller,
          tables: tuple[Mapping[int, CtlHandler], ...] | None = None) -> dict[int, Handler]:
     """The dispatch table of ``ctl``: each handler of ``tables`` (default :data:`TABLES`) with the
     controller bound as its first argument, for the registers of ``ctl``'s firmware only."""
