@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 import typer
 from rich.console import Console
 from rich.table import Table
+from typer.core import TyperCommand
 
 from . import __version__
 from .model.robots import MODEL_NAMES, RobotModel, get_model
@@ -44,7 +45,25 @@ def _default_config_dir() -> Path:
     return default_config_dir()
 
 
-@app.command()
+class _ServeCommand(TyperCommand):
+    """``serve``, whose ``--linear-track`` may be given bare (the default stroke)."""
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        return super().parse_args(ctx, bare_linear_track(args))
+
+
+def bare_linear_track(args: list[str]) -> list[str]:
+    """``--linear-track`` without a length (last, or before another option) as the default stroke."""
+    from .controller.linear_track import DEFAULT_LENGTH
+
+    out = list(args)
+    for i, a in enumerate(out):
+        if a == "--linear-track" and (i + 1 == len(out) or out[i + 1].startswith("-")):
+            out[i] = f"--linear-track={DEFAULT_LENGTH}"
+    return out
+
+
+@app.command(cls=_ServeCommand)
 def serve(
     model: Annotated[str, typer.Option(help="Arm model: " + ", ".join(MODEL_NAMES)
                                        + " (xArm 5/6/7, Lite 6, UFACTORY 850, xArm 7T).")] = "6",
@@ -73,6 +92,10 @@ def serve(
                                                + ", ".join(SUPPORTED_VERSIONS) + ".")] = SERVE_VERSION,
     vacuum: Annotated[bool, typer.Option("--vacuum", help="Attach the xArm Vacuum Gripper: its pressure "
                                                            "switch answers on tool input 0.")] = False,
+    linear_track: Annotated[int | None, typer.Option(
+        "--linear-track", metavar="[LENGTH_MM]",
+        help="Attach a UFACTORY linear track on the control box RS-485: its stroke, 700, 1000 or "
+             "1500 mm (bare: 700).")] = None,
     trace: Annotated[Path | None, typer.Option(help="Append every command-port request and reply to "
                                                     "this JSON-lines file (see server/trace.py).")] = None,
     faults: Annotated[Path | None, typer.Option(help="Inject the faults and inputs this TOML schedule "
@@ -149,10 +172,18 @@ def serve(
     except ValueError as exc:
         err_console.print(f"--model: {exc}")
         raise typer.Exit(2) from None
+    if linear_track is not None:
+        from .controller.linear_track import check_length
+
+        try:
+            check_length(linear_track)
+        except ValueError as exc:
+            _user_error(f"--linear-track: {exc}")
     if fleet is not None:
-        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != SERVE_VERSION)
+        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != SERVE_VERSION,
+                              linear_track is not None)
     try:
-        servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile)
+        servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile, linear_track)
     except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
         err_console.print(str(exc))
         raise typer.Exit(2) from None
@@ -259,12 +290,13 @@ def _attach_plc_ports(servers: list[EmulatorServer], host: str, modbus_port: int
         attach_studio(servers[0], host, studio_port)
 
 
-def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmware: bool) -> None:
+def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmware: bool,
+                          track: bool = False) -> None:
     """Exit 2 naming every per-arm option given beside --fleet."""
     from .server.app import ServerConfig
 
     defaults = ServerConfig()
-    per_arm = {"--model": model, "--vacuum": vacuum, "--firmware": firmware,
+    per_arm = {"--model": model, "--vacuum": vacuum, "--firmware": firmware, "--linear-track": track,
                **{"--" + k.replace("_", "-"): getattr(given, k) != getattr(defaults, k) for k in _PER_ARM}}
     named = [name for name, on in per_arm.items() if on]
     if named:
@@ -274,7 +306,8 @@ def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmwa
 
 
 def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, vacuum: bool,
-                     cdir: Path, firmware: FirmwareProfile) -> tuple[list[EmulatorServer], Path]:
+                     cdir: Path, firmware: FirmwareProfile,
+                     linear_track: int | None = None) -> tuple[list[EmulatorServer], Path]:
     """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
     port opens. Returns them and the configuration directory they use."""
@@ -292,9 +325,10 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
                 raise ValueError(problem)
         cdir = spec.config_dir if spec.config_dir is not None else cdir
         arms = [(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum,
-                          firmware=a.firmware), a.server) for a in spec.arms]
+                          firmware=a.firmware, linear_track=a.linear_track), a.server) for a in spec.arms]
     else:
-        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware), cfg)]
+        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware,
+                          linear_track=linear_track), cfg)]
     servers = []
     for emu, arm_cfg in arms:
         arm_cfg.limits = cfg.limits
@@ -412,6 +446,7 @@ def status(
                 error, warning = c.get_err_warn()
                 joints = c.get_joints()
                 pose = c.get_position()
+                track = _track_status(c)
             break
         except (OSError, ClientError) as exc:
             if time.monotonic() < deadline:
@@ -430,7 +465,9 @@ def status(
             "joints_deg": [math.degrees(j) for j in joints[:axis]],
             "pose_mm_deg": [*pose[:3], *(math.degrees(p) for p in pose[3:])],
             "units": {"joints": "rad", "pose": "x, y, z mm; roll, pitch, yaw rad",
-                      "joints_deg": "deg", "pose_mm_deg": "x, y, z mm; roll, pitch, yaw deg"}}
+                      "joints_deg": "deg", "pose_mm_deg": "x, y, z mm; roll, pitch, yaw deg",
+                      "linear_track": "position mm"},
+            "linear_track": track}
     if as_json:
         print(json.dumps(data))
         return
@@ -443,7 +480,29 @@ def status(
     t.add_row("joints (deg)", ", ".join(f"{math.degrees(j):.3f}" for j in joints[:axis]))
     t.add_row("pose (mm, deg)", ", ".join([f"{p:.3f}" for p in pose[:3]] +
                                           [f"{math.degrees(p):.3f}" for p in pose[3:]]))
+    if track is not None:
+        t.add_row("linear track", f"{track['position']:.3f} mm, "
+                  + ("moving" if track["moving"] else "at rest") + ", "
+                  + ("enabled" if track["enabled"] else "disabled") + ", "
+                  + ("on zero" if track["on_zero"] else "not homed") + f", error {track['error']}")
     console.print(t)
+
+
+def _track_status(c: Any) -> dict[str, Any] | None:
+    """The linear track's registers 0x0A20-0x0A25 over register 124 (host 11, slave 1), or None
+    when nothing answers on the control box RS-485."""
+    from .protocol import rtu
+
+    reply = c.call(124, host=rtu.CONTROL_BOX_HOST, rtu=rtu.read_request(1, 0x0A20, 6))
+    try:
+        slave, func, words = rtu.parse_reply(bytes(reply["rtu"]))
+    except (KeyError, ValueError):
+        return None
+    if (slave, func) != (1, rtu.READ_HOLDING) or len(words) != 6:
+        return None
+    pulses = (words[0] << 16 | words[1]) - (1 << 32 if words[0] & 0x8000 else 0)
+    return {"position": pulses / 2000, "moving": bool(words[2] & 1), "error": words[3],
+            "enabled": bool(words[4] & 1), "on_zero": bool(words[5] & 1)}
 
 
 @app.command()
@@ -603,6 +662,8 @@ INJECT_COMMANDS: dict[str, tuple[str, tuple[tuple[str, Any, str], ...]]] = {
         ("joint", _JointOpt, "joint"))),
     "gripper-error": ("Raise a gripper error.", (
         ("code", Annotated[str, _CodeArg(help="Gripper error, e.g. G11 (manual 3.3).")], "code"),)),
+    "track-error": ("Raise a linear track drive error (serve --linear-track).", (
+        ("code", Annotated[str, _CodeArg(help="Drive error, e.g. 12 (speed overlimit).")], "code"),)),
     "end-module-lost": ("The end module stops answering (error C28).", ()),
     "collision": ("Push on a joint: error C31 when the collision sensitivity (register 37) detects the "
                   "torque.", (

@@ -27,12 +27,14 @@ from ..model.inertials import NOMINAL_JOINT_VOLTAGE, joint_sizes
 from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
+from ..protocol.rtu import CONTROL_BOX_HOST
 from . import safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .gripper import GripperModule
 from .io import IOModule
+from .linear_track import TRACK_BAUD_INDEX, TRACK_ID, LinearTrack
 from .lite6_gripper import Lite6Gripper
 from .settings import Settings
 from .state import ControllerState
@@ -158,7 +160,8 @@ class Emulator:
 
     def __init__(self, model: int | str | RobotModel = 6, *, robot_sn: str | None = None,
                  box_sn: str | None = None, config_dir: Path | None = None, load_config: bool = True,
-                 vacuum: bool = False, firmware: str | FirmwareProfile = DEFAULT_PROFILE) -> None:
+                 vacuum: bool = False, firmware: str | FirmwareProfile = DEFAULT_PROFILE,
+                 linear_track: int | None = None) -> None:
         self.model = model if isinstance(model, RobotModel) else get_model(model)
         sn = robot_sn or self.model.default_robot_sn
         box_sn = box_sn or self.model.default_box_sn
@@ -186,6 +189,14 @@ class Emulator:
         if self.model.tool_io.gripper is not None:
             self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
             self.controller.add_component(self.lite6_gripper)
+        #: The linear track on the control box RS-485 (controller/linear_track.py), ``linear_track``
+        #: mm long, when attached.
+        self.linear_track: LinearTrack | None = None
+        if linear_track is not None:
+            self.linear_track = track = LinearTrack(linear_track)
+            self.controller.add_component(track)
+            self.gripper.box_devices = lambda: (
+                {TRACK_ID: track} if self.io.tool.baud_index[CONTROL_BOX_HOST] == TRACK_BAUD_INDEX else {})
         self.thermal = ThermalModel(self.model.dof, sizes=joint_sizes(self.model))
         self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
         self._schedule_seq = 0
@@ -300,6 +311,8 @@ class Emulator:
             parts["vacuum"] = {k: v for k, v in vars(self.vacuum).items() if k != "tool"}
         if self.lite6_gripper is not None:
             parts["lite6_gripper"] = {k: v for k, v in vars(self.lite6_gripper).items() if k != "tool"}
+        if self.linear_track is not None:
+            parts["linear_track"] = dict(vars(self.linear_track))
         return parts
 
     def _memo(self, parts: object) -> dict[int, object]:
@@ -331,6 +344,8 @@ class Emulator:
         if self.lite6_gripper is not None:
             vars(self.lite6_gripper).update(parts["lite6_gripper"])
             self.lite6_gripper.tool = self.io.tool
+        if self.linear_track is not None:
+            vars(self.linear_track).update(parts["linear_track"])
 
     # -- in-process API ------------------------------------------------------------------------
     @property
@@ -373,6 +388,13 @@ class Emulator:
         self.generation += 1
         self.gripper.gripper.inject_error(code)
 
+    def inject_track_error(self, code: int) -> None:
+        """A linear track drive error (the SDK's linear motor codes, read at 0x0A23 over register 124)."""
+        self.generation += 1
+        if self.linear_track is None:
+            raise ValueError("no linear track is attached (Emulator(linear_track=700), serve --linear-track)")
+        self.linear_track.inject_error(code)
+
     def inject_end_module_lost(self) -> None:
         """The end module stops answering: error C28 (end module communication)."""
         self.generation += 1
@@ -399,11 +421,13 @@ class Emulator:
         return True
 
     def clear_faults(self) -> None:
-        """Clear every injected fault at once (errors, warnings, servo and gripper errors)."""
+        """Clear every injected fault at once (errors, warnings, servo, gripper and track errors)."""
         self.generation += 1
         ctl = self.controller
         ctl.faults = Faults.none(ctl.dof)
         self.gripper.gripper.clear_error()
+        if self.linear_track is not None:
+            self.linear_track.clear_error()
 
     def set_input(self, kind: str, index: int, value: float) -> None:
         """Play a sensor: ``cgpio``/``tgpio`` digital inputs (0/1), ``analog`` (control box, V),

@@ -303,6 +303,9 @@ class GripperModule:
         self.tool_baud = tool_baud
         self.modbus_timeout_ms = DEFAULT_MODBUS_TIMEOUT_MS
         self.transparent_timeout_ms = DEFAULT_TRANSPARENT_TIMEOUT_MS
+        #: The slaves answering on the control box RS-485 (host 11) now, by slave id (the linear
+        #: track, controller/linear_track.py, when attached and the bus baud matches its own).
+        self.box_devices: Callable[[], dict[int, rtu.RegisterDevice]] = dict
 
     def _bus_baud_index(self) -> int:
         return self.tool_baud() if self.tool_baud else self.gripper.baud_index
@@ -319,10 +322,12 @@ class GripperModule:
         if host == TOOL_HOST:
             if self._bus_baud_index() == self.gripper.baud_index:
                 devices[GRIPPER_ID] = self.gripper
-        elif host != CONTROL_BOX_HOST:
+        elif host == CONTROL_BOX_HOST:
+            devices.update(self.box_devices())
+        else:
             raise ParameterError(f"RS-485 host id {host}")
         reply = rtu.serve(pdu, devices)
-        if devices and self.response_ms(len(pdu), len(reply)) > self.modbus_timeout_ms:
+        if host == TOOL_HOST and devices and self.response_ms(len(pdu), len(reply)) > self.modbus_timeout_ms:
             slave = pdu[0] if pdu else 0
             func = pdu[1] if len(pdu) > 1 else 0
             return rtu.exception_reply(slave, func, rtu.GATEWAY_NO_RESPONSE)

@@ -21,7 +21,7 @@ MAX_LINE = 4096
 #: Longest accepted report pause or reply delay, seconds.
 MAX_SECONDS = 3600.0
 
-COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "end-module-lost",
+COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "track-error", "end-module-lost",
             "collision", "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status",
             "step",
             "checkpoint-save", "checkpoint-restore", "checkpoint-list")

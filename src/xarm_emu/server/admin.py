@@ -26,6 +26,7 @@ error              code "C31" (or 31)                            control box err
 warning            code 11 (or "W11")                            warning (3.2.2)
 servo-error        joint 1..dof, code "S23"                      servo error, error C10+joint
 gripper-error      code "G11"                                    gripper error (3.3)
+track-error        code 12                                       linear track drive error
 end-module-lost    -                                             error C28
 collision          joint 1..dof, torque (N m)                    external torque: C31 when the
                                                                  collision sensitivity detects it
@@ -59,6 +60,7 @@ from typing import Any, Protocol, cast
 
 from ..controller.base import CommandWarning
 from ..controller.emulator import Emulator
+from ..controller.linear_track import TRACK_ERRORS
 from ..protocol import codes
 from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS, checkpoint_name
 
@@ -221,6 +223,18 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
             return f"injected gripper {entry.label} {entry.name}"
 
         return inject
+    if cmd == "track-error":
+        code = _int(request.get("code"), "code")
+        if emu.linear_track is None:
+            raise AdminError("no linear track is attached (serve --linear-track)")
+        if code not in TRACK_ERRORS:
+            raise AdminError(f"linear track error {code}: one of {', '.join(map(str, TRACK_ERRORS))}")
+
+        def inject_track() -> str:
+            emu.inject_track_error(code)
+            return f"injected linear track error {code} {TRACK_ERRORS[code]}"
+
+        return inject_track
     if cmd == "servo-error":
         joint = _joint(request, emu.model.dof)
         servo = _label(request.get("code"), "S")

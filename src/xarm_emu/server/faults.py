@@ -119,7 +119,8 @@ def schedule(server: AdminTarget, entries: list[dict[str, Any]]) -> int:
 #: and ``do``.
 ARGUMENTS: dict[str, tuple[str, ...]] = {
     "estop": (), "error": ("code",), "warning": ("code",), "servo-error": ("code", "joint"),
-    "gripper-error": ("code",), "end-module-lost": (), "collision": ("joint", "torque"),
+    "gripper-error": ("code",), "track-error": ("code",), "end-module-lost": (),
+    "collision": ("joint", "torque"),
     "report-pause": ("seconds",), "reply-delay": ("seconds",), "drop-clients": (), "clear": (),
     "set-input": ("kind", "index", "value"),
 }

@@ -21,7 +21,8 @@ Arm keys: ``model`` (5, 6, 7, or a name: lite6, 850, 7t), ``host``, ``port``, ``
 ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
 ``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``firmware``
-(the version the box claims, as ``serve --firmware``), ``trace``
+(the version the box claims, as ``serve --firmware``), ``linear_track`` (true or a stroke in mm, as
+``serve --linear-track``), ``trace``
 and ``faults`` (a command trace file and a fault schedule, as ``serve --trace`` and ``--faults``;
 relative to the fleet file; ``faults`` may be a top-level default). Arms
 without ``robot_sn`` get their model's default serial number, counted up when an earlier arm has
@@ -40,6 +41,7 @@ from pathlib import Path
 from typing import Any
 
 from ..controller.emulator import check_firmware
+from ..controller.linear_track import DEFAULT_LENGTH, MODELS
 from ..model.robots import MODEL_NAMES, get_model
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.firmware import SERVE_VERSION, FirmwareProfile, VersionError, profile_for
@@ -47,7 +49,8 @@ from .core import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
-ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "firmware", "trace", "faults")
+ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "firmware", "trace", "faults",
+            "linear_track")
 TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k not in ("robot_sn", "trace")))
 
 
@@ -64,6 +67,7 @@ class ArmSpec:
     server: ServerConfig = field(default_factory=ServerConfig)
     vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
     firmware: FirmwareProfile = field(default_factory=lambda: profile_for(SERVE_VERSION))  # serve --firmware
+    linear_track: int | None = None  # stroke in mm of the linear track (controller/linear_track.py)
 
 
 @dataclass(frozen=True)
@@ -139,6 +143,14 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     for key, flag in (("admin", admin), ("vacuum", vacuum)):
         if not isinstance(flag, bool):
             raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
+    track = values.get("linear_track", False)
+    if track is True:
+        track = DEFAULT_LENGTH
+    if track is False:
+        track = None
+    elif isinstance(track, bool) or not isinstance(track, int) or track not in MODELS:
+        raise FleetError(f"{where}: linear_track is true or a stroke in mm "
+                         f"({', '.join(map(str, MODELS))}), got {track!r}")
     firmware = values.get("firmware", SERVE_VERSION)
     if not isinstance(firmware, str):
         raise FleetError(f"{where}: firmware is a version string such as \"2.7.103\", got {firmware!r}")
@@ -168,7 +180,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         check_firmware(robot, profile)
     except ValueError as exc:
         raise FleetError(f"{where}: {exc}") from None
-    return ArmSpec(model, sn, cfg, vacuum, profile)
+    return ArmSpec(model, sn, cfg, vacuum, profile, track)
 
 
 _WILDCARD = frozenset({"", "0.0.0.0", "::"})
