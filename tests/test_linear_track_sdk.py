@@ -176,3 +176,28 @@ def test_sdk_example_9000_runs_unchanged(make_server, sdk_arm, tmp_path: Path, m
     assert len(made) == 1
     # the last move went on without waiting: it arrives at 700 mm
     assert wait_for(lambda: made[0].get_linear_motor_pos() == (0, 700))
+
+
+def test_status_and_inject_through_the_cli(make_server, tmp_path: Path) -> None:
+    import json
+
+    from helpers import run_cli as run
+
+    emu = Emulator(6, config_dir=tmp_path / "cfg", linear_track=1000)
+    st = make_server(emulator=emu, admin=True)
+    port = ["--port", str(st.ports["command"])]
+    code, out = run("status", "--json", "--linear-track", *port, "--report-port", str(st.ports["develop"]))
+    assert code == 0, out
+    assert json.loads(out)["linear_track"] == {"position": 0.0, "moving": False, "error": 0,
+                                               "enabled": False, "on_zero": False}
+    code, out = run("inject", "track-error", "34", *port, "--admin-port", str(st.ports["admin"]))
+    assert code == 0 and "34" in out, out
+    assert st.call(lambda: emu.linear_track.error) == 34  # type: ignore[union-attr]
+    code, out = run("status", "--linear-track", *port, "--report-port", str(st.ports["develop"]))
+    assert code == 0 and "linear track" in out and "error 34" in out and "disabled" in out, out
+    code, out = run("inject", "track-error", "99", *port, "--admin-port", str(st.ports["admin"]))
+    assert code != 0 and "one of" in out
+    bare = make_server(emulator=Emulator(6, config_dir=tmp_path / "bare"))
+    code, out = run("status", "--linear-track", "--port", str(bare.ports["command"]), "--report-port",
+                    str(bare.ports["develop"]))
+    assert code == 0 and "no answer on the control box RS-485" in out

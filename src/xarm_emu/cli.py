@@ -427,8 +427,12 @@ def status(
     wait: Annotated[float, typer.Option(
         help="Readiness probe: retry for up to this many seconds until the control box answers on "
              "its command port (a protocol reply, not just an open port).")] = 0.0,
+    linear_track: Annotated[bool, typer.Option(
+        "--linear-track", help="Also read the linear track on the control box RS-485 (register 124, "
+                               "host 11); off by default, as it talks to that bus.")] = False,
 ) -> None:
-    """Print version, state, mode, error, warning, joints and pose of a control box.
+    """Print version, state, mode, error, warning, joints and pose of a control box (and its linear
+    track with --linear-track).
 
     Exit status 1 when it cannot be reached (after ``--wait`` seconds of retries), so
     ``xarm-emu serve & xarm-emu status --wait 10`` is a CI readiness probe.
@@ -446,7 +450,7 @@ def status(
                 error, warning = c.get_err_warn()
                 joints = c.get_joints()
                 pose = c.get_position()
-                track = _track_status(c)
+                track = _track_status(c) if linear_track else None
             break
         except (OSError, ClientError) as exc:
             if time.monotonic() < deadline:
@@ -465,9 +469,10 @@ def status(
             "joints_deg": [math.degrees(j) for j in joints[:axis]],
             "pose_mm_deg": [*pose[:3], *(math.degrees(p) for p in pose[3:])],
             "units": {"joints": "rad", "pose": "x, y, z mm; roll, pitch, yaw rad",
-                      "joints_deg": "deg", "pose_mm_deg": "x, y, z mm; roll, pitch, yaw deg",
-                      "linear_track": "position mm"},
-            "linear_track": track}
+                      "joints_deg": "deg", "pose_mm_deg": "x, y, z mm; roll, pitch, yaw deg"}}
+    if linear_track:  # null when nothing answers on the control box RS-485
+        data["linear_track"] = track
+        data["units"]["linear_track"] = "position mm"
     if as_json:
         print(json.dumps(data))
         return
@@ -480,8 +485,9 @@ def status(
     t.add_row("joints (deg)", ", ".join(f"{math.degrees(j):.3f}" for j in joints[:axis]))
     t.add_row("pose (mm, deg)", ", ".join([f"{p:.3f}" for p in pose[:3]] +
                                           [f"{math.degrees(p):.3f}" for p in pose[3:]]))
-    if track is not None:
-        t.add_row("linear track", f"{track['position']:.3f} mm, "
+    if linear_track:
+        t.add_row("linear track", "no answer on the control box RS-485" if track is None else
+                  f"{track['position']:.3f} mm, "
                   + ("moving" if track["moving"] else "at rest") + ", "
                   + ("enabled" if track["enabled"] else "disabled") + ", "
                   + ("on zero" if track["on_zero"] else "not homed") + f", error {track['error']}")
