@@ -21,5 +21,6 @@
 """
 
 __all__ = ["base", "commands", "config", "core", "emulator", "executor", "faults", "feedback", "gripper",
-           "handlers", "io", "linear_track", "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "poses",
-           "reduced", "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum", "velocity"]
+           "handlers", "io", "linear_track", "lite6_gripper", "modbus_map", "mode_steps", "motion", "online",
+           "poses", "reduced", "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum",
+           "velocity"]
