@@ -252,3 +252,33 @@ def test_admin_track_error() -> None:
         prepare(_Target(Emulator(6)), {"cmd": "track-error", "code": 12})  # type: ignore[arg-type]
     emu.clear_faults()
     assert read(emu, 0x0A23)[0] == 0
+
+
+# --- the 3D view ----------------------------------------------------------------------------------
+
+
+def test_rail_slides_under_the_carriage() -> None:
+    from xarm_emu.viewer import scene
+
+    rail, carriage = scene.track_parts(1000, 0.0)
+    assert carriage.position[:2] == (0.0, 0.0) and carriage.position[2] < 0.0  # right under the base
+    assert rail.half[1] == pytest.approx(0.5) and rail.position[1] == pytest.approx(0.5)
+    rail2, carriage2 = scene.track_parts(1000, 300.0)
+    assert rail2.position[1] - rail.position[1] == pytest.approx(-0.3)  # the rail moved 300 mm back
+    assert carriage2 == carriage
+    # the carriage sits on the rail, the base on the carriage
+    top_of_rail = rail.position[2] + rail.half[2]
+    assert top_of_rail == pytest.approx(carriage.position[2] - carriage.half[2])
+    assert carriage.position[2] + carriage.half[2] == pytest.approx(0.0)
+
+
+def test_the_view_draws_the_track(make_server, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    pytest.importorskip("viser")
+    from helpers import wait_for
+
+    emu = Emulator(6, linear_track=700, config_dir=tmp_path)
+    st = make_server(view=True, view_port=0, emulator=emu)
+    viewer = st.server.viewer
+    assert wait_for(lambda: {"/track/track_rail", "/track/track_carriage"} <= set(viewer._handles))
+    st.call(lambda: setattr(emu.linear_track, "position", 350.0))
+    assert wait_for(lambda: abs(viewer._handles["/track/track_rail"].position[1]) < 1e-9)

@@ -11,7 +11,7 @@ import math
 import signal
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn, cast
 
 import typer
 from rich.console import Console
@@ -472,7 +472,7 @@ def status(
                       "joints_deg": "deg", "pose_mm_deg": "x, y, z mm; roll, pitch, yaw deg"}}
     if linear_track:  # null when nothing answers on the control box RS-485
         data["linear_track"] = track
-        data["units"]["linear_track"] = "position mm"
+        data["units"] = {**cast(dict[str, str], data["units"]), "linear_track": "position mm"}
     if as_json:
         print(json.dumps(data))
         return

@@ -5,7 +5,8 @@ ghost beside the commanded one.
 Started by ``xarm-emu serve --view``, which attaches it beside the server (:func:`attach_viewer`);
 it binds the server's ``--host`` unless ``--view-host`` says otherwise. Beside the scene, the
 pendant (:mod:`.pendant`) shows the status and carries out the actions.
-The attached tools are drawn too: the xArm gripper's fingers at their opening, the vacuum cup.
+The attached tools are drawn too: the xArm gripper's fingers at their opening, the vacuum cup, and
+the linear track's rail sliding under the carriage (scene.track_parts).
 Updates run as a task of the server's event loop at :data:`RATE` Hz and only read the emulator.
 """
 
@@ -27,6 +28,7 @@ PANEL_EVERY = 3  # the status panel and the plot refresh every this many scene u
 ARM_COLOR = (200, 205, 215)
 GHOST_COLOR = (120, 170, 255)
 TOOL_COLOR = (255, 170, 60)
+TRACK_COLOR = (90, 95, 105)
 
 
 class Viewer:
@@ -89,6 +91,9 @@ class Viewer:
             self._boundary.position = centre
             self._boundary.scale = size
         self._draw("devices", self._device_parts(), TOOL_COLOR, 1.0, True)
+        track = self.emulator.linear_track
+        self._draw("track", [] if track is None else scene.track_parts(track.length, track.position),
+                   TRACK_COLOR, 1.0, True)
         if self.pendant is not None and self.updates % PANEL_EVERY == 0:
             self.pendant.update()
         self.updates += 1

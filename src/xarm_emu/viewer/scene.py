@@ -149,3 +149,22 @@ def vacuum_parts(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[Par
     a = T[:3, 3] * MM
     return [Part("tool_cup", "capsule", (float(a[0]), float(a[1]), float(a[2])),
                  quat_z_to(tuple(float(v) for v in T[:3, 2])), radius=CUP_RADIUS, length=CUP_LENGTH)]
+
+
+#: The linear track as drawn (m): the rail's cross-section, the carriage under the arm's base.
+RAIL_HALF_WIDTH = 0.08
+RAIL_HALF_HEIGHT = 0.03
+CARRIAGE_HALF = (0.11, 0.11, 0.015)
+
+
+def track_parts(length: float, position: float) -> list[Part]:
+    """The linear track in the arm's base frame: the carriage right under the base and the rail, of
+    ``length`` mm, along the base's y axis (the emulator's choice of mounting), with its origin
+    ``position`` mm behind the carriage, so the rail slides under the arm as the carriage travels."""
+    z_carriage = -CARRIAGE_HALF[2]
+    z_rail = 2 * z_carriage - RAIL_HALF_HEIGHT
+    centre_y = (0.5 * float(length) - float(position)) * MM
+    identity = (1.0, 0.0, 0.0, 0.0)
+    return [Part("track_rail", "box", (0.0, centre_y, z_rail), identity,
+                 half=(RAIL_HALF_WIDTH, 0.5 * float(length) * MM, RAIL_HALF_HEIGHT)),
+            Part("track_carriage", "box", (0.0, 0.0, z_carriage), identity, half=CARRIAGE_HALF)]
