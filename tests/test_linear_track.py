@@ -282,3 +282,19 @@ def test_the_view_draws_the_track(make_server, tmp_path: Path) -> None:  # type:
     assert wait_for(lambda: {"/track/track_rail", "/track/track_carriage"} <= set(viewer._handles))
     st.call(lambda: setattr(emu.linear_track, "position", 350.0))
     assert wait_for(lambda: abs(viewer._handles["/track/track_rail"].position[1]) < 1e-9)
+
+
+def test_fault_schedule_raises_the_track_error_on_time(tmp_path: Path) -> None:
+    from xarm_emu.server.faults import FaultScheduleError, read_schedule, schedule
+
+    path = tmp_path / "faults.toml"
+    emu = homed()
+    t0 = emu.time  # `at` counts controller time from the start
+    path.write_text(f'[[fault]]\nat = {t0 + 0.5:.3f}\ndo = "track-error"\ncode = 34\n')
+    assert schedule(_Target(emu), read_schedule(path)) == 1  # type: ignore[arg-type]
+    set_target(emu, 600)
+    steps_until(emu, lambda: read(emu, 0x0A23)[0] == 34)
+    assert emu.time - t0 == pytest.approx(0.5, abs=PERIOD)
+    assert read(emu, 0x0A22)[0] & 1 == 0  # the fault stopped the carriage
+    with pytest.raises(FaultScheduleError, match="no linear track"):
+        schedule(_Target(Emulator(6)), read_schedule(path))  # type: ignore[arg-type]
