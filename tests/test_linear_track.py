@@ -16,6 +16,7 @@ from xarm_emu.controller.base import PERIOD
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.controller.linear_track import HOME_LATCH, LinearTrack, plan_move
 from xarm_emu.protocol import rtu
+from xarm_emu.protocol.firmware import SERVE_VERSION
 from xarm_emu.server.admin import AdminError, prepare
 from xarm_emu.server.fleet import FleetError, parse_fleet
 
@@ -56,7 +57,7 @@ def steps_until(emu: Emulator, done, limit: float = 20.0) -> float:  # type: ign
 
 
 def homed(length: int = 700, start: float = 0.0) -> Emulator:
-    emu = Emulator(6, linear_track=length)
+    emu = Emulator(6, firmware=SERVE_VERSION, linear_track=length)
     assert emu.linear_track is not None
     emu.linear_track.position = emu.linear_track.target = start
     # Back to origin is a write single register (0x06) of 1 at 0x0A0A, as the SDK sends it.
@@ -66,7 +67,7 @@ def homed(length: int = 700, start: float = 0.0) -> Emulator:
 
 
 def test_power_on_registers_as_the_sdk_reads_them() -> None:
-    emu = Emulator(6, linear_track=1000)
+    emu = Emulator(6, firmware=SERVE_VERSION, linear_track=1000)
     # pos (2 words), status, error, enabled, on zero, SCI (bit 1 high), SCO
     assert read(emu, 0x0A20, 8) == (0, 0, 0, 0, 0, 0, 2, 0)
     assert read(emu, 0x0303) == (5000,)  # 750 mm/s in the speed register's units
@@ -75,7 +76,7 @@ def test_power_on_registers_as_the_sdk_reads_them() -> None:
 
 
 def test_homing_duration_and_state() -> None:
-    emu = Emulator(6, linear_track=700)
+    emu = Emulator(6, firmware=SERVE_VERSION, linear_track=700)
     track = emu.linear_track
     assert track is not None
     track.position = track.target = 230.0
@@ -159,7 +160,7 @@ def test_bad_commands_raise_the_drive_error_and_disable(action, error: int) -> N
 
 
 def test_target_before_homing_is_ignored_and_estop_cuts_the_drive() -> None:
-    emu = Emulator(6, linear_track=700)
+    emu = Emulator(6, firmware=SERVE_VERSION, linear_track=700)
     write(emu, 0x0100, 1)
     set_target(emu, 200)
     emu.advance(0.5)
@@ -197,6 +198,8 @@ def test_the_bus_baud_and_a_box_without_a_track() -> None:
     assert send(bare, rtu.read_request(1, 0x0A20, 2)) == bytes((1, 0x83, rtu.GATEWAY_NO_RESPONSE))
     with pytest.raises(ValueError, match="no linear track"):
         bare.inject_track_error(12)
+    with pytest.raises(ValueError, match="firmware 1.8.0 or later"):
+        Emulator(6, linear_track=700)  # the manual's box, 1.6.0
 
 
 def test_unknown_registers_and_lengths_are_refused() -> None:
@@ -230,6 +233,8 @@ def test_serve_option_and_fleet_key(tmp_path: Path) -> None:
     assert cli.bare_linear_track(["--linear-track", "1500"]) == ["--linear-track", "1500"]
     code, out = run("serve", "--linear-track", "800", "--port", "0")
     assert code == 2 and "--linear-track" in out and "700, 1000, 1500" in out
+    code, out = run("serve", "--firmware", "1.6.0", "--linear-track", "--port", "0")
+    assert code == 2 and "needs firmware 1.8.0 or later" in out
     free = {"port": 0, "normal_port": 0, "rich_port": 0, "develop_port": 0}
     fleet = parse_fleet({"arm": [{"linear_track": True, **free}, {"linear_track": 1500, **free}, free]})
     assert [a.linear_track for a in fleet.arms] == [700, 1500, None]
@@ -276,7 +281,7 @@ def test_the_view_draws_the_track(make_server, tmp_path: Path) -> None:  # type:
     pytest.importorskip("viser")
     from helpers import wait_for
 
-    emu = Emulator(6, linear_track=700, config_dir=tmp_path)
+    emu = Emulator(6, firmware=SERVE_VERSION, linear_track=700, config_dir=tmp_path)
     st = make_server(view=True, view_port=0, emulator=emu)
     viewer = st.server.viewer
     assert wait_for(lambda: {"/track/track_rail", "/track/track_carriage"} <= set(viewer._handles))

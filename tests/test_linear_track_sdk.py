@@ -16,6 +16,7 @@ from helpers import wait_for
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.controller.linear_track import HOME_LATCH
+from xarm_emu.protocol.firmware import SERVE_VERSION
 from xarm_emu.server.app import ServerThread
 
 #: The SDK's own codes (x3/code.py): the track has a fault, is not on zero; a short RS-485 reply.
@@ -24,7 +25,7 @@ HAS_FAULT, NOT_INIT, MODBUS_ERR_LENG = 80, 82, 23
 
 def connect(make_server, sdk_arm, tmp_path: Path, *, track: int | None = 700, start: float = 0.0,
             speed: float = 4.0) -> tuple[Any, ServerThread]:
-    emu = Emulator(6, config_dir=tmp_path / "cfg", linear_track=track)
+    emu = Emulator(6, config_dir=tmp_path / "cfg", firmware=SERVE_VERSION, linear_track=track)
     if emu.linear_track is not None:
         emu.linear_track.position = emu.linear_track.target = start
     st = make_server(emulator=emu, speed=speed)
@@ -154,7 +155,7 @@ def test_sdk_example_9000_runs_unchanged(make_server, sdk_arm, tmp_path: Path, m
         pytest.skip("the SDK's example programs are not here (set XARM_SDK_EXAMPLES)")
     import xarm.wrapper
 
-    emu = Emulator(6, config_dir=tmp_path / "cfg", linear_track=700)
+    emu = Emulator(6, config_dir=tmp_path / "cfg", firmware=SERVE_VERSION, linear_track=700)
     st = make_server(emulator=emu, speed=4.0)
     made: list[Any] = []
 
@@ -183,7 +184,7 @@ def test_status_and_inject_through_the_cli(make_server, tmp_path: Path) -> None:
 
     from helpers import run_cli as run
 
-    emu = Emulator(6, config_dir=tmp_path / "cfg", linear_track=1000)
+    emu = Emulator(6, config_dir=tmp_path / "cfg", firmware=SERVE_VERSION, linear_track=1000)
     st = make_server(emulator=emu, admin=True)
     port = ["--port", str(st.ports["command"])]
     code, out = run("status", "--json", "--linear-track", *port, "--report-port", str(st.ports["develop"]))

@@ -173,12 +173,14 @@ def serve(
         err_console.print(f"--model: {exc}")
         raise typer.Exit(2) from None
     if linear_track is not None:
-        from .controller.linear_track import check_length
+        from .controller.linear_track import TRACK_FIRMWARE, check_length
 
         try:
             check_length(linear_track)
         except ValueError as exc:
             _user_error(f"--linear-track: {exc}")
+        if not profile.version.at_least(TRACK_FIRMWARE):
+            _user_error(f"--linear-track: needs firmware {TRACK_FIRMWARE} or later, not {profile}")
     if fleet is not None:
         _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != SERVE_VERSION,
                               linear_track is not None)

@@ -44,7 +44,8 @@ def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, va
     ``speed=5.0``, ``admin=True``), stopped at the end of the block. Saved configuration goes to a
     temporary directory unless ``config_dir`` is given; ``vacuum`` attaches the xArm Vacuum Gripper
     (as ``serve --vacuum``); ``firmware`` is the version the box claims (as ``serve --firmware``);
-    ``linear_track`` attaches a linear track that many mm long (as ``serve --linear-track``).
+    ``linear_track`` attaches a linear track that many mm long (as ``serve --linear-track``; it needs
+    ``firmware`` 1.8.0 or later, e.g. ``"2.7.103"``).
     A ``faults`` schedule is checked and scheduled, ``view=True`` attaches
     the 3D view, as ``xarm-emu serve`` does."""
     with contextlib.ExitStack() as stack:

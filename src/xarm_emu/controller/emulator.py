@@ -34,7 +34,7 @@ from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .gripper import GripperModule
 from .io import IOModule
-from .linear_track import TRACK_BAUD_INDEX, TRACK_ID, LinearTrack
+from .linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
 from .lite6_gripper import Lite6Gripper
 from .settings import Settings
 from .state import ControllerState
@@ -193,6 +193,9 @@ class Emulator:
         #: mm long, when attached.
         self.linear_track: LinearTrack | None = None
         if linear_track is not None:
+            if not self.firmware.version.at_least(TRACK_FIRMWARE):
+                raise ValueError(f"the linear track needs firmware {TRACK_FIRMWARE} or later, not "
+                                 f"{self.firmware}: choose a later --firmware")
             self.linear_track = track = LinearTrack(linear_track)
             self.controller.add_component(track)
             self.gripper.box_devices = lambda: (
