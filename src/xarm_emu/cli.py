@@ -399,8 +399,8 @@ def _serve_fleet_workers(fleet: Path, cfg: ServerConfig, cdir: Path, workers: in
                 console.print(f"admin channel (fault injection) on {admin_host(arm.host)}:{p['admin']}")
             if arm.config_message and starts == 1:
                 err_console.print(arm.config_message, style="yellow")
-        if starts == 1:
-            console.print(f"fleet worker {plan.index}: arms {', '.join(map(str, plan.numbers))}")
+        console.print(f"fleet worker {plan.index} (pid {arms[0].pid}): arms "
+                      f"{', '.join(map(str, plan.numbers))}" + (" (restarted)" if starts > 1 else ""))
 
     sup = Supervisor(plans(spec.arms, workers, cdir, cfg.limits, logs, use_uvloop), ready)
     try:

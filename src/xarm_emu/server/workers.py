@@ -121,6 +121,7 @@ class ArmReady:
     ports: dict[str, int]
     model: str
     version: str
+    pid: int  # the worker's
     config_message: str | None = None
 
 
@@ -204,7 +205,8 @@ async def _serve(plan: WorkerPlan, conn: multiprocessing.connection.Connection) 
                 await srv.close()
         raise
     ready = [ArmReady(n, srv.config.host, dict(srv.ports), srv.emulator.model.name,
-                      srv.emulator.controller.version_string(), srv.emulator.config_message or None)
+                      srv.emulator.controller.version_string(), os.getpid(),
+                      srv.emulator.config_message or None)
              for n, srv in zip(plan.numbers, servers, strict=True)]
     _send(conn, ("ready", ready))
     loop = asyncio.get_running_loop()
