@@ -10,13 +10,14 @@ measured in the same run:
   arms) as a share of one core. Target: < 0.2 %.
 - **round trips through a worker**: command-port round trips (GET_STATE and GET_POSITION) to a
   one-arm fleet's worker against the minimal echo server of ``bench_roundtrip``, interleaved
-  rounds, worker and echo server on one CPU and the client on another. Target: ratio >= 0.85.
+  rounds, the worker placed on the CPUs the echo server runs on. Target: ratio >= 0.85.
 
 Run: ``python -m bench fleet``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import selectors
 import socket
@@ -50,16 +51,17 @@ _ZERO = {"port": 0, "normal_port": 0, "rich_port": 0, "develop_port": 0}
 
 
 @contextmanager
-def fleet(n: int, workers: int, use_uvloop: bool = False) -> Iterator[tuple[Supervisor, list[ArmReady]]]:
-    """``n`` xArm6 arms on free ports over ``workers`` worker processes; yields the supervisor and the
-    arms as they report themselves."""
+def fleet(n: int, workers: int, use_uvloop: bool = False,
+          **extra: object) -> Iterator[tuple[Supervisor, list[ArmReady]]]:
+    """``n`` xArm6 arms on free ports over ``workers`` worker processes (``extra``: fleet-file keys
+    of every arm); yields the supervisor and the arms as they report themselves."""
     arms: list[ArmReady] = []
 
     def ready(_plan: WorkerPlan, _starts: int, got: list[ArmReady]) -> None:
         arms.extend(got)
 
     with tempfile.TemporaryDirectory(prefix="xarm-emu-bench-fleet-") as cdir:
-        spec = parse_fleet({"arm": [{"model": 6, **_ZERO} for _ in range(n)]})
+        spec = parse_fleet({"arm": [{"model": 6, **_ZERO, **extra} for _ in range(n)]})
         sup = Supervisor(plans(spec.arms, workers, Path(cdir), Limits(), LogSettings("WARNING"), use_uvloop),
                          ready)
         sup.start()
@@ -74,6 +76,13 @@ def cpu_seconds(pid: int) -> float:
     with open(f"/proc/{pid}/stat") as f:
         fields = f.read().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def pin_process(pid: int, cpus: set[int]) -> None:
+    """Every thread of process ``pid`` onto ``cpus`` (``sched_setaffinity`` moves one thread)."""
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        with contextlib.suppress(OSError):
+            os.sched_setaffinity(int(tid), cpus)
 
 
 def reader_rates(ports: list[int], seconds: float, warmup: float = 1.0) -> list[float]:
@@ -159,8 +168,9 @@ def worker_round_trips(use_uvloop: bool) -> list[str]:
     try:
         with fleet(1, 1, use_uvloop) as (sup, arms):
             pid = next(p for p in sup.pids().values() if p is not None)
-            if saved is not None:
-                os.sched_setaffinity(pid, {max(saved)})
+            # Where the echo server runs (its child inherits the client's CPU before PIN_SERVER
+            # picks the highest of those): the worker gets the same placement.
+            pin_process(pid, os.sched_getaffinity(echo_proc.pid))
             port = arms[0].ports["command"]
             for reg, name in ((13, "get_state"), (41, "get_position")):
                 worker, echo = [], []
