@@ -210,3 +210,20 @@ def test_a_killed_worker_comes_back_with_its_saved_configuration_and_spares_the_
     assert "Traceback" not in "".join(fleet.seen)
     assert sorted(p.name for p in (tmp_path / "cfg").glob("config-*.json")) == [
         "config-XI1300.json", "config-XI1301.json", "config-XS1300.json"]
+
+
+def test_a_port_taken_stops_every_worker_with_one_line_and_exit_1(tmp_path: Path) -> None:
+    ports = [_arm_ports() for _ in range(2)]
+    path = _fleet_file(tmp_path, ports)
+    with socket.socket() as taken:
+        taken.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        taken.bind(("127.0.0.1", ports[1]["develop_port"]))
+        taken.listen()
+        proc = subprocess.run([sys.executable, "-m", "xarm_emu.cli", "serve", "--fleet", str(path),
+                               "--workers", "2", "--log-level", "WARNING"], capture_output=True, text=True,
+                              timeout=60, env={**os.environ, "COLUMNS": "500"})
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert "a port of the fleet file is already in use" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    for p in ports[0].values():  # the other worker's arm was closed again
+        assert _bindable(p)

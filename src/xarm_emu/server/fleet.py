@@ -1,4 +1,5 @@
-"""A fleet file: several emulated arms served by one process (``xarm-emu serve --fleet FILE``).
+"""A fleet file: several emulated arms served together (``xarm-emu serve --fleet FILE``), in worker
+processes supervised by the parent (:mod:`.workers`) or, with ``--workers 0``, in one process.
 
 The SDK's ports are fixed (502, 30001-30003), so arms usually differ by loopback address
 (127.0.0.0/8 on Linux), each with the standard ports; they may also differ by port. A TOML file

@@ -321,6 +321,8 @@ class Supervisor:
             if not w.process.is_alive():
                 raise RuntimeError(f"fleet worker {w.plan.index} ended while starting "
                                    f"({describe_exit(w.process.exitcode)})")
+            if self._stopping and w.restart_at is None and w.starts > 1:  # SIGTERM during a restart
+                raise RuntimeError(f"fleet worker {w.plan.index}: stopping")
             if time.monotonic() > deadline:
                 raise RuntimeError(f"fleet worker {w.plan.index} did not start its arms within "
                                    f"{START_TIMEOUT:g} s")
@@ -383,8 +385,9 @@ class Supervisor:
         try:
             self._await_ready(w)
         except Exception as exc:  # noqa: BLE001 - logged; the next death check backs off
-            log.error("fleet worker %d (arms %s) could not start again: %s", w.plan.index,
-                      _arms_text(w.plan), exc)
+            log.log(logging.INFO if self._stopping else logging.ERROR,
+                    "fleet worker %d (arms %s) could not start again: %s", w.plan.index,
+                    _arms_text(w.plan), exc)
             if w.process is not None and w.process.is_alive():
                 w.process.kill()
             if w.process is not None:
