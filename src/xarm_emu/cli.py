@@ -101,9 +101,13 @@ def serve(
     faults: Annotated[Path | None, typer.Option(help="Inject the faults and inputs this TOML schedule "
                                                      "lists at their controller times (server/faults.py).")
                       ] = None,
-    fleet: Annotated[Path | None, typer.Option(help="Serve the arms a TOML fleet file lists, in this one "
-                                                    "process (see src/xarm_emu/server/fleet.py); the "
+    fleet: Annotated[Path | None, typer.Option(help="Serve the arms a TOML fleet file lists, in worker "
+                                                    "processes (see src/xarm_emu/server/fleet.py); the "
                                                     "per-arm options above then come from the file.")] = None,
+    workers: Annotated[int | None, typer.Option(help="With --fleet: worker processes sharing the arms "
+                                                     "(default: one per available CPU; 0: every arm in "
+                                                     "this process, the default with --view). A worker "
+                                                     "that dies is restarted with its arms.")] = None,
     record: Annotated[Path | None, typer.Option(help="Record the session (reports, commands, errors, the "
                                                      "arm's geometry) to this Rerun .rrd file; open it "
                                                      "with `rerun FILE` (needs the 'record' extra).")
@@ -184,6 +188,13 @@ def serve(
     if fleet is not None:
         _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != SERVE_VERSION,
                               linear_track is not None)
+    n_workers = _check_workers(workers, fleet, view, record, modbus_port, studio)
+    if fleet is not None and n_workers > 0:
+        from .server.workers import LogSettings
+
+        _serve_fleet_workers(fleet, cfg, cdir, n_workers, LogSettings(log_level.upper(), log_file, log_json),
+                             loop == "uvloop")
+        return
     try:
         servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile, linear_track)
     except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
@@ -326,8 +337,7 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
             if problem is not None:
                 raise ValueError(problem)
         cdir = spec.config_dir if spec.config_dir is not None else cdir
-        arms = [(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum,
-                          firmware=a.firmware, linear_track=a.linear_track), a.server) for a in spec.arms]
+        arms = [(a.emulator(cdir), a.server) for a in spec.arms]
     else:
         arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware,
                           linear_track=linear_track), cfg)]
@@ -380,6 +390,94 @@ async def _serve_all(servers: list[EmulatorServer], cdir: Path) -> None:
         with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):  # not on Windows
             loop.add_signal_handler(sig, shut_down)
     await asyncio.gather(*(srv.serve_forever() for srv in servers))
+
+
+def _check_workers(workers: int | None, fleet: Path | None, view: bool, record: Path | None,
+                   modbus_port: int | None, studio: bool) -> int:
+    """The number of fleet worker processes (0: every arm in this process); exit 2 on a bad one."""
+    from .server.workers import WorkersError, check_workers, default_workers
+
+    if workers is None:
+        return 0 if fleet is None or view else default_workers()
+    if fleet is None:
+        _user_error("--workers: only with --fleet (a single arm runs in this process)")
+    try:
+        n = check_workers(workers)
+    except WorkersError as exc:
+        _user_error(str(exc))
+    if n and (view or record is not None or modbus_port is not None or studio):
+        _user_error("--workers: --view serves a fleet's arms from this process; give --workers 0 "
+                    "(or leave --workers out)")
+    return n
+
+
+def _serve_fleet_workers(fleet: Path, cfg: ServerConfig, cdir: Path, workers: int, logs: Any,
+                         use_uvloop: bool) -> None:
+    """``serve --fleet FILE --workers N``: the arms in N supervised worker processes
+    (server/workers.py) until SIGTERM or Ctrl-C; every check of the file first (exit 2)."""
+    from .protocol.admin import admin_host
+    from .server.workers import ArmReady, Supervisor, WorkerPlan, plans
+
+    try:
+        spec, cdir = _check_fleet(fleet, cdir)
+    except ValueError as exc:
+        _user_error(str(exc))
+
+    def ready(plan: WorkerPlan, starts: int, arms: list[ArmReady]) -> None:
+        for arm, srv_cfg in zip(arms, (s.server for s in plan.specs), strict=True):
+            p = arm.ports
+            again = " (restarted)" if starts > 1 else ""
+            console.print(f"xarm-emu {__version__}: {arm.model} ({arm.version}) on {arm.host}: command "
+                          f"{p['command']}, normal {p['normal']}, rich {p['rich']}, develop {p['develop']}; "
+                          f"speed x{srv_cfg.speed:g}; config {cdir}; worker {plan.index}{again}")
+            if "admin" in p:
+                console.print(f"admin channel (fault injection) on {admin_host(arm.host)}:{p['admin']}")
+            if arm.config_message and starts == 1:
+                err_console.print(arm.config_message, style="yellow")
+        console.print(f"fleet worker {plan.index} (pid {arms[0].pid}): arms "
+                      f"{', '.join(map(str, plan.numbers))}" + (" (restarted)" if starts > 1 else ""))
+
+    sup = Supervisor(plans(spec.arms, workers, cdir, cfg.limits, logs, use_uvloop), ready)
+    try:
+        sup.start()
+    except (PermissionError, ValueError, RuntimeError, OSError) as exc:
+        message, code = _start_error(exc, cfg.host, cfg.port, True)
+        err_console.print(message if message is not None else str(exc))
+        raise typer.Exit(code or 1) from None
+    # SIGTERM (docker stop, CI teardown) and Ctrl-C stop every worker cleanly; the parent exits 0.
+    previous = {sig: signal.signal(sig, lambda *_: sup.request_stop()) for sig in (signal.SIGTERM,
+                                                                                  signal.SIGINT)}
+    try:
+        sup.run()
+    finally:
+        sup.stop()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _check_fleet(fleet: Path, cdir: Path) -> tuple[Any, Path]:
+    """Load and check a fleet file for worker processes: hosts, fault schedules (against a throwaway
+    box of each arm's model) and that no saved configuration is in use; raises ValueError."""
+    from .controller.config import ConfigStore
+    from .controller.emulator import Emulator
+    from .server.app import EmulatorServer
+    from .server.faults import schedule_file
+    from .server.fleet import load_fleet
+
+    spec = load_fleet(fleet)
+    for i, arm in enumerate(spec.arms, start=1):
+        problem = _check_host(f"{fleet}: arm {i} host", arm.server.host)
+        if problem is not None:
+            raise ValueError(problem)
+        if arm.server.faults is not None:
+            probe = Emulator(arm.model, robot_sn=arm.robot_sn, vacuum=arm.vacuum, firmware=arm.firmware)
+            schedule_file(EmulatorServer(probe, arm.server), arm.server.faults)
+    cdir = spec.config_dir if spec.config_dir is not None else cdir
+    for arm in spec.arms:  # the workers claim them; a holder elsewhere is found before any port opens
+        store = ConfigStore(cdir, arm.robot_sn)
+        store.lock()
+        store.unlock()
+    return spec, cdir
 
 
 def _start_error(exc: Exception, host: str, port: int, fleet: bool) -> tuple[str | None, int]:

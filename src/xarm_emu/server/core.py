@@ -103,6 +103,11 @@ class Attachment(Protocol):
 #: The control loop runs the due control periods at least this often (wall seconds); commands,
 #: report frames and admin actions run them before they act (EmulatorServer.catch_up).
 IDLE_WAKE = 0.02
+#: With nobody connected and nothing moving, the control loop runs the due periods only this often
+#: (wall seconds; sooner when a scheduled action falls due, and at most 0.8 * MAX_CATCH_UP periods
+#: of controller time apart): nothing observes the arm in between, and the first command, report
+#: frame or admin request of a new connection runs the due periods first (catch_up).
+UNOBSERVED_WAKE = 0.8
 #: Most control periods one catch-up runs (1 s of controller time): beyond it the rest stays due for
 #: the next one, so at a --speed the machine cannot sustain the emulator runs slower, not stalled.
 MAX_CATCH_UP = 250
@@ -383,7 +388,7 @@ class EmulatorServer:
                 raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
         self._quiet_accept_errors(loop)
         backlog = max(1, cfg.limits.backlog)
-        srv = await loop.create_server(lambda: CommandProtocol(self),
+        srv = await loop.create_server(lambda: self._woken(CommandProtocol(self)),
                                        **listen_args(cfg.host, cfg.port, backlog))
         self._servers.append(srv)
         self.ports["command"] = srv.sockets[0].getsockname()[1]
@@ -392,7 +397,7 @@ class EmulatorServer:
         for kind, port in report_ports:
             if kind not in self.reports.kinds:
                 continue
-            s = await asyncio.start_server(self.reports.on_client(kind),
+            s = await asyncio.start_server(self._watching(self.reports.on_client(kind)),
                                            **listen_args(cfg.host, port, backlog))
             self._servers.append(s)
             self.ports[kind] = s.sockets[0].getsockname()[1]
@@ -406,7 +411,8 @@ class EmulatorServer:
                 admin_port = 0 if cfg.port == 0 else derive_admin_port(self.ports["command"])
             # Loopback only, whatever ``host`` is (the protocol also refuses non-loopback peers): the
             # arm's own address when that is a loopback one, else 127.0.0.1.
-            a = await loop.create_server(lambda: AdminProtocol(self), admin_host(cfg.host), admin_port,
+            a = await loop.create_server(lambda: self._woken(AdminProtocol(self)), admin_host(cfg.host),
+                                         admin_port,
                                          reuse_address=True)
             self._servers.append(a)
             self.ports["admin"] = a.sockets[0].getsockname()[1]
@@ -528,7 +534,72 @@ class EmulatorServer:
             backlog = self.catch_up() == MAX_CATCH_UP  # more is due: yield to clients, then go on
             if self.trace is not None:
                 self.trace.flush()
-            await asyncio.sleep(0.0 if backlog else IDLE_WAKE)
+            nap = 0.0 if backlog else self._nap_seconds()
+            if nap <= IDLE_WAKE:
+                await asyncio.sleep(nap)
+            else:
+                await self._nap(nap)
+
+    # -- idle arms: the control loop naps while nobody can observe the arm ---------------------------
+    _napping: asyncio.Future[None] | None = None
+    _wake_pending = False
+
+    def _nap_seconds(self) -> float:
+        """How long the control loop may sleep: :data:`IDLE_WAKE` while someone may wait on it (a
+        command or admin connection, the arm moving, the trace, an attachment); longer while a
+        develop or real-time reader catches up 100 or 250 times a second anyway, or nobody is
+        connected (:data:`UNOBSERVED_WAKE`, never past the next scheduled action)."""
+        if self._wake_pending:  # just woken by a connection: look again once it is set up
+            self._wake_pending = False
+            return IDLE_WAKE
+        if self.attachments or self.trace is not None:
+            return IDLE_WAKE
+        fast = not self.reports_paused() and any(
+            clients and self.reports.rates.get(kind, 0.0) * IDLE_WAKE >= 1.0
+            for kind, clients in self.reports.clients.items())
+        if not fast and (self.command_clients or self.admin_clients or self.emulator.controller.is_moving):
+            return IDLE_WAKE
+        speed = self.config.speed
+        nap = min(UNOBSERVED_WAKE, 0.8 * MAX_CATCH_UP * PERIOD / speed)
+        scheduled = getattr(self.emulator, "_scheduled", None)
+        if scheduled and not self.config.stepped:
+            nap = min(nap, (scheduled[0][0] - self.emulator.time) / speed)
+        return max(IDLE_WAKE, nap)
+
+    async def _nap(self, seconds: float) -> None:
+        """Sleep ``seconds`` unless :meth:`wake_control` ends it sooner."""
+        loop = asyncio.get_running_loop()
+        fut: asyncio.Future[None] = loop.create_future()
+        self._napping = fut
+        timer = loop.call_later(seconds, _wake, fut)
+        try:
+            await fut
+        finally:
+            timer.cancel()
+            self._napping = None
+
+    def wake_control(self) -> None:
+        """A connection came or went: the control loop looks again at how long it may sleep."""
+        self._wake_pending = True
+        if self._napping is not None:
+            _wake(self._napping)
+
+    def _woken(self, protocol: Any) -> Any:
+        """``protocol`` (a new connection's), after waking the control loop."""
+        self.wake_control()
+        return protocol
+
+    def _watching(self, serve: Callable[[asyncio.StreamReader, asyncio.StreamWriter], Any]
+                  ) -> Callable[[asyncio.StreamReader, asyncio.StreamWriter], Any]:
+        """A report port's callback that wakes the control loop when a reader comes and goes."""
+        async def watched(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            self.wake_control()
+            try:
+                await serve(reader, writer)
+            finally:
+                self.wake_control()
+
+        return watched
 
     def drop_clients(self, abort: bool = False) -> int:
         """Close every command and report connection (fault injection ``drop-clients``); returns
@@ -596,3 +667,8 @@ class EmulatorServer:
         if not self._servers:
             await self.start()
         await self._stopped.wait()
+
+
+def _wake(fut: asyncio.Future[None]) -> None:
+    if not fut.done():
+        fut.set_result(None)

@@ -1,4 +1,5 @@
-"""A fleet file: several emulated arms served by one process (``xarm-emu serve --fleet FILE``).
+"""A fleet file: several emulated arms served together (``xarm-emu serve --fleet FILE``), in worker
+processes supervised by the parent (:mod:`.workers`) or, with ``--workers 0``, in one process.
 
 The SDK's ports are fixed (502, 30001-30003), so arms usually differ by loopback address
 (127.0.0.0/8 on Linux), each with the standard ports; they may also differ by port. A TOML file
@@ -40,7 +41,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from ..controller.emulator import check_firmware
+from ..controller.emulator import Emulator, check_firmware
 from ..controller.linear_track import DEFAULT_LENGTH, MODELS
 from ..model.robots import MODEL_NAMES, get_model
 from ..protocol.admin import admin_host, derive_admin_port
@@ -68,6 +69,12 @@ class ArmSpec:
     vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
     firmware: FirmwareProfile = field(default_factory=lambda: profile_for(SERVE_VERSION))  # serve --firmware
     linear_track: int | None = None  # stroke in mm of the linear track (controller/linear_track.py)
+
+    def emulator(self, config_dir: Path | None) -> Emulator:
+        """The box this arm describes, with its devices, saving to ``config_dir``: the one place a
+        fleet arm becomes an :class:`Emulator`, in this process or in a worker."""
+        return Emulator(self.model, robot_sn=self.robot_sn, config_dir=config_dir, vacuum=self.vacuum,
+                        firmware=self.firmware, linear_track=self.linear_track)
 
 
 @dataclass(frozen=True)
