@@ -47,7 +47,7 @@ from .base import (
 from .commands import QueuedCommand
 from .executor import Executor, Limits
 from .faults import Faults
-from .mode_steps import EVERY_STEP, MODE_STEPS, route
+from .mode_steps import EVERY_STEP, EVERY_STEP_IDLE, MODE_STEPS, route
 from .settings import Settings
 from .state import ControllerState, StateField
 from .states import (
@@ -390,6 +390,26 @@ class Controller:
         for hook in EVERY_STEP:
             hook(self, dt)
 
+    def at_rest(self) -> bool:
+        """Whether a control period now would change nothing of the controller but its clock (time
+        and period count): the joints rest (speeds and accelerations exactly +0), no motion runs or
+        is due in the present state and mode (the branches of :meth:`step`), and every per-period
+        hook is idle. Components answer for themselves (:func:`~.base.idle_until`)."""
+        d = self.data
+        qd, qdd = d.qd, d.qdd
+        if qd.any() or qdd.any() or np.signbit(qd).any() or np.signbit(qdd).any():
+            return False
+        if d.faults.error == 0:
+            state, mode = d.motion_state, d.mode
+            if mode == MODE_SERVO and d.servo_target is not None and state in (STATE_SLEEP, STATE_MOVING):
+                return False
+            if mode == MODE_POSITION and state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
+                if state == STATE_MOVING or self.executor.active:
+                    return False
+            elif (state == STATE_STOP and d.motion.stopping) or mode in MODE_STEPS:
+                return False
+        return all(EVERY_STEP_IDLE.get(hook, _never_idle)(self) for hook in EVERY_STEP)
+
     def _tracker(self) -> motion.ServoTracker:
         d = self.data
         if d.servo_tracker is None:
@@ -506,6 +526,10 @@ class Controller:
         t = self.reported_torques()
         return tuple(float(x) for x in t) + (0.0,) * (7 - self.dof)
 
+
+
+def _never_idle(ctl: Controller) -> bool:
+    return False
 
 
 class NotReady(Exception):
