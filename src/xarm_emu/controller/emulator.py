@@ -193,6 +193,7 @@ class Emulator:
         self.exact_steps = exact_steps
         #: Control periods jumped over so far (not stepped one by one; :meth:`_jump`).
         self.periods_jumped = 0
+        self._rest_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
         self._schedule_seq = 0
         self.config_dir = config_dir
@@ -300,11 +301,21 @@ class Emulator:
             k += 1
             if steps % THERMAL_EVERY == 0:
                 if currents is None:
-                    currents = np.abs(ctl.joint_currents())
+                    currents = self._rest_currents()
                 self.thermal.step(THERMAL_EVERY * dt, currents)
         d.time, d.steps = t, steps
         self.periods_jumped += k
         return k
+
+    def _rest_currents(self) -> np.ndarray:
+        """``abs(joint_currents())`` of the arm at rest, kept while the joints and the load stay (what
+        the torques depend on besides the speeds and accelerations, zero at rest)."""
+        ctl = self.controller
+        s = ctl.settings
+        key = (ctl.data.q.tobytes(), tuple(s.tcp_load), tuple(s.gravity_direction))
+        if self._rest_cache is None or self._rest_cache[0] != key:
+            self._rest_cache = (key, np.abs(ctl.joint_currents()))
+        return self._rest_cache[1]
 
     def at(self, seconds: float, action: Callable[[], object]) -> None:
         """Run ``action`` right after the first control period that ends at or after controller time

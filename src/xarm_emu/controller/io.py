@@ -268,6 +268,10 @@ class ControlBoxGpio:
         (self.output_functions if output else self.input_functions)[index] = fun
 
     def update_functions(self, ctl: ControllerView) -> None:
+        funs = self.output_functions[: self.n_digital]
+        if funs.count(FUN_GENERAL) == len(funs):  # every output general-purpose (the power-on default)
+            self.function_outputs = 0
+            return
         active = {
             FUN_STOP: ctl.state == STATE_STOP,
             FUN_ERROR: ctl.error_code != 0,
@@ -276,7 +280,7 @@ class ControlBoxGpio:
             FUN_HAS_WARNING: ctl.warning_code != 0,
         }
         word = 0
-        for i, f in enumerate(self.output_functions[: self.n_digital]):
+        for i, f in enumerate(funs):
             if f != FUN_GENERAL and active.get(f, False):
                 word |= 1 << i
         self.function_outputs = word
