@@ -98,8 +98,8 @@ def run() -> list[str]:
                      f"{PROGRAM_SECONDS / exact:.0f}x; jump speed-up {exact / fast:.1f}x")
     idle = min(_step25(False) for _ in range(REPEATS))
     busy = min(_step25(True) for _ in range(REPEATS))
-    lines.append(f"step(25) (one 100 Hz reader's catch-up): idle arm {idle:.1f} us, arm in motion {busy:.0f} us: "
-                 f"idle costs {idle / busy:.3f} of busy; idle arm with a 100 Hz reader: "
+    lines.append(f"step(25) (one 100 Hz reader's catch-up): idle arm {idle:.1f} us, arm in motion "
+                 f"{busy:.0f} us: idle costs {idle / busy:.3f} of busy; idle arm with a 100 Hz reader: "
                  f"{idle * 100 / 1e4:.3f} % of a core")
     return lines
 

@@ -6,9 +6,10 @@ instant a report or a command could look, for firmware 1.6.0 and 2.7.103."""
 
 from __future__ import annotations
 
+import itertools
 import math
 import struct
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -18,6 +19,7 @@ from hypothesis import strategies as st
 
 from xarm_emu.controller import gripper as grip
 from xarm_emu.controller.emulator import Emulator
+from xarm_emu.controller.feedback import feedback_queue
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.reports import encoders_for
 from xarm_emu.protocol.rtu import TOOL_HOST
@@ -66,19 +68,6 @@ def observe(emu: Emulator) -> tuple[Any, ...]:
             emu.thermal.temperatures.tobytes(), emu.io.now.hex())
 
 
-def chunks(total: int, pattern: tuple[int, ...]) -> Iterator[int]:
-    """Step counts summing to ``total``, cycling through ``pattern`` (what report readers and a test's
-    ``advance`` calls make the server run)."""
-    done = 0
-    while done < total:
-        for n in pattern:
-            n = min(n, total - done)
-            if n <= 0:
-                return
-            done += n
-            yield n
-
-
 def run_both(firmware: str, script: dict[int, list[Action]], total: int, pattern: tuple[int, ...],
              setup: Action | None = None, model: int | str = 6, vacuum: bool = False) -> tuple[int, Emulator]:
     """Run ``script`` (period count -> actions before stepping on) on a jumping and an exact emulator,
@@ -93,7 +82,9 @@ def run_both(firmware: str, script: dict[int, list[Action]], total: int, pattern
     done = 0
     instants = 0
     marks = sorted(script)
-    for n in chunks(total, pattern):
+    strides = itertools.cycle(pattern)
+    while done < total:
+        n = min(next(strides), total - done)
         upcoming = [m for m in marks if done < m < done + n]
         if upcoming:
             n = upcoming[0] - done  # actions land on the same period in both runs
@@ -221,6 +212,45 @@ def test_thermal_jump_bit_identical_over_a_quarter_hour() -> None:
     assert fast.thermal.temperatures.tobytes() == exact.thermal.temperatures.tobytes()
     assert fast.time.hex() == exact.time.hex()
     assert observe(fast) == observe(exact)
+
+
+def with_feedback(emu: Emulator) -> None:
+    """Firmware 2.x feedback (registers 253/254) as the server wires it: every command through the
+    feedback queue of connection 1, which asked for every feedback type."""
+    fb = feedback_queue(emu.controller)
+    handle = emu.handle
+    tid = [0]
+
+    def through_queue(code: int, params: bytes) -> tuple[int, bytes]:
+        tid[0] += 1
+        fb.begin(emu.controller, 1, tid[0], 2, code)
+        state = 0
+        try:
+            state, reply = handle(code, params)
+        finally:
+            fb.end(emu.controller, state)
+        return state, reply
+
+    emu.handle = through_queue  # type: ignore[method-assign]
+    through_queue(254, bytes([0xFF]))
+    schedule_faults(emu)
+
+
+def test_feedback_frames_identical() -> None:
+    """With feedback on (firmware 2.7.103), the motion start and finish and trigger events come out
+    the same, with the same controller times, and idle periods are still jumped over."""
+    events: dict[str, list[bytes]] = {"fast": [], "exact": []}
+
+    def drain(e: Emulator) -> None:
+        fb = feedback_queue(e.controller)
+        events["exact" if e.exact_steps else "fast"].extend(ev.encode() for ev in fb.drain())
+
+    script = {k: list(v) for k, v in MIXED.items()}
+    for mark in range(0, 45 * 250, 50):
+        script.setdefault(mark, []).append(drain)
+    _, fast = run_both("2.7.103", script, 45 * 250, (2, 3, 250, 1, 37), setup=with_feedback)
+    assert events["fast"] == events["exact"] and len(events["fast"]) > 10
+    assert fast.periods_jumped > 0.3 * fast.controller.steps
 
 
 def tool_outputs(word: int) -> Action:

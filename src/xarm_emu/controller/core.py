@@ -396,9 +396,6 @@ class Controller:
         is due in the present state and mode (the branches of :meth:`step`), and every per-period
         hook is idle. Components answer for themselves (:func:`~.base.idle_until`)."""
         d = self.data
-        qd, qdd = d.qd, d.qdd
-        if qd.any() or qdd.any() or np.signbit(qd).any() or np.signbit(qdd).any():
-            return False
         if d.faults.error == 0:
             state, mode = d.motion_state, d.mode
             if mode == MODE_SERVO and d.servo_target is not None and state in (STATE_SLEEP, STATE_MOVING):
@@ -408,6 +405,9 @@ class Controller:
                     return False
             elif (state == STATE_STOP and d.motion.stopping) or mode in MODE_STEPS:
                 return False
+        qd, qdd = d.qd, d.qdd
+        if qd.any() or qdd.any() or np.signbit(qd).any() or np.signbit(qdd).any():
+            return False
         return all(EVERY_STEP_IDLE.get(hook, _never_idle)(self) for hook in EVERY_STEP)
 
     def _tracker(self) -> motion.ServoTracker:
