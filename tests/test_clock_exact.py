@@ -172,6 +172,21 @@ def test_mostly_idle_program_identical(firmware: str) -> None:
     assert fast.thermal.temperatures.max() > 25.0  # the arm held against gravity warmed up
 
 
+@pytest.mark.parametrize("firmware", FIRMWARES)
+def test_dwell_identical(firmware: str) -> None:
+    """A 30 s dwell (register 26) between two moves, suspended and resumed on the way (register 12):
+    the dwell's periods are jumped over, the move after it starts on the same period."""
+    script: dict[int, list[Action]] = {
+        0: [ready, lambda e: send(e, 26, seconds=30.0),
+            lambda e: send(e, 23, joints=(0.3, 0.0, -0.2, 0.0, 0.2, 0.0, 0.0), speed=1.0, acc=8.0,
+                           mvtime=0.0)],
+        2500: [lambda e: send(e, 12, state=3)], 3000: [lambda e: send(e, 12, state=0)]}
+    _, fast = run_both(firmware, script, 40 * 250, (3, 2, 700, 1, 1900),
+                       setup=lambda e: e.at(7.0021, lambda: e.inject_warning(12)))
+    assert fast.periods_jumped > 0.8 * fast.controller.steps
+    assert fast.controller.executor.completed == 2
+
+
 def test_exact_steps_switch_steps_every_period() -> None:
     """``exact_steps`` runs every period; without it an idle arm jumps all but the last of a batch."""
     exact, fast = Emulator(6, exact_steps=True), Emulator(6)

@@ -401,7 +401,11 @@ class Controller:
             if mode == MODE_SERVO and d.servo_target is not None and state in (STATE_SLEEP, STATE_MOVING):
                 return False
             if mode == MODE_POSITION and state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
-                if state == STATE_MOVING or self.executor.active:
+                ex = self.executor
+                if not ex.active:
+                    if state == STATE_MOVING:
+                        return False
+                elif state == STATE_SLEEP or ex.dwell_rate(d.q) is None:  # a dwell only counts time
                     return False
             elif (state == STATE_STOP and d.motion.stopping) or mode in MODE_STEPS:
                 return False

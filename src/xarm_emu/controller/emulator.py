@@ -291,11 +291,20 @@ class Emulator:
         due = self._scheduled[0][0] if self._scheduled else math.inf
         steps = d.steps
         currents: np.ndarray | None = None
+        # A running dwell (register 26) counts its path time as a step does; it ends in a full step.
+        plan = d.motion
+        rate = ctl.executor.dwell_rate(d.q) if plan.plan is not None else None
+        path_t = plan.t
         k = 0
         while k < most:
             t_next = t + dt
             if not t_next < horizon or due <= t_next + 1e-9:
                 break
+            if rate is not None:
+                path_next = path_t + dt * rate
+                if not path_next < plan.plan.duration:
+                    break
+                path_t = path_next
             t = t_next
             steps += 1
             k += 1
@@ -304,6 +313,8 @@ class Emulator:
                     currents = self._rest_currents()
                 self.thermal.step(THERMAL_EVERY * dt, currents)
         d.time, d.steps = t, steps
+        if rate is not None:
+            plan.t = path_t
         self.periods_jumped += k
         return k
 

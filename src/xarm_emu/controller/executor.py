@@ -252,6 +252,17 @@ class Executor:
             s = u * u * (3.0 - 2.0 * u)  # smoothstep: bounded acceleration of the path rate
             self.data.rate = self.data.ramp_from + (self.data.ramp_to - self.data.ramp_from) * s
 
+    def dwell_rate(self, q: np.ndarray) -> float | None:
+        """The path rate of a running dwell (register 26) whose control periods only advance its path
+        time: its plan holds the joints ``q`` (the very array), no rate ramp or stop runs and the TCP
+        speed is already 0; ``None`` otherwise. The period in which it ends runs in full."""
+        d = self.data
+        plan = d.plan
+        if (isinstance(plan, _DwellPlan) and plan.q is q and not d.stopping and d.ramp_u >= 1.0
+                and d.tcp_speed == 0.0 and math.copysign(1.0, d.tcp_speed) > 0.0):
+            return d.rate
+        return None
+
     @property
     def at_rest(self) -> bool:
         return self.data.rate == 0.0 and self.data.ramp_u >= 1.0
