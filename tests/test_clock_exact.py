@@ -187,6 +187,30 @@ def test_dwell_identical(firmware: str) -> None:
     assert fast.controller.executor.completed == 2
 
 
+def servo_mode(emu: Emulator) -> None:
+    for code, values in ((11, {"joint": 8, "enable": 1}), (19, {"mode": 1}), (12, {"state": 0})):
+        send(emu, code, **values)
+
+
+def servoj(q: tuple[float, ...]) -> Action:
+    return lambda e: send(e, 29, joints=(*q, 0.0), speed=0.0, acc=0.0, mvtime=0.0)
+
+
+@pytest.mark.parametrize("firmware", FIRMWARES)
+def test_servo_hold_identical(firmware: str) -> None:
+    """Servo mode (register 29) holding its target is jumped over; a safety boundary (registers 52,
+    59) set that leaves the held pose outside stops it with C35 either way."""
+    script: dict[int, list[Action]] = {0: [servo_mode]}
+    for k in range(1, 60):  # a 250 Hz stream for a quarter of a second, then one far target
+        script[k] = [servoj((0.004 * k, 0.002 * k, -0.003 * k, 0.0, 0.003 * k, 0.0))]
+    script[60] = [servoj((0.6, 0.1, -0.4, 0.0, 0.3, 0.0))]
+    script[3000] = [lambda e: send(e, 52, boundary=(100, 50, 100, 50, 100, 50)),
+                    lambda e: send(e, 59, on=1)]
+    _, fast = run_both(firmware, script, 20 * 250, (1, 3, 2, 300, 1, 2000))
+    assert fast.periods_jumped > 0.6 * fast.controller.steps
+    assert fast.controller.error_code == 35
+
+
 def test_exact_steps_switch_steps_every_period() -> None:
     """``exact_steps`` runs every period; without it an idle arm jumps all but the last of a batch."""
     exact, fast = Emulator(6, exact_steps=True), Emulator(6)

@@ -194,6 +194,7 @@ class Emulator:
         #: Control periods jumped over so far (not stepped one by one; :meth:`_jump`).
         self.periods_jumped = 0
         self._rest_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
+        self._settled = -1  # the generation at the end of the last step() call
         self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
         self._schedule_seq = 0
         self.config_dir = config_dir
@@ -257,20 +258,25 @@ class Emulator:
         :attr:`exact_steps` is set; the last period of every call, and the period in which anything
         falls due, always runs in full, so everything anyone can observe comes out identical."""
         ctl = self.controller
+        settled = self.generation == self._settled  # nothing changed the box since the last call
         self.generation += 1
         i = 0
         while i < n:
-            if i < n - 1 and not self.exact_steps and ctl.at_rest():
+            if i < n - 1 and not self.exact_steps and ctl.at_rest(settled):
                 k = self._jump(n - 1 - i)
                 if k:
                     i += k
                     continue
             ctl.step()
+            settled = True
             if ctl.steps % THERMAL_EVERY == 0:
                 self.thermal.step(THERMAL_EVERY * ctl.period, np.abs(ctl.joint_currents()))
             if self._scheduled and self._scheduled[0][0] <= ctl.time + 1e-9:
                 self._run_scheduled()
+                settled = False
             i += 1
+        if n > 0:
+            self._settled = self.generation
 
     def _jump(self, most: int) -> int:
         """Jump over at most ``most`` control periods while the controller is at rest
