@@ -303,7 +303,7 @@ class Executor:
             raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
         if isinstance(plan, _CartesianPlan) and dt > 0.0:
             # Near a singularity a TCP path can need joint speeds beyond the limit (section 3.2.1, C24).
-            speed = float(np.max(np.abs(np.asarray(new_q) - q))) / dt
+            speed = float(np.abs(np.asarray(new_q) - q).max()) / dt
             if speed > limits.max_joint_speed * SPEED_TOLERANCE:
                 self.clear()
                 raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")
