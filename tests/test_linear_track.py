@@ -303,3 +303,27 @@ def test_fault_schedule_raises_the_track_error_on_time(tmp_path: Path) -> None:
     assert read(emu, 0x0A22)[0] & 1 == 0  # the fault stopped the carriage
     with pytest.raises(FaultScheduleError, match="no linear track"):
         schedule(_Target(Emulator(6)), read_schedule(path))  # type: ignore[arg-type]
+
+
+def test_jump_over_idle_periods_leaves_the_track_as_stepping_every_period() -> None:
+    """Homing, a move, rest: the emulator's jump over idle periods (controller/emulator.py) gives the
+    carriage the same position, speed and state at every instant as stepping period by period, and
+    it does jump while the carriage rests."""
+    fast = Emulator(6, firmware=SERVE_VERSION, linear_track=1000)
+    exact = Emulator(6, firmware=SERVE_VERSION, linear_track=1000, exact_steps=True)
+    script = [(0, lambda e: send(e, bytes.fromhex("01 06 0A 0A 00 01"))),
+              (1200, lambda e: set_target(e, 420.5)), (2500, lambda e: set_target(e, 10.0))]
+    done = 0
+    for stride in [7, 1, 50, 3, 400] * 10:
+        while script and script[0][0] <= done:  # each action at the first instant at or after its period
+            for emu in (fast, exact):
+                script[0][1](emu)
+            script.pop(0)
+        for emu in (fast, exact):
+            emu.step(stride)
+        done += stride
+        seen = [(read(e, 0x0A20, 2), read(e, 0x0A22), read(e, 0x0A25), e.time.hex()) for e in (fast, exact)]
+        assert seen[0] == seen[1], f"differ after period {done}"
+    assert not script
+    assert fast.periods_jumped > 0.3 * fast.controller.steps and exact.periods_jumped == 0
+    assert position_mm(fast) == pytest.approx(10.0)

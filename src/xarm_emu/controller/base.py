@@ -10,6 +10,7 @@ error code, section 3.2.1).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -120,3 +121,18 @@ class Component(Protocol):
     def handlers(self) -> dict[int, Handler]: ...
 
     def step(self, dt: float, ctl: ControllerView) -> None: ...
+
+
+#: What :func:`idle_until` answers for a component that cannot tell: never idle.
+NOT_IDLE = -math.inf
+
+
+def idle_until(component: object, ctl: ControllerView) -> float:
+    """Controller time up to which ``component`` is idle: with the controller at rest, stepping it in
+    any control period that ends before this time would leave it exactly as its last step did (its
+    own record of the time aside, which the next real step sets again). ``math.inf``: idle until
+    something changes. Components opt in with a method ``idle_until(ctl) -> float``; one without it
+    is never idle (:data:`NOT_IDLE`), so the stepped clock steps every period while it is plugged in
+    (the emulator's jump over idle periods, controller/emulator.py)."""
+    fn = getattr(component, "idle_until", None)
+    return NOT_IDLE if fn is None else float(fn(ctl))

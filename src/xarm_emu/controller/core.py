@@ -47,7 +47,7 @@ from .base import (
 from .commands import QueuedCommand
 from .executor import Executor, Limits
 from .faults import Faults
-from .mode_steps import EVERY_STEP, MODE_STEPS, route
+from .mode_steps import EVERY_STEP, EVERY_STEP_IDLE, MODE_STEPS, route
 from .settings import Settings
 from .state import ControllerState, StateField
 from .states import (
@@ -390,6 +390,46 @@ class Controller:
         for hook in EVERY_STEP:
             hook(self, dt)
 
+    def at_rest(self, settled: bool = False) -> bool:
+        """Whether a control period now would change nothing of the controller but its clock (time
+        and period count): the joints rest (speeds and accelerations exactly +0), no motion runs or
+        is due in the present state and mode (the branches of :meth:`step`), and every per-period
+        hook is idle. Components answer for themselves (:func:`~.base.idle_until`).
+
+        Servo mode holding its target counts only when ``settled`` (the caller knows that nothing
+        has changed the box since the last period ran in full): its period re-checks the boundary
+        and collisions on the held joints, which a command may have made fail."""
+        d = self.data
+        if d.faults.error == 0:
+            state, mode = d.motion_state, d.mode
+            if mode == MODE_SERVO and d.servo_target is not None and state in (STATE_SLEEP, STATE_MOVING):
+                if not (settled and state == STATE_SLEEP and self._servo_holding()):
+                    return False
+            if mode == MODE_POSITION and state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
+                ex = self.executor
+                if not ex.active:
+                    if state == STATE_MOVING:
+                        return False
+                elif state == STATE_SLEEP or ex.dwell_rate(d.q) is None:  # a dwell only counts time
+                    return False
+            elif (state == STATE_STOP and d.motion.stopping) or mode in MODE_STEPS:
+                return False
+        qd, qdd = d.qd, d.qdd
+        if qd.any() or qdd.any() or np.signbit(qd).any() or np.signbit(qdd).any():
+            return False
+        return all(EVERY_STEP_IDLE.get(hook, _never_idle)(self) for hook in EVERY_STEP)
+
+    def _servo_holding(self) -> bool:
+        """Servo mode: the arm holds its target exactly, so a period gives the same joints again."""
+        d = self.data
+        tr = d.servo_tracker
+        target = d.servo_target
+        if tr is None or target is None:
+            return False
+        b = target.tobytes()
+        return (tr.q.tobytes() == b and tr.target.tobytes() == b and d.q.tobytes() == b
+                and not (tr.qd.any() or np.signbit(tr.qd).any() or tr.qdd.any() or np.signbit(tr.qdd).any()))
+
     def _tracker(self) -> motion.ServoTracker:
         d = self.data
         if d.servo_tracker is None:
@@ -506,6 +546,10 @@ class Controller:
         t = self.reported_torques()
         return tuple(float(x) for x in t) + (0.0,) * (7 - self.dof)
 
+
+
+def _never_idle(ctl: Controller) -> bool:
+    return False
 
 
 class NotReady(Exception):

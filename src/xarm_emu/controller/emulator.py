@@ -29,7 +29,7 @@ from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
 from . import safety, trajectory
-from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
+from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .gripper import GripperModule
@@ -161,7 +161,7 @@ class Emulator:
     def __init__(self, model: int | str | RobotModel = 6, *, robot_sn: str | None = None,
                  box_sn: str | None = None, config_dir: Path | None = None, load_config: bool = True,
                  vacuum: bool = False, firmware: str | FirmwareProfile = DEFAULT_PROFILE,
-                 linear_track: int | None = None) -> None:
+                 linear_track: int | None = None, exact_steps: bool = False) -> None:
         self.model = model if isinstance(model, RobotModel) else get_model(model)
         sn = robot_sn or self.model.default_robot_sn
         box_sn = box_sn or self.model.default_box_sn
@@ -201,6 +201,13 @@ class Emulator:
             self.gripper.box_devices = lambda: (
                 {TRACK_ID: track} if self.io.tool.baud_index[CONTROL_BOX_HOST] == TRACK_BAUD_INDEX else {})
         self.thermal = ThermalModel(self.model.dof, sizes=joint_sizes(self.model))
+        #: Run every control period one by one, never jumping over idle ones (:meth:`step`); the
+        #: results are the same either way, this switch is there to show it.
+        self.exact_steps = exact_steps
+        #: Control periods jumped over so far (not stepped one by one; :meth:`_jump`).
+        self.periods_jumped = 0
+        self._rest_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
+        self._settled = -1  # the generation at the end of the last step() call
         self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
         self._schedule_seq = 0
         self.config_dir = config_dir
@@ -258,14 +265,87 @@ class Emulator:
         self.generation += 1
 
     def step(self, n: int = 1) -> None:
+        """Run ``n`` control periods.
+
+        Periods in which nothing would change but the clock are jumped over (:meth:`_jump`) unless
+        :attr:`exact_steps` is set; the last period of every call, and the period in which anything
+        falls due, always runs in full, so everything anyone can observe comes out identical."""
         ctl = self.controller
+        settled = self.generation == self._settled  # nothing changed the box since the last call
         self.generation += 1
-        for _ in range(n):
+        i = 0
+        while i < n:
+            if i < n - 1 and not self.exact_steps and ctl.at_rest(settled):
+                k = self._jump(n - 1 - i)
+                if k:
+                    i += k
+                    continue
             ctl.step()
+            settled = True
             if ctl.steps % THERMAL_EVERY == 0:
                 self.thermal.step(THERMAL_EVERY * ctl.period, np.abs(ctl.joint_currents()))
             if self._scheduled and self._scheduled[0][0] <= ctl.time + 1e-9:
                 self._run_scheduled()
+                settled = False
+            i += 1
+        if n > 0:
+            self._settled = self.generation
+
+    def _jump(self, most: int) -> int:
+        """Jump over at most ``most`` control periods while the controller is at rest
+        (:meth:`Controller.at_rest`), each component idle (:func:`~.base.idle_until`) and no
+        scheduled action due; returns the number of periods jumped.
+
+        Nothing changes in such a period but the clock and, every :data:`THERMAL_EVERY` periods, the
+        temperatures: the time is summed period by period as a step sums it, and the thermal model
+        takes the same steps with the same currents, so every value comes out bit for bit as if the
+        periods had run."""
+        ctl = self.controller
+        horizon = min((idle_until(c, ctl) for c in ctl.components), default=math.inf)
+        d = ctl.data
+        dt = ctl.period
+        t = d.time
+        if not t + dt < horizon:
+            return 0
+        due = self._scheduled[0][0] if self._scheduled else math.inf
+        steps = d.steps
+        currents: np.ndarray | None = None
+        # A running dwell (register 26) counts its path time as a step does; it ends in a full step.
+        plan = d.motion
+        rate = ctl.executor.dwell_rate(d.q) if plan.plan is not None else None
+        path_t = plan.t
+        k = 0
+        while k < most:
+            t_next = t + dt
+            if not t_next < horizon or due <= t_next + 1e-9:
+                break
+            if rate is not None:
+                path_next = path_t + dt * rate
+                if not path_next < plan.plan.duration:
+                    break
+                path_t = path_next
+            t = t_next
+            steps += 1
+            k += 1
+            if steps % THERMAL_EVERY == 0:
+                if currents is None:
+                    currents = self._rest_currents()
+                self.thermal.step(THERMAL_EVERY * dt, currents)
+        d.time, d.steps = t, steps
+        if rate is not None:
+            plan.t = path_t
+        self.periods_jumped += k
+        return k
+
+    def _rest_currents(self) -> np.ndarray:
+        """``abs(joint_currents())`` of the arm at rest, kept while the joints and the load stay (what
+        the torques depend on besides the speeds and accelerations, zero at rest)."""
+        ctl = self.controller
+        s = ctl.settings
+        key = (ctl.data.q.tobytes(), tuple(s.tcp_load), tuple(s.gravity_direction))
+        if self._rest_cache is None or self._rest_cache[0] != key:
+            self._rest_cache = (key, np.abs(ctl.joint_currents()))
+        return self._rest_cache[1]
 
     def at(self, seconds: float, action: Callable[[], object]) -> None:
         """Run ``action`` right after the first control period that ends at or after controller time

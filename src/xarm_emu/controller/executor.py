@@ -252,6 +252,17 @@ class Executor:
             s = u * u * (3.0 - 2.0 * u)  # smoothstep: bounded acceleration of the path rate
             self.data.rate = self.data.ramp_from + (self.data.ramp_to - self.data.ramp_from) * s
 
+    def dwell_rate(self, q: np.ndarray) -> float | None:
+        """The path rate of a running dwell (register 26) whose control periods only advance its path
+        time: its plan holds the joints ``q`` (the very array), no rate ramp or stop runs and the TCP
+        speed is already 0; ``None`` otherwise. The period in which it ends runs in full."""
+        d = self.data
+        plan = d.plan
+        if (isinstance(plan, _DwellPlan) and plan.q is q and not d.stopping and d.ramp_u >= 1.0
+                and d.tcp_speed == 0.0 and math.copysign(1.0, d.tcp_speed) > 0.0):
+            return d.rate
+        return None
+
     @property
     def at_rest(self) -> bool:
         return self.data.rate == 0.0 and self.data.ramp_u >= 1.0
@@ -292,7 +303,7 @@ class Executor:
             raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
         if isinstance(plan, _CartesianPlan) and dt > 0.0:
             # Near a singularity a TCP path can need joint speeds beyond the limit (section 3.2.1, C24).
-            speed = float(np.max(np.abs(np.asarray(new_q) - q))) / dt
+            speed = float(np.abs(np.asarray(new_q) - q).max()) / dt
             if speed > limits.max_joint_speed * SPEED_TOLERANCE:
                 self.clear()
                 raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")

@@ -23,13 +23,14 @@ runs at the end of every control period. :func:`feedback_queue` finds or attache
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
 from ..protocol.feedback import Feedback, FeedbackCode, FeedbackType
 from ..protocol.frame import PROTOCOL_PRIVATE_V3
-from .base import ControllerView, Handler
+from .base import NOT_IDLE, ControllerView, Handler
 from .commands import CircleMove, Dwell, JointMove, LineMove
 
 #: Queued task classes that move the arm (MOTION_START/MOTION_FINISH); any other queued task is a
@@ -119,6 +120,15 @@ class FeedbackQueue:
         """After each control period: report tasks that started or finished."""
         if self._tasks or self._checks:
             self._observe(ctl)
+
+    def idle_until(self, ctl: Any) -> float:
+        """Idle (:func:`~.base.idle_until`) while no watched task can have started or finished: the
+        buffer, the running command and its chain are as the last look saw them."""
+        if self._tasks or self._checks:
+            ex = ctl.executor
+            if (len(ex.buffer), id(ex.current), ex.data.merged) != self._seen:
+                return NOT_IDLE
+        return math.inf
 
     # -- requests -------------------------------------------------------------------------------
     def begin(self, ctl: Any, client: int, tid: int, protocol: int, register: int) -> None:

@@ -40,12 +40,13 @@ function code 0x10 without data, a malformed write; the SDK reads with 0x03.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..protocol import codes, rtu
 from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
-from .base import ControllerView, Handler, ParameterError
+from .base import NOT_IDLE, ControllerView, Handler, ParameterError
 
 GRIPPER_ID = 8  # section 2.1.4 "Gripper ID 0x08"
 GRIPPER_BAUD_INDEX = 11  # 2,000,000 bps (register 127 baud table)
@@ -350,6 +351,10 @@ class GripperModule:
 
     def step(self, dt: float, ctl: ControllerView) -> None:
         self.gripper.step(dt)
+
+    def idle_until(self, ctl: ControllerView) -> float:
+        """Idle (:func:`~.base.idle_until`) while the fingers do not move."""
+        return NOT_IDLE if self.gripper.moving else math.inf
 
     # --- register table adapter --------------------------------------------------------------------
 

@@ -42,7 +42,7 @@ from typing import Any
 
 from ..protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
 from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
-from .base import C_DELAYED_IO, CommandError, ControllerView, Handler, ParameterError
+from .base import C_DELAYED_IO, NOT_IDLE, CommandError, ControllerView, Handler, ParameterError
 from .states import STATE_STOP
 
 # Tool board addresses (registers 127/128).
@@ -268,6 +268,10 @@ class ControlBoxGpio:
         (self.output_functions if output else self.input_functions)[index] = fun
 
     def update_functions(self, ctl: ControllerView) -> None:
+        funs = self.output_functions[: self.n_digital]
+        if funs.count(FUN_GENERAL) == len(funs):  # every output general-purpose (the power-on default)
+            self.function_outputs = 0
+            return
         active = {
             FUN_STOP: ctl.state == STATE_STOP,
             FUN_ERROR: ctl.error_code != 0,
@@ -276,7 +280,7 @@ class ControlBoxGpio:
             FUN_HAS_WARNING: ctl.warning_code != 0,
         }
         word = 0
-        for i, f in enumerate(self.output_functions[: self.n_digital]):
+        for i, f in enumerate(funs):
             if f != FUN_GENERAL and active.get(f, False):
                 word |= 1 << i
         self.function_outputs = word
@@ -547,6 +551,20 @@ class IOModule:
         if tcp3 is not None:
             self._last_tcp = tcp3
         self.cgpio.update_functions(ctl)
+
+    def idle_until(self, ctl: ControllerView) -> float:
+        """Idle (:func:`~.base.idle_until`) until the first delayed output is due, once a step has
+        seen the present motion state; a position trigger the last step did not fire cannot fire
+        while the TCP rests where that step saw it."""
+        if self._last_state != ctl.state:
+            return NOT_IDLE
+        due = math.inf
+        for p in self.pending:
+            if p.due is not None:
+                due = min(due, p.due - 1e-9)
+            elif self._last_tcp != tuple(float(v) for v in ctl.tcp_position):
+                return NOT_IDLE
+        return due
 
     # --- register table adapter -------------------------------------------------------------------
 

@@ -60,7 +60,7 @@ import math
 from collections.abc import Callable, Sequence
 
 from ..protocol import rtu
-from .base import C_ESTOP, ControllerView, Handler
+from .base import C_ESTOP, NOT_IDLE, ControllerView, Handler
 
 TRACK_ID = 1  # the SDK's linear motor slave id on the control box RS-485
 TRACK_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default baud for the track
@@ -438,6 +438,13 @@ class LinearTrack:
             self.homing = "latch"
             self.latch_left = HOME_LATCH
             self.target = 0.0
+
+    def idle_until(self, ctl: ControllerView) -> float:
+        """Idle (:func:`~.base.idle_until`) while the carriage rests: no move, no homing, and no
+        emergency stop left to cut the drive."""
+        if self.moving or self.velocity != 0.0 or (ctl.error_code == C_ESTOP and self.enabled):
+            return NOT_IDLE
+        return math.inf
 
     def handlers(self) -> dict[int, Handler]:
         """No register of its own: the track answers through register 124 (host 11)."""

@@ -16,8 +16,10 @@ was asked. The emulator keeps the jaw state for tests and the admin channel:
 
 from __future__ import annotations
 
+import math
+
 from ..model.robots import PneumaticGripper
-from .base import ControllerView, Handler
+from .base import NOT_IDLE, ControllerView, Handler
 from .io import ToolIO
 
 TRAVEL_TIME = 0.3  # s for a full stroke, either way
@@ -63,3 +65,13 @@ class Lite6Gripper:
             self.opening = self.opening - rate
         # A stroke of TRAVEL_TIME / PERIOD periods ends exactly at an end, not a rounding short of it.
         self.opening = 0.0 if self.opening < 1e-9 else 1.0 if self.opening > 1.0 - 1e-9 else self.opening
+
+    def idle_until(self, ctl: ControllerView) -> float:
+        """Idle (:func:`~.base.idle_until`) while the jaws rest: at the end the command drives them
+        to, or held between the ends."""
+        o, cmd = self.opening, self.command
+        if cmd == "open":
+            return math.inf if o == 1.0 else NOT_IDLE
+        if cmd == "close":
+            return math.inf if o == 0.0 else NOT_IDLE
+        return math.inf if o in (0.0, 1.0) or 1e-9 <= o <= 1.0 - 1e-9 else NOT_IDLE

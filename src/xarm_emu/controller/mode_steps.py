@@ -23,6 +23,12 @@ MODE_STEPS: dict[int, Callable[[Any, float], None]] = {
 #: What the core runs every control period, whatever the mode (after the motion of the period).
 EVERY_STEP: tuple[Callable[[Any, float], None], ...] = (trajectory.record_step,)
 
+#: For a hook of :data:`EVERY_STEP`: whether running it now would change nothing (the jump over
+#: idle periods, controller/emulator.py); a hook without an entry is never idle.
+EVERY_STEP_IDLE: dict[Callable[[Any, float], None], Callable[[Any], bool]] = {
+    trajectory.record_step: trajectory.record_idle,
+}
+
 #: Registers whose meaning a mode changes: (mode, register) -> handler. In modes 6 and 7 a joint or
 #: linear move is a new online target instead of a queued command.
 MODE_ROUTES: dict[tuple[int, int], Callable[[Any, Values], dict[str, Any] | None]] = {

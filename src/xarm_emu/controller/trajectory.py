@@ -214,6 +214,12 @@ def record_step(ctl: Any, dt: float) -> None:
         st.recording = False
 
 
+def record_idle(ctl: Any) -> bool:
+    """:func:`record_step` would change nothing now: no recording, no playback left unfinished."""
+    st = getattr(ctl.data, _ATTR, None)
+    return st is None or (not st.recording and (st.playback is None or ctl.mode == MODE_PLAYBACK))
+
+
 def save(ctl: Any, name: str) -> int:
     """Register 62: save the recording; returns register 65's status."""
     st = store_of(ctl)

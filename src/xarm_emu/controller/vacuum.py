@@ -23,8 +23,10 @@ delays are the emulator's; the vendor publishes none.
 
 from __future__ import annotations
 
+import math
+
 from ..model.robots import VACUUM_WIRING, VacuumWiring
-from .base import ControllerView, Handler
+from .base import NOT_IDLE, ControllerView, Handler
 from .io import ToolIO
 
 PRESSURE_BUILD = 0.3  # s from pump on (object present) to the pressure input = 1
@@ -84,3 +86,12 @@ class VacuumGripper:
     def step(self, dt: float, ctl: ControllerView) -> None:
         for version, w in VACUUM_WIRING.items():
             self._step_wiring(version, w, dt)
+
+    def idle_until(self, ctl: ControllerView) -> float:
+        """Idle (:func:`~.base.idle_until`) while every wiring's pressure input reads what its pump
+        and the object give."""
+        for version in VACUUM_WIRING:
+            want = self.pumping_on(version) and self.object_present
+            if want != self.pressure_on(version) or self._since[version] != 0.0:
+                return NOT_IDLE
+        return math.inf
