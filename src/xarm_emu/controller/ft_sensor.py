@@ -174,6 +174,40 @@ class FtSensorComponent:
         step(self.ctl, dt)
 
 
+#: The key of the saved configuration (register 40) that holds the sensor's load and zero.
+CONFIG_KEY = "ft_sensor"
+
+
+def config_of(ctl: Any) -> dict[str, Any] | None:
+    """What register 40 saves of the sensor: register 205's load and the zero (205/206); None
+    while they are all zero."""
+    from .handlers.ft_sensor import ft_config
+
+    cfg = ft_config(ctl)
+    if cfg.mass == 0 and not any(cfg.centroid) and not any(cfg.offsets):
+        return None
+    return {"mass": cfg.mass, "centroid": list(cfg.centroid), "offsets": list(cfg.offsets)}
+
+
+def load_config(ctl: Any, data: Any) -> None:
+    """Apply a saved load and zero; anything of the wrong shape or not finite is ignored."""
+    from .handlers.ft_sensor import ft_config
+
+    if not isinstance(data, dict):
+        return
+    try:
+        mass = float(data["mass"])
+        centroid = tuple(float(x) for x in data["centroid"])
+        offsets = tuple(float(x) for x in data["offsets"])
+    except (KeyError, TypeError, ValueError):
+        return
+    values = (mass, *centroid, *offsets)
+    if len(centroid) != 3 or len(offsets) != 6 or not all(math.isfinite(x) for x in values):
+        return
+    cfg = ft_config(ctl)
+    cfg.mass, cfg.centroid, cfg.offsets = mass, centroid, offsets
+
+
 # -- geometry ---------------------------------------------------------------------------------
 def _gravity(ctl: Any) -> np.ndarray:
     try:
