@@ -137,3 +137,27 @@ def test_fleet_keys_and_running_emulator_scene(tmp_path: Path) -> None:
         assert st.call(lambda: ft.attached(st.emulator.controller))
         shapes = st.call(lambda: contact.scene_of(st.emulator.controller).shapes)
         assert len(shapes) == 1 and math.isclose(shapes[0].point[2], 100.0)
+
+
+def test_3d_view_draws_the_sensor_and_the_contact_scene(make_server: object, tmp_path: Path) -> None:
+    from helpers import wait_for
+
+    from xarm_emu.controller.emulator import Emulator
+    from xarm_emu.model import kinematics as kin
+    from xarm_emu.viewer import scene as view_scene
+
+    emu = Emulator(6, config_dir=tmp_path, ft_sensor=True,
+                   scene=contact.parse_scene({"plane": [{"name": "table", "point": [0, 0, 50],
+                                                         "normal": [0, 0, 1], "stiffness": 1}],
+                                              "box": [{"name": "part", "min": [300, -50, 0],
+                                                       "max": [400, 50, 100], "stiffness": 1}]}))
+    (disc,) = view_scene.ft_sensor_parts(emu.model, np.zeros(6), ft.SENSOR_HEIGHT)
+    assert disc.length == pytest.approx(ft.SENSOR_HEIGHT / 1000.0)
+    assert np.allclose(disc.position, kin.fk(emu.model, np.zeros(6))[:3, 3] / 1000.0)
+    table, part = view_scene.contact_parts(contact.scene_of(emu.controller).shapes)
+    assert table.position == pytest.approx((0.0, 0.0, 0.05))
+    assert part.half == pytest.approx((0.05, 0.05, 0.05))
+    st = make_server(view=True, view_port=0, emulator=emu)  # type: ignore[operator]
+    viewer = st.server.viewer
+    assert wait_for(lambda: any("/devices/" in k and "ft_sensor" in k for k in viewer._handles))
+    assert wait_for(lambda: sum("/contact/" in k for k in viewer._handles) == 2)
