@@ -200,7 +200,9 @@ def _tcp_point_velocity(ctl: Any) -> tuple[np.ndarray, np.ndarray]:
     p = T[:3, 3] + T[:3, :3] @ off
     J = kin.jacobian(model, d.q)
     v_lin, w = J[:3] @ d.qd, J[3:] @ d.qd
-    return p, v_lin + np.cross(w, T[:3, :3] @ off)
+    r = T[:3, :3] @ off
+    spin = np.array([w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]])
+    return p, v_lin + spin
 
 
 def shape_force(shape: Shape, p: np.ndarray, v: np.ndarray) -> np.ndarray:
