@@ -28,7 +28,7 @@ from ..protocol import registers as regs
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError, all_within
-from . import motion, reduced, safety
+from . import ft_sensor, motion, reduced, safety
 from .base import (
     C_OTHER,
     C_PLANNING,
@@ -162,12 +162,15 @@ class Controller:
         values = self.settings.to_dict()
         if (saved := reduced.config_of(self)) is not None:
             values[reduced.CONFIG_KEY] = saved
+        if (ft_saved := ft_sensor.config_of(self)) is not None:
+            values[ft_sensor.CONFIG_KEY] = ft_saved
         return values
 
     def load_config(self, data: dict[str, Any]) -> None:
         """Apply saved settings (invalid entries keep their defaults) and the collision tool."""
         self.settings = Settings.from_dict(data, self.model)
         reduced.load_config(self, data.get(reduced.CONFIG_KEY))
+        ft_sensor.load_config(self, data.get(ft_sensor.CONFIG_KEY))
         tool = self.settings.collision_tool
         try:
             self.collision_tool = collision.tool_model(int(tool[0]), tool[1:7])

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..controller import contact, ft_sensor
 from ..controller.emulator import Emulator
 from ..server.core import EmulatorServer
 from . import scene
@@ -29,6 +30,7 @@ ARM_COLOR = (200, 205, 215)
 GHOST_COLOR = (120, 170, 255)
 TOOL_COLOR = (255, 170, 60)
 TRACK_COLOR = (90, 95, 105)
+CONTACT_COLOR = (120, 160, 220)  # the contact scene's planes and boxes
 
 
 class Viewer:
@@ -94,6 +96,7 @@ class Viewer:
         track = self.emulator.linear_track
         self._draw("track", [] if track is None else scene.track_parts(track.length, track.position),
                    TRACK_COLOR, 1.0, True)
+        self._draw("contact", scene.contact_parts(contact.scene_of(ctl).shapes), CONTACT_COLOR, 0.4, True)
         if self.pendant is not None and self.updates % PANEL_EVERY == 0:
             self.pendant.update()
         self.updates += 1
@@ -102,12 +105,13 @@ class Viewer:
         """The end devices attached: the vacuum cup, else the xArm gripper once it is used."""
         emu = self.emulator
         q = emu.controller.q
+        sensor = scene.ft_sensor_parts(emu.model, q, ft_sensor.SENSOR_HEIGHT) if emu.has_ft_sensor else []
         if emu.vacuum is not None:
-            return scene.vacuum_parts(emu.model, q)
+            return sensor + scene.vacuum_parts(emu.model, q)
         g = emu.gripper.gripper
         if g.enabled or g.position > 0.0:
-            return scene.gripper_parts(emu.model, q, g.position)
-        return []
+            return sensor + scene.gripper_parts(emu.model, q, g.position)
+        return sensor
 
     def _draw(self, group: str, parts: list[scene.Part], color: tuple[int, int, int], opacity: float,
               visible: bool) -> None:

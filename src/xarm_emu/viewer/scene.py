@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -168,3 +169,39 @@ def track_parts(length: float, position: float) -> list[Part]:
     return [Part("track_rail", "box", (0.0, centre_y, z_rail), identity,
                  half=(RAIL_HALF_WIDTH, 0.5 * float(length) * MM, RAIL_HALF_HEIGHT)),
             Part("track_carriage", "box", (0.0, 0.0, z_carriage), identity, half=CARRIAGE_HALF)]
+
+
+#: The drawn F/T sensor: a disc of the sensor's height (controller/ft_sensor.py) on the flange.
+FT_SENSOR_RADIUS = 0.04  # m
+#: Half the side of the square drawn for a contact plane, and its drawn thickness (m).
+PLANE_HALF = 0.4
+PLANE_THICKNESS = 0.002
+
+
+def ft_sensor_parts(model: RobotModel, q: Sequence[float] | np.ndarray, height_mm: float) -> list[Part]:
+    """The six-axis F/T sensor between flange and tool: a disc ``height_mm`` thick along the flange's
+    z axis (a capsule of that length less its rounded ends)."""
+    T = kin.fk(model, q)
+    a = T[:3, 3] * MM
+    length = max(0.0, height_mm * MM)
+    return [Part("ft_sensor", "capsule", (float(a[0]), float(a[1]), float(a[2])),
+                 quat_z_to(tuple(float(v) for v in T[:3, 2])), radius=FT_SENSOR_RADIUS, length=length)]
+
+
+def contact_parts(shapes: Sequence[Any]) -> list[Part]:
+    """The contact scene (controller/contact.py): each plane a thin square about its point, normal
+    along the square's z; each box as it is. Shapes are read by their fields, base frame, mm."""
+    parts: list[Part] = []
+    for i, s in enumerate(shapes):
+        name = f"{i:02d}_{getattr(s, 'name', 'shape')}"
+        if hasattr(s, "normal"):
+            p = np.asarray(s.point, dtype=float) * MM
+            parts.append(Part(name, "box", (float(p[0]), float(p[1]), float(p[2])),
+                              quat_z_to(tuple(float(v) for v in s.normal)),
+                              half=(PLANE_HALF, PLANE_HALF, PLANE_THICKNESS / 2)))
+        else:
+            lo, hi = np.asarray(s.min, dtype=float) * MM, np.asarray(s.max, dtype=float) * MM
+            c, h = (lo + hi) / 2, (hi - lo) / 2
+            parts.append(Part(name, "box", (float(c[0]), float(c[1]), float(c[2])), (1.0, 0.0, 0.0, 0.0),
+                              half=(float(h[0]), float(h[1]), float(h[2]))))
+    return parts
