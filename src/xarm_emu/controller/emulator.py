@@ -27,7 +27,7 @@ from ..model.inertials import NOMINAL_JOINT_VOLTAGE, joint_sizes
 from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
-from . import safety, trajectory
+from . import contact, ft_sensor, safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
@@ -158,7 +158,9 @@ class Emulator:
 
     def __init__(self, model: int | str | RobotModel = 6, *, robot_sn: str | None = None,
                  box_sn: str | None = None, config_dir: Path | None = None, load_config: bool = True,
-                 vacuum: bool = False, firmware: str | FirmwareProfile = DEFAULT_PROFILE) -> None:
+                 vacuum: bool = False, firmware: str | FirmwareProfile = DEFAULT_PROFILE,
+                 ft_sensor: bool = False, ft_noise: bool = True,
+                 scene: contact.Scene | None = None) -> None:
         self.model = model if isinstance(model, RobotModel) else get_model(model)
         sn = robot_sn or self.model.default_robot_sn
         box_sn = box_sn or self.model.default_box_sn
@@ -186,6 +188,11 @@ class Emulator:
         if self.model.tool_io.gripper is not None:
             self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
             self.controller.add_component(self.lite6_gripper)
+        self.generation = 0
+        if ft_sensor:  # the six-axis F/T sensor between flange and tool (controller/ft_sensor.py)
+            self.attach_ft_sensor(noise=ft_noise)
+        if scene is not None:
+            contact.set_scene(self.controller, scene)
         self.thermal = ThermalModel(self.model.dof, sizes=joint_sizes(self.model))
         self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
         self._schedule_seq = 0
@@ -283,9 +290,14 @@ class Emulator:
     def snapshot(self) -> ReportSnapshot:
         """The live state as the reports show it (manual section 2.1.6)."""
         c = self.controller
-        return report_snapshot(c.model, c.data, c.settings, self.io, self.thermal,
+        snap = report_snapshot(c.model, c.data, c.settings, self.io, self.thermal,
                                version=c.version_string(), tool_error=c.hooks.tool_error(),
                                torques=c.joint_torques(), pose=c.tcp_matrix())
+        if ft_sensor.enabled(c):  # the reports' F/T fields: what registers 200 and 200 [01] answer
+            snap.ft_ext_force = tuple(float(x) for x in ft_sensor.reading(c))
+            snap.ft_raw_force = tuple(float(x) for x in ft_sensor.raw_reading(c))
+            snap.ft_enabled = True
+        return snap
 
     # -- checkpoint and restore (no real control box has these) ---------------------------------
     def _parts(self) -> dict[str, dict[str, Any]]:
@@ -404,6 +416,50 @@ class Emulator:
         ctl = self.controller
         ctl.faults = Faults.none(ctl.dof)
         self.gripper.gripper.clear_error()
+        ft_sensor.state_of(ctl).error = 0
+
+    # -- the F/T sensor and the contact scene (controller/ft_sensor.py, controller/contact.py) ----
+    def attach_ft_sensor(self, *, noise: bool = True) -> None:
+        """Mount the six-axis F/T sensor between flange and tool (once)."""
+        self.generation += 1
+        if not ft_sensor.attached(self.controller):
+            ft_sensor.attach(self.controller, noise=noise)
+            self.controller.add_component(ft_sensor.FtSensorComponent(self.controller))
+
+    @property
+    def has_ft_sensor(self) -> bool:
+        return ft_sensor.attached(self.controller)
+
+    def apply_wrench(self, wrench: Any, frame: str = "tool", ramp_s: float = 0.0,
+                     duration_s: float | None = None) -> None:
+        """An external wrench on the TCP (:func:`.ft_sensor.apply_wrench`); ValueError if not finite."""
+        self.generation += 1
+        ft_sensor.apply_wrench(self.controller, wrench, frame, ramp_s, duration_s)
+
+    def clear_wrench(self) -> None:
+        """Remove every played external wrench."""
+        self.generation += 1
+        ft_sensor.clear_wrench(self.controller)
+
+    def set_ft_noise(self, on: bool) -> None:
+        """Switch the F/T sensor's noise and drift on or off."""
+        self.generation += 1
+        ft_sensor.set_noise(self.controller, on)
+
+    def set_payload(self, mass: float, com: Any) -> None:
+        """Declare the physical payload on the tool (kg, centre of mass mm in the flange frame)."""
+        self.generation += 1
+        ft_sensor.set_payload(self.controller, mass, com)
+
+    def set_scene(self, scene: contact.Scene) -> None:
+        """Make ``scene`` the contact scene (planes and boxes in the base frame)."""
+        self.generation += 1
+        contact.set_scene(self.controller, scene)
+
+    def inject_ft_error(self, code: int) -> None:
+        """The F/T sensor reports error ``code`` (as get_ft_sensor_error reads it)."""
+        self.generation += 1
+        ft_sensor.inject_error(self.controller, code)
 
     def set_input(self, kind: str, index: int, value: float) -> None:
         """Play a sensor: ``cgpio``/``tgpio`` digital inputs (0/1), ``analog`` (control box, V),

@@ -88,6 +88,10 @@ class ControllerState:
     #: The joints where the last only-check move ended (the SDK's "intermediate state"), if kept.
     check_q: np.ndarray | None = None
     motion: PlanState = field(default_factory=PlanState)
+    #: The F/T sensor (controller/ft_sensor.py: mounted, switched on, wrenches, readings).
+    ft_sensor: Any = None
+    #: The contact scene (controller/contact.py), fixed in the base frame.
+    contact_scene: Any = None
 
     @classmethod
     def initial(cls, dof: int) -> ControllerState:

@@ -18,6 +18,7 @@ import numpy as np
 from ...model import kinematics as kin
 from ...model import rotations as rot
 from ...protocol import registers as regs
+from .. import ft_sensor
 from ..base import ParameterError, Values
 from ..commands import Task
 from ..poses import wire_pose_to_matrix
@@ -229,6 +230,8 @@ def servo_read(ctl: Any, v: Values) -> dict[str, Any]:
     drive type (0x081F); what 101/103 wrote; 0 otherwise (axis 8, the F/T sensor, is absent)."""
     axis, addr = int(v["axis"]), int(v["addr"])
     _servo_axis(ctl, axis)
+    if axis == 8 and addr == ft_sensor.ERROR_ADDRESS and ft_sensor.attached(ctl):
+        return {"value": ft_sensor.error_register(ctl)}
     written = extra_state(ctl).servo_registers.get((axis, addr))
     if written is not None:
         return {"value": int(written)}

@@ -1,8 +1,12 @@
-"""The six-axis force/torque sensor registers (150, 200-212), answered as a box with no F/T sensor
-attached: readings are zeros, the configuration registers store what they are sent and register
-212 reads it back, and what needs the sensor itself (switching it on, an application mode,
-zeroing, load identification) is refused with warning 12 (parameter abnormal, manual 3.2.2):
-there is nothing on the tool flange to switch. The reply lengths are the ones the SDK reads.
+"""The six-axis force/torque sensor registers (150, 200-212).
+
+With no sensor mounted the box answers as one without it: readings are zeros, the configuration
+registers store what they are sent and register 212 reads it back, and what needs the sensor itself
+(switching it on, zeroing, identifying its load) is refused with warning 12 (parameter abnormal,
+manual 3.2.2). With the sensor mounted (``Emulator(ft_sensor=True)``, :mod:`..ft_sensor`) it must
+also be switched on (register 201) before it reads, zeroes or identifies, as on the real box.
+Register 204 with type 1 (``iden_tcp_load``) needs no sensor: it identifies the flange load from
+the joint torques on every arm. The reply lengths are the ones the SDK reads.
 """
 
 from __future__ import annotations
@@ -11,9 +15,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from .. import ft_sensor as ft
 from ..base import ParameterError, Values
 
 NO_SENSOR = "no F/T sensor attached"
+NOT_ENABLED = "the F/T sensor is not switched on (register 201)"
 ZEROS6 = (0.0,) * 6
 
 
@@ -57,21 +63,37 @@ def _coord_axes(v: Values) -> tuple[int, tuple[int, ...]]:
     return coord, axes
 
 
+def _require_enabled(ctl: Any) -> None:
+    if not ft.attached(ctl):
+        raise ParameterError(NO_SENSOR)
+    if not ft.enabled(ctl):
+        raise ParameterError(NOT_ENABLED)
+
+
 def get_data(ctl: Any, v: Values) -> dict[str, Any]:
-    """Registers 150/200: forces and torques; zeros with no sensor."""
+    """Registers 150/200: forces (N) and torques (N m) in the sensor frame, compensated by registers
+    205/206, or raw with ``[01]``; zeros with no sensor or while it is switched off."""
     raw = int(v.get("raw", 0))
     if raw not in (0, 1):
         raise ParameterError(f"raw {raw} (0/1)")
-    return {"forces": ZEROS6}
+    if not ft.enabled(ctl):
+        return {"forces": ZEROS6}
+    return {"forces": _floats(ft.raw_reading(ctl) if raw else ft.reading(ctl))}
 
 
 def enable(ctl: Any, v: Values) -> None:
-    """Register 201: switching the sensor on needs a sensor; switching it off is accepted."""
+    """Register 201: switch the sensor on or off; switching on needs a sensor (switching off is
+    accepted on any box)."""
     on = int(v["on"])
     if on not in (0, 1):
         raise ParameterError(f"switch {on} (0/1)")
-    if on:
+    if on and not ft.attached(ctl):
         raise ParameterError(NO_SENSOR)
+    if ft.attached(ctl):
+        st = ft.state_of(ctl)
+        st.enabled = bool(on)
+        if on:
+            ft.step(ctl, ctl.period)  # the first reading is there at once
 
 
 def set_mode(ctl: Any, v: Values) -> None:
@@ -88,11 +110,21 @@ def get_mode(ctl: Any, v: Values) -> dict[str, Any]:
     return {"app": 0}
 
 
-def identify_load(ctl: Any, v: Values) -> None:
-    """Register 204: identification runs on the sensor's readings; refused."""
-    if int(v["iden_type"]) not in (0, 1):
+def identify_load(ctl: Any, v: Values) -> dict[str, Any]:
+    """Register 204: type 1 identifies the flange load from the joint torques (4 fp32: kg, mm),
+    on any arm; type 0 the load below the F/T sensor from its readings (10 fp32: kg, centre of
+    mass in m, six offsets), which needs the sensor switched on."""
+    kind = int(v["iden_type"])
+    if kind not in (0, 1):
         raise ParameterError("identification type 0/1")
-    raise ParameterError(NO_SENSOR)
+    if kind == 1:
+        mass = v.get("mass")
+        if mass is not None and not float(mass) >= 0:
+            raise ParameterError(f"estimated mass {mass}")
+        return {"load": ft.identify_tcp_load(ctl)}
+    _require_enabled(ctl)
+    r = ft.identify(ctl)
+    return {"load": r[:4], "offsets": r[4:10]}
 
 
 def set_load_offset(ctl: Any, v: Values) -> None:
@@ -102,8 +134,9 @@ def set_load_offset(ctl: Any, v: Values) -> None:
 
 
 def set_zero(ctl: Any, v: Values) -> None:
-    """Register 206: zeroing reads the sensor; refused."""
-    raise ParameterError(NO_SENSOR)
+    """Register 206: the present reading becomes the zero; needs the sensor switched on."""
+    _require_enabled(ctl)
+    ft.set_zero(ctl)
 
 
 def admittance_config(ctl: Any, v: Values) -> None:
@@ -138,10 +171,12 @@ def admittance_frame(ctl: Any, v: Values) -> None:
 
 
 def get_config(ctl: Any, v: Values) -> dict[str, Any]:
-    """Register 212: the 280-byte configuration; application 0, not started, sensor type and id 0,
-    rate 0 (no sensor), then what 205 and 207-211 stored."""
+    """Register 212: the 280-byte configuration: application status, started (the sensor switched
+    on), sensor type, id and rate (zeros with no sensor), then what 205/206 and 207-211 stored."""
     cfg = ft_config(ctl)
-    return {"app_status": 0, "started": 0, "type": 0, "id": 0, "freq": 0, "mass": cfg.mass,
+    on = ft.attached(ctl)
+    return {"app_status": 0, "started": int(ft.enabled(ctl)), "type": ft.SENSOR_TYPE if on else 0,
+            "id": ft.SENSOR_ID if on else 0, "freq": ft.SENSOR_RATE_HZ if on else 0, "mass": cfg.mass,
             "dir_bias": 0.0, "centroid": cfg.centroid, "zero": cfg.offsets,
             "imp_coord": cfg.imp_coord, "imp_c_axis": cfg.imp_c_axis, "M": cfg.M, "K": cfg.K, "B": cfg.B,
             "fc_coord": cfg.fc_coord, "fc_c_axis": cfg.fc_c_axis, "f_ref": cfg.f_ref, "limits": cfg.limits,
