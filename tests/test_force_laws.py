@@ -16,8 +16,11 @@ Z = [0, 0, 1, 0, 0, 0]
 M = [0.5] * 3 + [0.005] * 3
 
 
+State = tuple[np.ndarray, np.ndarray]
+
+
 def run_admittance(wrench: list[float], K: list[float], B: list[float], seconds: float,
-                   x: np.ndarray | None = None, v: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+                   x: np.ndarray | None = None, v: np.ndarray | None = None) -> list[State]:
     x = np.zeros(6) if x is None else x
     v = np.zeros(6) if v is None else v
     out = []

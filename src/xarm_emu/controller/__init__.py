@@ -16,11 +16,12 @@
   server into 0xFF frames.
 - :mod:`.base`: the control period, command outcomes and the interface components plug in through.
 - Components: :mod:`.io`, :mod:`.gripper`, :mod:`.vacuum`, :mod:`.lite6_gripper`, :mod:`.ft_sensor`
-  (the six-axis F/T sensor) with :mod:`.contact` (the contact scene); :mod:`.modbus_map` binds the
-  standard Modbus map to a live box.
+  (the six-axis F/T sensor) with :mod:`.contact` (the contact scene) and :mod:`.force_control`
+  (its admittance and force control, register 202); :mod:`.modbus_map` binds the standard Modbus
+  map to a live box.
 """
 
 __all__ = ["base", "commands", "config", "contact", "core", "emulator", "executor", "faults", "feedback",
-           "ft_sensor", "gripper",
+           "force_control", "ft_sensor", "gripper",
            "handlers", "io", "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "poses",
            "reduced", "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum", "velocity"]

@@ -74,9 +74,14 @@ _ATTR = "_force_control"
 
 # -- parameter checks ------------------------------------------------------------------------------
 
+def _slack(bound: float) -> float:
+    """How far a bound may be passed by the fp32 rounding of the wire (a bound itself is inside)."""
+    return abs(bound) * 1e-6 + 1e-12 if math.isfinite(bound) else 0.0
+
+
 def _outside(name: str, values: Sequence[float], ranges: Sequence[tuple[float, float]]) -> str | None:
     for i, (x, (lo, hi)) in enumerate(zip(values, ranges, strict=True)):
-        if not lo <= x <= hi:
+        if not lo - _slack(lo) <= x <= hi + _slack(hi):
             return f"{name}[{i}] = {x:g} outside [{lo:g}, {hi:g}]"
     return None
 
@@ -274,8 +279,18 @@ def period(ctl: Any, dt: float) -> bool:
         fc.restart()
         fire(ctl, Event.SERVO_AT_TARGET)
         return True
-    step(ctl, dt, np.asarray(sensor.control_wrench(ctl), dtype=float))
+    step(ctl, dt, sensor_to_tool(ctl.settings.tcp_offset, sensor.control_wrench(ctl)))
     return True
+
+
+def sensor_to_tool(tcp_offset: Sequence[float], wrench: Any) -> np.ndarray:
+    """A wrench in the sensor frame (the flange's axes, torques about the TCP point) in the tool
+    frame, whose axes register 35's TCP offset turns from the flange's."""
+    w = np.asarray(wrench, dtype=float)
+    if not any(tcp_offset[3:6]):
+        return w
+    R = rot.rpy_to_matrix(*(float(a) for a in tcp_offset[3:6]))
+    return np.concatenate([R.T @ w[:3], R.T @ w[3:]])
 
 
 def step(ctl: Any, dt: float, wrench_tool: np.ndarray) -> None:

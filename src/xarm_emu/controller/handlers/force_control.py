@@ -106,3 +106,8 @@ HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
     210: admittance_mkb,
     211: admittance_frame,
 }
+
+
+def create_state(ctl: Any) -> None:
+    """Create the application's state at construction, so that a checkpoint always holds it."""
+    fc.control_of(ctl)

@@ -56,13 +56,6 @@ def _floats(values: Any) -> tuple[float, ...]:
     return tuple(float(x) for x in values)
 
 
-def _coord_axes(v: Values) -> tuple[int, tuple[int, ...]]:
-    coord, axes = int(v["coord"]), tuple(int(x) for x in v["c_axis"])
-    if coord not in (0, 1) or any(a not in (0, 1) for a in axes):
-        raise ParameterError("coord 0/1 and compliant axes 0/1")
-    return coord, axes
-
-
 def _require_enabled(ctl: Any) -> None:
     if not ft.attached(ctl):
         raise ParameterError(NO_SENSOR)
@@ -96,20 +89,6 @@ def enable(ctl: Any, v: Values) -> None:
             ft.step(ctl, ctl.period)  # the first reading is there at once
 
 
-def set_mode(ctl: Any, v: Values) -> None:
-    """Register 202: application 0 (none) is accepted; 1 and 2 need a sensor."""
-    app = int(v["app"])
-    if app not in (0, 1, 2):
-        raise ParameterError(f"application {app} (0-2)")
-    if app:
-        raise ParameterError(NO_SENSOR)
-
-
-def get_mode(ctl: Any, v: Values) -> dict[str, Any]:
-    """Register 203: the application mode, 0."""
-    return {"app": 0}
-
-
 def identify_load(ctl: Any, v: Values) -> dict[str, Any]:
     """Register 204: type 1 identifies the flange load from the joint torques (4 fp32: kg, mm),
     on any arm; type 0 the load below the F/T sensor from its readings (10 fp32: kg, centre of
@@ -139,37 +118,6 @@ def set_zero(ctl: Any, v: Values) -> None:
     ft.set_zero(ctl)
 
 
-def admittance_config(ctl: Any, v: Values) -> None:
-    """Register 207: admittance frame, compliant axes and M, K, B."""
-    cfg = ft_config(ctl)
-    cfg.imp_coord, cfg.imp_c_axis = _coord_axes(v)
-    cfg.M, cfg.K, cfg.B = _floats(v["M"]), _floats(v["K"]), _floats(v["B"])
-
-
-def force_pid(ctl: Any, v: Values) -> None:
-    """Register 208: force-control PID and the position limit."""
-    ft_config(ctl).pid = {k: _floats(v[k]) for k in ("kp", "ki", "kd", "xe_limit")}
-
-
-def force_config(ctl: Any, v: Values) -> None:
-    """Register 209: force-control frame, axes, reference and limits."""
-    cfg = ft_config(ctl)
-    cfg.fc_coord, cfg.fc_c_axis = _coord_axes(v)
-    cfg.f_ref, cfg.limits = _floats(v["f_ref"]), _floats(v["limits"])
-
-
-def admittance_mkb(ctl: Any, v: Values) -> None:
-    """Register 210: admittance M, K, B."""
-    cfg = ft_config(ctl)
-    cfg.M, cfg.K, cfg.B = _floats(v["M"]), _floats(v["K"]), _floats(v["B"])
-
-
-def admittance_frame(ctl: Any, v: Values) -> None:
-    """Register 211: admittance frame and compliant axes."""
-    cfg = ft_config(ctl)
-    cfg.imp_coord, cfg.imp_c_axis = _coord_axes(v)
-
-
 def get_config(ctl: Any, v: Values) -> dict[str, Any]:
     """Register 212: the 280-byte configuration: application status, started (the sensor switched
     on), sensor type, id and rate (zeros with no sensor), then what 205/206 and 207-211 stored."""
@@ -187,15 +135,8 @@ HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
     150: get_data,
     200: get_data,
     201: enable,
-    202: set_mode,
-    203: get_mode,
     204: identify_load,
     205: set_load_offset,
     206: set_zero,
-    207: admittance_config,
-    208: force_pid,
-    209: force_config,
-    210: admittance_mkb,
-    211: admittance_frame,
     212: get_config,
 }
