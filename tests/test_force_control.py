@@ -48,7 +48,8 @@ def box(sensor: bool = True) -> Emulator:
     return emu
 
 
-def start_admittance(emu: Emulator, coord: int, K: float, B: float, axes: tuple[int, ...] = (0, 0, 1, 0, 0, 0)) -> None:
+def start_admittance(emu: Emulator, coord: int, K: float, B: float,
+                     axes: tuple[int, ...] = (0, 0, 1, 0, 0, 0)) -> None:
     ok(emu, 207, coord=coord, c_axis=axes, M=[M_LIN] * 3 + [M_ROT] * 3, K=[K] * 3 + [0.0] * 3,
        B=[B] * 3 + [1.0] * 3)
     ok(emu, 201, on=1)

@@ -109,7 +109,8 @@ def test_force_control_presses_on_a_table_plane(arm: tuple[Any, ServerThread]) -
     assert api.get_err_warn_code() == (0, [0, 0])
 
 
-def test_parameters_outside_the_ranges_get_warning_12_and_change_nothing(arm: tuple[Any, ServerThread]) -> None:
+def test_parameters_outside_the_ranges_get_warning_12_and_change_nothing(
+        arm: tuple[Any, ServerThread]) -> None:
     api, _ = arm
     _, before = api.get_ft_sensor_config()
     bad_m = [0.01] * 3 + [0.001] * 3  # below 0.02 kg
