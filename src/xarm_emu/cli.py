@@ -73,6 +73,10 @@ def serve(
                                                + ", ".join(SUPPORTED_VERSIONS) + ".")] = SERVE_VERSION,
     vacuum: Annotated[bool, typer.Option("--vacuum", help="Attach the xArm Vacuum Gripper: its pressure "
                                                            "switch answers on tool input 0.")] = False,
+    ft_sensor: Annotated[bool, typer.Option("--ft-sensor", help="Mount the six-axis F/T sensor between "
+                                                                 "flange and tool.")] = False,
+    scene: Annotated[Path | None, typer.Option(help="Contact scene: planes and boxes the TCP presses "
+                                                    "into, a TOML file (controller/contact.py).")] = None,
     trace: Annotated[Path | None, typer.Option(help="Append every command-port request and reply to "
                                                     "this JSON-lines file (see server/trace.py).")] = None,
     faults: Annotated[Path | None, typer.Option(help="Inject the faults and inputs this TOML schedule "
@@ -150,9 +154,11 @@ def serve(
         err_console.print(f"--model: {exc}")
         raise typer.Exit(2) from None
     if fleet is not None:
-        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != SERVE_VERSION)
+        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != SERVE_VERSION,
+                              ft_sensor=ft_sensor, scene=scene is not None)
     try:
-        servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile)
+        servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile,
+                                         ft_sensor=ft_sensor, scene=scene)
     except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
         err_console.print(str(exc))
         raise typer.Exit(2) from None
@@ -259,12 +265,14 @@ def _attach_plc_ports(servers: list[EmulatorServer], host: str, modbus_port: int
         attach_studio(servers[0], host, studio_port)
 
 
-def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmware: bool) -> None:
+def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmware: bool, *,
+                          ft_sensor: bool = False, scene: bool = False) -> None:
     """Exit 2 naming every per-arm option given beside --fleet."""
     from .server.app import ServerConfig
 
     defaults = ServerConfig()
-    per_arm = {"--model": model, "--vacuum": vacuum, "--firmware": firmware,
+    per_arm = {"--model": model, "--vacuum": vacuum, "--firmware": firmware, "--ft-sensor": ft_sensor,
+               "--scene": scene,
                **{"--" + k.replace("_", "-"): getattr(given, k) != getattr(defaults, k) for k in _PER_ARM}}
     named = [name for name, on in per_arm.items() if on]
     if named:
@@ -274,10 +282,12 @@ def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmwa
 
 
 def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, vacuum: bool,
-                     cdir: Path, firmware: FirmwareProfile) -> tuple[list[EmulatorServer], Path]:
+                     cdir: Path, firmware: FirmwareProfile, *, ft_sensor: bool = False,
+                     scene: Path | None = None) -> tuple[list[EmulatorServer], Path]:
     """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
     port opens. Returns them and the configuration directory they use."""
+    from .controller.contact import load_scene
     from .controller.emulator import Emulator
     from .server.app import EmulatorServer
     from .server.faults import schedule_file
@@ -292,9 +302,12 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
                 raise ValueError(problem)
         cdir = spec.config_dir if spec.config_dir is not None else cdir
         arms = [(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum,
-                          firmware=a.firmware), a.server) for a in spec.arms]
+                          firmware=a.firmware, ft_sensor=a.ft_sensor, scene=a.scene), a.server)
+                for a in spec.arms]
     else:
-        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware), cfg)]
+        contact_scene = None if scene is None else load_scene(scene)  # ValueError: one line
+        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware, ft_sensor=ft_sensor,
+                          scene=contact_scene), cfg)]
     servers = []
     for emu, arm_cfg in arms:
         arm_cfg.limits = cfg.limits
@@ -412,6 +425,7 @@ def status(
                 error, warning = c.get_err_warn()
                 joints = c.get_joints()
                 pose = c.get_position()
+                ft = _ft_status(c, version)
             break
         except (OSError, ClientError) as exc:
             if time.monotonic() < deadline:
@@ -431,6 +445,8 @@ def status(
             "pose_mm_deg": [*pose[:3], *(math.degrees(p) for p in pose[3:])],
             "units": {"joints": "rad", "pose": "x, y, z mm; roll, pitch, yaw rad",
                       "joints_deg": "deg", "pose_mm_deg": "x, y, z mm; roll, pitch, yaw deg"}}
+    if ft is not None:
+        data["ft_sensor"] = ft
     if as_json:
         print(json.dumps(data))
         return
@@ -443,7 +459,30 @@ def status(
     t.add_row("joints (deg)", ", ".join(f"{math.degrees(j):.3f}" for j in joints[:axis]))
     t.add_row("pose (mm, deg)", ", ".join([f"{p:.3f}" for p in pose[:3]] +
                                           [f"{math.degrees(p):.3f}" for p in pose[3:]]))
+    if ft is not None:
+        t.add_row("F/T sensor", "on: " + ", ".join(f"{x:.3f}" for x in ft["reading"]) + " (N, N m)"
+                  if ft["enabled"] else "mounted, switched off")
     console.print(t)
+
+
+def _ft_status(c: Any, version: str) -> dict[str, Any] | None:
+    """The F/T sensor as registers 212 and 200 show it (firmware 1.8.3 and later: an older box has
+    no register 212, and asking would raise its warning 13); None without a sensor."""
+    from .protocol.firmware import FirmwareVersion
+
+    try:
+        fw = FirmwareVersion.parse(version.rsplit(",v", 1)[-1].lstrip("v"))
+    except ValueError:
+        return None
+    if fw.parts < (1, 8, 3):
+        return None
+    config = c.call(212)
+    if not config.values.get("type"):
+        return None
+    enabled = bool(config.values.get("started"))
+    forces = list(c.call(200).values.get("forces", (0.0,) * 6)) if enabled else [0.0] * 6
+    return {"enabled": enabled, "reading": [float(x) for x in forces],
+            "units": "Fx, Fy, Fz N; Tx, Ty, Tz N m"}
 
 
 @app.command()
@@ -614,6 +653,10 @@ INJECT_COMMANDS: dict[str, tuple[str, tuple[tuple[str, Any, str], ...]]] = {
     "reply-delay": ("Delay every command reply.", (
         ("duration", Annotated[str, _CodeArg(help="e.g. 50ms; 0 switches it off.")], "seconds"),)),
     "drop-clients": ("Close every command and report connection.", ()),
+    "ft-error": ("The F/T sensor (serve --ft-sensor) reports an error, as get_ft_sensor_error reads it "
+                 "(0 clears it).", (
+                     ("code", Annotated[int, _CodeArg(help="Sensor error code, 1..255; 0 clears.")],
+                      "code"),)),
 }
 
 
@@ -647,16 +690,53 @@ def clear(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT, admin_port:
     _admin(host, port, admin_port, "clear")
 
 
-@app.command("set-input")
+@app.command("set-input", context_settings={"ignore_unknown_options": True})
 def set_input(
-    kind: Annotated[str, typer.Argument(help="cgpio, tgpio, analog, tool-analog or vacuum-object (with "
-                                             "serve --vacuum: 1 an object seals the cup, 0 none).")],
-    index: Annotated[int, typer.Argument(help="Input number.")],
-    value: Annotated[float, typer.Argument(help="0/1 for digital inputs, volts for analog ones.")],
+    kind: Annotated[str, typer.Argument(help="cgpio, tgpio, analog, tool-analog, vacuum-object (with "
+                                             "serve --vacuum: 1 an object seals the cup, 0 none), or ft "
+                                             "(with serve --ft-sensor: an external wrench on the TCP).")],
+    values: Annotated[list[str], typer.Argument(help="INDEX VALUE (0/1 for digital inputs, volts for "
+                                                     "analog ones), or for ft: FX FY FZ TX TY TZ (N, N m).")],
+    frame: Annotated[str, typer.Option(help="ft: the wrench's frame, tool or base.")] = "tool",
+    ramp: Annotated[float, typer.Option(help="ft: reach the wrench linearly over this many seconds.")] = 0.0,
+    hold: Annotated[float | None, typer.Option("--for", help="ft: remove the wrench after this many "
+                                                             "seconds (default: hold it).")] = None,
     host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT, admin_port: AdminPortOpt = None,
 ) -> None:
-    """Play a sensor input: `set-input cgpio 3 1`, `set-input tgpio 0 1`, `set-input analog 1 5.0`."""
+    """Play a sensor input: `set-input cgpio 3 1`, `set-input tgpio 0 1`, `set-input analog 1 5.0`,
+    `set-input ft 0 0 -10 0 0 0 --frame base --ramp 0.5 --for 2`."""
+    if kind == "ft":
+        wrench = _finite_numbers(values, 6, "set-input ft: FX FY FZ TX TY TZ")
+        for name, x in (("--ramp", ramp), ("--for", hold)):
+            if x is not None and not (math.isfinite(x) and x >= 0):
+                _user_error(f"{name}: a finite number of seconds >= 0, got {x}")
+        if frame not in ("tool", "base"):
+            _user_error(f"--frame: tool or base, got {frame!r}")
+        args: dict[str, Any] = {"wrench": wrench, "frame": frame, "ramp": ramp}
+        if hold is not None:
+            args["for"] = hold
+        _admin(host, port, admin_port, "set-input", refused_exit=2, kind="ft", **args)
+        return
+    if len(values) != 2:
+        _user_error(f"set-input {kind}: INDEX VALUE, got {' '.join(values) or 'nothing'}")
+    try:
+        index, value = int(values[0]), float(values[1])
+    except ValueError:
+        _user_error(f"set-input {kind}: INDEX is an integer and VALUE a number, got {' '.join(values)}")
     _admin(host, port, admin_port, "set-input", kind=kind, index=index, value=value)
+
+
+def _finite_numbers(values: list[str], n: int, what: str) -> list[float]:
+    """``n`` finite numbers from the command line, else one line and exit 2."""
+    if len(values) != n:
+        _user_error(f"{what}: {n} numbers, got {len(values)}")
+    try:
+        out = [float(v) for v in values]
+    except ValueError:
+        _user_error(f"{what}: numbers, got {' '.join(values)}")
+    if not all(math.isfinite(x) for x in out):
+        _user_error(f"{what}: finite numbers (no nan or inf), got {' '.join(values)}")
+    return out
 
 
 @app.command()

@@ -26,6 +26,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from .controller import contact
 from .controller.emulator import Emulator
 from .protocol.firmware import DEFAULT_VERSION
 from .server.app import ServerConfig, ServerThread
@@ -38,11 +39,15 @@ _SDK_REPORT_PORTS = {"normal": ("TCP_REPORT_NORM_PORT", 30001), "rich": ("TCP_RE
 
 @contextlib.contextmanager
 def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, vacuum: bool = False,
-                     firmware: str = DEFAULT_VERSION, **config: Any) -> Iterator[ServerThread]:
+                     firmware: str = DEFAULT_VERSION, ft_sensor: bool = False, ft_noise: bool = True,
+                     scene: Any = None, **config: Any) -> Iterator[ServerThread]:
     """An emulator server on free loopback ports (``ServerConfig`` fields as keywords, e.g.
     ``speed=5.0``, ``admin=True``), stopped at the end of the block. Saved configuration goes to a
     temporary directory unless ``config_dir`` is given; ``vacuum`` attaches the xArm Vacuum Gripper
-    (as ``serve --vacuum``); ``firmware`` is the version the box claims (as ``serve --firmware``).
+    (as ``serve --vacuum``); ``firmware`` is the version the box claims (as ``serve --firmware``);
+    ``ft_sensor`` mounts the six-axis F/T sensor (as ``serve --ft-sensor``; ``ft_noise=False`` for
+    deterministic readings) and ``scene`` sets a contact scene (a TOML file path, a
+    :class:`~xarm_emu.controller.contact.Scene` or its tables, as ``serve --scene``).
     A ``faults`` schedule is checked and scheduled, ``view=True`` attaches
     the 3D view, as ``xarm-emu serve`` does."""
     with contextlib.ExitStack() as stack:
@@ -50,7 +55,13 @@ def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, va
             config_dir = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="xarm-emu-")))
         cfg = ServerConfig(**{"host": "127.0.0.1", "port": 0, "normal_port": 0, "rich_port": 0,
                               "develop_port": 0, **config})
-        st = ServerThread(Emulator(model, config_dir=config_dir, vacuum=vacuum, firmware=firmware), cfg,
+        if isinstance(scene, (str, Path)):
+            scene = contact.load_scene(scene)
+        elif isinstance(scene, dict):
+            scene = contact.parse_scene(scene)
+        emu = Emulator(model, config_dir=config_dir, vacuum=vacuum, firmware=firmware, ft_sensor=ft_sensor,
+                       ft_noise=ft_noise, scene=scene)
+        st = ServerThread(emu, cfg,
                           compose=(attach_viewer,)).start()
         try:
             yield st

@@ -127,9 +127,11 @@ def attached(ctl: Any) -> bool:
 
 
 def enabled(ctl: Any) -> bool:
-    """The sensor is mounted and register 201 switched it on."""
+    """The sensor is mounted and register 201 switched it on. A box of a firmware without register
+    201 (below 1.8.3, where the SDK reads the sensor through register 150 alone) has no switch:
+    a mounted sensor always reads there."""
     st = state_of(ctl)
-    return st.attached and st.enabled
+    return st.attached and (st.enabled or 201 not in ctl.registers)
 
 
 def set_noise(ctl: Any, on: bool) -> None:
@@ -336,7 +338,7 @@ def step(ctl: Any, dt: float) -> None:
     now = float(ctl.data.time)
     if st.wrenches:
         st.wrenches = [w for w in st.wrenches if w.until is None or now < w.until - 1e-9]
-    if not (st.attached and st.enabled):
+    if not enabled(ctl):
         st.com_history.clear()
         return
     acc = _load_acceleration(ctl, st)

@@ -23,11 +23,13 @@ MAX_SECONDS = 3600.0
 
 COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "end-module-lost",
             "collision", "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status",
-            "step",
+            "step", "ft-error", "ft-noise", "payload", "scene",
             "checkpoint-save", "checkpoint-restore", "checkpoint-list")
 #: Longest checkpoint name (``checkpoint-save``/``checkpoint-restore``).
 MAX_NAME = 64
-INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object")
+INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object", "ft")
+#: Frames an external wrench (``set-input`` kind ``ft``) may be given in.
+WRENCH_FRAMES = ("tool", "base")
 
 
 def derive_admin_port(command_port: int) -> int:

@@ -35,6 +35,12 @@ drop-clients       -                                             close every cli
 clear              -                                             clear all faults and delays
 set-input          kind cgpio/tgpio/analog/tool-analog,          a sensor input
                    index, value
+set-input          kind ft, wrench [6], frame tool/base,         external wrench on the TCP
+                   ramp (s), for (s)                             (replaces the one played before)
+ft-error           code 0..255 (0 clears)                        the F/T sensor's error
+ft-noise           on true/false                                 F/T noise and drift on/off
+payload            mass (kg), com [3] (mm, flange frame)         the physical payload
+scene              scene {"plane": [...], "box": [...]}          the contact scene (replaced)
 status             -                                             time, error, warning, delays,
                                                                  why saves or the trace fail
 step               seconds (controller time)                     lockstep (--stepped) only: run them
@@ -57,10 +63,11 @@ import math
 from collections.abc import Callable
 from typing import Any, Protocol, cast
 
+from ..controller import contact
 from ..controller.base import CommandWarning
 from ..controller.emulator import Emulator
 from ..protocol import codes
-from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS, checkpoint_name
+from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS, WRENCH_FRAMES, checkpoint_name
 
 
 class Checkpointing(Protocol):
@@ -297,6 +304,8 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
             out = {"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
                    "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
                    "reports_paused": server.reports_paused()}
+            if emu.has_ft_sensor:
+                out["ft_sensor"] = _ft_status(emu)
             health = getattr(server, "health", None)  # disk and trace state, where the server has it
             if callable(health):
                 out.update(health())
@@ -305,6 +314,8 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
         return status
     if cmd in ("checkpoint-save", "checkpoint-restore", "checkpoint-list"):
         return _checkpoint(server, cmd, request)
+    if cmd in ("ft-error", "ft-noise", "payload", "scene"):
+        return _ft(server, cmd, request)
     raise AdminError(f"unknown command {cmd!r}; known: {', '.join(COMMANDS)}")
 
 
@@ -344,10 +355,100 @@ def _checkpoint(server: AdminTarget, cmd: str, request: dict[str, Any]) -> Calla
     return restore
 
 
+def _ft_status(emu: Emulator) -> dict[str, Any]:
+    """The F/T sensor in ``status``: switched on, its error, the compensated and raw readings."""
+    from ..controller import ft_sensor as ft
+
+    ctl = emu.controller
+    return {"enabled": ft.enabled(ctl), "error": ft.state_of(ctl).error,
+            "reading": [round(float(x), 4) for x in ft.reading(ctl)],
+            "raw": [round(float(x), 4) for x in ft.raw_reading(ctl)],
+            "external": [round(float(x), 4) for x in ft.external_wrench(ctl)]}
+
+
+def _vector(value: Any, n: int, name: str) -> list[float]:
+    if not isinstance(value, (list, tuple)) or len(value) != n:
+        raise AdminError(f"{name} must be a list of {n} numbers, got {value!r}")
+    return [_float(x, name) for x in value]
+
+
+def _ft(server: AdminTarget, cmd: str, request: dict[str, Any]) -> Callable[[], str]:
+    """``ft-error``, ``ft-noise``, ``payload`` and ``scene``: the F/T sensor and what it touches."""
+    emu = server.emulator
+    if cmd == "ft-error":
+        if not emu.has_ft_sensor:
+            raise AdminError("no F/T sensor is attached: start the emulator with --ft-sensor")
+        code = _int(request.get("code"), "code")
+        if not 0 <= code <= 255 or code == 27:
+            raise AdminError(f"F/T sensor error code {code} out of range 0..255 (27 means no error)")
+
+        def ft_error() -> str:
+            emu.inject_ft_error(code)
+            return f"F/T sensor error {code}" if code else "F/T sensor error cleared"
+
+        return ft_error
+    if cmd == "ft-noise":
+        on = request.get("on")
+        if not isinstance(on, bool):
+            raise AdminError(f"on must be true or false, got {on!r}")
+
+        def noise() -> str:
+            emu.set_ft_noise(on)
+            return f"F/T noise and drift {'on' if on else 'off'}"
+
+        return noise
+    if cmd == "payload":
+        mass = _float(request.get("mass"), "mass")
+        com = _vector(request.get("com", [0.0, 0.0, 0.0]), 3, "com")
+        if mass < 0:
+            raise AdminError(f"mass must be >= 0 kg, got {mass:g}")
+
+        def payload() -> str:
+            emu.set_payload(mass, com)
+            return f"payload {mass:g} kg at ({com[0]:g}, {com[1]:g}, {com[2]:g}) mm"
+
+        return payload
+    try:
+        scene = contact.parse_scene(request.get("scene", {}))
+    except ValueError as exc:
+        raise AdminError(f"scene: {exc}") from None
+
+    def set_scene() -> str:
+        emu.set_scene(scene)
+        return f"contact scene of {len(scene.shapes)} shapes"
+
+    return set_scene
+
+
+def _set_wrench(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
+    """``set-input`` kind ``ft``: the external wrench played on the TCP (replacing the last one)."""
+    wrench = _vector(request.get("wrench", request.get("value")), 6, "wrench")
+    frame = request.get("frame", "tool")
+    if frame not in WRENCH_FRAMES:
+        raise AdminError(f"frame must be one of {', '.join(WRENCH_FRAMES)}, got {frame!r}")
+    ramp = _seconds(request.get("ramp", 0.0))
+    hold = request.get("for")
+    duration = None if hold is None else _seconds(hold)
+    if duration == 0:
+        raise AdminError("for must be a time > 0 s (leave it out to hold the wrench)")
+    emu = server.emulator
+
+    def play() -> str:
+        emu.clear_wrench()
+        emu.apply_wrench(wrench, frame, ramp, duration)
+        text = " ".join(f"{x:g}" for x in wrench)
+        how = (f", ramp {ramp:g} s" if ramp else "") + (f", for {duration:g} s" if duration else "")
+        return f"external wrench ({text}) in the {frame} frame{how}"
+
+    return play
+
+
 def _set_input(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
     kind = request.get("kind")
     if kind not in INPUT_KINDS:
         raise AdminError(f"unknown input kind {kind!r}; known: {', '.join(INPUT_KINDS)}")
+    if kind == "ft":
+        return _set_wrench(server, request)
     index = _int(request.get("index"), "index")
     value = _float(request.get("value"), "value")
     if kind in ("cgpio", "tgpio", "vacuum-object") and value not in (0, 1):

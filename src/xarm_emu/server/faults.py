@@ -24,6 +24,15 @@ arguments::
     do = "report-pause"
     seconds = "2s"
 
+    [[fault]]              # an external wrench on the TCP (serve --ft-sensor): 10 N along tool z
+    at = 6.0
+    do = "set-input"
+    kind = "ft"
+    wrench = [0, 0, 10, 0, 0, 0]
+    frame = "tool"
+    ramp = 0.5
+    for = 2.0
+
 An entry may count ``at`` from another moment with ``after``: ``"start"`` (the default, the
 emulator's start), ``"connect"`` (the first client connection to the command port) or
 ``"motion"`` (the first motion: the arm's state becomes 1, in motion, manual 2.1.3 register 13).
@@ -121,7 +130,8 @@ ARGUMENTS: dict[str, tuple[str, ...]] = {
     "estop": (), "error": ("code",), "warning": ("code",), "servo-error": ("code", "joint"),
     "gripper-error": ("code",), "end-module-lost": (), "collision": ("joint", "torque"),
     "report-pause": ("seconds",), "reply-delay": ("seconds",), "drop-clients": (), "clear": (),
-    "set-input": ("kind", "index", "value"),
+    "set-input": ("kind", "index", "value", "wrench", "frame", "ramp", "for"),
+    "ft-error": ("code",), "ft-noise": ("on",), "payload": ("mass", "com"), "scene": ("scene",),
 }
 
 

@@ -21,7 +21,8 @@ Arm keys: ``model`` (5, 6, 7, or a name: lite6, 850, 7t), ``host``, ``port``, ``
 ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
 ``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``firmware``
-(the version the box claims, as ``serve --firmware``), ``trace``
+(the version the box claims, as ``serve --firmware``), ``ft_sensor`` (the six-axis F/T sensor, as
+``serve --ft-sensor``), ``scene`` (a contact scene file, as ``serve --scene``), ``trace``
 and ``faults`` (a command trace file and a fault schedule, as ``serve --trace`` and ``--faults``;
 relative to the fleet file; ``faults`` may be a top-level default). Arms
 without ``robot_sn`` get their model's default serial number, counted up when an earlier arm has
@@ -39,6 +40,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from ..controller import contact
 from ..controller.emulator import check_firmware
 from ..model.robots import MODEL_NAMES, get_model
 from ..protocol.admin import admin_host, derive_admin_port
@@ -47,7 +49,8 @@ from .core import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
-ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "firmware", "trace", "faults")
+ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "firmware", "trace", "faults",
+            "ft_sensor", "scene")
 TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k not in ("robot_sn", "trace")))
 
 
@@ -64,6 +67,8 @@ class ArmSpec:
     server: ServerConfig = field(default_factory=ServerConfig)
     vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
     firmware: FirmwareProfile = field(default_factory=lambda: profile_for(SERVE_VERSION))  # serve --firmware
+    ft_sensor: bool = False  # the six-axis F/T sensor (controller/ft_sensor.py), serve --ft-sensor
+    scene: contact.Scene | None = None  # the contact scene (controller/contact.py), serve --scene
 
 
 @dataclass(frozen=True)
@@ -136,7 +141,8 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
             raise FleetError(f"{where}: {key} must be a port number 0..65535, got {p!r}")
         ports[key] = p
     admin, vacuum = values.get("admin", False), values.get("vacuum", False)
-    for key, flag in (("admin", admin), ("vacuum", vacuum)):
+    ft_sensor = values.get("ft_sensor", False)
+    for key, flag in (("admin", admin), ("vacuum", vacuum), ("ft_sensor", ft_sensor)):
         if not isinstance(flag, bool):
             raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
     firmware = values.get("firmware", SERVE_VERSION)
@@ -157,7 +163,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         raise FleetError(f"{where}: robot_sn {sn} is already another arm's (they would share a "
                          "saved configuration)")
     paths: dict[str, Path | None] = {}
-    for key in ("trace", "faults"):
+    for key in ("trace", "faults", "scene"):
         value = values.get(key)
         if value is not None and not isinstance(value, str):
             raise FleetError(f"{where}: {key} must be a path string, got {value!r}")
@@ -168,7 +174,13 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         check_firmware(robot, profile)
     except ValueError as exc:
         raise FleetError(f"{where}: {exc}") from None
-    return ArmSpec(model, sn, cfg, vacuum, profile)
+    scene = None
+    if paths["scene"] is not None:
+        try:
+            scene = contact.load_scene(paths["scene"])
+        except ValueError as exc:
+            raise FleetError(f"{where}: {exc}") from None
+    return ArmSpec(model, sn, cfg, vacuum, profile, ft_sensor, scene)
 
 
 _WILDCARD = frozenset({"", "0.0.0.0", "::"})
