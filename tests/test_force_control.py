@@ -203,3 +203,51 @@ def test_parameters_outside_the_vendor_ranges_get_warning_12_and_change_nothing(
     state, _ = call(emu, code, **values)
     assert state & STATE_WARNING and emu.controller.warning_code == WARN_PARAMETER
     assert call(emu, 212)[1] == before
+
+
+def test_pushed_out_of_reach_it_stops_at_the_edge_and_comes_back() -> None:
+    emu = box()
+    start_admittance(emu, fc.FRAME_BASE, K=0.0, B=20.0, axes=(1, 0, 0, 0, 0, 0))
+    emu.apply_wrench([20.0, 0, 0, 0, 0, 0], frame="base")  # 1 m/s outward: past the reach in 1 s
+    emu.advance(2.0)
+    edge = tcp(emu)
+    emu.advance(0.2)
+    assert np.allclose(tcp(emu), edge)  # stopped where the joints could follow no further
+    assert emu.controller.error_code == 0 and emu.controller.state == 2
+    assert ok(emu, 203) == {"app": 1}
+    ctl = emu.controller
+    assert float(np.max(np.abs(ctl.qd))) < 1e-9
+    emu.clear_wrench()
+    emu.apply_wrench([-20.0, 0, 0, 0, 0, 0], frame="base")
+    emu.advance(0.5)
+    assert tcp(emu)[0] < edge[0] - 50.0  # pulled back, it follows again
+
+
+def test_joint_speeds_stay_within_the_limit_under_a_large_torque() -> None:
+    emu = box()
+    ok(emu, 207, coord=fc.FRAME_TOOL, c_axis=(0, 0, 0, 0, 0, 1), M=[M_LIN] * 3 + [0.0001] * 3,
+       K=[0.0] * 6, B=[40.0] * 3 + [0.01] * 3)
+    ok(emu, 201, on=1)
+    ok(emu, 202, app=fc.APP_ADMITTANCE)
+    ok(emu, 12, state=0)
+    emu.apply_wrench([0, 0, 0, 0, 0, 4.0])  # 400 rad/s asked of the tool's roll
+    fastest = 0.0
+    for _ in range(100):
+        emu.step()
+        fastest = max(fastest, float(np.max(np.abs(emu.controller.qd))))
+    assert fastest <= emu.controller.model.max_joint_speed * 1.001
+    assert fastest > 0.9 * emu.controller.model.max_joint_speed  # it turns as fast as it may
+
+
+def test_a_queued_move_runs_during_admittance_and_the_law_starts_again_after_it() -> None:
+    emu = box()
+    start_admittance(emu, fc.FRAME_BASE, K=1000.0, B=0.0, axes=(0, 0, 1, 0, 0, 0))
+    emu.step()
+    target = tcp(emu) + np.array([0.0, 30.0, 0, 0, 0, 0])
+    ok(emu, 21, pose=tuple(target), speed=100.0, acc=1000.0, mvtime=0.0)
+    emu.advance(1.5)
+    assert tcp(emu)[:3] == pytest.approx(target[:3], abs=1e-3)
+    p0 = tcp(emu)
+    emu.apply_wrench([0, 0, 5.0, 0, 0, 0], frame="base")
+    emu.advance(2.0)
+    assert tcp(emu)[2] - p0[2] == pytest.approx(5.0, abs=0.1)  # from where the move left it

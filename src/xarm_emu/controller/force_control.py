@@ -201,6 +201,9 @@ class ForceControl:
     x: np.ndarray = field(default_factory=lambda: np.zeros(6))
     v: np.ndarray = field(default_factory=lambda: np.zeros(6))
     pid: Pid = field(default_factory=Pid)
+    #: The direction of the last step that could not be followed: further steps that way stop at
+    #: once (the arm is on the edge of its workspace or a joint limit).
+    blocked: np.ndarray | None = None
 
     def restart(self) -> None:
         """Start again from the present pose at the next period that runs."""
@@ -209,6 +212,7 @@ class ForceControl:
         self.x = np.zeros(6)
         self.v = np.zeros(6)
         self.pid = Pid()
+        self.blocked = None
 
 
 def control_of(ctl: Any) -> ForceControl:
@@ -318,11 +322,18 @@ def step(ctl: Any, dt: float, wrench_tool: np.ndarray) -> None:
         v_new = force_update(fc.pid, -w, cfg.f_ref, pid["kp"], pid["ki"], pid["kd"], pid["xe_limit"],
                              cfg.fc_c_axis, dt)
         x_new = fc.x + v_new * dt
-    q = _follow(ctl, fc, x_prev, x_new)
+    step_dir = x_new - x_prev
+    if fc.blocked is not None and float(np.dot(step_dir, fc.blocked)) > 0.0:
+        q = None  # still pushing where the arm cannot go
+    else:
+        q = _follow(ctl, fc, x_prev, x_new)
     if q is None:  # outside the joint limits or the workspace: the arm stops where it is
         fc.x, fc.v = x_prev, np.zeros(6)
+        if np.any(step_dir):
+            fc.blocked = step_dir
         fire(ctl, Event.SERVO_AT_TARGET)
         return
+    fc.blocked = None
     q_new, scale = q
     if scale < 1.0:
         x_new = x_prev + (x_new - x_prev) * scale
@@ -335,8 +346,9 @@ def step(ctl: Any, dt: float, wrench_tool: np.ndarray) -> None:
 
 def _follow(ctl: Any, fc: ForceControl, x_prev: np.ndarray,
             x_new: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """Joints that put the TCP at displacement ``x_new`` (or part of the way, the fraction returned,
-    when the whole step would exceed the joint speed limit); None when the pose cannot be reached."""
+    """Joints that put the TCP at displacement ``x_new``, or part of the way (the fraction returned)
+    when the whole step would leave the joint limits or the workspace or exceed the joint speed
+    limit; None when not even a small part of it can be followed."""
     assert fc.anchor is not None
     q_now = np.asarray(ctl.q, dtype=float)
     if np.array_equal(x_new, x_prev):
@@ -344,13 +356,14 @@ def _follow(ctl: Any, fc: ForceControl, x_prev: np.ndarray,
     lo, hi = reduced.joint_range(ctl)
     limit = ctl.model.max_joint_speed * ctl.period
     scale = 1.0
-    for _ in range(4):
+    for _ in range(8):
         x = x_prev + (x_new - x_prev) * scale
         q = kin.ik(ctl.model, ctl.flange_target(target_pose(fc.anchor, x, fc.frame)), q_now, limited=False)
         if q is None or np.any(q < lo) or np.any(q > hi):
-            return None
+            scale *= 0.5  # towards the edge of the workspace or a joint limit, in ever smaller steps
+            continue
         fastest = float(np.max(np.abs(q - q_now)))
         if fastest <= limit * 1.0001:
             return np.asarray(q, dtype=float), scale
-        scale *= limit / fastest
+        scale *= 0.95 * limit / fastest
     return None
