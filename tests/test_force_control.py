@@ -251,3 +251,33 @@ def test_a_queued_move_runs_during_admittance_and_the_law_starts_again_after_it(
     emu.apply_wrench([0, 0, 5.0, 0, 0, 0], frame="base")
     emu.advance(2.0)
     assert tcp(emu)[2] - p0[2] == pytest.approx(5.0, abs=0.1)  # from where the move left it
+
+
+def test_the_tool_frame_follows_the_tcp_offset_rotation() -> None:
+    emu = box()
+    ok(emu, 35, pose=(0.0, 0.0, 50.0, 0.0, 0.0, math.pi / 2))  # tool x = flange y, tool y = -flange x
+    emu.advance(0.1)
+    ok(emu, 12, state=0)
+    start_admittance(emu, fc.FRAME_TOOL, K=0.0, B=40.0, axes=(0, 1, 0, 0, 0, 0))  # tool y only
+    emu.step()
+    p0 = tcp(emu)
+    flange_x = emu.controller.tcp_matrix()[:3, 1].copy() * -1.0  # -tool y, in the base frame
+    emu.apply_wrench([10.0, 0, 0, 0, 0, 0], frame="tool")  # along the sensor's (flange's) x
+    emu.advance(0.3)
+    d = tcp(emu)[:3] - p0[:3]
+    assert float(np.dot(d, flange_x)) > 30.0  # it yields along flange x, which is tool -y
+    assert np.linalg.norm(d - np.dot(d, flange_x) * flange_x) < 1e-6
+
+
+def test_a_checkpoint_holds_the_application_mid_motion() -> None:
+    emu = box()
+    start_admittance(emu, fc.FRAME_TOOL, K=300.0, B=40.0)
+    emu.apply_wrench([0, 0, 10.0, 0, 0, 0])
+    emu.advance(0.1)
+    cp = emu.checkpoint()
+    emu.advance(0.3)
+    later = tcp(emu)
+    emu.restore(cp)
+    assert ok(emu, 203) == {"app": 1}
+    emu.advance(0.3)
+    assert tcp(emu) == pytest.approx(later, abs=1e-9)
