@@ -21,9 +21,13 @@ the application started:
   speed is capped at ``xe_limit`` (mm/s, rad/s), the "max adjust velocity" of the SDK's example.
 
 The joints follow the TCP through inverse kinematics within the joint speed limit (a faster step is
-shortened); a pose outside the joint limits or without a solution stops the arm where it is, as
-Cartesian velocity control does (controller/velocity.py). Queued motion commands run as usual
-while an application is on; the application starts again from wherever they leave the arm.
+shortened). A step that would leave the joint limits or the workspace is shortened as far as it
+must; when nothing of it can be followed the arm stops there without an error, as Cartesian
+velocity control does (controller/velocity.py), and moves again once pushed another way. Queued
+motion commands run as usual while an application is on; the application starts again from
+wherever they leave the arm. The wrench is the sensor's reading of the period before
+(:func:`.ft_sensor.control_wrench`), turned from the sensor's axes into the tool's by the TCP
+offset's rotation (register 35).
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ import numpy as np
 
 from ..model import kinematics as kin
 from ..model import rotations as rot
+from . import ft_sensor as sensor
 from . import reduced
 from .states import STATE_MOVING, STATE_SLEEP, Event, fire
 
@@ -276,8 +281,6 @@ def period(ctl: Any, dt: float) -> bool:
     if not runs(ctl):
         fc.restart()  # stopped, suspended or running a queued command: start again afterwards
         return False
-    from . import ft_sensor as sensor
-
     if not sensor.enabled(ctl):  # the sensor was switched off: the application ends
         fc.app = APP_OFF
         fc.restart()
