@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..protocol import registers as regs
+from ..protocol.firmware import NEWEST_PROFILE
 from ..protocol.frame import StateBits
 
 
@@ -30,8 +31,11 @@ class Response(StateBits):
 
 
 def resolve(register: int | str) -> regs.Register:
-    """The table's entry for a register code or name (any case); :class:`KeyError` if unknown."""
+    """The table's entry for a register code or name (any case), the manual's first, then those of
+    later firmware (in their newest form); :class:`KeyError` if unknown."""
     reg = regs.get(register) if isinstance(register, int) else regs.BY_NAME.get(register.upper())
+    if reg is None and isinstance(register, int):
+        reg = regs.registers_for(NEWEST_PROFILE).get(register)
     if reg is None:
         raise KeyError(f"unknown register {register!r}")
     return reg
