@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from xarm_emu.controller.base import WARN_PARAMETER, WARN_UNKNOWN_COMMAND
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.controller.gripper import GRIPPER_ID, crc16_modbus
-from xarm_emu.controller.handlers import extras, ft_sensor
+from xarm_emu.controller.handlers import extras, force_control, ft_sensor
 from xarm_emu.model import rotations as rot
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.firmware import NEWEST_PROFILE
@@ -85,6 +85,10 @@ def _touching_poses(tool: np.ndarray, point: np.ndarray) -> list[float]:
     return poses
 
 
+# Admittance masses inside the vendor's ranges (0.02-1 kg, 0.0001-0.01 kg m^2); K and B zero.
+_MKB = struct.pack("<18f", *([0.06] * 3 + [0.001] * 3), *([0.0] * 12))
+VALID[207] = bytes([1, 0, 0, 1, 0, 0, 0]) + _MKB
+VALID[210] = _MKB
 VALID[111] = struct.pack("<24f", *_touching_poses(np.array([0.0, 0.0, 100.0]), np.array([300.0, 0, 100.0])))
 
 
@@ -145,7 +149,8 @@ def test_no_register_the_sdk_can_send_answers_warning_13() -> None:
 def test_the_registers_of_this_part_answer_their_reply_length_without_a_warning(box: Emulator) -> None:
     table = registers_for(NEWEST_PROFILE)
     refuse = {201, 202, 204, 206}  # they need the F/T sensor
-    codes = sorted(set(extras.HANDLERS) | set(ft_sensor.HANDLERS) | {123, 125, 129, 130, 240, 241})
+    codes = sorted(set(extras.HANDLERS) | set(ft_sensor.HANDLERS) | set(force_control.HANDLERS)
+                   | {123, 125, 129, 130, 240, 241})
     for code in codes:
         if code in refuse:
             continue
@@ -325,11 +330,12 @@ def test_ft_sensor_absent(box: Emulator) -> None:
     call(box, 201, b"\x00")
     assert call(box, 203) == b"\x00"
     call(box, 205, struct.pack("<10f", 0.8, 0.0, 0.0, 0.05, 1, 2, 3, 4, 5, 6))
-    call(box, 210, struct.pack("<18f", *range(18)))
+    M = (0.02, 0.03, 0.04, 0.001, 0.002, 0.003)  # inside the vendor's ranges (outside: warning 12)
+    call(box, 210, struct.pack("<18f", *M, *range(6, 18)))
     cfg = call(box, 212)
     assert len(cfg) == 280 and cfg[1] == 0  # not started
     assert struct.unpack("<f", cfg[6:10])[0] == pytest.approx(0.8)
-    assert struct.unpack("<6f", cfg[57:81]) == tuple(float(i) for i in range(6))  # M
+    assert struct.unpack("<6f", cfg[57:81]) == pytest.approx(M)  # M
 
 
 # --- sync byte and position triggers ---------------------------------------------------------------

@@ -17,10 +17,11 @@
 - :mod:`.base`: the control period, command outcomes and the interface components plug in through.
 - Components: :mod:`.io`, :mod:`.gripper`, :mod:`.vacuum`, :mod:`.lite6_gripper`, :mod:`.linear_track`
   (the linear track on the control box RS-485), :mod:`.ft_sensor` (the six-axis F/T sensor) with
-  :mod:`.contact` (the contact scene); :mod:`.modbus_map` binds the standard Modbus map to a live box.
+  :mod:`.contact` (the contact scene) and :mod:`.force_control` (its admittance and force control,
+  register 202); :mod:`.modbus_map` binds the standard Modbus map to a live box.
 """
 
 __all__ = ["base", "commands", "config", "contact", "core", "emulator", "executor", "faults", "feedback",
-           "ft_sensor", "gripper", "handlers", "io", "linear_track", "lite6_gripper", "modbus_map",
-           "mode_steps", "motion", "online", "poses", "reduced", "safety", "settings", "state", "states",
-           "thermal", "trajectory", "vacuum", "velocity"]
+           "force_control", "ft_sensor", "gripper", "handlers", "io", "linear_track", "lite6_gripper",
+           "modbus_map", "mode_steps", "motion", "online", "poses", "reduced", "safety", "settings", "state",
+           "states", "thermal", "trajectory", "vacuum", "velocity"]

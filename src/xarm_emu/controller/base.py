@@ -80,6 +80,10 @@ class Hooks:
     tool_error: Callable[[], int] = _no_tool_error
 
 
+class CommandFailed(Exception):
+    """The command cannot be carried out now (reply bit 0x08, the SDK's code 10); nothing changes."""
+
+
 class CommandError(Exception):
     """Raise a control box error (0x40 in the reply, state 4)."""
 

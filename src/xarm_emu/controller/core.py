@@ -26,9 +26,9 @@ from ..model import rotations as rot
 from ..model.robots import RobotModel
 from ..protocol import registers as regs
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
-from ..protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
+from ..protocol.frame import STATE_ERROR, STATE_FAILED, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError, all_within
-from . import ft_sensor, motion, reduced, safety
+from . import force_control, ft_sensor, motion, reduced, safety
 from .base import (
     C_OTHER,
     C_PLANNING,
@@ -38,6 +38,7 @@ from .base import (
     WARN_PARAMETER,
     WARN_UNKNOWN_COMMAND,
     CommandError,
+    CommandFailed,
     CommandWarning,
     Component,
     Handler,
@@ -322,6 +323,10 @@ class Controller:
             result = handler(values)
             if result is not None:
                 reply = reg.reply.encode(result)
+        except CommandFailed as exc:
+            log.info("register %d could not be carried out: %s", code, exc)
+            extra = STATE_FAILED
+            reply = self._default_reply(reg)
         except NotReady:
             extra = STATE_NOT_READY  # this command cannot run now: nothing queued, nothing moves
             reply = self._default_reply(reg)
@@ -368,7 +373,8 @@ class Controller:
                     d.q = q.copy()
                     fire(self, Event.SERVO_AT_TARGET if tracker.at_target else Event.SERVO_MOVING)
                 elif d.mode == MODE_POSITION and state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
-                    self._step_position(dt)
+                    if not force_control.period(self, dt):  # admittance or force control (202)
+                        self._step_position(dt)
                 elif state == STATE_STOP and d.motion.stopping:
                     self._step_position(dt)
                 elif (mode_step := MODE_STEPS.get(d.mode)) is not None:

@@ -27,6 +27,8 @@ PRIVATE_PROTOCOLS = frozenset({PROTOCOL_PRIVATE, PROTOCOL_PRIVATE_V3})
 STATE_ERROR = 0x40
 STATE_WARNING = 0x20
 STATE_NOT_READY = 0x10
+#: The command was understood but could not be carried out (the SDK's code 10, "invalid").
+STATE_FAILED = 0x08
 
 #: Largest length field accepted. The biggest real request (register 124 with
 #: a Modbus-RTU write) is far below this; anything larger is a broken stream.

@@ -18,7 +18,19 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..base import Handler, Values
-from . import extras, feedback, ft_sensor, kinematics, motion, motion2, reduced, settings, state, trajectory
+from . import (
+    extras,
+    feedback,
+    force_control,
+    ft_sensor,
+    kinematics,
+    motion,
+    motion2,
+    reduced,
+    settings,
+    state,
+    trajectory,
+)
 
 if TYPE_CHECKING:
     from ..core import Controller
@@ -41,6 +53,7 @@ TABLES: tuple[Mapping[int, CtlHandler], ...] = (
     trajectory.HANDLERS,
     extras.HANDLERS,
     ft_sensor.HANDLERS,
+    force_control.HANDLERS,
 )
 
 
@@ -53,6 +66,7 @@ def bind(ctl: Controller,
     create_state(ctl)  # the state behind these handlers exists from construction (checkpoints)
     extras.extra_state(ctl)
     ft_sensor.ft_config(ctl)
+    force_control.create_state(ctl)
     out: dict[int, Handler] = {}
     for table in TABLES if tables is None else tables:
         for code, fn in table.items():

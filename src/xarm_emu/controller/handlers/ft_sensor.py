@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from .. import force_control
 from .. import ft_sensor as ft
 from ..base import ParameterError, Values
 
@@ -56,13 +57,6 @@ def _floats(values: Any) -> tuple[float, ...]:
     return tuple(float(x) for x in values)
 
 
-def _coord_axes(v: Values) -> tuple[int, tuple[int, ...]]:
-    coord, axes = int(v["coord"]), tuple(int(x) for x in v["c_axis"])
-    if coord not in (0, 1) or any(a not in (0, 1) for a in axes):
-        raise ParameterError("coord 0/1 and compliant axes 0/1")
-    return coord, axes
-
-
 def _require_enabled(ctl: Any) -> None:
     if not ft.attached(ctl):
         raise ParameterError(NO_SENSOR)
@@ -96,20 +90,6 @@ def enable(ctl: Any, v: Values) -> None:
             ft.step(ctl, ctl.period)  # the first reading is there at once
 
 
-def set_mode(ctl: Any, v: Values) -> None:
-    """Register 202: application 0 (none) is accepted; 1 and 2 need a sensor."""
-    app = int(v["app"])
-    if app not in (0, 1, 2):
-        raise ParameterError(f"application {app} (0-2)")
-    if app:
-        raise ParameterError(NO_SENSOR)
-
-
-def get_mode(ctl: Any, v: Values) -> dict[str, Any]:
-    """Register 203: the application mode, 0."""
-    return {"app": 0}
-
-
 def identify_load(ctl: Any, v: Values) -> dict[str, Any]:
     """Register 204: type 1 identifies the flange load from the joint torques (4 fp32: kg, mm),
     on any arm; type 0 the load below the F/T sensor from its readings (10 fp32: kg, centre of
@@ -139,43 +119,12 @@ def set_zero(ctl: Any, v: Values) -> None:
     ft.set_zero(ctl)
 
 
-def admittance_config(ctl: Any, v: Values) -> None:
-    """Register 207: admittance frame, compliant axes and M, K, B."""
-    cfg = ft_config(ctl)
-    cfg.imp_coord, cfg.imp_c_axis = _coord_axes(v)
-    cfg.M, cfg.K, cfg.B = _floats(v["M"]), _floats(v["K"]), _floats(v["B"])
-
-
-def force_pid(ctl: Any, v: Values) -> None:
-    """Register 208: force-control PID and the position limit."""
-    ft_config(ctl).pid = {k: _floats(v[k]) for k in ("kp", "ki", "kd", "xe_limit")}
-
-
-def force_config(ctl: Any, v: Values) -> None:
-    """Register 209: force-control frame, axes, reference and limits."""
-    cfg = ft_config(ctl)
-    cfg.fc_coord, cfg.fc_c_axis = _coord_axes(v)
-    cfg.f_ref, cfg.limits = _floats(v["f_ref"]), _floats(v["limits"])
-
-
-def admittance_mkb(ctl: Any, v: Values) -> None:
-    """Register 210: admittance M, K, B."""
-    cfg = ft_config(ctl)
-    cfg.M, cfg.K, cfg.B = _floats(v["M"]), _floats(v["K"]), _floats(v["B"])
-
-
-def admittance_frame(ctl: Any, v: Values) -> None:
-    """Register 211: admittance frame and compliant axes."""
-    cfg = ft_config(ctl)
-    cfg.imp_coord, cfg.imp_c_axis = _coord_axes(v)
-
-
 def get_config(ctl: Any, v: Values) -> dict[str, Any]:
-    """Register 212: the 280-byte configuration: application status, started (the sensor switched
-    on), sensor type, id and rate (zeros with no sensor), then what 205/206 and 207-211 stored."""
+    """Register 212: the 280-byte configuration: application status (register 202's application:
+    0 none, 1 admittance, 2 force control), started (the sensor switched on), sensor type, id and rate (zeros with no sensor), then what 205/206 and 207-211 stored."""
     cfg = ft_config(ctl)
     on = ft.attached(ctl)
-    return {"app_status": 0, "started": int(ft.enabled(ctl)), "type": ft.SENSOR_TYPE if on else 0,
+    return {"app_status": force_control.control_of(ctl).app, "started": int(ft.enabled(ctl)), "type": ft.SENSOR_TYPE if on else 0,
             "id": ft.SENSOR_ID if on else 0, "freq": ft.SENSOR_RATE_HZ if on else 0, "mass": cfg.mass,
             "dir_bias": 0.0, "centroid": cfg.centroid, "zero": cfg.offsets,
             "imp_coord": cfg.imp_coord, "imp_c_axis": cfg.imp_c_axis, "M": cfg.M, "K": cfg.K, "B": cfg.B,
@@ -187,15 +136,8 @@ HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
     150: get_data,
     200: get_data,
     201: enable,
-    202: set_mode,
-    203: get_mode,
     204: identify_load,
     205: set_load_offset,
     206: set_zero,
-    207: admittance_config,
-    208: force_pid,
-    209: force_config,
-    210: admittance_mkb,
-    211: admittance_frame,
     212: get_config,
 }
