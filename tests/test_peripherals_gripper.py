@@ -123,7 +123,7 @@ def test_out_of_range_position_is_g25(pulse: int) -> None:
     assert position(mod) == 0
 
 
-@pytest.mark.parametrize("speed", [0, 5001, 65535])
+@pytest.mark.parametrize("speed", [0, 10001, 65535])
 def test_out_of_range_speed_is_g12(speed: int) -> None:
     mod = GripperModule()
     write(mod, 0x0100, 1)

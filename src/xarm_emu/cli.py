@@ -73,6 +73,8 @@ def serve(
                                                + ", ".join(SUPPORTED_VERSIONS) + ".")] = SERVE_VERSION,
     vacuum: Annotated[bool, typer.Option("--vacuum", help="Attach the xArm Vacuum Gripper: its pressure "
                                                            "switch answers on tool input 0.")] = False,
+    gripper: Annotated[str | None, typer.Option(help="The gripper on the tool RS-485: xarm (the default), "
+                                                     "robotiq-2f85, robotiq-2f140 or bio.")] = None,
     trace: Annotated[Path | None, typer.Option(help="Append every command-port request and reply to "
                                                     "this JSON-lines file (see server/trace.py).")] = None,
     faults: Annotated[Path | None, typer.Option(help="Inject the faults and inputs this TOML schedule "
@@ -149,10 +151,17 @@ def serve(
     except ValueError as exc:
         err_console.print(f"--model: {exc}")
         raise typer.Exit(2) from None
+    from .controller.emulator import GRIPPERS
+
+    if gripper is not None and gripper not in GRIPPERS:
+        _user_error(f"--gripper: one of {', '.join(GRIPPERS)}, got {gripper!r}")
+    if gripper is not None and vacuum:
+        _user_error("--gripper and --vacuum: one end tool at a time")
     if fleet is not None:
-        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != SERVE_VERSION)
+        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum or gripper is not None,
+                              firmware != SERVE_VERSION)
     try:
-        servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile)
+        servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile, gripper or "xarm")
     except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
         err_console.print(str(exc))
         raise typer.Exit(2) from None
@@ -264,7 +273,7 @@ def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmwa
     from .server.app import ServerConfig
 
     defaults = ServerConfig()
-    per_arm = {"--model": model, "--vacuum": vacuum, "--firmware": firmware,
+    per_arm = {"--model": model, "--vacuum/--gripper": vacuum, "--firmware": firmware,
                **{"--" + k.replace("_", "-"): getattr(given, k) != getattr(defaults, k) for k in _PER_ARM}}
     named = [name for name, on in per_arm.items() if on]
     if named:
@@ -274,7 +283,8 @@ def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmwa
 
 
 def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, vacuum: bool,
-                     cdir: Path, firmware: FirmwareProfile) -> tuple[list[EmulatorServer], Path]:
+                     cdir: Path, firmware: FirmwareProfile,
+                     gripper: str = "xarm") -> tuple[list[EmulatorServer], Path]:
     """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
     port opens. Returns them and the configuration directory they use."""
@@ -292,9 +302,9 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
                 raise ValueError(problem)
         cdir = spec.config_dir if spec.config_dir is not None else cdir
         arms = [(Emulator(a.model, robot_sn=a.robot_sn, config_dir=cdir, vacuum=a.vacuum,
-                          firmware=a.firmware), a.server) for a in spec.arms]
+                          firmware=a.firmware, gripper=a.gripper), a.server) for a in spec.arms]
     else:
-        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware), cfg)]
+        arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware, gripper=gripper), cfg)]
     servers = []
     for emu, arm_cfg in arms:
         arm_cfg.limits = cfg.limits
@@ -601,8 +611,9 @@ INJECT_COMMANDS: dict[str, tuple[str, tuple[tuple[str, Any, str], ...]]] = {
     "servo-error": ("Raise a joint (servo) error on one joint (error C10 + joint).", (
         ("code", Annotated[str, _CodeArg(help="Servo error, e.g. S23 (manual 3.1).")], "code"),
         ("joint", _JointOpt, "joint"))),
-    "gripper-error": ("Raise a gripper error.", (
-        ("code", Annotated[str, _CodeArg(help="Gripper error, e.g. G11 (manual 3.3).")], "code"),)),
+    "gripper-error": ("Raise an error of the attached gripper.", (
+        ("code", Annotated[str, _CodeArg(help="Gripper error: xArm gripper G11 (manual 3.3), Robotiq fault "
+                                              "(gFLT) 14 or 0x0E, BIO gripper 11 or 12.")], "code"),)),
     "end-module-lost": ("The end module stops answering (error C28).", ()),
     "collision": ("Push on a joint: error C31 when the collision sensitivity (register 37) detects the "
                   "torque.", (
@@ -649,8 +660,11 @@ def clear(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT, admin_port:
 
 @app.command("set-input")
 def set_input(
-    kind: Annotated[str, typer.Argument(help="cgpio, tgpio, analog, tool-analog or vacuum-object (with "
-                                             "serve --vacuum: 1 an object seals the cup, 0 none).")],
+    kind: Annotated[str, typer.Argument(help="cgpio, tgpio, analog, tool-analog, vacuum-object (with "
+                                             "serve --vacuum: 1 an object seals the cup, 0 none) or "
+                                             "gripper-object (with a Robotiq or BIO gripper: an object "
+                                             "VALUE mm wide between the fingers, index 0, or around "
+                                             "them, index 1; 0 removes it).")],
     index: Annotated[int, typer.Argument(help="Input number.")],
     value: Annotated[float, typer.Argument(help="0/1 for digital inputs, volts for analog ones.")],
     host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT, admin_port: AdminPortOpt = None,

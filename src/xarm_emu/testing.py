@@ -38,11 +38,14 @@ _SDK_REPORT_PORTS = {"normal": ("TCP_REPORT_NORM_PORT", 30001), "rich": ("TCP_RE
 
 @contextlib.contextmanager
 def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, vacuum: bool = False,
-                     firmware: str = DEFAULT_VERSION, **config: Any) -> Iterator[ServerThread]:
+                     firmware: str = DEFAULT_VERSION, gripper: str = "xarm",
+                     **config: Any) -> Iterator[ServerThread]:
     """An emulator server on free loopback ports (``ServerConfig`` fields as keywords, e.g.
     ``speed=5.0``, ``admin=True``), stopped at the end of the block. Saved configuration goes to a
     temporary directory unless ``config_dir`` is given; ``vacuum`` attaches the xArm Vacuum Gripper
-    (as ``serve --vacuum``); ``firmware`` is the version the box claims (as ``serve --firmware``).
+    (as ``serve --vacuum``); ``gripper`` the gripper on the tool RS-485 (as ``serve --gripper``:
+    xarm, robotiq-2f85, robotiq-2f140 or bio); ``firmware`` is the version the box claims (as
+    ``serve --firmware``).
     A ``faults`` schedule is checked and scheduled, ``view=True`` attaches
     the 3D view, as ``xarm-emu serve`` does."""
     with contextlib.ExitStack() as stack:
@@ -50,7 +53,8 @@ def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, va
             config_dir = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="xarm-emu-")))
         cfg = ServerConfig(**{"host": "127.0.0.1", "port": 0, "normal_port": 0, "rich_port": 0,
                               "develop_port": 0, **config})
-        st = ServerThread(Emulator(model, config_dir=config_dir, vacuum=vacuum, firmware=firmware), cfg,
+        emu = Emulator(model, config_dir=config_dir, vacuum=vacuum, firmware=firmware, gripper=gripper)
+        st = ServerThread(emu, cfg,
                           compose=(attach_viewer,)).start()
         try:
             yield st

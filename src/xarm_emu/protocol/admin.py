@@ -27,7 +27,7 @@ COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "end-mo
             "checkpoint-save", "checkpoint-restore", "checkpoint-list")
 #: Longest checkpoint name (``checkpoint-save``/``checkpoint-restore``).
 MAX_NAME = 64
-INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object")
+INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object", "gripper-object")
 
 
 def derive_admin_port(command_port: int) -> int:

@@ -20,7 +20,9 @@ lists them; top-level keys are defaults for every arm::
 Arm keys: ``model`` (5, 6, 7, or a name: lite6, 850, 7t), ``host``, ``port``, ``normal_port``,
 ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
-``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``firmware``
+``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``gripper``
+(the gripper on the tool RS-485, as ``serve --gripper``: xarm, robotiq-2f85, robotiq-2f140, bio),
+``firmware``
 (the version the box claims, as ``serve --firmware``), ``trace``
 and ``faults`` (a command trace file and a fault schedule, as ``serve --trace`` and ``--faults``;
 relative to the fleet file; ``faults`` may be a top-level default). Arms
@@ -39,7 +41,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from ..controller.emulator import check_firmware
+from ..controller.emulator import GRIPPERS, check_firmware
 from ..model.robots import MODEL_NAMES, get_model
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.firmware import SERVE_VERSION, FirmwareProfile, VersionError, profile_for
@@ -47,7 +49,8 @@ from .core import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
-ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "firmware", "trace", "faults")
+ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "gripper", "firmware", "trace",
+            "faults")
 TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k not in ("robot_sn", "trace")))
 
 
@@ -64,6 +67,7 @@ class ArmSpec:
     server: ServerConfig = field(default_factory=ServerConfig)
     vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
     firmware: FirmwareProfile = field(default_factory=lambda: profile_for(SERVE_VERSION))  # serve --firmware
+    gripper: str = "xarm"  # the gripper on the tool RS-485 (controller/emulator.py GRIPPERS)
 
 
 @dataclass(frozen=True)
@@ -139,6 +143,11 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     for key, flag in (("admin", admin), ("vacuum", vacuum)):
         if not isinstance(flag, bool):
             raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
+    gripper = values.get("gripper", "xarm")
+    if gripper not in GRIPPERS:
+        raise FleetError(f"{where}: gripper is one of {', '.join(GRIPPERS)}, got {gripper!r}")
+    if vacuum and "gripper" in values:
+        raise FleetError(f"{where}: vacuum and gripper: one end tool at a time")
     firmware = values.get("firmware", SERVE_VERSION)
     if not isinstance(firmware, str):
         raise FleetError(f"{where}: firmware is a version string such as \"2.7.103\", got {firmware!r}")
@@ -168,7 +177,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         check_firmware(robot, profile)
     except ValueError as exc:
         raise FleetError(f"{where}: {exc}") from None
-    return ArmSpec(model, sn, cfg, vacuum, profile)
+    return ArmSpec(model, sn, cfg, vacuum, profile, gripper)
 
 
 _WILDCARD = frozenset({"", "0.0.0.0", "::"})
