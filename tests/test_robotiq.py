@@ -245,3 +245,21 @@ def test_object_width_beyond_the_stroke_is_refused() -> None:
         emu.check_input("gripper-object", 0, math.nan)
     with pytest.raises(ValueError, match="index 0"):
         emu.check_input("gripper-object", 2, 10.0)
+
+
+@pytest.mark.parametrize("kind", ["robotiq-2f85", "robotiq-2f140", "bio"])
+def test_the_view_draws_the_fingers_apart_by_the_opening(kind: str) -> None:
+    import numpy as np
+
+    from xarm_emu.model import kinematics as kin
+    from xarm_emu.viewer import scene
+
+    emu = Emulator(6, gripper=kind)
+    q = np.array([0.3, -0.2, -0.3, 0.0, 0.5, 0.1])
+    axis_y = kin.fk(emu.model, q)[:3, 1]
+    opening = emu.gripper_status()["opening_mm"]
+    body, a, b = scene.end_gripper_parts(emu.model, q, kind, opening)
+    assert body.name == "tool_body"
+    finger_y = scene.GRIPPER_SHAPES[kind].finger_half[1]
+    gap = float(np.dot(np.array(a.position) - np.array(b.position), axis_y)) - 2 * finger_y
+    assert gap == pytest.approx(opening / 1000.0, abs=1e-9)

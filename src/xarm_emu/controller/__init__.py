@@ -20,6 +20,7 @@
   gripper); :mod:`.modbus_map` binds the standard Modbus map to a live box.
 """
 
-__all__ = ["base", "bio_gripper", "commands", "config", "core", "emulator", "executor", "faults", "feedback", "gripper",
-           "handlers", "io", "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "poses",
-           "reduced", "robotiq", "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum", "velocity"]
+__all__ = ["base", "bio_gripper", "commands", "config", "core", "emulator", "executor", "faults",
+           "feedback", "gripper", "handlers", "io", "lite6_gripper", "modbus_map", "mode_steps", "motion",
+           "online", "poses", "reduced", "robotiq", "safety", "settings", "state", "states", "thermal",
+           "trajectory", "vacuum", "velocity"]

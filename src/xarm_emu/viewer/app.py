@@ -99,6 +99,8 @@ class Viewer:
         q = emu.controller.q
         if emu.vacuum is not None:
             return scene.vacuum_parts(emu.model, q)
+        if emu.gripper_kind in scene.GRIPPER_SHAPES:
+            return scene.end_gripper_parts(emu.model, q, emu.gripper_kind, emu.gripper_status()["opening_mm"])
         g = emu.gripper.gripper
         if g.enabled or g.position > 0.0:
             return scene.gripper_parts(emu.model, q, g.position)
