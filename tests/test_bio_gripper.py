@@ -188,3 +188,16 @@ def test_emulator_attaches_it_and_the_xarm_gripper_is_not_on_the_bus() -> None:
         emu.check_input("gripper-object", 0, 60.0)
     with pytest.raises(ValueError, match="index 0"):
         emu.check_input("gripper-object", 1, 100.0)
+
+
+def test_fleet_key_gripper_picks_each_arms_gripper() -> None:
+    from xarm_emu.server.fleet import FleetError, parse_fleet
+
+    ports = {"port": 0, "normal_port": 0, "rich_port": 0, "develop_port": 0}
+    fleet = parse_fleet({"arm": [{"model": 6, "gripper": "bio", **ports},
+                                 {"model": 6, "gripper": "robotiq-2f140", **ports}, {"model": 7, **ports}]})
+    assert [a.gripper for a in fleet.arms] == ["bio", "robotiq-2f140", "xarm"]
+    with pytest.raises(FleetError, match="gripper is one of"):
+        parse_fleet({"arm": [{"model": 6, "gripper": "robotiq"}]})
+    with pytest.raises(FleetError, match="one end tool at a time"):
+        parse_fleet({"arm": [{"model": 6, "gripper": "bio", "vacuum": True}]})

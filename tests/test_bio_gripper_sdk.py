@@ -179,3 +179,23 @@ def test_sdk_example_5009_runs_unchanged(tmp_path: Path) -> None:
             assert env["arm"].error_code == 31  # the loop ended on the injected error
         finally:
             env["arm"].disconnect()
+
+
+def test_status_shows_the_bio_gripper_it_finds_on_the_tool_bus(bio) -> None:
+    import json
+
+    arm, st = bio
+    enable(arm)
+    assert arm.close_bio_gripper() == 0
+    code, out = run_cli("status", "--json", "--port", str(st.ports["command"]),
+                        "--report-port", str(st.ports["develop"]))
+    assert code == 0, out
+    assert json.loads(out)["gripper"] == {"type": "bio", "enabled": True, "motion": 0, "position": 0,
+                                          "error": 0}
+
+
+def test_serve_refuses_an_unknown_gripper_or_two_end_tools() -> None:
+    code, out = run_cli("serve", "--gripper", "robotiq-3f", "--port", "0")
+    assert code == 2 and "--gripper: one of xarm, robotiq-2f85, robotiq-2f140, bio" in out
+    code, out = run_cli("serve", "--gripper", "bio", "--vacuum", "--port", "0")
+    assert code == 2 and "one end tool at a time" in out

@@ -254,3 +254,19 @@ def test_sdk_robotiq_example_runs_unchanged(tmp_path: Path) -> None:
         assert closes >= 2 and opens >= 2, out
         assert "robotiq fault code: 14" in out  # the loop ended on the injected overcurrent
         assert not env["arm"].connected  # the program disconnected itself
+
+
+def test_status_shows_the_robotiq_it_finds_on_the_tool_bus(robotiq) -> None:
+    import json
+
+    arm, st = robotiq
+    activate(arm)
+    assert arm.robotiq_close()[0] == 0
+    code, out = run_cli("status", "--json", "--port", str(st.ports["command"]),
+                        "--report-port", str(st.ports["develop"]))
+    assert code == 0, out
+    assert json.loads(out)["gripper"] == {"type": "robotiq", "gSTA": 3, "gOBJ": 3, "gPO": PO_CLOSED,
+                                          "gFLT": 0}
+    code, out = run_cli("status", "--port", str(st.ports["command"]),
+                        "--report-port", str(st.ports["develop"]))
+    assert code == 0 and "robotiq" in out

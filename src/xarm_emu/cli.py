@@ -422,6 +422,7 @@ def status(
                 error, warning = c.get_err_warn()
                 joints = c.get_joints()
                 pose = c.get_position()
+                gripper = _probe_gripper(c)
             break
         except (OSError, ClientError) as exc:
             if time.monotonic() < deadline:
@@ -436,7 +437,7 @@ def status(
         mode = None
     axis = int(version.split(",")[0]) if version[:1].isdigit() else 7
     data = {"version": version, "state": state, "mode": mode, "error": error, "warning": warning,
-            "joints": list(joints[:axis]), "pose": list(pose),
+            "joints": list(joints[:axis]), "pose": list(pose), "gripper": gripper,
             "joints_deg": [math.degrees(j) for j in joints[:axis]],
             "pose_mm_deg": [*pose[:3], *(math.degrees(p) for p in pose[3:])],
             "units": {"joints": "rad", "pose": "x, y, z mm; roll, pitch, yaw rad",
@@ -453,7 +454,43 @@ def status(
     t.add_row("joints (deg)", ", ".join(f"{math.degrees(j):.3f}" for j in joints[:axis]))
     t.add_row("pose (mm, deg)", ", ".join([f"{p:.3f}" for p in pose[:3]] +
                                           [f"{math.degrees(p):.3f}" for p in pose[3:]]))
+    t.add_row("gripper", ", ".join(f"{k} {v}" for k, v in gripper.items()) if gripper else
+              "none answers on the tool RS-485 at its present baud rate")
     console.print(t)
+
+
+def _tool_read(c: Any, slave: int, address: int, count: int) -> tuple[int, ...] | None:
+    """Read holding registers of a tool RS-485 slave through register 124 (manual 2.1.4); None when
+    nothing answers or the reply is an exception."""
+    from .protocol import rtu
+
+    try:
+        r = c.call(124, host=rtu.TOOL_HOST, rtu=rtu.read_request(slave, address, count))
+        slave_id, func, values = rtu.parse_reply(bytes(r["rtu"]))
+    except (KeyError, ValueError):
+        return None
+    return tuple(values) if func == rtu.READ_HOLDING and slave_id == slave else None
+
+
+def _probe_gripper(c: Any) -> dict[str, Any]:
+    """Which gripper answers on the tool RS-485, read without changing its baud rate: a Robotiq
+    (slave 9, status at 0x07D0), a BIO gripper (slave 8 with a serial number at 0x0B10) or the xArm
+    gripper (slave 8); {} when none does."""
+    robotiq = _tool_read(c, 9, 0x07D0, 3)
+    if robotiq is not None:
+        g_status, fault, g_pos = robotiq[0] >> 8, robotiq[1] >> 8, robotiq[2] >> 8
+        return {"type": "robotiq", "gSTA": g_status >> 4 & 3, "gOBJ": g_status >> 6, "gPO": g_pos,
+                "gFLT": fault & 0x0F}
+    status = _tool_read(c, 8, 0x0000, 1)
+    if status is None:
+        return {}
+    err = _tool_read(c, 8, 0x000F, 1) or (0,)
+    pos = _tool_read(c, 8, 0x0702, 2) or (0, 0)
+    position = int.from_bytes(bytes((pos[0] >> 8, pos[0] & 0xFF, pos[1] >> 8, pos[1] & 0xFF)), "big",
+                              signed=True)
+    kind = "bio" if _tool_read(c, 8, 0x0B10, 1) is not None else "xarm"
+    return {"type": kind, "enabled": (status[0] >> 2 & 3) == 2, "motion": status[0] & 3,
+            "position": position, "error": err[0]}
 
 
 @app.command()
