@@ -123,7 +123,7 @@ def test_out_of_range_position_is_g25(pulse: int) -> None:
     assert position(mod) == 0
 
 
-@pytest.mark.parametrize("speed", [0, 5001, 65535])
+@pytest.mark.parametrize("speed", [0, 10001, 65535])
 def test_out_of_range_speed_is_g12(speed: int) -> None:
     mod = GripperModule()
     write(mod, 0x0100, 1)
@@ -232,3 +232,17 @@ def test_position_without_a_speed_first_moves_at_the_power_on_speed() -> None:
         steps += 1
     assert g.position == 500
     assert steps * 0.004 == pytest.approx(500 / 850 * (5000 / DEFAULT_SPEED), abs=0.008)
+
+
+@pytest.mark.parametrize("speed", [8000, 10000])
+def test_speed_above_5000_is_accepted_and_moves_at_the_top_speed(speed: int) -> None:
+    g = XArmGripper()
+    g.set_enable(1)
+    g.set_speed(speed)
+    assert (g.error, g.speed) == (0, speed)
+    g.set_target(850)
+    n = 0
+    while g.position_pulses != 850:
+        g.step(PERIOD)
+        n += 1
+    assert n * PERIOD == pytest.approx(1.0, abs=PERIOD)  # as at 5000: the fingers top out there

@@ -272,3 +272,20 @@ def test_without_a_vacuum_gripper_the_pressure_never_rises(make_server, sdk_arm)
     assert arm.set_vacuum_gripper(True, wait=True, timeout=0.5) == 41
     with pytest.raises(ValueError, match="no vacuum gripper"):
         st.call(lambda: st.emulator.set_input("vacuum-object", 0, 1))
+
+
+def test_sdk_example_5004_runs_unchanged_with_speed_8000(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from test_robotiq_sdk import run_sdk_example
+
+    from xarm_emu.testing import running_emulator
+
+    with running_emulator(6, speed=5.0) as st:
+        env, out = run_sdk_example("wrapper/common/5004-set_gripper.py", st, tmp_path, 60.0, lambda: None)
+        try:
+            assert "set gripper speed, code=0" in out
+            assert "[wait]set gripper pos, code=0" in out
+            assert "[no wait]set gripper pos, code=0" in out  # speed 8000: no G12
+            g = st.emulator.gripper.gripper
+            assert st.call(lambda: (g.error, g.speed, g.position)) == (0, 8000, 300.0)
+        finally:
+            env["arm"].disconnect()

@@ -100,6 +100,8 @@ def serve(
                                                                  "flange and tool.")] = False,
     scene: Annotated[Path | None, typer.Option(help="Contact scene: planes and boxes the TCP presses "
                                                     "into, a TOML file (controller/contact.py).")] = None,
+    gripper: Annotated[str | None, typer.Option(help="The gripper on the tool RS-485: xarm (the default), "
+                                                     "robotiq-2f85, robotiq-2f140 or bio.")] = None,
     trace: Annotated[Path | None, typer.Option(help="Append every command-port request and reply to "
                                                     "this JSON-lines file (see server/trace.py).")] = None,
     faults: Annotated[Path | None, typer.Option(help="Inject the faults and inputs this TOML schedule "
@@ -189,8 +191,15 @@ def serve(
             _user_error(f"--linear-track: {exc}")
         if not profile.version.at_least(TRACK_FIRMWARE):
             _user_error(f"--linear-track: needs firmware {TRACK_FIRMWARE} or later, not {profile}")
+    from .controller.emulator import GRIPPERS
+
+    if gripper is not None and gripper not in GRIPPERS:
+        _user_error(f"--gripper: one of {', '.join(GRIPPERS)}, got {gripper!r}")
+    if gripper is not None and vacuum:
+        _user_error("--gripper and --vacuum: one end tool at a time")
     if fleet is not None:
-        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum, firmware != SERVE_VERSION,
+        _refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum or gripper is not None,
+                              firmware != SERVE_VERSION,
                               linear_track is not None, ft_sensor=ft_sensor, scene=scene is not None)
     n_workers = _check_workers(workers, fleet, view, record, modbus_port, studio)
     if fleet is not None and n_workers > 0:
@@ -201,7 +210,8 @@ def serve(
         return
     try:
         servers, cdir = _compose_servers(cfg, fleet, robot, vacuum, cdir, profile, linear_track,
-                                         ft_sensor=ft_sensor, scene=scene)
+                                         ft_sensor=ft_sensor, scene=scene,
+                                         gripper=gripper or "xarm")
     except ValueError as exc:  # a bad fleet file or fault schedule: nothing has started
         err_console.print(str(exc))
         raise typer.Exit(2) from None
@@ -314,7 +324,8 @@ def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmwa
     from .server.app import ServerConfig
 
     defaults = ServerConfig()
-    per_arm = {"--model": model, "--vacuum": vacuum, "--firmware": firmware, "--linear-track": track,
+    per_arm = {"--model": model, "--vacuum/--gripper": vacuum, "--firmware": firmware,
+               "--linear-track": track,
                "--ft-sensor": ft_sensor, "--scene": scene,
                **{"--" + k.replace("_", "-"): getattr(given, k) != getattr(defaults, k) for k in _PER_ARM}}
     named = [name for name, on in per_arm.items() if on]
@@ -326,7 +337,8 @@ def _refuse_per_arm_flags(given: ServerConfig, model: bool, vacuum: bool, firmwa
 
 def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, vacuum: bool,
                      cdir: Path, firmware: FirmwareProfile, linear_track: int | None = None, *,
-                     ft_sensor: bool = False, scene: Path | None = None) -> tuple[list[EmulatorServer], Path]:
+                     ft_sensor: bool = False, scene: Path | None = None,
+                     gripper: str = "xarm") -> tuple[list[EmulatorServer], Path]:
     """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
     port opens. Returns them and the configuration directory they use."""
@@ -348,7 +360,7 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
     else:
         contact_scene = None if scene is None else load_scene(scene)  # ValueError: one line
         arms = [(Emulator(model, config_dir=cdir, vacuum=vacuum, firmware=firmware,
-                          linear_track=linear_track, ft_sensor=ft_sensor,
+                          linear_track=linear_track, ft_sensor=ft_sensor, gripper=gripper,
                           scene=contact_scene), cfg)]
     servers = []
     for emu, arm_cfg in arms:
@@ -561,6 +573,7 @@ def status(
                 pose = c.get_position()
                 track = _track_status(c) if linear_track else None
                 ft = _ft_status(c, version)
+                gripper = _probe_gripper(c)
             break
         except (OSError, ClientError) as exc:
             if time.monotonic() < deadline:
@@ -575,7 +588,7 @@ def status(
         mode = None
     axis = int(version.split(",")[0]) if version[:1].isdigit() else 7
     data = {"version": version, "state": state, "mode": mode, "error": error, "warning": warning,
-            "joints": list(joints[:axis]), "pose": list(pose),
+            "joints": list(joints[:axis]), "pose": list(pose), "gripper": gripper,
             "joints_deg": [math.degrees(j) for j in joints[:axis]],
             "pose_mm_deg": [*pose[:3], *(math.degrees(p) for p in pose[3:])],
             "units": {"joints": "rad", "pose": "x, y, z mm; roll, pitch, yaw rad",
@@ -606,6 +619,8 @@ def status(
     if ft is not None:
         t.add_row("F/T sensor", "on: " + ", ".join(f"{x:.3f}" for x in ft["reading"]) + " (N, N m)"
                   if ft["enabled"] else "mounted, switched off")
+    t.add_row("gripper", ", ".join(f"{k} {v}" for k, v in gripper.items()) if gripper else
+              "none answers on the tool RS-485 at its present baud rate")
     console.print(t)
 
 
@@ -644,6 +659,40 @@ def _track_status(c: Any) -> dict[str, Any] | None:
     pulses = (words[0] << 16 | words[1]) - (1 << 32 if words[0] & 0x8000 else 0)
     return {"position": pulses / 2000, "moving": bool(words[2] & 1), "error": words[3],
             "enabled": bool(words[4] & 1), "on_zero": bool(words[5] & 1)}
+
+
+def _tool_read(c: Any, slave: int, address: int, count: int) -> tuple[int, ...] | None:
+    """Read holding registers of a tool RS-485 slave through register 124 (manual 2.1.4); None when
+    nothing answers or the reply is an exception."""
+    from .protocol import rtu
+
+    try:
+        r = c.call(124, host=rtu.TOOL_HOST, rtu=rtu.read_request(slave, address, count))
+        slave_id, func, values = rtu.parse_reply(bytes(r["rtu"]))
+    except (KeyError, ValueError):
+        return None
+    return tuple(values) if func == rtu.READ_HOLDING and slave_id == slave else None
+
+
+def _probe_gripper(c: Any) -> dict[str, Any]:
+    """Which gripper answers on the tool RS-485, read without changing its baud rate: a Robotiq
+    (slave 9, status at 0x07D0), a BIO gripper (slave 8 with a serial number at 0x0B10) or the xArm
+    gripper (slave 8); {} when none does."""
+    robotiq = _tool_read(c, 9, 0x07D0, 3)
+    if robotiq is not None:
+        g_status, fault, g_pos = robotiq[0] >> 8, robotiq[1] >> 8, robotiq[2] >> 8
+        return {"type": "robotiq", "gSTA": g_status >> 4 & 3, "gOBJ": g_status >> 6, "gPO": g_pos,
+                "gFLT": fault & 0x0F}
+    status = _tool_read(c, 8, 0x0000, 1)
+    if status is None:
+        return {}
+    err = _tool_read(c, 8, 0x000F, 1) or (0,)
+    pos = _tool_read(c, 8, 0x0702, 2) or (0, 0)
+    position = int.from_bytes(bytes((pos[0] >> 8, pos[0] & 0xFF, pos[1] >> 8, pos[1] & 0xFF)), "big",
+                              signed=True)
+    kind = "bio" if _tool_read(c, 8, 0x0B10, 1) is not None else "xarm"
+    return {"type": kind, "enabled": (status[0] >> 2 & 3) == 2, "motion": status[0] & 3,
+            "position": position, "error": err[0]}
 
 
 @app.command()
@@ -801,8 +850,9 @@ INJECT_COMMANDS: dict[str, tuple[str, tuple[tuple[str, Any, str], ...]]] = {
     "servo-error": ("Raise a joint (servo) error on one joint (error C10 + joint).", (
         ("code", Annotated[str, _CodeArg(help="Servo error, e.g. S23 (manual 3.1).")], "code"),
         ("joint", _JointOpt, "joint"))),
-    "gripper-error": ("Raise a gripper error.", (
-        ("code", Annotated[str, _CodeArg(help="Gripper error, e.g. G11 (manual 3.3).")], "code"),)),
+    "gripper-error": ("Raise an error of the attached gripper.", (
+        ("code", Annotated[str, _CodeArg(help="Gripper error: xArm gripper G11 (manual 3.3), Robotiq fault "
+                                              "(gFLT) 14 or 0x0E, BIO gripper 11 or 12.")], "code"),)),
     "track-error": ("Raise a linear track drive error (serve --linear-track).", (
         ("code", Annotated[str, _CodeArg(help="Drive error, e.g. 12 (speed overlimit).")], "code"),)),
     "end-module-lost": ("The end module stops answering (error C28).", ()),
@@ -856,7 +906,11 @@ def clear(host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT, admin_port:
 @app.command("set-input", context_settings={"ignore_unknown_options": True})
 def set_input(
     kind: Annotated[str, typer.Argument(help="cgpio, tgpio, analog, tool-analog, vacuum-object (with "
-                                             "serve --vacuum: 1 an object seals the cup, 0 none), or ft "
+                                             "serve --vacuum: 1 an object seals the cup, 0 none), "
+                                             "gripper-object (with a Robotiq or BIO gripper: an "
+                                             "object VALUE mm wide between "
+                                             "the fingers, index 0, or around them, index 1; 0 removes "
+                                             "it), or ft "
                                              "(with serve --ft-sensor: an external wrench on the TCP).")],
     values: Annotated[list[str], typer.Argument(help="INDEX VALUE (0/1 for digital inputs, volts for "
                                                      "analog ones), or for ft: FX FY FZ TX TY TZ (N, N m).")],

@@ -40,12 +40,14 @@ _SDK_REPORT_PORTS = {"normal": ("TCP_REPORT_NORM_PORT", 30001), "rich": ("TCP_RE
 @contextlib.contextmanager
 def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, vacuum: bool = False,
                      firmware: str = DEFAULT_VERSION, linear_track: int | None = None,
-                     ft_sensor: bool = False, ft_noise: bool = True, scene: Any = None,
+                     ft_sensor: bool = False, ft_noise: bool = True, scene: Any = None, gripper: str = "xarm",
                      **config: Any) -> Iterator[ServerThread]:
     """An emulator server on free loopback ports (``ServerConfig`` fields as keywords, e.g.
     ``speed=5.0``, ``admin=True``), stopped at the end of the block. Saved configuration goes to a
     temporary directory unless ``config_dir`` is given; ``vacuum`` attaches the xArm Vacuum Gripper
-    (as ``serve --vacuum``); ``firmware`` is the version the box claims (as ``serve --firmware``);
+    (as ``serve --vacuum``); ``gripper`` the gripper on the tool RS-485 (as ``serve --gripper``:
+    xarm, robotiq-2f85, robotiq-2f140 or bio); ``firmware`` is the version the box claims (as
+    ``serve --firmware``);
     ``linear_track`` attaches a linear track that many mm long (as ``serve --linear-track``; it needs
     ``firmware`` 1.8.0 or later, e.g. ``"2.7.103"``).
     ``ft_sensor`` mounts the six-axis F/T sensor (as ``serve --ft-sensor``; ``ft_noise=False`` for
@@ -64,7 +66,7 @@ def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, va
             scene = contact.parse_scene(scene)
         emu = Emulator(model, config_dir=config_dir, vacuum=vacuum, firmware=firmware,
                        linear_track=linear_track, ft_sensor=ft_sensor,
-                       ft_noise=ft_noise, scene=scene)
+                       ft_noise=ft_noise, scene=scene, gripper=gripper)
         st = ServerThread(emu, cfg,
                           compose=(attach_viewer,)).start()
         try:

@@ -15,13 +15,15 @@
 - :mod:`.feedback`: the queue of feedback events of firmware 2.x (registers 253/254), drained by the
   server into 0xFF frames.
 - :mod:`.base`: the control period, command outcomes and the interface components plug in through.
-- Components: :mod:`.io`, :mod:`.gripper`, :mod:`.vacuum`, :mod:`.lite6_gripper`, :mod:`.linear_track`
-  (the linear track on the control box RS-485), :mod:`.ft_sensor` (the six-axis F/T sensor) with
-  :mod:`.contact` (the contact scene) and :mod:`.force_control` (its admittance and force control,
-  register 202); :mod:`.modbus_map` binds the standard Modbus map to a live box.
+- Components: :mod:`.io`, :mod:`.gripper`, :mod:`.vacuum`, :mod:`.lite6_gripper`; on the tool RS-485
+  beside the xArm gripper, :mod:`.robotiq` (Robotiq 2F-85/2F-140) and :mod:`.bio_gripper` (BIO
+  gripper); :mod:`.linear_track` (the linear track on the control box RS-485), :mod:`.ft_sensor`
+  (the six-axis F/T sensor) with :mod:`.contact` (the contact scene) and :mod:`.force_control` (its
+  admittance and force control, register 202); :mod:`.modbus_map` binds the standard Modbus map to a
+  live box.
 """
 
-__all__ = ["base", "commands", "config", "contact", "core", "emulator", "executor", "faults", "feedback",
-           "force_control", "ft_sensor", "gripper", "handlers", "io", "linear_track", "lite6_gripper",
-           "modbus_map", "mode_steps", "motion", "online", "poses", "reduced", "safety", "settings", "state",
-           "states", "thermal", "trajectory", "vacuum", "velocity"]
+__all__ = ["base", "bio_gripper", "commands", "config", "contact", "core", "emulator", "executor", "faults",
+           "feedback", "force_control", "ft_sensor", "gripper", "handlers", "io", "linear_track",
+           "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "poses", "reduced", "robotiq",
+           "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum", "velocity"]

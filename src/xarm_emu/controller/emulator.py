@@ -30,12 +30,15 @@ from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
 from . import contact, ft_sensor, safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
+from .bio_gripper import BioGripper
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
-from .gripper import GripperModule
+from .gripper import GripperModule, ToolDevice
 from .io import IOModule
 from .linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
 from .lite6_gripper import Lite6Gripper
+from .robotiq import MODELS as ROBOTIQ_MODELS
+from .robotiq import RobotiqGripper
 from .settings import Settings
 from .state import ControllerState
 from .thermal import ThermalModel
@@ -45,6 +48,23 @@ from .vacuum import VacuumGripper
 THERMAL_EVERY = 250
 
 log = logging.getLogger("xarm_emu.emulator")
+
+#: The end grippers that can be attached on the tool RS-485 (``Emulator(gripper=...)``,
+#: ``serve --gripper``): the xArm gripper (controller/gripper.py), the Robotiq 2F-85 and 2F-140
+#: (controller/robotiq.py) and the BIO gripper (controller/bio_gripper.py).
+GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio")
+
+
+def tool_device(gripper: str) -> ToolDevice | None:
+    """The tool-bus device of ``gripper`` (one of :data:`GRIPPERS`); None for the xArm gripper,
+    which the gripper module always has. Raises ValueError for an unknown name."""
+    if gripper not in GRIPPERS:
+        raise ValueError(f"gripper {gripper!r}: one of {', '.join(GRIPPERS)}")
+    if gripper == "bio":
+        return BioGripper()
+    if gripper in ROBOTIQ_MODELS:
+        return RobotiqGripper(ROBOTIQ_MODELS[gripper])
+    return None
 
 
 def _bits(flags: list[bool]) -> int:
@@ -163,8 +183,13 @@ class Emulator:
                  vacuum: bool = False, firmware: str | FirmwareProfile = DEFAULT_PROFILE,
                  linear_track: int | None = None, exact_steps: bool = False,
                  ft_sensor: bool = False, ft_noise: bool = True,
-                 scene: contact.Scene | None = None) -> None:
+                 scene: contact.Scene | None = None, gripper: str = "xarm") -> None:
         self.model = model if isinstance(model, RobotModel) else get_model(model)
+        device = tool_device(gripper)
+        if vacuum and device is not None:
+            raise ValueError(f"one end tool at a time: the vacuum gripper or the {gripper} gripper")
+        #: Which gripper is on the tool RS-485 (:data:`GRIPPERS`).
+        self.gripper_kind = gripper
         sn = robot_sn or self.model.default_robot_sn
         box_sn = box_sn or self.model.default_box_sn
         #: The firmware version this box claims (register 1) and whose behaviour it has.
@@ -176,7 +201,7 @@ class Emulator:
         # Control boxes with SN >= 1300 have 16 digital IO, as the SDK expects.
         self.io = IOModule(n_digital=16 if box_number >= 1300 else 8,
                            tool_ti2=self.model.tool_io.ti2_address is not None)
-        self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9])
+        self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9], device=device)
         self.controller.add_component(self.io)
         self.io.attach(self.controller)
         self.controller.add_component(self.gripper)
@@ -228,8 +253,10 @@ class Emulator:
             self._attach_store(Path(config_dir), load_config)
 
     def _tool_error(self) -> int:
-        """The end tool's error code (register 106): the gripper's."""
-        return self.gripper.gripper.error
+        """The end tool's error code (register 106): the xArm gripper's, which the box knows; a
+        Robotiq or BIO gripper's faults are read by the SDK over register 124 only."""
+        g = self.gripper
+        return g.gripper.error if g.device is g.gripper else 0
 
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
@@ -401,6 +428,8 @@ class Emulator:
             "gripper": dict(vars(self.gripper.gripper)),
             "thermal": dict(vars(self.thermal)),
         }
+        if self.gripper.device is not self.gripper.gripper:
+            parts["tool_device"] = dict(vars(self.gripper.device))
         if self.vacuum is not None:
             parts["vacuum"] = {k: v for k, v in vars(self.vacuum).items() if k != "tool"}
         if self.lite6_gripper is not None:
@@ -431,6 +460,8 @@ class Emulator:
         self.controller.adopt(parts["controller"]["data"], parts["controller"]["settings"])
         vars(self.io).update(parts["io"])
         vars(self.gripper.gripper).update(parts["gripper"])
+        if "tool_device" in parts:
+            vars(self.gripper.device).update(parts["tool_device"])
         vars(self.thermal).update(parts["thermal"])
         if self.vacuum is not None:
             vars(self.vacuum).update(parts["vacuum"])
@@ -445,6 +476,23 @@ class Emulator:
     @property
     def joints(self) -> np.ndarray:
         return self.controller.q.copy()
+
+    def gripper_status(self) -> dict[str, Any]:
+        """The attached gripper as the status output and the view show it: its kind, opening or
+        position, whether it is enabled or activated, whether it holds an object, its error code."""
+        dev = self.gripper.device
+        out: dict[str, Any] = {"gripper": self.gripper_kind, "error": dev.error}
+        if isinstance(dev, RobotiqGripper):
+            out.update(activated=dev.gSTA == 3, position=int(round(dev.position)),
+                       opening_mm=round(dev.opening_mm, 1), object=dev.gOBJ in (1, 2),
+                       force_n=round(dev.grip_force, 1))
+        elif isinstance(dev, BioGripper):
+            out.update(enabled=dev.enabled, mode=dev.mode, opening_mm=round(dev.opening_mm, 1),
+                       object=dev.detected)
+        else:
+            g = self.gripper.gripper
+            out.update(enabled=g.enabled, position=g.position_pulses)
+        return out
 
     # -- fault injection and inputs from outside (the admin channel calls these) -------------
     def inject_error(self, code: int) -> None:
@@ -478,9 +526,11 @@ class Emulator:
         ctl.raise_error(C_SERVO_BASE + joint)
 
     def inject_gripper_error(self, code: int) -> None:
-        """A gripper error G<code> (section 3.3), read through the gripper's error register."""
+        """A gripper error of the attached gripper (section 3.3 for the xArm gripper; the Robotiq's
+        gFLT faults, the BIO gripper's codes: protocol/codes.py ``GRIPPER_TABLES``), read through the
+        gripper's own registers."""
         self.generation += 1
-        self.gripper.gripper.inject_error(code)
+        self.gripper.device.inject_error(code)
 
     def inject_track_error(self, code: int) -> None:
         """A linear track drive error (the SDK's linear motor codes, read at 0x0A23 over register 124)."""
@@ -520,6 +570,7 @@ class Emulator:
         ctl = self.controller
         ctl.faults = Faults.none(ctl.dof)
         self.gripper.gripper.clear_error()
+        self.gripper.device.clear_error()
         if self.linear_track is not None:
             self.linear_track.clear_error()
         ft_sensor.state_of(ctl).error = 0
@@ -569,17 +620,35 @@ class Emulator:
 
     def set_input(self, kind: str, index: int, value: float) -> None:
         """Play a sensor: ``cgpio``/``tgpio`` digital inputs (0/1), ``analog`` (control box, V),
-        ``tool-analog`` (V), or ``vacuum-object`` 0 (1: an object seals the vacuum cup, 0: none)."""
+        ``tool-analog`` (V), ``vacuum-object`` 0 (1: an object seals the vacuum cup, 0: none), or
+        ``gripper-object`` (an object of ``value`` mm between the Robotiq's or BIO gripper's fingers,
+        index 0, or around the Robotiq's, index 1, gripped by opening; 0 takes it away)."""
         self.generation += 1
-        self.check_input(kind, index)
+        self.check_input(kind, index, value)
+        if kind == "gripper-object":
+            self.gripper.device.set_object(float(value) if value > 0 else None, inner=index == 1)
+            return
         if kind == "vacuum-object":
             assert self.vacuum is not None
             self.vacuum.object_present = bool(value)
             return
         self.io.set_input(kind, index, value)
 
-    def check_input(self, kind: str, index: int) -> None:
-        """Raise ValueError (or ParameterError) unless :meth:`set_input` can play ``kind`` ``index``."""
+    def check_input(self, kind: str, index: int, value: float | None = None) -> None:
+        """Raise ValueError (or ParameterError) unless :meth:`set_input` can play ``kind`` ``index``
+        (and, where given, ``value``)."""
+        if kind == "gripper-object":
+            if self.gripper.device is self.gripper.gripper:
+                raise ValueError("gripper-object needs a Robotiq or BIO gripper (serve --gripper "
+                                 "robotiq-2f85, robotiq-2f140 or bio)")
+            if index not in (0, 1) or (index == 1 and self.gripper_kind == "bio"):
+                around = "" if self.gripper_kind == "bio" else " or 1 (around them)"
+                raise ValueError(f"index 0 (an object between the fingers){around}, not {index}")
+            if value is not None and not math.isfinite(value):
+                raise ValueError(f"object width must be finite, got {value!r}")
+            if value is not None and value > 0:
+                self.gripper.device.check_object(value, inner=index == 1)
+            return
         if kind == "vacuum-object":
             if self.vacuum is None:
                 raise ValueError("no vacuum gripper is attached (Emulator(vacuum=True), serve --vacuum)")

@@ -12,22 +12,31 @@ address    access  meaning
 0x0100     rw      enable (0/1)
 0x0101     rw      mode (0 position, 1 speed; only position mode moves)
 0x0109     w       error clear (write 1)
-0x0303     rw      speed, r/min, 1..5000
+0x0303     rw      speed, r/min, 1..10000 (the fingers top out at 5000)
 0x0700     rw      target position, s32 in two registers, high word first
 0x0702     r       current position, s32 in two registers
 0x0801-3   r       firmware version major, minor, revision
 0x0817     w       set the current position as zero (write 1)
 =========  ======  ====================================================
 
-Speed mapping: the SDK's speed is in r/min (1..5000); the emulated fingers move
-at ``SPEED_TO_PULSES = 0.17`` pulse/s per r/min, so speed 5000 crosses the full
+Speed mapping: the SDK's speed is in r/min; the emulated fingers move at
+``SPEED_TO_PULSES = 0.17`` pulse/s per r/min, so speed 5000 crosses the full
 0..850 range in 1.0 s (and the manual's example speed 1500 in 3.33 s).
+
+Speed range, as the real gripper behaves: the speed register accepts 1..10000
+without an error, and the fingers move no faster than at 5000 (:data:`SPEED_TOP`).
+Sources, in words: users driving real grippers report setting 10000 (one robot
+learning project did so for hours) with no error and no warning, only more
+noise from the gripper; UFACTORY's answer on the SDK's tracker gives 0-5000 as
+the useful range, and their ROS driver clamps the speed to 5000 before sending
+it. So the SDK's example 5004, which asks for 8000, succeeds and moves at the
+top speed; G12 remains for 0 and anything above 10000.
 
 Refusals (section 3.3 codes; any gripper error stops and disables the motor, as
 "re-enable the Gripper" in the manual's handling column implies):
 
 - target position outside 0..850: G25 "Command Over Software Limit";
-- speed outside 1..5000: G12 "Speed Overlimit";
+- speed outside 1..10000: G12 "Speed Overlimit";
 - target position while disabled: G23 "Large Motor Position Deviation" (the
   unpowered motor cannot follow the command).
 
@@ -42,11 +51,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, Protocol
 
 from ..protocol import codes, rtu
 from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
-from .base import NOT_IDLE, ControllerView, Handler, ParameterError
+from .base import NOT_IDLE, ControllerView, Handler, ParameterError, idle_until
 
 GRIPPER_ID = 8  # section 2.1.4 "Gripper ID 0x08"
 GRIPPER_BAUD_INDEX = 11  # 2,000,000 bps (register 127 baud table)
@@ -54,8 +63,11 @@ GRIPPER_BAUD_INDEX = 11  # 2,000,000 bps (register 127 baud table)
 POS_MIN = 0
 POS_MAX = 850
 SPEED_MIN = 1
-SPEED_MAX = 5000
-SPEED_TO_PULSES = POS_MAX / SPEED_MAX  # pulse/s per r/min: 0.17
+#: The speed register accepts up to this (r/min) without an error.
+SPEED_MAX = 10000
+#: The fingers move no faster than at this speed (r/min); above it they top out.
+SPEED_TOP = 5000
+SPEED_TO_PULSES = POS_MAX / SPEED_TOP  # pulse/s per r/min: 0.17
 #: Speed after power-on (r/min), the manual's example speed: a position command sent without a
 #: speed first (the SDK's ``set_gripper_position(pos)``) moves the fingers instead of doing nothing.
 DEFAULT_SPEED = 1500
@@ -104,8 +116,32 @@ def _words_s32(hi: int, lo: int) -> int:
     return v - (1 << 32) if v & 0x80000000 else v
 
 
+class ToolDevice(rtu.RegisterDevice, Protocol):
+    """A device on the tool RS-485 (register 124, host 9): a Modbus slave with its own slave id and
+    baud rate (register 127 baud table index) that moves in :meth:`step`; the xArm gripper, the
+    Robotiq 2F-85/2F-140 (controller/robotiq.py) or the BIO gripper (controller/bio_gripper.py)."""
+
+    slave_id: int
+    baud_index: int
+
+    @property
+    def error(self) -> int: ...  # the device's own error or fault code, 0 = none
+
+    def step(self, dt: float) -> None: ...
+
+    def inject_error(self, code: int) -> None: ...
+
+    def clear_error(self) -> None: ...
+
+    def check_object(self, width_mm: float, inner: bool = False) -> None: ...
+
+    def set_object(self, width_mm: float | None, inner: bool = False) -> None: ...
+
+
 class XArmGripper:
     """The simulated gripper: a Modbus slave (:class:`rtu.RegisterDevice`) that moves in :meth:`step`."""
+
+    slave_id = GRIPPER_ID
 
     def __init__(self, version: tuple[int, int, int] = (3, 4, 3),
                  baud_index: int = GRIPPER_BAUD_INDEX) -> None:
@@ -149,6 +185,15 @@ class XArmGripper:
     def clear_error(self) -> None:
         if self.error not in NEEDS_RESTART:
             self.error = 0
+
+    def check_object(self, width_mm: float, inner: bool = False) -> None:
+        """The xArm gripper has no object detection the SDK reads: refused."""
+        self.set_object(width_mm, inner)
+
+    def set_object(self, width_mm: float | None, inner: bool = False) -> None:
+        """The xArm gripper has no object detection the SDK reads: refused."""
+        raise ValueError("the xArm gripper reports no object detection; gripper-object needs "
+                         "--gripper robotiq-2f85, robotiq-2f140 or bio")
 
     # --- commands ----------------------------------------------------------------------------------
 
@@ -240,11 +285,11 @@ class XArmGripper:
     # --- motion ------------------------------------------------------------------------------------
 
     def step(self, dt: float) -> None:
-        """Move toward the target at ``speed * SPEED_TO_PULSES`` pulse/s."""
+        """Move toward the target at ``min(speed, SPEED_TOP) * SPEED_TO_PULSES`` pulse/s."""
         if not self.moving:
             return
         delta = self.target - self.position
-        max_step = self.speed * SPEED_TO_PULSES * dt
+        max_step = min(self.speed, SPEED_TOP) * SPEED_TO_PULSES * dt
         if abs(delta) <= max_step:
             self.position = float(self.target)
         else:
@@ -299,8 +344,12 @@ class GripperModule:
     """
 
     def __init__(self, gripper: XArmGripper | None = None,
-                 tool_baud: Callable[[], int] | None = None) -> None:
+                 tool_baud: Callable[[], int] | None = None, device: ToolDevice | None = None) -> None:
+        #: The xArm gripper (kept for the old non-Modbus path and the view even when another device
+        #: is attached; then it is not on the bus).
         self.gripper = gripper or XArmGripper()
+        #: The device on the tool bus: the xArm gripper unless another one is attached.
+        self.device: ToolDevice = device if device is not None else self.gripper
         self.tool_baud = tool_baud
         self.modbus_timeout_ms = DEFAULT_MODBUS_TIMEOUT_MS
         self.transparent_timeout_ms = DEFAULT_TRANSPARENT_TIMEOUT_MS
@@ -309,7 +358,7 @@ class GripperModule:
         self.box_devices: Callable[[], dict[int, rtu.RegisterDevice]] = dict
 
     def _bus_baud_index(self) -> int:
-        return self.tool_baud() if self.tool_baud else self.gripper.baud_index
+        return self.tool_baud() if self.tool_baud else self.device.baud_index
 
     def response_ms(self, request_len: int, reply_len: int) -> float:
         """How long a request of ``request_len`` bytes and its reply take on the tool bus (ms, CRC
@@ -321,8 +370,8 @@ class GripperModule:
         """Answer one register-124 request: RTU reply PDU (without the host byte)."""
         devices: dict[int, rtu.RegisterDevice] = {}
         if host == TOOL_HOST:
-            if self._bus_baud_index() == self.gripper.baud_index:
-                devices[GRIPPER_ID] = self.gripper
+            if self._bus_baud_index() == self.device.baud_index:
+                devices[self.device.slave_id] = self.device
         elif host == CONTROL_BOX_HOST:
             devices.update(self.box_devices())
         else:
@@ -337,23 +386,27 @@ class GripperModule:
     def transparent(self, host: int, data: bytes) -> bytes:
         """Register 241: raw bytes on the bus. A Modbus-RTU frame with a valid CRC for the gripper
         gets the gripper's reply frame (CRC appended) within the transparent timeout; anything else
-        gets no reply bytes."""
+        gets no reply bytes. The gripper is whichever device is on the tool bus."""
         if host not in (TOOL_HOST, CONTROL_BOX_HOST):
             raise ParameterError(f"RS-485 host id {host}")
         if host != TOOL_HOST or len(data) < 4 or crc16_modbus(data[:-2]) != data[-2:]:
             return b""
-        if self._bus_baud_index() != self.gripper.baud_index or data[0] != GRIPPER_ID:
+        dev = self.device
+        if self._bus_baud_index() != dev.baud_index or data[0] != dev.slave_id:
             return b""
-        reply = rtu.serve(data[:-2], {GRIPPER_ID: self.gripper})
+        reply = rtu.serve(data[:-2], {dev.slave_id: dev})
         if self.response_ms(len(data) - 2, len(reply)) > self.transparent_timeout_ms:
             return b""
         return reply + crc16_modbus(reply)
 
     def step(self, dt: float, ctl: ControllerView) -> None:
-        self.gripper.step(dt)
+        self.device.step(dt)
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while the fingers do not move."""
+        """Idle (:func:`~.base.idle_until`) while the xArm gripper's fingers do not move; another
+        device on the tool bus is idle only as far as it says so itself (never, without a method)."""
+        if self.device is not self.gripper:
+            return idle_until(self.device, ctl)
         return NOT_IDLE if self.gripper.moving else math.inf
 
     # --- register table adapter --------------------------------------------------------------------
@@ -384,6 +437,8 @@ class GripperModule:
     def _old_path(self, values: Any) -> XArmGripper:
         if int(values["host"]) != GRIPPER_ID:
             raise ParameterError(f"gripper id {values['host']} (8)")
+        if self.device is not self.gripper:
+            raise ParameterError("the old gripper path drives the xArm gripper, which is not attached")
         return self.gripper
 
     def _handle_125(self, values: Any) -> dict[str, Any]:

@@ -27,7 +27,7 @@ COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "track-
             "checkpoint-save", "checkpoint-restore", "checkpoint-list")
 #: Longest checkpoint name (``checkpoint-save``/``checkpoint-restore``).
 MAX_NAME = 64
-INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object", "ft")
+INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object", "gripper-object", "ft")
 #: Frames an external wrench (``set-input`` kind ``ft``) may be given in.
 WRENCH_FRAMES = ("tool", "base")
 

@@ -3,7 +3,8 @@
 - Control box errors, section 3.2.1: "C<n>", reported in register 15's error byte and the reports.
 - Control box warnings, section 3.2.2: 11-14, register 15's warning byte.
 - Joint (servo) errors, section 3.1: "S<n>", per joint in register 106 and the rich report.
-- Gripper errors, section 3.3: "G<n>", read from the gripper's error register over register 124.
+- Gripper errors, section 3.3: "G<n>", read from the gripper's error register over register 124; the
+  Robotiq 2F-85/2F-140's faults and the BIO gripper's errors (``GRIPPER_TABLES``), also over 124.
 
 Each entry carries a short name and what the manual tells the operator to do. ``restart`` marks codes
 whose handling is a power cycle (the control box emergency-stop button) followed by re-enabling.
@@ -134,6 +135,36 @@ GRIPPER_ERRORS: dict[int, Code] = _table("G", [
     (34, "Gripper motor overload", _SUPPORT, False),
     (36, "Gripper driver type error", _REENABLE_GRIPPER, False),
 ])
+
+#: The Robotiq 2F-85/2F-140's fault codes (gFLT, the low nibble of its FAULT STATUS byte), as
+#: Robotiq's instruction manual lists them; 5-9 are minor faults, 10-15 major ones, which need a
+#: reset (rACT cleared) and a new activation. Not in the control box manual: the SDK reads them over
+#: register 124.
+ROBOTIQ_FAULTS: dict[int, Code] = _table("G", [
+    (5, "Action delayed: the activation must complete first", "Wait for the activation to end.", False),
+    (7, "The activation bit must be set before any action", "Activate the gripper first.", False),
+    (8, "Maximum operating temperature exceeded", "Wait for the gripper to cool down.", False),
+    (9, "No communication for at least one second", "Check the RS-485 link.", False),
+    (10, "Under minimum operating voltage", "Reset and activate the gripper again.", False),
+    (11, "Automatic release in progress", "Reset and activate the gripper again.", False),
+    (12, "Internal fault", "Reset and activate the gripper again; if it persists, contact support.", False),
+    (13, "Activation fault", "Check that nothing blocks the fingers, then reset and activate again.",
+     False),
+    (14, "Overcurrent triggered", "Reset and activate the gripper again.", False),
+    (15, "Automatic release completed", "Reset and activate the gripper again.", False),
+])
+
+#: The BIO gripper's error codes (its error register, 0x000F), as the SDK's code list gives them.
+BIO_GRIPPER_ERRORS: dict[int, Code] = _table("G", [
+    (11, "BIO gripper current beyond limit", "Clear the error and enable the gripper again.", False),
+    (12, "The object slipped from the BIO gripper", "Clear the error and grip again.", False),
+])
+
+#: The error table of each end gripper the emulator attaches (``serve --gripper``).
+GRIPPER_TABLES: dict[str, dict[int, Code]] = {
+    "xarm": GRIPPER_ERRORS, "robotiq-2f85": ROBOTIQ_FAULTS, "robotiq-2f140": ROBOTIQ_FAULTS,
+    "bio": BIO_GRIPPER_ERRORS,
+}
 
 _TABLES: dict[str, dict[int, Code]] = {
     "C": CONTROLLER_ERRORS, "W": WARNINGS, "S": SERVO_ERRORS, "G": GRIPPER_ERRORS,

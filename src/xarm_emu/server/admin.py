@@ -25,7 +25,9 @@ estop              -                                             emergency stop,
 error              code "C31" (or 31)                            control box error (3.2.1)
 warning            code 11 (or "W11")                            warning (3.2.2)
 servo-error        joint 1..dof, code "S23"                      servo error, error C10+joint
-gripper-error      code "G11"                                    gripper error (3.3)
+gripper-error      code "G11" (or 11)                            an error of the attached gripper:
+                                                                 3.3 for the xArm gripper, gFLT for
+                                                                 a Robotiq, 11/12 for the BIO
 track-error        code 12                                       linear track drive error
 end-module-lost    -                                             error C28
 collision          joint 1..dof, torque (N m)                    external torque: C31 when the
@@ -34,8 +36,10 @@ report-pause       seconds (wall)                                no report frame
 reply-delay        seconds (wall, 0 switches it off)             each command reply delayed
 drop-clients       -                                             close every client connection
 clear              -                                             clear all faults and delays
-set-input          kind cgpio/tgpio/analog/tool-analog,          a sensor input
-                   index, value
+set-input          kind cgpio/tgpio/analog/tool-analog/          a sensor input; gripper-object:
+                   vacuum-object/gripper-object, index, value    an object of value mm between the
+                                                                 fingers (index 0) or around them
+                                                                 (1, Robotiq); 0 removes it
 set-input          kind ft, wrench [6], frame tool/base,         external wrench on the TCP
                    ramp (s), for (s)                             (replaces the one played before)
 ft-error           code 0..255 (0 clears)                        the F/T sensor's error
@@ -133,6 +137,23 @@ def _label(value: Any, prefix: str) -> codes.Code:
 _KIND = {"C": "control box error", "W": "warning", "S": "servo error", "G": "gripper error"}
 
 
+def _gripper_code(value: Any, gripper: str) -> codes.Code:
+    """A code of the attached gripper's table (codes.GRIPPER_TABLES), as "G14", 14 or "0x0E"."""
+    if isinstance(value, bool) or not isinstance(value, (str, int)):
+        raise AdminError(f"code must be a gripper code like G11 or 11, got {value!r}")
+    text = str(value).strip().upper().removeprefix("G")
+    try:
+        number = int(text, 0)
+    except ValueError:
+        raise AdminError(f"not a gripper error code: {value!r} (examples: G11, 11, 0x0E)") from None
+    table = codes.GRIPPER_TABLES.get(gripper, codes.GRIPPER_ERRORS)
+    entry = table.get(number)
+    if entry is None:
+        raise AdminError(f"{number} is not an error code of the {gripper} gripper; known: "
+                         + ", ".join(str(c) for c in sorted(table)))
+    return entry
+
+
 def _seconds(value: Any) -> float:
     if isinstance(value, str):
         value = parse_duration(value)
@@ -217,7 +238,8 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
         return estop
     if cmd in ("error", "warning", "gripper-error"):
         prefix = {"error": "C", "warning": "W", "gripper-error": "G"}[cmd]
-        entry = _label(request.get("code"), prefix)
+        entry = (_gripper_code(request.get("code"), emu.gripper_kind) if cmd == "gripper-error"
+                 else _label(request.get("code"), prefix))
 
         def inject() -> str:
             if cmd == "error":
@@ -317,7 +339,7 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
             ctl = emu.controller
             out = {"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
                    "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
-                   "reports_paused": server.reports_paused()}
+                   "reports_paused": server.reports_paused(), "gripper": emu.gripper_status()}
             if emu.has_ft_sensor:
                 out["ft_sensor"] = _ft_status(emu)
             health = getattr(server, "health", None)  # disk and trace state, where the server has it
@@ -467,13 +489,18 @@ def _set_input(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str
     value = _float(request.get("value"), "value")
     if kind in ("cgpio", "tgpio", "vacuum-object") and value not in (0, 1):
         raise AdminError(f"digital input value must be 0 or 1, got {value!r}")
+    if kind == "gripper-object" and value < 0:
+        raise AdminError(f"object width is mm >= 0 (0 takes the object away), got {value!r}")
     try:
-        server.emulator.check_input(kind, index)
+        server.emulator.check_input(kind, index, value)
     except (ValueError, CommandWarning) as exc:  # the IO module's own range checks
         raise AdminError(f"{kind} input {index}: {exc}") from None
 
     def play() -> str:
         server.emulator.set_input(kind, index, value)
+        if kind == "gripper-object":
+            return (f"gripper object {'removed' if value == 0 else f'{value:g} mm wide'}"
+                    f"{' around the fingers' if index == 1 else ''}")
         return f"{kind} input {index} = {value:g}"
 
     return play

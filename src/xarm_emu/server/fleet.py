@@ -21,7 +21,8 @@ lists them; top-level keys are defaults for every arm::
 Arm keys: ``model`` (5, 6, 7, or a name: lite6, 850, 7t), ``host``, ``port``, ``normal_port``,
 ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
-``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``firmware``
+``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``gripper``
+(the gripper on the tool RS-485, as ``serve --gripper``: xarm, robotiq-2f85, robotiq-2f140, bio),
 (the version the box claims, as ``serve --firmware``), ``linear_track`` (true or a stroke in mm, as
 ``serve --linear-track``), ``ft_sensor`` (the six-axis F/T sensor, as
 ``serve --ft-sensor``), ``scene`` (a contact scene file, as ``serve --scene``), ``trace``
@@ -43,7 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from ..controller import contact
-from ..controller.emulator import Emulator, check_firmware
+from ..controller.emulator import GRIPPERS, Emulator, check_firmware
 from ..controller.linear_track import DEFAULT_LENGTH, MODELS
 from ..model.robots import MODEL_NAMES, get_model
 from ..protocol.admin import admin_host, derive_admin_port
@@ -52,8 +53,8 @@ from .core import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
-ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "firmware", "trace", "faults",
-            "linear_track", "ft_sensor", "scene")
+ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "gripper", "firmware", "trace",
+            "faults", "linear_track", "ft_sensor", "scene")
 TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k not in ("robot_sn", "trace")))
 
 
@@ -71,6 +72,7 @@ class ArmSpec:
     vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
     firmware: FirmwareProfile = field(default_factory=lambda: profile_for(SERVE_VERSION))  # serve --firmware
     linear_track: int | None = None  # stroke in mm of the linear track (controller/linear_track.py)
+    gripper: str = "xarm"  # the gripper on the tool RS-485 (controller/emulator.py GRIPPERS)
     ft_sensor: bool = False  # the six-axis F/T sensor (controller/ft_sensor.py), serve --ft-sensor
     scene: contact.Scene | None = None  # the contact scene (controller/contact.py), serve --scene
 
@@ -79,7 +81,7 @@ class ArmSpec:
         fleet arm becomes an :class:`Emulator`, in this process or in a worker."""
         return Emulator(self.model, robot_sn=self.robot_sn, config_dir=config_dir, vacuum=self.vacuum,
                         firmware=self.firmware, linear_track=self.linear_track, ft_sensor=self.ft_sensor,
-                        scene=self.scene)
+                        scene=self.scene, gripper=self.gripper)
 
 
 @dataclass(frozen=True)
@@ -156,6 +158,11 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     for key, flag in (("admin", admin), ("vacuum", vacuum), ("ft_sensor", ft_sensor)):
         if not isinstance(flag, bool):
             raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
+    gripper = values.get("gripper", "xarm")
+    if gripper not in GRIPPERS:
+        raise FleetError(f"{where}: gripper is one of {', '.join(GRIPPERS)}, got {gripper!r}")
+    if vacuum and "gripper" in values:
+        raise FleetError(f"{where}: vacuum and gripper: one end tool at a time")
     track = values.get("linear_track", False)
     if track is True:
         track = DEFAULT_LENGTH
@@ -199,7 +206,8 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
             scene = contact.load_scene(paths["scene"])
         except ValueError as exc:
             raise FleetError(f"{where}: {exc}") from None
-    return ArmSpec(model, sn, cfg, vacuum, profile, track, ft_sensor, scene)
+    return ArmSpec(model, sn, cfg, vacuum, profile, linear_track=track, gripper=gripper, ft_sensor=ft_sensor,
+                   scene=scene)
 
 
 _WILDCARD = frozenset({"", "0.0.0.0", "::"})

@@ -108,6 +108,9 @@ class Viewer:
         sensor = scene.ft_sensor_parts(emu.model, q, ft_sensor.SENSOR_HEIGHT) if emu.has_ft_sensor else []
         if emu.vacuum is not None:
             return sensor + scene.vacuum_parts(emu.model, q)
+        if emu.gripper_kind in scene.GRIPPER_SHAPES:
+            return sensor + scene.end_gripper_parts(emu.model, q, emu.gripper_kind,
+                                                    emu.gripper_status()["opening_mm"])
         g = emu.gripper.gripper
         if g.enabled or g.position > 0.0:
             return sensor + scene.gripper_parts(emu.model, q, g.position)

@@ -300,8 +300,14 @@ class Pendant:
         snap = self.emulator.snapshot()
         fields = describe_state(snap)
         g = self.emulator.gripper.gripper
-        fields["gripper"] = (f"{'enabled' if g.enabled else 'off'}, position {g.position:.0f}"
-                             + (f", error G{g.error}" if g.error else ""))
+        info = self.emulator.gripper_status()
+        if info["gripper"] == "xarm":
+            fields["gripper"] = (f"{'enabled' if g.enabled else 'off'}, position {g.position:.0f}"
+                                 + (f", error G{g.error}" if g.error else ""))
+        else:
+            fields["gripper"] = (f"{info['gripper']}, opening {info['opening_mm']:g} mm"
+                                 + (", holding an object" if info["object"] else "")
+                                 + (f", error {info['error']}" if info["error"] else ""))
         text = "\n\n".join(f"**{k.capitalize()}:** {v}" for k, v in fields.items())
         if text != self._status_text:
             self._status_text = text

@@ -144,6 +144,46 @@ def gripper_parts(model: RobotModel, q: Sequence[float] | np.ndarray, position: 
     return parts
 
 
+@dataclass(frozen=True)
+class GripperShape:
+    """How a parallel gripper is drawn: its body (half extents, m) on the flange, its fingers' half
+    extents and the depth (m, along the flange's z axis) of the fingers' centres."""
+
+    body_half: tuple[float, float, float]
+    finger_half: tuple[float, float, float]
+    finger_depth: float
+
+
+#: The drawn shape of each gripper ``serve --gripper`` attaches besides the xArm gripper (sizes
+#: rounded from the vendors' drawings: the Robotiq 2F-85 and 2F-140 about 0.15 m and 0.2 m long, the
+#: BIO gripper a wide body with short fingers).
+GRIPPER_SHAPES = {
+    "robotiq-2f85": GripperShape((0.037, 0.037, 0.035), (0.011, 0.005, 0.025), 0.125),
+    "robotiq-2f140": GripperShape((0.037, 0.037, 0.035), (0.013, 0.006, 0.035), 0.17),
+    "bio": GripperShape((0.04, 0.085, 0.03), (0.012, 0.006, 0.03), 0.09),
+}
+
+
+def end_gripper_parts(model: RobotModel, q: Sequence[float] | np.ndarray, kind: str,
+                      opening_mm: float) -> list[Part]:
+    """A Robotiq or BIO gripper (``kind``, a key of :data:`GRIPPER_SHAPES`) on the flange: its body
+    and two fingers apart by ``opening_mm``."""
+    shape = GRIPPER_SHAPES[kind]
+    T = kin.fk(model, q)
+    R = T[:3, :3]
+    flange = T[:3, 3] * MM
+    wxyz = quat_from_matrix(R)
+    body = flange + R @ np.array([0.0, 0.0, shape.body_half[2]])
+    parts = [Part("tool_body", "box", (float(body[0]), float(body[1]), float(body[2])), wxyz,
+                  half=shape.body_half)]
+    opening = max(0.0, float(opening_mm)) * MM
+    for name, side in (("finger_a", 1.0), ("finger_b", -1.0)):
+        c = flange + R @ np.array([0.0, side * (opening / 2 + shape.finger_half[1]), shape.finger_depth])
+        parts.append(Part(f"tool_{name}", "box", (float(c[0]), float(c[1]), float(c[2])), wxyz,
+                          half=shape.finger_half))
+    return parts
+
+
 def vacuum_parts(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[Part]:
     """The vacuum cup: a short capsule along the flange's z axis."""
     T = kin.fk(model, q)

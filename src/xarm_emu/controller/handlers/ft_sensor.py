@@ -121,10 +121,12 @@ def set_zero(ctl: Any, v: Values) -> None:
 
 def get_config(ctl: Any, v: Values) -> dict[str, Any]:
     """Register 212: the 280-byte configuration: application status (register 202's application:
-    0 none, 1 admittance, 2 force control), started (the sensor switched on), sensor type, id and rate (zeros with no sensor), then what 205/206 and 207-211 stored."""
+    0 none, 1 admittance, 2 force control), started (the sensor switched on), sensor type, id and
+    rate (zeros with no sensor), then what 205/206 and 207-211 stored."""
     cfg = ft_config(ctl)
     on = ft.attached(ctl)
-    return {"app_status": force_control.control_of(ctl).app, "started": int(ft.enabled(ctl)), "type": ft.SENSOR_TYPE if on else 0,
+    return {"app_status": force_control.control_of(ctl).app, "started": int(ft.enabled(ctl)),
+            "type": ft.SENSOR_TYPE if on else 0,
             "id": ft.SENSOR_ID if on else 0, "freq": ft.SENSOR_RATE_HZ if on else 0, "mass": cfg.mass,
             "dir_bias": 0.0, "centroid": cfg.centroid, "zero": cfg.offsets,
             "imp_coord": cfg.imp_coord, "imp_c_axis": cfg.imp_c_axis, "M": cfg.M, "K": cfg.K, "B": cfg.B,
