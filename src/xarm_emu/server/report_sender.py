@@ -28,6 +28,7 @@ import ctypes
 import errno
 import gc
 import heapq
+import math
 import os
 import socket
 import sys
@@ -38,9 +39,9 @@ from collections.abc import Callable
 from typing import Any
 
 #: Seconds before a frame's deadline at which its loop is asked to publish it (at most half the
-#: stream's interval): long enough for a loop that is not blocked, short enough that the frame
-#: shows the state at most one control period (4 ms) older than its deadline.
-LEAD = 0.002
+#: stream's interval): long enough for a busy loop to get to it, short enough (under one control
+#: period, 4 ms) that the frame shows the state at most one period older than its deadline.
+LEAD = 0.003
 #: A stream this many intervals behind its schedule or less sends the due frames at once; further
 #: behind (the process was suspended), it re-anchors and counts the frames it missed.
 LATE_FRAMES = 10
@@ -67,6 +68,18 @@ def _libc_send() -> Callable[[int, bytes, int, int], int] | None:
 
 
 _SEND = _libc_send()
+
+
+def next_deadline(deadline: float, interval: float, now: float) -> tuple[float, int]:
+    """The deadline after ``deadline`` and the frames missed on the way: one interval on, on the
+    absolute schedule (a late frame does not move the ones after it), unless that is more than
+    :data:`LATE_FRAMES` intervals behind ``now``: then the first deadline of the schedule after
+    ``now``, the ones skipped counted as missed."""
+    nxt = deadline + interval
+    if nxt >= now - LATE_FRAMES * interval:
+        return nxt, 0
+    missed = math.ceil((now - nxt) / interval)
+    return nxt + missed * interval, missed
 
 
 class Reader:
@@ -257,14 +270,8 @@ class ReportSender:
                 stream.scheduled = False
                 stream.frame = None
                 return
-            nxt = deadline + stream.interval
-            now = time.perf_counter()
-            if nxt < now - LATE_FRAMES * stream.interval:  # far behind (suspended): re-anchor
-                missed = int((now - nxt) / stream.interval)
-                stream.frames_missed += missed
-                nxt += missed * stream.interval
-                while nxt < now:
-                    nxt += stream.interval
+            nxt, missed = next_deadline(deadline, stream.interval, time.perf_counter())
+            stream.frames_missed += missed
             stream.deadline = nxt
             self._push(nxt - min(LEAD, stream.interval / 2), stream, True)
 
