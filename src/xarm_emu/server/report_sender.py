@@ -1,8 +1,10 @@
 """One report sender per process: a thread that writes every report frame (manual 2.1.6) of every
 server in the process on an absolute schedule, so no event loop's work delays a frame.
 
-Each report stream (:class:`SendStream`) is due at ``anchor + k * interval`` (perf_counter seconds;
-absolute deadlines, nothing accumulates). A little before each deadline (:data:`LEAD`) the sender
+Each report stream (:class:`SendStream`) is due at ``k * interval`` (perf_counter seconds;
+absolute deadlines on one grid per rate, nothing accumulates; the streams of one rate share their
+instants, so one wake-up and one call into each event loop serve all of them). A little before each
+deadline (:data:`LEAD`) the sender
 asks the stream's event loop to publish its frame (the loop catches the controller up and encodes
 it: the frame is the state no older than one control period at its deadline); at the deadline the
 sender writes the freshest published frame to every reader itself, with non-blocking ``send`` calls
@@ -80,6 +82,19 @@ def next_deadline(deadline: float, interval: float, now: float) -> tuple[float, 
         return nxt, 0
     missed = math.ceil((now - nxt) / interval)
     return nxt + missed * interval, missed
+
+
+def on_grid(now: float, interval: float) -> float:
+    """The first deadline after ``now`` on the process-wide grid of ``interval`` (multiples of it
+    on the ``perf_counter`` clock): streams of one rate share their instants, and one wake-up of
+    the sender serves them all."""
+    return (math.floor(now / interval) + 1) * interval
+
+
+def _publish(due: list[tuple[SendStream, float]]) -> None:
+    """In one loop: publish the frames of every stream due at one instant."""
+    for stream, deadline in due:
+        stream.publish(deadline)
 
 
 class Reader:
@@ -191,7 +206,7 @@ class ReportSender:
             stream.readers = (*stream.readers, reader)
             if not stream.scheduled:
                 stream.scheduled = True
-                stream.deadline = time.perf_counter() + stream.interval
+                stream.deadline = on_grid(time.perf_counter(), stream.interval)
                 self._push(stream.deadline - min(LEAD, stream.interval / 2), stream, True)
 
     def remove(self, stream: SendStream, reader: Reader) -> None:
@@ -228,24 +243,33 @@ class ReportSender:
                 if delay > 0.002:
                     cond.wait(delay - 0.001)  # a new, earlier event wakes the wait
                     continue
-                if delay <= 0:
-                    _, _, stream, prep = heapq.heappop(self._heap)
+                if delay <= 0:  # every event of this instant: streams on one grid share it
+                    due = [heapq.heappop(self._heap)]
+                    while self._heap and self._heap[0][0] == when:
+                        due.append(heapq.heappop(self._heap))
             if delay > 0:
                 time.sleep(delay)  # absolute deadline (clock_nanosleep), outside the lock
                 continue
-            if prep:
-                self._request(stream)
-            else:
-                self._send(stream)
+            self._request([d[2] for d in due if d[3]])
+            for d in due:
+                if not d[3]:
+                    self._send(d[2])
 
-    def _request(self, stream: SendStream) -> None:
-        """Ask the stream's loop to publish the next frame, then wait for its deadline."""
-        loop = stream.loop
-        if loop is not None:
+    def _request(self, streams: list[SendStream]) -> None:
+        """Ask the streams' loops to publish their next frames (one call per loop), then wait for
+        their deadlines."""
+        if not streams:
+            return
+        by_loop: dict[asyncio.AbstractEventLoop, list[SendStream]] = {}
+        for stream in streams:
+            if stream.loop is not None:
+                by_loop.setdefault(stream.loop, []).append(stream)
+        for loop, group in by_loop.items():
             with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
-                loop.call_soon_threadsafe(stream.publish, stream.deadline)
+                loop.call_soon_threadsafe(_publish, [(st, st.deadline) for st in group])
         with self._cond:
-            self._push(stream.deadline, stream, False)
+            for stream in streams:
+                self._push(stream.deadline, stream, False)
 
     def _send(self, stream: SendStream) -> None:
         deadline = stream.deadline
@@ -272,7 +296,7 @@ class ReportSender:
                 return
             nxt, missed = next_deadline(deadline, stream.interval, time.perf_counter())
             stream.frames_missed += missed
-            stream.deadline = nxt
+            stream.deadline = round(nxt / stream.interval) * stream.interval  # exactly on the grid
             self._push(nxt - min(LEAD, stream.interval / 2), stream, True)
 
     def set_priority(self, priority: int) -> str | None:
