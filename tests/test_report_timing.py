@@ -4,9 +4,12 @@ sockets close with their connections and the sender stops with its last server."
 
 from __future__ import annotations
 
+import logging
 import os
 import socket
 import struct
+import subprocess
+import sys
 import threading
 import time
 
@@ -203,3 +206,24 @@ def test_a_stream_without_readers_sends_nothing_and_restarts_on_its_schedule(mak
     sent = srv.call(lambda: srv.server.frames_sent["develop"])
     time.sleep(0.1)
     assert srv.call(lambda: srv.server.frames_sent["develop"]) == sent
+
+
+def _fifo_allowed() -> bool:
+    code = "import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(3))"
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=30).returncode == 0
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_getscheduler"), reason="Linux scheduling")
+def test_report_priority_runs_the_sender_at_real_time_priority_or_says_why_not(
+        make_server, caplog: pytest.LogCaptureFixture) -> None:  # type: ignore[no-untyped-def]
+    with caplog.at_level(logging.WARNING, "xarm_emu.server"):
+        srv: ServerThread = make_server(report_priority=3)
+    (sender,) = _sender_threads()
+    assert sender.native_id is not None
+    if _fifo_allowed():
+        assert os.sched_getscheduler(sender.native_id) == os.SCHED_FIFO
+        assert os.sched_getparam(sender.native_id).sched_priority >= 3
+    else:
+        assert any("real-time priority 3" in r.getMessage() for r in caplog.records)
+    with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
+        assert len(_arrivals(dev, 0.5)) >= 40

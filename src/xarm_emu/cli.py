@@ -109,6 +109,10 @@ def serve(
     studio: Annotated[bool, typer.Option("--studio", help="Answer the SDK's xArm Studio HTTP calls "
                                                            "(initial point, mount, trajectories).")] = False,
     studio_port: Annotated[int, typer.Option(help="Port of --studio (the SDK uses 18333).")] = 18333,
+    report_priority: Annotated[int, typer.Option(help="Real-time (SCHED_FIFO) priority 1-99 of the thread "
+                                                      "that sends the report frames (Linux, needs the "
+                                                      "privilege); 0: normal scheduling.",
+                                                 min=0, max=99)] = 0,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .server.app import ServerConfig
@@ -136,6 +140,7 @@ def serve(
                        trace=trace, faults=faults)
     cfg.limits = Limits(max_connections=max_connections, frame_timeout=frame_timeout, backlog=backlog)
     cfg.trace_max_bytes = trace_max_bytes
+    cfg.report_priority = report_priority
     try:
         profile = profile_for(firmware)
     except VersionError as exc:
