@@ -192,6 +192,56 @@ def measure(use_uvloop: bool, priority: int = 0) -> tuple[Jitter, Jitter, int, f
     return _jitter(times, INTERVAL), _jitter(got, INTERVAL), sent[0], late99, stale
 
 
+ARMS = 30
+
+#: CPU cost per develop frame: ARMS servers in one event loop (as a fleet worker hosts them), first
+#: idle, then with one develop reader each (a thread of the same process, whose reads are included).
+_COST = PIN_SERVER + """
+import asyncio, json, resource, selectors, socket, sys, threading, time
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.server.core import EmulatorServer, ServerConfig
+n, seconds = int(sys.argv[1]), float(sys.argv[2])
+loop = asyncio.new_event_loop()
+servers = [EmulatorServer(Emulator(6), ServerConfig(port=0, normal_port=0, rich_port=0, develop_port=0))
+           for _ in range(n)]
+async def start():
+    for s in servers:
+        await s.start()
+loop.run_until_complete(start())
+threading.Thread(target=loop.run_forever, daemon=True).start()
+def cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+c0 = cpu(); time.sleep(seconds); idle = cpu() - c0
+socks = [socket.create_connection(("127.0.0.1", s.ports["develop"])) for s in servers]
+stop = threading.Event()
+def read():
+    sel = selectors.DefaultSelector()
+    for s in socks:
+        s.setblocking(False)
+        sel.register(s, selectors.EVENT_READ)
+    while not stop.is_set():
+        for key, _ in sel.select(0.05):
+            key.fileobj.recv(65536)
+t = threading.Thread(target=read); t.start(); time.sleep(0.3)
+f0 = sum(s.frames_sent["develop"] for s in servers); c0 = cpu()
+time.sleep(seconds)
+busy = cpu() - c0; frames = sum(s.frames_sent["develop"] for s in servers) - f0
+stop.set(); t.join()
+print(json.dumps([idle / seconds, busy / seconds, frames / seconds]))
+"""
+
+
+def frame_cost() -> str:
+    """CPU per develop frame with ARMS arms in one loop, each read at 100 Hz, against the same arms idle."""
+    out = subprocess.run([sys.executable, "-c", _COST, str(ARMS), str(SECONDS)], capture_output=True,
+                         text=True, check=True, timeout=120).stdout
+    idle, busy, rate = json.loads(out)
+    per = (busy - idle) / rate if rate else math.nan
+    return (f"{ARMS} arms in one loop, a develop reader each: {rate:.0f} frames/s, {busy * 100:.0f} % of a "
+            f"core (idle arms: {idle * 100:.1f} %), {per * 1e6:.0f} us per frame including the reader")
+
+
 def _ms(j: Jitter) -> str:
     return f"p50 {j[0] * 1e3:.3f} p99 {j[1] * 1e3:.3f} max {j[2] * 1e3:.3f} ms"
 
@@ -229,6 +279,7 @@ def run() -> list[str]:
             runs = RUNS if not use_uvloop else 2
             lines.append(f"{name}: {met}/{runs} runs on target (idle process: {floor_met}/{runs}); "
                          f"send p99 / idle p99 median {float(np.median(ratios)):.2f}")
+    lines.append(frame_cost())
     lines.append(f"load average after: {os.getloadavg()[0]:.2f}")
     return lines
 

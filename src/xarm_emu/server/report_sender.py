@@ -194,7 +194,10 @@ class ReportSender:
         self.priority = 0
         self._switch = sys.getswitchinterval()
         sys.setswitchinterval(min(self._switch, SWITCH_INTERVAL))
-        gc.freeze()  # start-up objects out of every collection: short collections while serving
+        global _frozen
+        if not _frozen:  # once: start-up objects out of every collection, short ones while serving
+            gc.freeze()
+            _frozen = True
         self._thread = threading.Thread(target=self._run, name="xarm-emu-reports", daemon=True)
         self._thread.start()
 
@@ -240,16 +243,14 @@ class ReportSender:
                     continue
                 when = self._heap[0][0]
                 delay = when - time.perf_counter()
-                if delay > 0.002:
-                    cond.wait(delay - 0.001)  # a new, earlier event wakes the wait
+                if delay > 0:
+                    # One timed wait to the deadline (a new, earlier event wakes it): each wake-up
+                    # costs a wait for the interpreter lock, so there is one per event.
+                    cond.wait(delay)
                     continue
-                if delay <= 0:  # every event of this instant: streams on one grid share it
-                    due = [heapq.heappop(self._heap)]
-                    while self._heap and self._heap[0][0] == when:
-                        due.append(heapq.heappop(self._heap))
-            if delay > 0:
-                time.sleep(delay)  # absolute deadline (clock_nanosleep), outside the lock
-                continue
+                due = [heapq.heappop(self._heap)]  # every event of this instant: one grid, one wake-up
+                while self._heap and self._heap[0][0] == when:
+                    due.append(heapq.heappop(self._heap))
             self._request([d[2] for d in due if d[3]])
             for d in due:
                 if not d[3]:
@@ -324,6 +325,7 @@ class ReportSender:
 
 
 _lock = threading.Lock()
+_frozen = False
 _shared: ReportSender | None = None
 _users = 0
 
