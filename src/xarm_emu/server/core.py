@@ -178,8 +178,7 @@ class EmulatorServer:
         defaults = reports.rates_for(profile)
         rates = {kind: defaults[port] for kind, port in ALL_KIND_PORTS.items() if port in defaults}
         rates.update(self.config.report_rates)
-        self.reports = ReportStreams(self._report_snapshot, self.reports_paused, rates, profile,
-                                     self._report_generation)
+        self.reports = ReportStreams(self._report_snapshot, self.reports_paused, rates, profile)
         #: The controller's feedback events (firmware >= 2.0.102), else ``None``.
         self.feedback: FeedbackQueue | None = (feedback_queue(emulator.controller) if profile.feedback
                                                else None)
@@ -365,11 +364,6 @@ class EmulatorServer:
         """Have :meth:`start` build ``factory()`` after the ports are open, start it, and record its
         port under ``name`` in :attr:`ports`; :meth:`close` stops it."""
         self._attach[name] = factory
-
-    def _report_generation(self) -> int:
-        """Catch up, then the emulator's generation (an unchanged one: the same report frame)."""
-        self.catch_up()
-        return self.emulator.generation
 
     def _report_snapshot(self) -> reports.ReportSnapshot:
         self.catch_up()

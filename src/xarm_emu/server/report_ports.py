@@ -85,18 +85,14 @@ class ReportStreams:
     process's report sender (:mod:`.report_sender`) on an absolute schedule.
 
     ``snapshot`` gives the state to report (after the server has caught up on due control periods);
-    ``paused`` says whether an injected report pause is on; ``generation`` (optional) catches up and
-    returns the emulator's generation, so that a frame whose state did not change is not encoded
-    again.
+    ``paused`` says whether an injected report pause is on.
     """
 
     def __init__(self, snapshot: Callable[[], reports.ReportSnapshot], paused: Callable[[], bool],
-                 rates: dict[str, float], profile: FirmwareProfile = DEFAULT_PROFILE,
-                 generation: Callable[[], int] | None = None) -> None:
+                 rates: dict[str, float], profile: FirmwareProfile = DEFAULT_PROFILE) -> None:
         self.snapshot = snapshot
         self.paused = paused
         self.rates = rates
-        self.generation = generation
         #: Report kind -> standard port of the streams this box serves (its firmware's).
         self.kinds = kinds_for(profile)
         self.encoders = encoders_by_kind(profile)
@@ -111,19 +107,9 @@ class ReportStreams:
 
     def _preparer(self, kind: str) -> Callable[[], bytes | None]:
         encode = self.encoders[kind]
-        cache: list[Any] = [None, None]  # generation, frame
 
         def prepare() -> bytes | None:
-            if self.paused():
-                return None
-            if self.generation is not None:
-                gen = self.generation()
-                if gen == cache[0]:
-                    return cache[1]  # type: ignore[no-any-return]
-                cache[0] = gen
-            frame = encode(self.snapshot())
-            cache[1] = frame
-            return frame
+            return None if self.paused() else encode(self.snapshot())
 
         return prepare
 
