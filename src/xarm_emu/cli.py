@@ -142,6 +142,10 @@ def serve(
     studio: Annotated[bool, typer.Option("--studio", help="Answer the SDK's xArm Studio HTTP calls "
                                                            "(initial point, mount, trajectories).")] = False,
     studio_port: Annotated[int, typer.Option(help="Port of --studio (the SDK uses 18333).")] = 18333,
+    report_priority: Annotated[int, typer.Option(help="Real-time (SCHED_FIFO) priority 1-99 of the thread "
+                                                      "that sends the report frames (Linux, needs the "
+                                                      "privilege); 0: normal scheduling.",
+                                                 min=0, max=99)] = 0,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .server.app import ServerConfig
@@ -169,6 +173,7 @@ def serve(
                        trace=trace, faults=faults)
     cfg.limits = Limits(max_connections=max_connections, frame_timeout=frame_timeout, backlog=backlog)
     cfg.trace_max_bytes = trace_max_bytes
+    cfg.report_priority = report_priority
     try:
         profile = profile_for(firmware)
     except VersionError as exc:
@@ -365,6 +370,7 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
     servers = []
     for emu, arm_cfg in arms:
         arm_cfg.limits = cfg.limits
+        arm_cfg.report_priority = cfg.report_priority  # one report sender per process
         store = getattr(emu, "_store", None)
         if store is not None:  # one running box per saved configuration (controller/config.py)
             store.lock()
@@ -458,7 +464,8 @@ def _serve_fleet_workers(fleet: Path, cfg: ServerConfig, cdir: Path, workers: in
         console.print(f"fleet worker {plan.index} (pid {arms[0].pid}): arms "
                       f"{', '.join(map(str, plan.numbers))}" + (" (restarted)" if starts > 1 else ""))
 
-    sup = Supervisor(plans(spec.arms, workers, cdir, cfg.limits, logs, use_uvloop), ready)
+    sup = Supervisor(plans(spec.arms, workers, cdir, cfg.limits, logs, use_uvloop, cfg.report_priority),
+                     ready)
     try:
         sup.start()
     except (PermissionError, ValueError, RuntimeError, OSError) as exc:

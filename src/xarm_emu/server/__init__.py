@@ -1,6 +1,7 @@
 """The emulator's network side (manual chapter 2): ``core`` (EmulatorServer, control loop),
 ``command_port`` (2.1.2) with ``fairness`` (back-pressure, round-robin, connection bounds),
-``report_ports`` (2.1.6), ``admin`` (requests on an AdminTarget) over ``admin_port`` (socket),
+``report_ports`` (2.1.6) with ``report_sender`` (one thread per process writing every frame on
+its deadline), ``admin`` (requests on an AdminTarget) over ``admin_port`` (socket),
 ``faults`` (schedules), ``thread`` (ServerThread), ``fleet``, ``workers`` (a fleet in supervised
 worker processes), ``trace``, ``disk`` (the worker that
 writes saves and traces off the loop), ``logs``, ``clock``, ``modbus_port`` (the Modbus map on a port
@@ -9,4 +10,5 @@ Nothing here imports the viewer, the CLI or the client: the composers above (``x
 ``xarm_emu.testing``) wire those."""
 
 __all__ = ["admin", "admin_port", "app", "clock", "command_port", "core", "disk", "fairness", "faults",
-           "fleet", "logs", "modbus_port", "report_ports", "studio", "thread", "trace", "workers"]
+           "fleet", "logs", "modbus_port", "report_ports", "report_sender", "studio", "thread", "trace",
+           "workers"]

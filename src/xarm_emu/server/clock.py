@@ -4,17 +4,14 @@
 - scaled time (``speed``): ``speed`` periods of controller time per period of wall
   time (10 runs ten times faster than the wall clock, 0.1 ten times slower);
 - stepped time: nothing advances unless the owner calls ``step()`` (tests, lockstep).
+
+Report frames keep wall time on their own schedule (:mod:`.report_sender`).
 """
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
-import heapq
 import math
-import time
 from dataclasses import dataclass
-from typing import Any
 
 
 @dataclass
@@ -51,67 +48,3 @@ class ScaledClock:
         """Wall time at which the next step falls due."""
         assert self._wall0 is not None
         return self._wall0 + (self._steps + 1) * self.period / self.speed
-
-
-class Ticker:
-    """Wakes coroutines at precise wall times (``time.perf_counter``) from a helper thread.
-
-    Event-loop timers have millisecond resolution (asyncio rounds epoll timeouts up, uvloop's libuv
-    timers truncate and fire early), which alone makes a 100 Hz report jitter by up to 1 ms. A thread
-    sleeping with ``time.sleep`` wakes within tens of microseconds and hands the wake-up to the loop.
-    """
-
-    def __init__(self) -> None:
-        import threading
-
-        self._cond = threading.Condition()
-        self._heap: list[tuple[float, int, Any]] = []
-        self._seq = 0
-        self._stop = False
-        self._thread = threading.Thread(target=self._run, name="xarm-emu-ticker", daemon=True)
-        self._thread.start()
-
-    def wait_until(self, deadline: float) -> asyncio.Future[None]:
-        """A future of the running loop that completes at ``deadline`` (perf_counter seconds)."""
-        loop = asyncio.get_running_loop()
-        fut: asyncio.Future[None] = loop.create_future()
-        with self._cond:
-            self._seq += 1
-            heapq.heappush(self._heap, (deadline, self._seq, (loop, fut)))
-            self._cond.notify()
-        return fut
-
-    def _run(self) -> None:
-        cond = self._cond
-        while True:
-            with cond:
-                while not self._stop and not self._heap:
-                    cond.wait()
-                if self._stop:
-                    return
-                deadline = self._heap[0][0]
-                delay = deadline - time.perf_counter()
-                if delay > 0.002:  # long waits on the condition (a new, earlier deadline wakes us)
-                    cond.wait(delay - 0.001)
-                    continue
-                if delay > 0:
-                    due = None
-                else:
-                    _, _, due = heapq.heappop(self._heap)
-            if due is None:
-                time.sleep(delay)  # short, precise sleep outside the lock
-                continue
-            loop, fut = due
-            with contextlib.suppress(RuntimeError):  # loop closed meanwhile
-                loop.call_soon_threadsafe(_resolve, fut)
-
-    def close(self) -> None:
-        with self._cond:
-            self._stop = True
-            self._cond.notify()
-        self._thread.join(2)
-
-
-def _resolve(fut: asyncio.Future[None]) -> None:
-    if not fut.done():
-        fut.set_result(None)

@@ -37,7 +37,7 @@ from ..protocol import reports
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.frame import COMMAND_PORT, encode_reply
 from .admin_port import AdminProtocol
-from .clock import ScaledClock, Ticker
+from .clock import ScaledClock
 from .command_port import PURE_READS, CommandProtocol, ReadCache
 from .disk import DiskWorker
 from .fairness import BurstLog, CommandScheduler, Limits
@@ -88,6 +88,9 @@ class ServerConfig:
         REALTIME_KIND: reports.REALTIME_RATE})
     #: Connection caps, the partial-frame timeout and the listen backlog (server/fairness.py).
     limits: Limits = field(default_factory=Limits)
+    #: Real-time (SCHED_FIFO) priority of the process's report sender thread, 1-99 (Linux, needs the
+    #: privilege); 0: normal scheduling (server/report_sender.py).
+    report_priority: int = 0
 
 
 class Attachment(Protocol):
@@ -196,7 +199,6 @@ class EmulatorServer:
         self._stopped = asyncio.Event()
         self._read_cache = ReadCache()
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._ticker: Ticker | None = None
         #: name -> factory of what the composer attached; started by start() (:meth:`attach`).
         self._attach: dict[str, Callable[[], Attachment]] = {}
         self.attachments: dict[str, Attachment] = {}
@@ -392,6 +394,9 @@ class EmulatorServer:
                                        **listen_args(cfg.host, cfg.port, backlog))
         self._servers.append(srv)
         self.ports["command"] = srv.sockets[0].getsockname()[1]
+        refused = self.reports.start(cfg.report_priority)  # the process's sender writes the frames
+        if refused:
+            log.warning("%s", refused)
         report_ports = (("normal", cfg.normal_port), ("rich", cfg.rich_port), ("develop", cfg.develop_port),
                         (REALTIME_KIND, cfg.realtime_port_number()))
         for kind, port in report_ports:
@@ -421,12 +426,9 @@ class EmulatorServer:
             self.attachments[name] = extra
             extra.start()
             self.ports[name] = extra.port
-        self._ticker = Ticker()
         self._loop = loop
         self.clock.start(loop.time())
         self._tasks.append(asyncio.create_task(self._control_loop()))
-        for kind in self.reports.kinds:
-            self._tasks.append(asyncio.create_task(self.reports.run(kind, self._ticker)))
 
     def catch_up(self) -> int:
         """Run the control periods that are due by now (real or scaled time).
@@ -635,9 +637,6 @@ class EmulatorServer:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await t
         self._tasks.clear()
-        if self._ticker is not None:
-            self._ticker.close()
-            self._ticker = None
         for s in self._servers:
             s.close()
         self.drop_clients(abort=True)
@@ -650,6 +649,7 @@ class EmulatorServer:
             for t in late:
                 t.cancel()
             await asyncio.gather(*late, return_exceptions=True)
+        self.reports.stop()
         for s in self._servers:
             with contextlib.suppress(Exception):
                 await s.wait_closed()

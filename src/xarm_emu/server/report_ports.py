@@ -1,10 +1,11 @@
 """The report ports (30001 normal 5 Hz, 30002 rich 5 Hz, 30003 develop 100 Hz), manual section 2.1.6,
 and for firmware >= 2.1.0 the real-time report (30000, 250 Hz).
 
-Each tick encodes one frame with the encoder of the box's firmware (``reports.encoders_for``: the
-manual's 87/145/433-byte frames for 1.x, 135/145/587 bytes for 2.x) and writes it to every client
-whose socket is keeping up; a slow reader skips frames instead of slowing anyone down. Clients never
-write on report ports; a connection is read only until EOF.
+Before each frame's deadline the server's loop encodes it with the encoder of the box's firmware
+(``reports.encoders_for``: the manual's 87/145/433-byte frames for 1.x, 135/145/587 bytes for 2.x);
+the process's report sender (:mod:`.report_sender`) writes it at the deadline to every client whose
+socket is keeping up; a slow reader skips frames instead of slowing anyone down. Clients never
+write on report ports; a connection is read here only until EOF.
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ import asyncio
 import contextlib
 import math
 import socket
-import time
 from collections.abc import Awaitable, Callable
 from typing import Any
 
@@ -22,18 +22,13 @@ from ..controller.reduced import reduced_of
 from ..model import rotations as rot
 from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
-from .clock import Ticker
+from . import report_sender
 from .command_port import set_nodelay
+from .report_sender import SendStream
 
-#: A report client whose unsent data (beyond the kernel's buffer) exceeds this many bytes skips frames.
-SLOW_READER_BYTES = 16 * 1024
 #: Kernel send buffer of a report socket. Small, so that a reader that stalls gets recent frames
 #: when it resumes instead of megabytes of old ones (about 4 s of develop frames).
 REPORT_SNDBUF = 32 * 1024
-
-#: A stream this many periods behind its schedule or less sends the due frames at once; further
-#: behind, it re-anchors and counts the frames it missed (``ReportStreams.frames_missed``).
-LATE_FRAMES = 10
 
 #: Report kind -> its standard port, the key of ``reports.ENCODERS`` (section 2.1.6).
 KIND_PORTS = {"normal": reports.NORMAL_PORT, "rich": reports.RICH_PORT, "develop": reports.DEVELOP_PORT}
@@ -86,7 +81,8 @@ def firmware2_fields(emu: Any, snap: reports.ReportSnapshot) -> reports.ReportSn
 
 
 class ReportStreams:
-    """The three report streams of one server: their clients, tick loops and counters.
+    """The report streams of one server: their clients and counters; the frames go out from the
+    process's report sender (:mod:`.report_sender`) on an absolute schedule.
 
     ``snapshot`` gives the state to report (after the server has caught up on due control periods);
     ``paused`` says whether an injected report pause is on.
@@ -101,18 +97,67 @@ class ReportStreams:
         self.kinds = kinds_for(profile)
         self.encoders = encoders_by_kind(profile)
         self.clients: dict[str, set[asyncio.StreamWriter]] = {k: set() for k in self.kinds}
-        #: Set while a stream has clients; its loop sleeps without waking up otherwise.
-        self._has_clients: dict[str, asyncio.Event] = {k: asyncio.Event() for k in self.kinds}
-        self.frames_sent: dict[str, int] = {k: 0 for k in self.kinds}
-        self.frames_skipped: dict[str, int] = {k: 0 for k in self.kinds}  # per slow client and frame
-        #: Due frames never sent because the stream fell more than LATE_FRAMES periods behind (the
-        #: process was suspended or starved of CPU); counted, not sent late.
-        self.frames_missed: dict[str, int] = {k: 0 for k in self.kinds}
-        # Set to a dict to record each report frame's send time (time.perf_counter(); benchmarks).
-        self.frame_times: dict[str, list[float]] | None = None
+        #: Report kind -> the stream the sender writes.
+        self.streams = {k: SendStream(k, 1.0 / rates[k], self._preparer(k)) for k in self.kinds}
         self.client_tasks: set[asyncio.Task[None]] = set()
         #: Whether a new client of a kind may stay (the server's per-port cap); ``None``: always.
         self.admit: Callable[[str], bool] | None = None
+        self._sender: report_sender.ReportSender | None = None
+        self._frame_times: dict[str, list[float]] | None = None
+
+    def _preparer(self, kind: str) -> Callable[[], bytes | None]:
+        encode = self.encoders[kind]
+
+        def prepare() -> bytes | None:
+            return None if self.paused() else encode(self.snapshot())
+
+        return prepare
+
+    # -- counters (written by the sender thread) -----------------------------------------------
+    @property
+    def frames_sent(self) -> dict[str, int]:
+        return {k: s.frames_sent for k, s in self.streams.items()}
+
+    @property
+    def frames_skipped(self) -> dict[str, int]:
+        """Frames not written to a slow reader, per reader and frame."""
+        return {k: s.frames_skipped for k, s in self.streams.items()}
+
+    @property
+    def frames_missed(self) -> dict[str, int]:
+        """Due frames never sent because the sender fell more than ``report_sender.LATE_FRAMES``
+        periods behind (the process was suspended or starved of CPU); counted, not sent late."""
+        return {k: s.frames_missed for k, s in self.streams.items()}
+
+    @property
+    def frames_stale(self) -> dict[str, int]:
+        """Frames sent on time with the previous state because the loop had not published (blocked)."""
+        return {k: s.frames_stale for k, s in self.streams.items()}
+
+    @property
+    def frame_times(self) -> dict[str, list[float]] | None:
+        """Set to a dict to record each report frame's send time (time.perf_counter(); benchmarks)."""
+        return self._frame_times
+
+    @frame_times.setter
+    def frame_times(self, value: dict[str, list[float]] | None) -> None:
+        self._frame_times = value
+        for kind, stream in self.streams.items():
+            stream.frame_times = None if value is None else value.setdefault(kind, [])
+
+    # -- lifetime ------------------------------------------------------------------------------
+    def start(self, priority: int = 0) -> str | None:
+        """Use the process's report sender (the first user starts it), at real-time ``priority``
+        when above 0; returns why that priority was refused, if it was."""
+        if self._sender is None:
+            self._sender = report_sender.acquire()
+        return self._sender.set_priority(priority)
+
+    def stop(self) -> None:
+        """Stop using the sender (after every client is gone; the last user stops it)."""
+        if self._sender is not None:
+            self._sender = None
+            report_sender.release()
 
     def on_client(self, kind: str) -> Callable[[asyncio.StreamReader, asyncio.StreamWriter], Awaitable[None]]:
         """The ``asyncio.start_server`` callback of the ``kind`` port."""
@@ -122,15 +167,24 @@ class ReportStreams:
                 return
             set_nodelay(writer)
             sock = writer.get_extra_info("socket")
-            if sock is not None:
-                with contextlib.suppress(OSError):
-                    sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, REPORT_SNDBUF)
+            sender = self._sender
+            if sock is None or sender is None:
+                writer.close()
+                return
+            with contextlib.suppress(OSError):
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, REPORT_SNDBUF)
+            try:
+                out = report_sender.Reader(sock)
+            except OSError:  # out of descriptors
+                writer.close()
+                return
             task = asyncio.current_task()
             if task is not None:
                 self.client_tasks.add(task)
                 task.add_done_callback(self.client_tasks.discard)
+            stream = self.streams[kind]
             self.clients[kind].add(writer)
-            self._has_clients[kind].set()
+            sender.add(stream, out, asyncio.get_running_loop())
             try:
                 while await reader.read(4096):
                     pass
@@ -138,50 +192,13 @@ class ReportStreams:
                 pass
             finally:
                 self.clients[kind].discard(writer)
+                with contextlib.suppress(OSError):
+                    out.sock.shutdown(socket.SHUT_RDWR)  # the connection ends now, not when the sender closes
+                sender.remove(stream, out)
                 with contextlib.suppress(Exception):
                     writer.close()
 
         return serve
-
-    async def run(self, kind: str, ticker: Ticker | None) -> None:
-        """Send the ``kind`` stream at its rate until cancelled."""
-        interval = 1.0 / self.rates[kind]
-        encode = self.encoders[kind]
-        clients = self.clients[kind]
-        next_t = time.perf_counter()
-        has_clients = self._has_clients[kind]
-        while True:
-            if not clients:
-                has_clients.clear()
-                await has_clients.wait()  # no reader: no wake-ups at all
-                next_t = time.perf_counter()
-            next_t += interval
-            now = time.perf_counter()
-            if next_t < now - LATE_FRAMES * interval:  # fell far behind (suspended process): re-anchor
-                missed = int((now - next_t) / interval)
-                self.frames_missed[kind] += missed
-                next_t = now + interval
-            # A tick that is late by fewer than LATE_FRAMES periods is sent at once: every due frame
-            # goes out, the late ones back to back.
-            if ticker is not None:
-                await ticker.wait_until(next_t)
-            else:
-                await asyncio.sleep(max(0.0, next_t - time.perf_counter()))
-            if not clients or self.paused():
-                continue
-            frame = encode(self.snapshot())
-            if self.frame_times is not None:
-                self.frame_times.setdefault(kind, []).append(time.perf_counter())
-            for w in tuple(clients):
-                transport = w.transport
-                if transport.is_closing():
-                    clients.discard(w)
-                    continue
-                if transport.get_write_buffer_size() > SLOW_READER_BYTES:
-                    self.frames_skipped[kind] += 1
-                    continue  # slow reader: skip whole frames, never block
-                transport.write(frame)
-            self.frames_sent[kind] += 1
 
     def transports(self) -> list[asyncio.BaseTransport]:
         """The transports of every report client."""

@@ -110,6 +110,7 @@ class WorkerPlan:
     limits: Limits = field(default_factory=Limits)
     logging: LogSettings = field(default_factory=LogSettings)
     uvloop: bool = False
+    report_priority: int = 0  # serve --report-priority: the worker's report sender
 
 
 @dataclass(frozen=True)
@@ -126,10 +127,10 @@ class ArmReady:
 
 
 def plans(specs: Sequence[ArmSpec], workers: int, config_dir: Path, limits: Limits,
-          logging_: LogSettings, uvloop: bool = False) -> list[WorkerPlan]:
+          logging_: LogSettings, uvloop: bool = False, report_priority: int = 0) -> list[WorkerPlan]:
     """The worker plans of a fleet's arms over ``workers`` processes (:func:`assign`)."""
     return [WorkerPlan(i, tuple(a + 1 for a in group), tuple(specs[a] for a in group), config_dir,
-                       limits, logging_, uvloop)
+                       limits, logging_, uvloop, report_priority)
             for i, group in enumerate(assign(len(specs), workers), start=1)]
 
 
@@ -183,7 +184,7 @@ def build_servers(plan: WorkerPlan) -> list[EmulatorServer]:
         store = getattr(emu, "_store", None)
         if store is not None:  # one running box per saved configuration
             store.lock()
-        cfg = replace(spec.server, limits=plan.limits)
+        cfg = replace(spec.server, limits=plan.limits, report_priority=plan.report_priority)
         srv = EmulatorServer(emu, cfg)
         schedule_file(srv, cfg.faults)
         servers.append(srv)

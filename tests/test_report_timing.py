@@ -1,0 +1,229 @@
+"""Report timing (manual 2.1.6): frames go out from one sender per process on an absolute schedule,
+whatever the event loop is doing; a reader that falls behind gets whole frames; the sender's
+sockets close with their connections and the sender stops with its last server."""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import struct
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+from helpers import wait_for
+
+from xarm_emu.protocol import reports
+from xarm_emu.server import report_sender
+from xarm_emu.server.app import ServerThread
+from xarm_emu.server.report_sender import LATE_FRAMES, Reader, next_deadline
+
+INTERVAL = 1.0 / reports.DEVELOP_RATE
+
+
+def _sender_threads() -> list[threading.Thread]:
+    return [t for t in threading.enumerate() if t.name == "xarm-emu-reports"]
+
+
+def _socket_count() -> int:
+    n = 0
+    for fd in os.listdir("/proc/self/fd"):
+        try:
+            n += os.readlink(f"/proc/self/fd/{fd}").startswith("socket:")
+        except OSError:
+            pass
+    return n
+
+
+def _arrivals(sock: socket.socket, seconds: float, size: int = 87) -> list[float]:
+    """Arrival time of each whole develop frame read for ``seconds``."""
+    out: list[float] = []
+    buf = b""
+    sock.settimeout(0.01)
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        try:
+            chunk = sock.recv(65536)
+        except TimeoutError:
+            continue
+        assert chunk, "report connection closed"
+        now = time.monotonic()
+        buf += chunk
+        while len(buf) >= size:
+            assert struct.unpack(">I", buf[:4])[0] == size
+            out.append(now)
+            buf = buf[size:]
+    return out
+
+
+def _drain(sock: socket.socket) -> bytes:
+    sock.settimeout(0.2)
+    got = b""
+    while True:
+        try:
+            chunk = sock.recv(65536)
+        except TimeoutError:
+            return got
+        got += chunk
+
+
+def test_the_schedule_is_absolute_late_frames_do_not_drift_it() -> None:
+    # a fake clock: each frame goes out late by a varying amount under one interval
+    anchor = 1000.0
+    deadline = anchor
+    for k in range(1, 10_001):
+        sent_at = deadline + (k % 7) * 0.13 * INTERVAL
+        deadline, missed = next_deadline(deadline, INTERVAL, sent_at)
+        assert missed == 0
+    assert deadline == pytest.approx(anchor + 10_000 * INTERVAL, abs=1e-9)  # no accumulated drift
+    # a few intervals behind (a CPU hiccup): the due frames still go out, at once
+    assert next_deadline(anchor, INTERVAL, anchor + 5 * INTERVAL) == (anchor + INTERVAL, 0)
+
+
+def test_far_behind_the_schedule_skips_ahead_on_the_same_grid_and_counts_the_missed() -> None:
+    anchor = 50.0
+    now = anchor + (LATE_FRAMES + 40.5) * INTERVAL  # the process was suspended
+    nxt, missed = next_deadline(anchor, INTERVAL, now)
+    assert now <= nxt < now + INTERVAL
+    k = (nxt - anchor) / INTERVAL
+    assert k == pytest.approx(round(k), abs=1e-6)  # still anchor + k * interval
+    assert missed == round(k) - 1 == LATE_FRAMES + 40
+
+
+def test_a_reader_that_falls_behind_gets_whole_frames_only() -> None:
+    with socket.create_server(("127.0.0.1", 0)) as listener:
+        b = socket.socket()
+        b.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        b.connect(listener.getsockname())
+        a, _ = listener.accept()
+    try:
+        a.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4096)
+        reader = Reader(a)
+        frames = [struct.pack(">I", 433) + bytes([k % 251]) * 429 for k in range(400)]
+        taken = [reader.offer(f) for f in frames]
+        assert not all(taken)  # the socket filled: frames were refused, not queued
+        assert len(reader.rest) < 433  # at most the rest of one frame is held
+        got = _drain(b)
+        assert reader.offer(frames[0])  # the reader caught up: the held rest goes first, then the frame
+        got += _drain(b)
+        sent = [f for f, ok in zip(frames, taken, strict=True) if ok]
+        assert got == b"".join(sent) + frames[0]  # in order, each complete
+    finally:
+        reader.sock.close()
+        a.close()
+        b.close()
+
+
+class _Budget(Reader):
+    """A reader whose kernel takes ``budget`` bytes, then nothing until more is granted."""
+
+    def __init__(self, sock: socket.socket) -> None:
+        super().__init__(sock)
+        self.budget = 0
+        self.wire = b""
+
+    def _send(self, data: bytes) -> int:
+        n = min(self.budget, len(data))
+        self.budget -= n
+        self.wire += data[:n]
+        return n
+
+
+def test_a_frame_partly_taken_is_finished_before_the_next_and_the_frames_between_are_skipped() -> None:
+    a, b = socket.socketpair()
+    reader = _Budget(a)
+    try:
+        f1, f2, f3, f4 = (struct.pack(">I", 87) + bytes([k]) * 83 for k in range(4))
+        reader.budget = 87 + 30
+        assert reader.offer(f1) and reader.offer(f2)  # f2 only partly taken
+        assert reader.rest == f2[30:]
+        assert not reader.offer(f3)  # nothing more taken: f3 skipped, the rest still held
+        reader.budget = 57
+        assert not reader.offer(f3)  # the rest of f2 goes out, no room for f3: skipped
+        assert reader.wire == f1 + f2
+        reader.budget = 1000
+        assert reader.offer(f4) and not reader.rest
+        assert reader.wire == f1 + f2 + f4  # whole frames only, in order
+    finally:
+        reader.sock.close()
+        a.close()
+        b.close()
+
+
+def test_frames_keep_their_schedule_while_the_event_loop_is_blocked(make_server) -> None:  # type: ignore[no-untyped-def]
+    srv: ServerThread = make_server()
+    with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
+        _arrivals(dev, 0.3)  # the stream runs
+        blocker = threading.Thread(target=srv.call, args=(lambda: time.sleep(0.4),))
+        t0 = time.monotonic()
+        blocker.start()  # a handler that holds the loop for 400 ms
+        got = _arrivals(dev, 0.4)
+        blocker.join()
+        stale = srv.call(lambda: srv.server.reports.frames_stale["develop"])
+    during = [t for t in got if t - t0 < 0.38]
+    gaps = [b - a for a, b in zip(during, during[1:], strict=False)]
+    # 40 frames are due while the loop sleeps; on the loop they would all wait for it
+    assert len(during) >= 15, len(during)
+    assert max(gaps) < 0.15, max(gaps)
+    assert stale >= 10  # sent on time with the last state the loop published
+
+
+def test_one_sender_serves_every_server_of_the_process_and_stops_with_the_last(make_server) -> None:  # type: ignore[no-untyped-def]
+    if report_sender._shared is not None:  # another test's server still running in this process
+        pytest.skip("a report sender is already running")
+    sockets0 = _socket_count()
+    first: ServerThread = make_server()
+    second: ServerThread = make_server(7)
+    assert len(_sender_threads()) == 1
+    with socket.create_connection(("127.0.0.1", first.ports["develop"]), timeout=2) as a, \
+            socket.create_connection(("127.0.0.1", second.ports["develop"]), timeout=2) as b:
+        got_a = _arrivals(a, 0.5)
+        got_b = _arrivals(b, 0.01)
+        got_b += _arrivals(b, 0.5)
+    assert len(got_a) >= 40 and len(got_b) >= 40
+    # the readers are gone: the sender drops them and closes its duplicates of their sockets
+    assert wait_for(lambda: not first.server.reports.streams["develop"].readers
+                    and not second.server.reports.streams["develop"].readers)
+    first.stop()
+    assert len(_sender_threads()) == 1  # still serving the second
+    second.stop()
+    assert wait_for(lambda: not _sender_threads(), 3.0)
+    assert wait_for(lambda: _socket_count() <= sockets0, 3.0)
+
+
+def test_a_stream_without_readers_sends_nothing_and_restarts_on_its_schedule(make_server) -> None:  # type: ignore[no-untyped-def]
+    srv: ServerThread = make_server()
+    stream = srv.server.reports.streams["develop"]
+    time.sleep(0.1)
+    assert srv.call(lambda: srv.server.frames_sent["develop"]) == 0
+    with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
+        got = _arrivals(dev, 1.0)
+    assert 95 <= len(got) <= 101
+    assert wait_for(lambda: not stream.scheduled)  # the last reader gone: no more wake-ups
+    sent = srv.call(lambda: srv.server.frames_sent["develop"])
+    time.sleep(0.1)
+    assert srv.call(lambda: srv.server.frames_sent["develop"]) == sent
+
+
+def _fifo_allowed() -> bool:
+    code = "import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(3))"
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=30).returncode == 0
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_getscheduler"), reason="Linux scheduling")
+def test_report_priority_runs_the_sender_at_real_time_priority_or_says_why_not(
+        make_server, caplog: pytest.LogCaptureFixture) -> None:  # type: ignore[no-untyped-def]
+    with caplog.at_level(logging.WARNING, "xarm_emu.server"):
+        srv: ServerThread = make_server(report_priority=3)
+    (sender,) = _sender_threads()
+    assert sender.native_id is not None
+    if _fifo_allowed():
+        assert os.sched_getscheduler(sender.native_id) == os.SCHED_FIFO
+        assert os.sched_getparam(sender.native_id).sched_priority >= 3
+    else:
+        assert any("real-time priority 3" in r.getMessage() for r in caplog.records)
+    with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
+        assert len(_arrivals(dev, 0.5)) >= 40
