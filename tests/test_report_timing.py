@@ -227,3 +227,20 @@ def test_report_priority_runs_the_sender_at_real_time_priority_or_says_why_not(
         assert any("real-time priority 3" in r.getMessage() for r in caplog.records)
     with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
         assert len(_arrivals(dev, 0.5)) >= 40
+
+
+def test_a_closing_server_prepares_no_more_frames(make_server) -> None:  # type: ignore[no-untyped-def]
+    """Closing starts by quiescing the report streams: from then on the sender gets no new frame
+    from this server, so in a worker with many arms the frames of arms still closing do not keep
+    the event loop busy (before, 50 arms with readers that never read took over 10 s to stop)."""
+    srv: ServerThread = make_server()
+    sock = socket.create_connection(("127.0.0.1", srv.ports["develop"]))
+    try:
+        assert wait_for(lambda: srv.server.reports.frames_sent["develop"] >= 10)
+        srv.call(srv.server.reports.quiesce)
+        time.sleep(0.05)  # a frame already prepared may still go out
+        before = srv.server.reports.frames_sent["develop"]
+        time.sleep(0.3)  # 30 deadlines of the 100 Hz develop report
+        assert srv.server.reports.frames_sent["develop"] == before
+    finally:
+        sock.close()

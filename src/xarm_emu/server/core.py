@@ -628,6 +628,7 @@ class EmulatorServer:
         return asyncio.get_running_loop().time() < self._report_pause_until
 
     async def close(self) -> None:
+        self.reports.quiesce()  # first, before any await: every arm of a worker stops encoding at once
         for extra in self.attachments.values():
             extra.stop()
         self.attachments.clear()

@@ -104,12 +104,13 @@ class ReportStreams:
         self.admit: Callable[[str], bool] | None = None
         self._sender: report_sender.ReportSender | None = None
         self._frame_times: dict[str, list[float]] | None = None
+        self._closing = False
 
     def _preparer(self, kind: str) -> Callable[[], bytes | None]:
         encode = self.encoders[kind]
 
         def prepare() -> bytes | None:
-            return None if self.paused() else encode(self.snapshot())
+            return None if self._closing or self.paused() else encode(self.snapshot())
 
         return prepare
 
@@ -152,6 +153,12 @@ class ReportStreams:
         if self._sender is None:
             self._sender = report_sender.acquire()
         return self._sender.set_priority(priority)
+
+    def quiesce(self) -> None:
+        """Prepare no more frames (the server is closing): with many arms in one process, the
+        frames of those still closing would otherwise keep the event loop busy and delay every
+        close behind them."""
+        self._closing = True
 
     def stop(self) -> None:
         """Stop using the sender (after every client is gone; the last user stops it)."""
