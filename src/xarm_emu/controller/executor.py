@@ -150,10 +150,11 @@ class _CartesianPlan(_Plan):
         target = self.to_flange(pose)
         sol = None
         h = self._hist
-        if h is not None and seed is h[3] and h[2] > h[0]:
+        if h is not None and seed is h[3] and h[2] > h[0] and not self.model.fixed_roll_pitch:
             # The previous period's answer is the seed: start from the first-order extrapolation of the
             # last two answers along the path time, which converges in fewer iterations to the same
-            # tolerance; the plain seed still decides when that start does not converge.
+            # tolerance; the plain seed still decides when that start does not converge. (The xArm5's
+            # closed form needs no start and picks the branch nearest the previous joints.)
             r = min((t - h[2]) / (h[2] - h[0]), _EXTRAPOLATE_MAX)
             sol = kin.ik(self.model, target, seed + (seed - h[1]) * r, limited=False)
         if sol is None:
