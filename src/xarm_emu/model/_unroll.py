@@ -2,7 +2,7 @@
 
 A tiny symbolic emitter writes each model's chain as straight-line Python, with zero offsets and the exact
 +/-pi/2 origin rotations (frames of ``robots.py``) folded away, and compiles it once: forward kinematics,
-the geometric Jacobian, and one damped least-squares (Levenberg-Marquardt) step with an unrolled Cholesky
+the geometric Jacobian, and the damped least-squares (Levenberg-Marquardt) loop with an unrolled Cholesky
 solve. Pure code generation: which tolerances and caches apply is the caller's (``kinematics``).
 """
 
