@@ -37,6 +37,9 @@ _SMOOTHSTEP_PEAK = 1.5
 #: A Cartesian step may exceed the joint speed limit by this factor before C24 (sampling slack).
 SPEED_TOLERANCE = 1.05
 
+#: Largest ratio of path-time steps over which a Cartesian plan extrapolates its IK seed.
+_EXTRAPOLATE_MAX = 2.0
+
 
 def keep_unchanged_joints(target: np.ndarray, q: np.ndarray) -> np.ndarray:
     """A joint target with its +inf values (firmware >= 2.4.101: "unchanged", register 23) taken from
@@ -128,6 +131,8 @@ class _CartesianPlan(_Plan):
         #: For a line (chain) whose last move has a blend radius: (its target, the radius, the first
         #: command of the chain), so that a linear move arriving later can still be blended into.
         self.blend_into = blend_into
+        #: The last two solutions and their path times, for the extrapolated seed of :meth:`joints`.
+        self._hist: tuple[float, np.ndarray, float, np.ndarray] | None = None
 
     def last_run(self, t: float) -> tuple[motion.CartesianMove, float] | None:
         """The final run of the plan and the time within it, if ``t`` lies in that run."""
@@ -142,7 +147,21 @@ class _CartesianPlan(_Plan):
     def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
         pose, speed = self.move.at(t)
         self.tcp_speed = speed
-        return kin.ik(self.model, self.to_flange(pose), seed, limited=False)
+        target = self.to_flange(pose)
+        sol = None
+        h = self._hist
+        if h is not None and seed is h[3] and h[2] > h[0] and not self.model.fixed_roll_pitch:
+            # The previous period's answer is the seed: start from the first-order extrapolation of the
+            # last two answers along the path time, which converges in fewer iterations to the same
+            # tolerance; the plain seed still decides when that start does not converge. (The xArm5's
+            # closed form needs no start and picks the branch nearest the previous joints.)
+            r = min((t - h[2]) / (h[2] - h[0]), _EXTRAPOLATE_MAX)
+            sol = kin.ik(self.model, target, seed + (seed - h[1]) * r, limited=False)
+        if sol is None:
+            sol = kin.ik(self.model, target, seed, limited=False)
+        self._hist = None if sol is None else (
+            (h[2], h[3], t, sol) if h is not None and seed is h[3] else (t - 1.0, sol, t, sol))
+        return sol
 
     def stop_time(self, t: float, limits: Limits) -> float:
         return self.tcp_speed / limits.tcp_maxacc

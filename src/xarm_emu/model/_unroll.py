@@ -2,7 +2,7 @@
 
 A tiny symbolic emitter writes each model's chain as straight-line Python, with zero offsets and the exact
 +/-pi/2 origin rotations (frames of ``robots.py``) folded away, and compiles it once: forward kinematics,
-the geometric Jacobian, and one damped least-squares (Levenberg-Marquardt) step with an unrolled Cholesky
+the geometric Jacobian, and the damped least-squares (Levenberg-Marquardt) loop with an unrolled Cholesky
 solve. Pure code generation: which tolerances and caches apply is the caller's (``kinematics``).
 """
 
@@ -131,14 +131,18 @@ def _jac_rows(g: _Gen, axes: Axes, p: list[Sym]) -> list[list[Sym]]:
 
 
 def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], axes: Axes, n: int) -> list[Sym]:
-    """Emit one damped least-squares step (error, J J^T + lambda I, unrolled Cholesky, J^T x)."""
+    """Emit the body of one damped least-squares iteration (error and its convergence test, J J^T +
+    lambda I, unrolled Cholesky, J^T x, the capped and clamped step into q)."""
     E = [[g.assign(g.dot([f"T{3 * a + k}" for k in range(3)], R[b])) for b in range(3)] for a in range(3)]
     entries = ", ".join(str(E[a][b]) for a in range(3) for b in range(3))
     g.lines.append(f"    wx, wy, wz = _rotvec({entries})")
     g.lines.append(f"    px = tx - {p[0]}; py = ty - {p[1]}; pz = tz - {p[2]}")
     g.lines.append("    pe = px*px + py*py + pz*pz; re = wx*wx + wy*wy + wz*wz")
-    g.lines.append("    if pe <= PTOL2 and re <= RTOL2: return (pe, re)")
-    g.lines.append("    lam = mu*(pe + re) + 1e-12")
+    qs = "".join(f"q{i}, " for i in range(n))
+    g.lines.append(f"    if pe <= PTOL2 and re <= RTOL2: return (it + 1, {qs})")
+    g.lines.append("    err2 = pe + re; lam = mu*err2 + 1e-12")
+    g.lines.append("    if err2 > prev: mu *= 10.0  # diverging: damp the next step harder")
+    g.lines.append("    prev = err2")
     J = _jac_rows(g, axes, p)  # only needed when not converged
     e = ["px", "py", "pz", "wx", "wy", "wz"]
     A = [[g.assign(g.add(g.dot(J[a], J[b]), *(["lam"] if a == b else []))) for b in range(a + 1)]
@@ -169,6 +173,7 @@ def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], axes: Axes, n: int) -> l
         g.lines.append(f"    n{i} = q{i} + {d}*k")
         g.lines.append(f"    n{i} = LO[{i}] if n{i} < LO[{i}] else (HI[{i}] if n{i} > HI[{i}] else n{i})")
         out.append(f"n{i}")
+    g.lines.append("    " + "; ".join(f"q{i} = n{i}" for i in range(n)))
     return out
 
 
@@ -177,9 +182,11 @@ def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step:
     """Unrolled code of ``model`` as a Python function; mode is "fk", "jac" or "lm".
 
     fk: (R row-major 9, p 3) in mm.  jac: the same plus the 6 x dof Jacobian row-major.
-    lm: args (q..., T0..T8, tx, ty, tz, mu) in metres; returns (|dp|^2, |dtheta|^2) when converged,
-    else (|dp|^2, |dtheta|^2, next q...) after one capped, limit-clamped step. ``ptol2`` and ``rtol2``
-    are the squared convergence tolerances (m^2, rad^2), ``max_step`` the step cap (rad).
+    lm: args (q..., T0..T8, tx, ty, tz, mu, max_iter) in metres; the whole damped least-squares loop,
+    at most ``max_iter`` iterations of one capped, limit-clamped step, with lambda = mu |e|^2 + 1e-12 and
+    mu raised tenfold whenever the error grows. Returns (iterations, q...) once converged, else
+    (max_iter,). ``ptol2`` and ``rtol2`` are the squared convergence tolerances (m^2, rad^2),
+    ``max_step`` the step cap (rad).
     """
     g = _Gen()
     args = [f"q{i}" for i in range(model.dof)]
@@ -189,12 +196,16 @@ def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step:
     if mode == "jac":
         out += [e for row in _jac_rows(g, axes, p) for e in row]
     elif mode == "lm":
-        args += [f"T{k}" for k in range(9)] + ["tx", "ty", "tz", "mu"]
-        out = ["pe", "re", *_lm_code(g, R, p, axes, model.dof)]
-    src = f"def _chain({', '.join(args)}):\n" + "\n".join(g.lines)
-    src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
+        args += [f"T{k}" for k in range(9)] + ["tx", "ty", "tz", "mu", "max_iter"]
+        _lm_code(g, R, p, axes, model.dof)
+        body = "\n".join("    " + line for line in g.lines)
+        src = (f"def _chain({', '.join(args)}):\n    prev = INF\n    for it in range(max_iter):\n{body}\n"
+               "    return (max_iter,)\n")
+    if mode != "lm":
+        src = f"def _chain({', '.join(args)}):\n" + "\n".join(g.lines)
+        src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
     namespace: dict[str, object] = {
-        "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "_rotvec": _rotvec,
+        "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "_rotvec": _rotvec, "INF": math.inf,
         "PTOL2": ptol2, "RTOL2": rtol2, "MAX_STEP": max_step,
         "LO": tuple(j.lower for j in model.joints), "HI": tuple(j.upper for j in model.joints),
     }

@@ -27,6 +27,7 @@ in coordinate system {A}": offset (1000, 0, 0, 0, 0, 180 deg) turns (207, 0, 112
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -44,6 +45,7 @@ LM_MU = 0.1
 MAX_STEP = 0.5  # rad
 
 _CACHE: dict[int, tuple[RobotModel, dict[str, Callable[..., tuple[float, ...]]]]] = {}
+_LIMITS: dict[int, tuple[RobotModel, tuple[float, ...], tuple[float, ...]]] = {}
 
 
 def _chain_fn(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
@@ -53,6 +55,16 @@ def _chain_fn(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
         fns = {m: generate(model, m, ptol2, rtol2, MAX_STEP) for m in ("fk", "jac", "lm")}
         entry = _CACHE[id(model)] = (model, fns)
     return entry[1][mode]
+
+
+def _limits(model: RobotModel) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Lower and upper joint limits of ``model`` as tuples of floats (cached per model object)."""
+    entry = _LIMITS.get(id(model))
+    if entry is None or entry[0] is not model:
+        lo = tuple(float(j.lower) for j in model.joints)
+        hi = tuple(float(j.upper) for j in model.joints)
+        entry = _LIMITS[id(model)] = (model, lo, hi)
+    return entry[1], entry[2]
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -93,7 +105,8 @@ def within_limits(model: RobotModel, q: Sequence[float] | np.ndarray) -> bool:
         qs = joint_values(model, q)
     except (ValueError, TypeError):
         return False
-    return all(j.lower <= v <= j.upper for j, v in zip(model.joints, qs, strict=True))
+    lo, hi = _limits(model)
+    return all(map(operator.le, lo, qs)) and all(map(operator.le, qs, hi))
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -107,29 +120,26 @@ def _lm(model: RobotModel, target: list[list[float]], seed: list[float]) -> list
     tenfold whenever the error grows; a step is capped at MAX_STEP rad on any joint and every iterate is
     clamped into the joint limits (a limit-violating solution would be rejected anyway).
     """
-    step_fn = _chain_fn(model, "lm")
+    solve_fn = _chain_fn(model, "lm")
     t = [*target[0][:3], *target[1][:3], *target[2][:3]]
     tp = (target[0][3] * 1e-3, target[1][3] * 1e-3, target[2][3] * 1e-3)
-    q = tuple(min(max(v, j.lower), j.upper) for v, j in zip(seed, model.joints, strict=True))
-    mu = LM_MU
-    prev = math.inf
-    for _ in range(MAX_ITER):
-        try:
-            r = step_fn(*q, *t, *tp, mu)
-        except ValueError:  # Cholesky of a matrix that is not positive definite (degenerate input)
-            return None
-        if len(r) == 2:
-            return list(q)
-        err2 = r[0] + r[1]
-        if err2 > prev:  # diverging: damp harder
-            mu *= 10.0
-        prev = err2
-        q = r[2:]
-    return None
+    lo, hi = _limits(model)
+    if len(seed) != len(lo):
+        raise ValueError(f"{model.name} needs {len(lo)} joint values, got {len(seed)}")
+    q = map(min, map(max, seed, lo), hi)  # max(v, lower), then min(., upper), per joint
+    try:
+        r = solve_fn(*q, *t, *tp, LM_MU, MAX_ITER)  # the whole loop, unrolled per model (._unroll)
+    except ValueError:  # Cholesky of a matrix that is not positive definite (degenerate input)
+        return None
+    return list(r[1:]) if len(r) > 1 else None
 
 
 def _fit_limits(model: RobotModel, q: list[float], limited: bool) -> np.ndarray | None:
     """Wrap into [-pi, pi] where the limits allow (limited), else shift by 2 pi into the limits."""
+    if not limited:
+        lo, hi = _limits(model)
+        if all(map(operator.le, lo, q)) and all(map(operator.le, q, hi)):
+            return np.array(q)  # every joint already inside its limits (the usual case)
     out = []
     two_pi = 2.0 * math.pi
     for j, v in zip(model.joints, q, strict=True):
