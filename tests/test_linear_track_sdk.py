@@ -72,8 +72,9 @@ def test_speed_and_position_with_wait(make_server, sdk_arm, tmp_path: Path) -> N
     assert track_of(st, "speed_value") == (6667,)
     code, status = arm.get_linear_motor_status()
     assert code == 0 and status & 1 == 1
-    assert wait_for(lambda: arm.get_linear_motor_pos() == (0, 600))
-    assert arm.get_linear_motor_status() == (0, 0)
+    # the position reads whole millimetres, so it shows 600 a moment before the carriage rests
+    assert wait_for(lambda: arm.get_linear_motor_status() == (0, 0))
+    assert arm.get_linear_motor_pos() == (0, 600)
 
 
 def test_stop_enable_and_register_reads(make_server, sdk_arm, tmp_path: Path) -> None:
