@@ -145,6 +145,23 @@ def window_seconds(frames: list, i0: int, i1: int) -> float:
     return end - start
 
 
+def assert_brackets(frames: list, stamped: list, window: tuple[int, int],
+                    times: tuple[float, float]) -> None:
+    """Each received frame of ``window`` (indices) carries a snapshot taken at or after the
+    controller time in ``times``, and the frame before it one taken before: the received frames
+    bracket the controller's motion window. A frame's controller time is that of the first logged
+    snapshot whose joints, as float32 on the wire, are the frame's."""
+    def ctl_time(f: tuple) -> float:
+        values = np.array(f[1], dtype=np.float32)
+        for s in stamped:
+            if np.array_equal(np.array(s[1], dtype=np.float32), values):
+                return float(s[0])
+        raise AssertionError(f"a frame no snapshot matches: {f}")
+
+    for index, t in zip(window, times, strict=True):
+        assert ctl_time(frames[index - 1]) < t <= ctl_time(frames[index]) + 1e-9, (index, t)
+
+
 def joints_deg(st: ServerThread) -> list[float]:
     return st.call(lambda: [math.degrees(x) for x in st.emulator.joints])
 
@@ -182,11 +199,12 @@ def test_joint_move_wait_true_on_target_with_ideal_duration(make_server, sdk_arm
     assert final == pytest.approx(tgt, abs=1e-6)
     i0, i1 = motion_window(stamped, np.zeros(6), final, 1, 1e-12, 1e-12)
     measured = window_seconds(stamped, i0, i1)  # controller seconds
-    # the same window counted in the frames received (100 a wall second, each wall second `speed`
-    # controller seconds), to three frames; counted, not timed on arrival, so a late reading thread
-    # does not count
+    # the frames received show the same window: the first that left the start and the first on the
+    # target carry snapshots taken after the controller's start and end, the one before each, before
+    # (on the controller's clock: a late reading thread or a late report tick changes nothing)
     w0, w1 = motion_window(frames, np.zeros(6), tgt, 1, 1e-5)
-    assert (w1 - w0) / 100 * speed == pytest.approx(measured, abs=3 * speed / 100)
+    s0, s1 = motion_window(stamped, np.zeros(6), tgt, 1, 1e-5)  # as the frames are read
+    assert_brackets(frames, stamped, (w0, w1), (stamped[s0][0], stamped[s1][0]))
     jerk = st.call(lambda: st.emulator.snapshot().joint_jerk)
     ideal = ideal_duration([0.0] * 6, list(tgt), math.radians(v_deg), math.radians(a_deg), jerk)
     assert ideal > 0.5
@@ -243,7 +261,8 @@ def test_linear_move_is_straight_on_target_with_ideal_duration(make_server, sdk_
     assert i1 - i0 > 50  # sampled at 100 Hz over the move
     j0, j1 = motion_window(stamped, p0, np.array(stamped[-1][2][:3]), 2, 1e-9, 1e-9)
     measured = window_seconds(stamped, j0, j1)  # controller seconds (speed 1: also about wall seconds)
-    assert (i1 - i0) / 100 == pytest.approx(measured, abs=0.03)  # frames counted at 100 Hz
+    s0, s1 = motion_window(stamped, p0, p1, 2, 0.01)  # as the frames are read
+    assert_brackets(frames, stamped, (i0, i1), (stamped[s0][0], stamped[s1][0]))
     tcp_jerk = st.call(lambda: st.emulator.snapshot().tcp_jerk)
     ideal = ideal_duration([0.0], [float(np.linalg.norm(p1 - p0))], v, a, tcp_jerk)
     assert abs(measured - ideal) / ideal < 0.05, (measured, ideal)

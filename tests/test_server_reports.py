@@ -102,7 +102,10 @@ def test_report_fields_follow_the_controller(srv: ServerThread) -> None:
     # the develop report has no error byte; the rich one does (bytes 89/90 of the common prefix)
     srv.call(lambda: srv.emulator.inject_error(31))
     with socket.create_connection(("127.0.0.1", srv.ports["rich"]), timeout=2) as rich:
-        snap = reports.decode_rich(read_frames(rich, 0.25)[-1][1])
+        got = read_frames(rich, 0.25)
+        while not got:  # 5 Hz; a loaded machine may send the first one later
+            got = read_frames(rich, 0.25)
+        snap = reports.decode_rich(got[-1][1])
     assert (snap.error, snap.state) == (31, 4)
     assert snap.joints[:6] == pytest.approx(target[:6], abs=1e-6)
 
@@ -117,11 +120,26 @@ def _latencies(c: Client, n: int = 200) -> list[float]:
     return out
 
 
+def _gaps(times: list[float]) -> list[float]:
+    return [b - a for a, b in zip(times, times[1:], strict=False)]
+
+
+def _develop_send_times(srv: ServerThread, fast: socket.socket) -> tuple[list[float], int]:
+    """Send times (taken in the server) of the develop frames of one second while ``fast`` reads
+    them, and the number of frames ``fast`` received meanwhile."""
+    read_frames(fast, 0.05)  # what was sent before the window
+    srv.call(lambda: setattr(srv.server, "frame_times", {}))
+    frames = read_frames(fast, 1.0)
+    sent = srv.call(lambda: list(srv.server.frame_times.get("develop", [])))
+    srv.call(lambda: setattr(srv.server, "frame_times", None))
+    return sent, len(frames)
+
+
 def test_slow_reader_does_not_slow_others(make_server) -> None:
     """Report readers that never read are skipped whole frames at a time; meanwhile the develop
-    stream goes out on its schedule (send times taken in the server, so the reading thread's
-    scheduling does not count), its reader gets every frame, and the command port answers as fast
-    as before they came (median round trip against one measured in the same test)."""
+    stream goes out as it did before they came (send times taken in the server, so the reading
+    thread's scheduling does not count), its reader gets every frame, and the command port answers
+    as fast as before (median round trip); each baseline is measured in the same test."""
     # rich frames at 500 Hz fill a reader's socket buffers within a second
     srv = make_server(report_rates={"develop": 100.0, "normal": 5.0, "rich": 500.0})
     slow = [socket.socket() for _ in range(3)]
@@ -129,6 +147,7 @@ def test_slow_reader_does_not_slow_others(make_server) -> None:
         with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as fast, \
                 Client("127.0.0.1", srv.ports["command"]) as c:
             before = statistics.median(_latencies(c))
+            base = _develop_send_times(srv, fast)  # the same measure before the slow readers come
             for s in slow:
                 s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
                 s.connect(("127.0.0.1", srv.ports["rich"]))  # never reads
@@ -136,17 +155,16 @@ def test_slow_reader_does_not_slow_others(make_server) -> None:
             while srv.call(lambda: srv.server.frames_skipped["rich"]) < 3 * 20:
                 read_frames(fast, 0.1)
                 assert time.monotonic() < deadline, "slow readers never fell behind"
-            read_frames(fast, 0.05)  # what was sent before the window
-            srv.call(lambda: setattr(srv.server, "frame_times", {}))
             skipped0 = srv.call(lambda: srv.server.frames_skipped["rich"])
-            frames = read_frames(fast, 1.0)  # while the slow readers are being skipped
-            sent = srv.call(lambda: list(srv.server.frame_times["develop"]))
-            srv.call(lambda: setattr(srv.server, "frame_times", None))
+            sent, frames = _develop_send_times(srv, fast)
             assert srv.call(lambda: srv.server.frames_skipped["rich"]) > skipped0
-            assert len(sent) >= 90  # 100 Hz
-            gaps = [b - a for a, b in zip(sent, sent[1:], strict=False)]
-            assert max(gaps) < 0.1
-            assert len(frames) >= len(sent) - 3  # every frame sent reached the fast reader
+            # 100 Hz as before they came (to 40 %: a loaded 2-core machine varies that much from one
+            # second to the next), and at least half of it; no pause of half a second (a stream a
+            # slow reader held would stop for good; a loaded machine delays the server's thread by
+            # up to about 0.15 s)
+            assert len(sent) >= max(50, 0.6 * len(base[0])), (len(sent), len(base[0]))
+            assert max(_gaps(sent)) < 0.5
+            assert frames >= len(sent) - 3  # every frame sent reached the fast reader
             during = statistics.median(_latencies(c))
             assert during < 2 * before + 0.001, (before, during)
         # what a slow reader got is whole frames: it reads on from a frame boundary
