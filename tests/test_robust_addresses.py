@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import accepts, free_ports, port_args, serve_subprocess, wait_for
+from helpers import accepts, port_args, serve_ports, serve_subprocess, wait_for
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import encode_request
@@ -69,9 +69,9 @@ def test_ten_develop_readers_each_get_every_due_frame(tmp_path: Path) -> None:
     the ten readers get the same frames and 90 % of those due (a machine shared with other jobs);
     the ten-minute soak of `make stress` asserts 99.9 % of those due."""
     seconds = SOAK_SECONDS
-    ports = free_ports(4)
+    ports, last = serve_ports()
     with serve_subprocess(tmp_path, *port_args(*ports)):
-        assert wait_for(lambda: accepts(ports[3]), 15.0)
+        assert wait_for(lambda: accepts(last), 15.0)
         got = [0] * 10
         start = threading.Barrier(10)
         readers = [threading.Thread(target=_count_frames, args=(ports[3], seconds, got, i, start))

@@ -16,10 +16,10 @@ import pytest
 from helpers import (
     accepts,
     connect,
-    free_ports,
     port_args,
     recv_exact,
     report_frames_in,
+    serve_ports,
     serve_subprocess,
     wait_for,
 )
@@ -71,9 +71,9 @@ def _rss_mb(pid: int) -> float:
 @pytest.fixture
 def served(tmp_path: Path) -> Iterator[tuple[int, dict[str, int]]]:
     """`xarm-emu serve` in a child process (its own interpreter, as users run it): (pid, ports)."""
-    cmd, normal, rich, develop = free_ports(4)
+    (cmd, normal, rich, develop), last = serve_ports()
     with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop)) as proc:
-        assert wait_for(lambda: accepts(develop), 15.0)
+        assert wait_for(lambda: accepts(last), 15.0)
         yield proc.pid, {"command": cmd, "develop": develop}
 
 

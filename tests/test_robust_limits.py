@@ -22,7 +22,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from helpers import accepts, connect, free_ports, port_args, recv_exact, wait_for
+from helpers import accepts, connect, port_args, recv_exact, serve_ports, wait_for
 
 from xarm_emu.controller.config import ConfigLocked, ConfigStore
 from xarm_emu.controller.emulator import Emulator
@@ -128,7 +128,7 @@ def test_2000_connects_under_a_1024_file_limit_lock_nobody_out(tmp_path: Path) -
     if soft != resource.RLIM_INFINITY and soft < 2300:
         resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, 4096) if hard != resource.RLIM_INFINITY
                                                     else 4096, hard))
-    ports = free_ports(4)
+    ports, last = serve_ports()
     log_path = tmp_path / "serve.log"
     with open(log_path, "w") as log_file:
         proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
@@ -136,7 +136,7 @@ def test_2000_connects_under_a_1024_file_limit_lock_nobody_out(tmp_path: Path) -
                                 stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files,
                                 env={**os.environ, "COLUMNS": "500"})
     try:
-        assert wait_for(lambda: accepts(ports[3]), 15.0)
+        assert wait_for(lambda: accepts(last), 15.0)
         with contextlib.ExitStack() as stack:
             first = stack.enter_context(connect(ports[0]))
             assert _get_state(first) == 1
@@ -186,11 +186,11 @@ def test_two_boxes_with_the_same_serial_number_never_share_a_saved_configuration
 
 
 def test_a_second_serve_of_the_same_model_and_directory_refuses_to_start(tmp_path: Path) -> None:
-    a, b = free_ports(4), free_ports(4)
+    (a, a_last), (b, _) = serve_ports(), serve_ports()
     cmd = [sys.executable, "-m", "xarm_emu.cli", "serve", "--config-dir", str(tmp_path)]
     first = subprocess.Popen([*cmd, *port_args(*a)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        assert wait_for(lambda: accepts(a[3]), 15.0)
+        assert wait_for(lambda: accepts(a_last), 15.0)
         second = subprocess.run([*cmd, *port_args(*b)], capture_output=True, text=True, timeout=30,
                                 env={**os.environ, "COLUMNS": "500"})
         assert second.returncode == 2
@@ -211,7 +211,7 @@ def test_out_of_file_descriptors_new_clients_are_refused_at_once_and_served_once
     """A cap above what the open-file limit allows: the process runs out of descriptors. A client
     already connected keeps working, new ones are closed at once (none left waiting in the accept
     queue), nothing spins, one log line and no traceback; once clients leave, a new one is served."""
-    ports = free_ports(4)
+    ports, last = serve_ports()
     log_path = tmp_path / "serve.log"
     with open(log_path, "w") as log_file:
         proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
@@ -220,7 +220,7 @@ def test_out_of_file_descriptors_new_clients_are_refused_at_once_and_served_once
                                 stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files_64,
                                 env={**os.environ, "COLUMNS": "500"})
     try:
-        assert wait_for(lambda: accepts(ports[3]), 15.0)
+        assert wait_for(lambda: accepts(last), 15.0)
         with contextlib.ExitStack() as stack:
             first = stack.enter_context(connect(ports[0]))
             assert _get_state(first, 1) == 1
@@ -246,6 +246,9 @@ def test_out_of_file_descriptors_new_clients_are_refused_at_once_and_served_once
         with connect(ports[0], timeout=10.0) as again:
             assert _get_state(again, 5) == 5
         assert proc.poll() is None
+    except (AssertionError, OSError) as exc:  # what the server said, with the failure
+        raise AssertionError(f"{exc!r}; fds {_open_fds(proc.pid)}; server log:\n{log_path.read_text()}") \
+            from exc
     finally:
         proc.terminate()
         proc.wait(5)
