@@ -107,6 +107,20 @@ def free_ports(n: int) -> list[int]:
     return ports
 
 
+def serve_ports() -> tuple[list[int], int]:
+    """Free ports for `serve` (command, normal, rich, develop) and the real-time report port a 2.x
+    box opens beside them (two below the rich port), free too; wait on that one, the last the
+    server binds: a child that cannot bind it exits after the others accepted connections."""
+    while True:
+        ports = free_ports(4)
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", ports[2] - 2))
+            except OSError:
+                continue
+        return ports, ports[2] - 2
+
+
 def port_args(cmd: int, normal: int, rich: int, develop: int) -> tuple[str, ...]:
     """`serve` options for a command port and the three report ports."""
     return ("--port", str(cmd), "--normal-port", str(normal), "--rich-port", str(rich),

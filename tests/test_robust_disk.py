@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from helpers import accepts, connect, free_ports, port_args, recv_exact, report_frames_in, wait_for
+from helpers import accepts, connect, port_args, recv_exact, report_frames_in, serve_ports, wait_for
 
 from xarm_emu.client.admin import AdminClient
 from xarm_emu.controller import config as config_mod
@@ -41,13 +41,13 @@ def _serve(tmp_path: Path, *args: str) -> tuple[Any, list[int]]:
     import subprocess
     import sys
 
-    ports = free_ports(4)
+    ports, last = serve_ports()
     log_path = tmp_path / "serve.log"
     proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
                              "--config-dir", str(tmp_path / "cfg"), "--log-level", "INFO", *args],
                             stdout=open(log_path, "w"), stderr=subprocess.STDOUT,  # noqa: SIM115
                             env={**os.environ, "COLUMNS": "500"})
-    assert wait_for(lambda: accepts(ports[3]), 15.0)
+    assert wait_for(lambda: accepts(last), 15.0)
     return proc, ports
 
 

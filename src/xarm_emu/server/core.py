@@ -20,7 +20,9 @@ import asyncio
 import concurrent.futures
 import contextlib
 import errno
+import io
 import logging
+import os
 import socket
 import time
 from collections.abc import Callable
@@ -119,27 +121,86 @@ MAX_CATCH_UP = 250
 
 
 class ListenSocket(socket.socket):
-    """A listening socket whose ``accept`` fails once per pause when the process is out of file
-    descriptors. asyncio's accept loop goes on calling ``accept`` up to ``backlog`` times after such
-    a failure, each scheduling another retry; the :class:`BlockingIOError` here ends that loop after
-    the first one, so accepting pauses for asyncio's retry delay (1 s) and resumes, without spinning."""
+    """A listening socket that keeps one spare file descriptor for running out of them.
+
+    When ``accept`` fails with EMFILE or ENFILE, the spare is closed, every connection waiting in the
+    accept queue is accepted and closed at once (its client sees the connection end, as beyond the
+    cap) and the spare is opened again: the queue never fills with clients nobody will serve, nothing
+    waits on a timer, and the next client is served as soon as any descriptor is free again (a client
+    leaving frees one). The loop's exception handler hears of each such failure (one log line per
+    burst, :meth:`EmulatorServer._quiet_accept_errors`).
+
+    Without a spare (another thread took the descriptor it freed, or ENOBUFS/ENOMEM), the error goes
+    to asyncio, which stops reading the socket and tries again after its retry delay (1 s); the
+    accepts of that same loop tick then end at once (:class:`BlockingIOError`) instead of each
+    scheduling another retry. The spare is taken again by the first ``accept`` that can."""
 
     _paused_until = 0.0
+    _spare: io.FileIO | None = None
 
     def accept(self) -> tuple[socket.socket, Any]:
         if time.monotonic() < self._paused_until:
             raise BlockingIOError(errno.EAGAIN, "accepting paused: out of file descriptors")
+        if self._spare is None:
+            self.take_spare()
         try:
             return super().accept()
         except OSError as exc:
-            if exc.errno in OUT_OF_FDS:
-                self._paused_until = time.monotonic() + ACCEPT_PAUSE
+            if exc.errno not in OUT_OF_FDS:
+                raise
+            if exc.errno in SPARE_HELPS and self._shed(exc):
+                raise BlockingIOError(errno.EAGAIN, "out of file descriptors: waiting clients refused") \
+                    from exc
+            self._paused_until = time.monotonic() + ACCEPT_PAUSE
             raise
+
+    def take_spare(self) -> bool:
+        """Open the spare descriptor if it is not held; whether it is held now."""
+        if self._spare is None:
+            try:
+                self._spare = open(os.devnull, "rb", buffering=0)  # noqa: SIM115  # held, closed by close()
+            except OSError:
+                return False
+        return True
+
+    def _shed(self, exc: OSError) -> bool:
+        """Out of descriptors: with the spare's descriptor, accept and close what waits in the queue
+        (at most a backlog's worth at a time), then take the spare again. Whether there was a spare."""
+        spare = self._spare
+        if spare is None:
+            return False
+        self._spare = None
+        spare.close()
+        try:
+            for _ in range(SHED_BATCH):
+                try:
+                    fd, _addr = self._accept()  # type: ignore[attr-defined]  # socket.socket's own
+                except OSError:  # the queue is empty, or the descriptor went to another thread
+                    break
+                os.close(fd)
+        finally:
+            self.take_spare()
+        with contextlib.suppress(RuntimeError):  # outside a running loop: nobody to tell
+            asyncio.get_running_loop().call_exception_handler({
+                "message": "socket.accept() out of file descriptors: waiting clients refused",
+                "exception": exc, "socket": self})
+        return True
+
+    def close(self) -> None:
+        spare, self._spare = self._spare, None
+        if spare is not None:
+            spare.close()
+        super().close()
 
 
 #: accept() errors that mean the process (or system) is out of descriptors or buffers.
 OUT_OF_FDS = frozenset({errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM})
-#: Seconds accept stays paused after running out of descriptors (asyncio retries after 1 s).
+#: Of those, the ones a spare descriptor helps with.
+SPARE_HELPS = frozenset({errno.EMFILE, errno.ENFILE})
+#: Waiting connections a listening socket refuses per accept call while out of descriptors.
+SHED_BATCH = 1024
+#: Seconds accept stays paused after running out of descriptors without a spare (asyncio retries
+#: after 1 s).
 ACCEPT_PAUSE = 0.5
 
 
@@ -168,6 +229,7 @@ def listen_args(host: str, port: int, backlog: int) -> dict[str, Any]:
         sock.close()
         raise
     sock.setblocking(False)
+    sock.take_spare()
     return {"sock": sock, "backlog": backlog}
 
 
@@ -296,8 +358,8 @@ class EmulatorServer:
                 "report_frames_missed": dict(self.reports.frames_missed)}
 
     def _quiet_accept_errors(self, loop: asyncio.AbstractEventLoop) -> None:
-        """Out of file descriptors, asyncio stops accepting for a second and resumes; say so once
-        per burst, without a traceback per attempt (unless the loop already has a handler)."""
+        """Out of file descriptors, new clients are refused (:class:`ListenSocket`); say so once per
+        burst, without a traceback per attempt (unless the loop already has a handler)."""
         if loop.get_exception_handler() is not None:
             return
         burst = self.burst_log
@@ -306,9 +368,9 @@ class EmulatorServer:
             exc = context.get("exception")
             if isinstance(exc, OSError) and exc.errno in (errno.EMFILE, errno.ENFILE, errno.ENOBUFS,
                                                           errno.ENOMEM):
-                burst.event("accept-fds", "cannot accept connections: %s; accepting pauses and resumes "
-                            "(lower serve --max-connections or raise the open-file limit)",
-                            exc.strerror or exc)
+                burst.event("accept-fds", "cannot accept connections: %s; new clients are refused "
+                            "until a descriptor is free (lower serve --max-connections or raise the "
+                            "open-file limit)", exc.strerror or exc)
                 return
             lp.default_exception_handler(context)
 
