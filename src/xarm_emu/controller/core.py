@@ -14,6 +14,7 @@ teaching (not available).
 
 from __future__ import annotations
 
+import functools
 import logging
 from typing import Any
 
@@ -225,6 +226,24 @@ class Controller:
         of this box's firmware (a register its table lacks stays unknown, warning 13)."""
         self.components.append(component)
         self._handlers.update({code: h for code, h in component.handlers().items() if code in self.registers})
+
+    def answer_also(self, code: int) -> None:
+        """Answer register ``code`` although this firmware's table lacks it: an accessory that brings
+        its own register (the F/T sensor's 150 on a box of the manual's firmware, which the SDK
+        reads the sensor through below 1.8.3). The layout is the register table's."""
+        from types import MappingProxyType
+
+        from .handlers import TABLES
+
+        if code in self.registers:
+            return
+        table = dict(self.registers)
+        table[code] = next(r for r in regs.EXTRA_REGISTERS if r.code == code)
+        self.registers = MappingProxyType(table)
+        self._float_checked = regs.float_checked(self.registers)
+        self._inf_unchanged = regs.inf_unchanged(self.registers)
+        fn = next(t[code] for t in TABLES if code in t)
+        self._handlers[code] = functools.partial(fn, self)
 
     # -- ControllerView ------------------------------------------------------------------------
     @property

@@ -581,6 +581,7 @@ class Emulator:
         self.generation += 1
         if not ft_sensor.attached(self.controller):
             ft_sensor.attach(self.controller, noise=noise)
+            self.controller.answer_also(150)  # the sensor's data register on a box older than 1.8.3
             self.controller.add_component(ft_sensor.FtSensorComponent(self.controller))
 
     @property
