@@ -99,16 +99,6 @@ def pulses_to_mm(pulses: float) -> float:
     return (pulses + PULSE_OFFSET) / MM_TO_PULSE
 
 
-def _s32_words(value: int) -> tuple[int, int]:
-    v = value & 0xFFFFFFFF
-    return v >> 16, v & 0xFFFF
-
-
-def _words_s32(hi: int, lo: int) -> int:
-    v = (hi << 16) | lo
-    return v - (1 << 32) if v & 0x80000000 else v
-
-
 def _const(value: int) -> Callable[[], int]:
     return lambda: value
 
@@ -236,7 +226,7 @@ class BioGripper:
     # --- Modbus slave ------------------------------------------------------------------------------
 
     def _getter(self, addr: int) -> Callable[[], int] | None:
-        pos, tgt = _s32_words(int(round(self.position))), _s32_words(self.target_raw)
+        pos, tgt = rtu.s32_words(int(round(self.position))), rtu.s32_words(self.target_raw)
         table: dict[int, Callable[[], int]] = {
             REG_STATUS: lambda: self.status, REG_ERROR: lambda: self.code,
             REG_ENABLE: lambda: int(self.enable != ENABLE_OFF), REG_MODE: lambda: self.mode,
@@ -266,14 +256,14 @@ class BioGripper:
             op, speed, force, hi, lo = values
             if op != 1:
                 raise _refuse()
-            self._goal_pulses(_words_s32(hi, lo))  # check everything before changing anything
+            self._goal_pulses(rtu.words_s32(hi, lo))  # check everything before changing anything
             if not (SPEED_MIN <= speed <= SPEED_MAX and FORCE_MIN <= force <= FORCE_MAX):
                 raise _refuse()
             self.speed, self.force = speed, force
-            self._move(_words_s32(hi, lo))
+            self._move(rtu.words_s32(hi, lo))
             return
         if address == REG_TARGET and n == 2:
-            self._move(_words_s32(*values))
+            self._move(rtu.words_s32(*values))
             return
         if n != 1:
             raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)

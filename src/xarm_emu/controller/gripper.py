@@ -106,16 +106,6 @@ NEEDS_RESTART = frozenset({G_CURRENT_DETECTION})
 MOTION_STOPPED, MOTION_MOVING, MOTION_FAULT = 0, 1, 3
 
 
-def _s32_words(value: int) -> tuple[int, int]:
-    v = value & 0xFFFFFFFF
-    return v >> 16, v & 0xFFFF
-
-
-def _words_s32(hi: int, lo: int) -> int:
-    v = (hi << 16) | lo
-    return v - (1 << 32) if v & 0x80000000 else v
-
-
 class ToolDevice(rtu.RegisterDevice, Protocol):
     """A device on the tool RS-485 (register 124, host 9): a Modbus slave with its own slave id and
     baud rate (register 127 baud table index) that moves in :meth:`step`; the xArm gripper, the
@@ -233,8 +223,8 @@ class XArmGripper:
     # --- Modbus slave ------------------------------------------------------------------------------
 
     def _read(self, addr: int) -> int:
-        pos_words = _s32_words(self.position_pulses)
-        tgt_words = _s32_words(self.target)
+        pos_words = rtu.s32_words(self.position_pulses)
+        tgt_words = rtu.s32_words(self.target)
         table: dict[int, Callable[[], int]] = {
             REG_STATUS: lambda: self.status,
             REG_ERROR: lambda: self.error,
@@ -280,7 +270,7 @@ class XArmGripper:
                 self._target_words[a - REG_TARGET] = v
                 target_written = True
         if target_written:
-            self.set_target(_words_s32(*self._target_words))
+            self.set_target(rtu.words_s32(*self._target_words))
 
     # --- motion ------------------------------------------------------------------------------------
 

@@ -150,16 +150,6 @@ STATUS_MOVING = 0x01
 STATUS_STOPPED = 0x02
 
 
-def _s32_words(value: int) -> tuple[int, int]:
-    v = value & 0xFFFFFFFF
-    return v >> 16, v & 0xFFFF
-
-
-def _words_s32(hi: int, lo: int) -> int:
-    v = (hi << 16) | lo
-    return v - (1 << 32) if v & 0x80000000 else v
-
-
 def plan_move(x: float, v: float, goal: float, vmax: float, acc: float,
               dec: float) -> list[tuple[float, float, float, float]]:
     """The trapezoidal profile from ``x`` mm at ``v`` mm/s to rest at ``goal``: phases of (duration
@@ -334,8 +324,8 @@ class LinearTrack:
     # --- Modbus slave ------------------------------------------------------------------------------
 
     def _read(self, addr: int) -> int:
-        pos = _s32_words(self.position_pulses)
-        tgt = _s32_words(int(round(self.target * PULSES_PER_MM)))
+        pos = rtu.s32_words(self.position_pulses)
+        tgt = rtu.s32_words(int(round(self.target * PULSES_PER_MM)))
         table: dict[int, Callable[[], int]] = {
             REG_ENABLE: lambda: int(self.enabled),
             REG_SPEED: lambda: self.speed_value,
@@ -393,7 +383,7 @@ class LinearTrack:
             else:
                 self.parameters[a] = v
         if target_written:
-            self.set_target(_words_s32(*self.target_words))
+            self.set_target(rtu.words_s32(*self.target_words))
 
     # --- motion ------------------------------------------------------------------------------------
 

@@ -100,6 +100,19 @@ def parse_request(pdu: bytes) -> RtuRequest:
 # --- building requests (client side, tests) ----------------------------------------------------------
 
 
+def s32_words(value: int) -> tuple[int, int]:
+    """A signed 32-bit value as two holding registers, high word first (as the grippers and the
+    linear track hold positions)."""
+    v = value & 0xFFFFFFFF
+    return v >> 16, v & 0xFFFF
+
+
+def words_s32(hi: int, lo: int) -> int:
+    """Two holding registers, high word first, as a signed 32-bit value (:func:`s32_words`)."""
+    v = (hi << 16) | lo
+    return v - (1 << 32) if v & 0x80000000 else v
+
+
 def read_request(slave: int, address: int, count: int) -> bytes:
     return struct.pack(">BBHH", slave, READ_HOLDING, address, count)
 
