@@ -207,3 +207,27 @@ def report_frames_in(port: int, seconds: float) -> int:
                 buf = buf[size:]
                 got += 1
     return got
+
+
+def read_frames(sock: socket.socket, seconds: float, poll: float = 0.05) -> list[tuple[float, bytes]]:
+    """Report frames (arrival time, bytes) read for ``seconds``, each cut at the length it starts
+    with (manual 2.1.6), waiting at most ``poll`` s per read."""
+    out = []
+    end = time.monotonic() + seconds
+    buf = b""
+    sock.settimeout(poll)
+    while time.monotonic() < end:
+        try:
+            chunk = sock.recv(65536)
+        except TimeoutError:
+            continue
+        assert chunk, "report connection closed"
+        now = time.monotonic()
+        buf += chunk
+        while len(buf) >= 4:
+            (size,) = struct.unpack(">I", buf[:4])
+            if len(buf) < size:
+                break
+            out.append((now, buf[:size]))
+            buf = buf[size:]
+    return out

@@ -14,7 +14,7 @@ import threading
 import time
 
 import pytest
-from helpers import wait_for
+from helpers import read_frames, wait_for
 
 from xarm_emu.protocol import reports
 from xarm_emu.server import report_sender
@@ -40,23 +40,9 @@ def _socket_count() -> int:
 
 def _arrivals(sock: socket.socket, seconds: float, size: int = 87) -> list[float]:
     """Arrival time of each whole develop frame read for ``seconds``."""
-    out: list[float] = []
-    buf = b""
-    sock.settimeout(0.01)
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        try:
-            chunk = sock.recv(65536)
-        except TimeoutError:
-            continue
-        assert chunk, "report connection closed"
-        now = time.monotonic()
-        buf += chunk
-        while len(buf) >= size:
-            assert struct.unpack(">I", buf[:4])[0] == size
-            out.append(now)
-            buf = buf[size:]
-    return out
+    frames = read_frames(sock, seconds, poll=0.01)
+    assert all(len(f) == size for _, f in frames)
+    return [t for t, _ in frames]
 
 
 def _drain(sock: socket.socket) -> bytes:

@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import recv_exact, wait_for
+from helpers import read_frames, recv_exact, wait_for
 
 from xarm_emu.client import Client
 from xarm_emu.controller.emulator import Emulator
@@ -20,29 +20,6 @@ from xarm_emu.server.app import ServerThread
 
 SIZES = {"develop": 87, "normal": 145, "rich": 433}
 DECODERS = {"develop": reports.decode_develop, "normal": reports.decode_normal, "rich": reports.decode_rich}
-
-
-def read_frames(sock: socket.socket, seconds: float) -> list[tuple[float, bytes]]:
-    """Frames (arrival time, bytes) read for ``seconds``; each checked to start with its length."""
-    out = []
-    end = time.monotonic() + seconds
-    buf = b""
-    sock.settimeout(0.05)
-    while time.monotonic() < end:
-        try:
-            chunk = sock.recv(65536)
-        except TimeoutError:
-            continue
-        assert chunk, "report connection closed"
-        now = time.monotonic()
-        buf += chunk
-        while len(buf) >= 4:
-            (size,) = struct.unpack(">I", buf[:4])
-            if len(buf) < size:
-                break
-            out.append((now, buf[:size]))
-            buf = buf[size:]
-    return out
 
 
 @pytest.fixture
