@@ -8,8 +8,8 @@ sleeps to the same absolute 100 Hz deadlines (its jitter is what the operating s
 processes on the machine cost any sender). Then the server, in a child process as under
 ``xarm-emu serve``: its send times (what the server controls), each frame's lateness after its
 deadline, and the arrival times at one of the 20 readers (adds this process's reader thread). The
-runs are repeated with the report sender at real-time priority (``ServerConfig.report_priority``)
-where the system allows it.
+runs are made with the server's default (the report sender at real-time priority where the system
+allows it, ``report_sender.DEFAULT_PRIORITY``) and with normal scheduling (``--report-priority 0``).
 Run: ``python -m bench reports``.
 """
 
@@ -31,6 +31,7 @@ from bench.affinity import PIN_SERVER, pin_client, restore
 from xarm_emu.protocol import reports
 from xarm_emu.protocol.frame import encode_request
 from xarm_emu.protocol.registers import REGISTERS
+from xarm_emu.server.report_sender import DEFAULT_PRIORITY
 
 SECONDS = 3.0
 RUNS = 5
@@ -38,7 +39,6 @@ READERS = 20
 SERVO_RATE = 250.0
 TARGET_P99 = 1e-3
 TARGET_MAX = 3e-3
-PRIORITY = 10
 INTERVAL = 1.0 / reports.DEVELOP_RATE
 
 
@@ -110,7 +110,8 @@ _CHILD = PIN_SERVER + """
 import json, sys, time
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerConfig, ServerThread
-cfg = ServerConfig(port=0, normal_port=0, rich_port=0, develop_port=0, report_priority=int(sys.argv[2]))
+prio = None if sys.argv[2] == 'default' else int(sys.argv[2])
+cfg = ServerConfig(port=0, normal_port=0, rich_port=0, develop_port=0, report_priority=prio)
 st = ServerThread(Emulator(6), cfg, use_uvloop=sys.argv[1] == "1").start()
 print(json.dumps(st.ports), flush=True)
 sys.stdin.readline()
@@ -150,16 +151,17 @@ def idle_floor() -> Jitter:
 
 def priority_allowed() -> bool:
     """Whether this system lets a process take real-time (SCHED_FIFO) priority."""
-    code = f"import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param({PRIORITY}))"
+    code = f"import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param({DEFAULT_PRIORITY}))"
     return subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=30).returncode == 0
 
 
-def measure(use_uvloop: bool, priority: int = 0) -> tuple[Jitter, Jitter, int, float, int]:
+def measure(use_uvloop: bool, priority: int | None = 0) -> tuple[Jitter, Jitter, int, float, int]:
     """The server runs in a child process (its own GIL, as under ``xarm-emu serve``); the 20 readers and
     the servo client run here. Returns the send and arrival jitter, servo commands sent, the p99 of
     the frames' lateness after their deadlines, and the frames sent with the previous state."""
     saved = pin_client()  # the readers and the servo client on another CPU than the server
-    proc = subprocess.Popen([sys.executable, "-c", _CHILD, "1" if use_uvloop else "0", str(priority)],
+    setting = "default" if priority is None else str(priority)
+    proc = subprocess.Popen([sys.executable, "-c", _CHILD, "1" if use_uvloop else "0", setting],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     assert proc.stdin is not None and proc.stdout is not None
     try:
@@ -258,13 +260,15 @@ def run() -> list[str]:
         loops.append(True)
     except ImportError:
         pass
-    priorities = [0, PRIORITY] if priority_allowed() else [0]
+    default = (f"default: real-time priority {DEFAULT_PRIORITY}" if priority_allowed()
+               else "default: normal priority (real-time refused here)")
+    settings: list[tuple[str, int | None]] = [(default, None), ("--report-priority 0", 0)]
     lines = [f"jitter |interval - 10 ms| of the develop report; {READERS} readers + servoj at "
              f"{SERVO_RATE:g} Hz; target p99 <= {TARGET_P99 * 1e3:g} ms and max <= {TARGET_MAX * 1e3:g} ms "
              f"in 4 of {RUNS} runs; load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs"]
     for use_uvloop in loops:
-        for priority in priorities if not use_uvloop else [0]:
-            name = ("uvloop" if use_uvloop else "asyncio") + (f" + priority {priority}" if priority else "")
+        for setting, priority in settings if not use_uvloop else settings[:1]:
+            name = ("uvloop" if use_uvloop else "asyncio") + f", {setting}"
             met = floor_met = 0
             ratios = []
             for k in range(RUNS if not use_uvloop else 2):

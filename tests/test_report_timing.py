@@ -215,6 +215,27 @@ def test_report_priority_runs_the_sender_at_real_time_priority_or_says_why_not(
         assert len(_arrivals(dev, 0.5)) >= 40
 
 
+@pytest.mark.skipif(not hasattr(os, "sched_getscheduler"), reason="Linux scheduling")
+@pytest.mark.parametrize("asked", [None, 0])
+def test_the_sender_takes_real_time_priority_by_default_where_allowed_and_quietly(
+        make_server, caplog: pytest.LogCaptureFixture, asked: int | None) -> None:  # type: ignore[no-untyped-def]
+    """Unless told otherwise the report sender runs at SCHED_FIFO ``DEFAULT_PRIORITY`` where the
+    system allows it and at normal priority, with no warning, where it does not; 0 keeps normal
+    scheduling."""
+    assert not _sender_threads()  # a fresh sender: its priority only ever rises
+    with caplog.at_level(logging.WARNING, "xarm_emu.server"):
+        srv: ServerThread = make_server(report_priority=asked)
+    (sender,) = _sender_threads()
+    assert sender.native_id is not None
+    real_time = asked is None and _fifo_allowed()
+    assert os.sched_getscheduler(sender.native_id) == (os.SCHED_FIFO if real_time else os.SCHED_OTHER)
+    if real_time:
+        assert os.sched_getparam(sender.native_id).sched_priority == report_sender.DEFAULT_PRIORITY
+    assert not [r for r in caplog.records if "priority" in r.getMessage()]
+    with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
+        assert len(_arrivals(dev, 0.5)) >= 40
+
+
 def test_a_closing_server_prepares_no_more_frames(make_server) -> None:  # type: ignore[no-untyped-def]
     """Closing starts by quiescing the report streams: from then on the sender gets no new frame
     from this server, so in a worker with many arms the frames of arms still closing do not keep

@@ -24,6 +24,7 @@ from .protocol import codes
 from .protocol.firmware import SERVE_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, VersionError, profile_for
 from .protocol.frame import COMMAND_PORT
 from .protocol.reports import DEVELOP_PORT, NORMAL_PORT, RICH_PORT
+from .server.report_sender import DEFAULT_PRIORITY as DEFAULT_REPORT_PRIORITY
 
 if TYPE_CHECKING:
     from .server.app import EmulatorServer, ServerConfig
@@ -142,10 +143,11 @@ def serve(
     studio: Annotated[bool, typer.Option("--studio", help="Answer the SDK's xArm Studio HTTP calls "
                                                            "(initial point, mount, trajectories).")] = False,
     studio_port: Annotated[int, typer.Option(help="Port of --studio (the SDK uses 18333).")] = 18333,
-    report_priority: Annotated[int, typer.Option(help="Real-time (SCHED_FIFO) priority 1-99 of the thread "
-                                                      "that sends the report frames (Linux, needs the "
-                                                      "privilege); 0: normal scheduling.",
-                                                 min=0, max=99)] = 0,
+    report_priority: Annotated[int | None, typer.Option(
+        help="Real-time (SCHED_FIFO) priority 1-99 of the thread that sends the report frames (Linux, "
+             "needs the privilege; a refusal is a warning); 0: normal scheduling. Default: priority "
+             f"{DEFAULT_REPORT_PRIORITY} where the system allows it, else normal scheduling.",
+        min=0, max=99, show_default=False)] = None,
 ) -> None:
     """Run the emulator with its command port and report ports."""
     from .server.app import ServerConfig

@@ -91,8 +91,9 @@ class ServerConfig:
     #: Connection caps, the partial-frame timeout and the listen backlog (server/fairness.py).
     limits: Limits = field(default_factory=Limits)
     #: Real-time (SCHED_FIFO) priority of the process's report sender thread, 1-99 (Linux, needs the
-    #: privilege); 0: normal scheduling (server/report_sender.py).
-    report_priority: int = 0
+    #: privilege); 0: normal scheduling; None: ``report_sender.DEFAULT_PRIORITY`` where the system
+    #: allows it, else normal scheduling without a warning.
+    report_priority: int | None = None
 
 
 class Attachment(Protocol):

@@ -147,9 +147,11 @@ class ReportStreams:
             stream.frame_times = None if value is None else value.setdefault(kind, [])
 
     # -- lifetime ------------------------------------------------------------------------------
-    def start(self, priority: int = 0) -> str | None:
+    def start(self, priority: int | None = None) -> str | None:
         """Use the process's report sender (the first user starts it), at real-time ``priority``
-        when above 0; returns why that priority was refused, if it was."""
+        when above 0 (``None``: the sender's default where the system allows it,
+        :meth:`~.report_sender.ReportSender.set_priority`); returns why a priority asked for was
+        refused."""
         if self._sender is None:
             self._sender = report_sender.acquire()
         return self._sender.set_priority(priority)

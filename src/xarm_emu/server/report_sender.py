@@ -47,6 +47,12 @@ LEAD = 0.003
 #: A stream this many intervals behind its schedule or less sends the due frames at once; further
 #: behind (the process was suspended), it re-anchors and counts the frames it missed.
 LATE_FRAMES = 10
+#: The sender thread's real-time (``SCHED_FIFO``) priority unless told otherwise, as a control
+#: box's report comes from a real-time task: taken where the system allows it (root, or the
+#: ``CAP_SYS_NICE`` capability, or an ``RLIMIT_RTPRIO`` of at least this), else the sender runs at
+#: normal priority without complaint. The thread sleeps between frames and sends each in a few
+#: microseconds per reader, and the kernel's real-time throttling bounds it anyway.
+DEFAULT_PRIORITY = 10
 #: The interpreter's switch interval while a sender runs (seconds): how long a thread that holds
 #: the lock keeps it before the woken sender gets it (the default is 5 ms).
 SWITCH_INTERVAL = 0.0002
@@ -300,9 +306,15 @@ class ReportSender:
             stream.deadline = round(nxt / stream.interval) * stream.interval  # exactly on the grid
             self._push(nxt - min(LEAD, stream.interval / 2), stream, True)
 
-    def set_priority(self, priority: int) -> str | None:
+    def set_priority(self, priority: int | None) -> str | None:
         """Run the sender thread at real-time priority ``priority`` (``SCHED_FIFO``, Linux; it only
-        sleeps and writes, so it cannot hog a CPU); returns why not when the system refuses."""
+        sleeps and writes, so it cannot hog a CPU); returns why not when the system refuses.
+
+        ``None`` asks for :data:`DEFAULT_PRIORITY` where the system allows it and is never refused
+        (the thread stays at normal priority); 0 asks for nothing."""
+        if priority is None:
+            self.set_priority(DEFAULT_PRIORITY)
+            return None
         if priority <= 0 or priority <= self.priority:
             return None
         tid = self._thread.native_id

@@ -110,7 +110,7 @@ class WorkerPlan:
     limits: Limits = field(default_factory=Limits)
     logging: LogSettings = field(default_factory=LogSettings)
     uvloop: bool = False
-    report_priority: int = 0  # serve --report-priority: the worker's report sender
+    report_priority: int | None = None  # serve --report-priority: the worker's report sender
 
 
 @dataclass(frozen=True)
@@ -127,7 +127,8 @@ class ArmReady:
 
 
 def plans(specs: Sequence[ArmSpec], workers: int, config_dir: Path, limits: Limits,
-          logging_: LogSettings, uvloop: bool = False, report_priority: int = 0) -> list[WorkerPlan]:
+          logging_: LogSettings, uvloop: bool = False,
+          report_priority: int | None = None) -> list[WorkerPlan]:
     """The worker plans of a fleet's arms over ``workers`` processes (:func:`assign`)."""
     return [WorkerPlan(i, tuple(a + 1 for a in group), tuple(specs[a] for a in group), config_dir,
                        limits, logging_, uvloop, report_priority)
