@@ -40,6 +40,7 @@ repeatable and a checkpoint restores it.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -405,9 +406,6 @@ def _load_acceleration(ctl: Any, st: FtSensorState) -> np.ndarray:
 
 _SIGMA = np.array([NOISE_FORCE] * 3 + [NOISE_TORQUE] * 3)
 _WALK = np.array([DRIFT_RATE[0]] * 3 + [DRIFT_RATE[1]] * 3)
-#: The last blocks of standard normal draws per (seed, block): a memo of a pure function.
-_BLOCKS: dict[tuple[int, int], np.ndarray] = {}
-_BLOCKS_KEPT = 8
 #: The drift's sinusoids per seed: amplitudes, angular frequencies and phases, each (6, K), and the
 #: per-axis sum of amplitude times sine of phase (the value at 0, taken off).
 _DRIFTS: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -424,14 +422,15 @@ def white_noise(seed: int, period: int) -> np.ndarray:
     ``period``: a pure function of the seed and the period, whatever was drawn before. The periods
     of one block of :data:`NOISE_BLOCK` share one keyed draw."""
     block, row = divmod(int(period), NOISE_BLOCK)
-    key = (int(seed), block)
-    normals = _BLOCKS.get(key)
-    if normals is None:
-        normals = _keyed(seed, block).standard_normal((NOISE_BLOCK, 6))
-        if len(_BLOCKS) >= _BLOCKS_KEPT:
-            del _BLOCKS[next(iter(_BLOCKS))]
-        _BLOCKS[key] = normals
-    return normals[row] * _SIGMA
+    return _normals(int(seed), block)[row] * _SIGMA
+
+
+@functools.lru_cache(maxsize=8)
+def _normals(seed: int, block: int) -> np.ndarray:
+    """The standard normal draws of one block of periods (read-only: the memo shares them)."""
+    normals = _keyed(seed, block).standard_normal((NOISE_BLOCK, 6))
+    normals.flags.writeable = False
+    return normals
 
 
 def _drift_terms(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
