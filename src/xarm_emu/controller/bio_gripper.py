@@ -43,9 +43,11 @@ version and serial number are the emulator's choices where the public material g
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 
 from ..protocol import codes, rtu
+from .base import NOT_IDLE, ControllerView
 
 BIO_ID = 8
 BIO_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default for the BIO gripper
@@ -289,6 +291,11 @@ class BioGripper:
             raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
 
     # --- motion ------------------------------------------------------------------------------------
+
+    def idle_until(self, ctl: ControllerView) -> float:
+        """Idle (:func:`~.base.idle_until`) while the motor is not being enabled and the fingers do
+        not move: then :meth:`step` changes nothing until a command, an object or an error comes."""
+        return NOT_IDLE if self.enable == ENABLE_ENABLING or self.moving else math.inf
 
     def step(self, dt: float) -> None:
         if self.enable == ENABLE_ENABLING:

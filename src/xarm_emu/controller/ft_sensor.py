@@ -12,6 +12,15 @@ What it measures, every control period while it is attached and switched on (reg
 - a slow drift and white noise, as on a real sensor (switchable off: ``Emulator(ft_noise=False)``
   or :func:`set_noise`).
 
+Noise and drift are pure functions of the sensor's seed and the clock: the white noise of control
+period ``n`` (the controller's period count) is drawn from a generator keyed by the seed and the block
+of :data:`NOISE_BLOCK` periods ``n`` falls in (:func:`white_noise`), and the drift is a closed-form
+function of the time since the noise was switched on (:func:`drift`). So a reading never depends on
+how many periods were stepped before it, and the sensor is idle (:func:`idle_until`) while the arm
+rests and no force or admittance application is set: the stepped clock jumps over such periods
+(up to the end of a played wrench) and the reading of the period that runs comes out bit for bit as
+if every period had run.
+
 Frames and signs. The sensor frame has the flange's axes; its origin is the sensor's tool face,
 :data:`SENSOR_HEIGHT` mm along flange +z (the SDK's ``set_ft_sensor_load_offset`` adds the same
 32 mm when it turns an identified centre of mass into a TCP load). A reading is the wrench that the
@@ -22,13 +31,16 @@ except in :func:`control_wrench`, whose torques are about the TCP point (registe
 Assumptions (the vendor publishes no inner geometry): the gauge sits at the tool face, so the
 sensor's own housing (:data:`SENSOR_MASS` at :data:`SENSOR_COM`, the values the SDK uses for the
 sensor) hangs above it and loads the joints but not the reading; the factory zero is exact; noise
-is :data:`NOISE_FORCE` / :data:`NOISE_TORQUE` (1 sigma) and the drift a bounded random walk of
-:data:`DRIFT_RATE` per square root of a second. The random numbers come from a seeded generator in
-the controller's state, so a run is repeatable and a checkpoint restores them.
+is :data:`NOISE_FORCE` / :data:`NOISE_TORQUE` (1 sigma) and the drift a sum of slow sinusoids
+(periods :data:`DRIFT_PERIODS`) with seeded amplitudes and phases that starts from zero, grows about
+like a random walk of :data:`DRIFT_RATE` per square root of a second over the first minutes and stays
+within :data:`DRIFT_LIMIT` times that rate. The seed is in the controller's state, so a run is
+repeatable and a checkpoint restores it.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -38,6 +50,7 @@ import numpy as np
 
 from ..model import dynamics as dyn
 from ..model import kinematics as kin
+from .base import NOT_IDLE
 
 #: Sensor thickness, flange to tool face (mm): the offset the SDK adds to an identified centroid.
 SENSOR_HEIGHT = 32.0
@@ -52,9 +65,19 @@ SENSOR_RATE_HZ = 1000
 #: White noise of one reading (1 sigma): N and N m.
 NOISE_FORCE = 0.03
 NOISE_TORQUE = 0.002
-#: Drift: random walk N/sqrt(s) and N m/sqrt(s), bounded to DRIFT_LIMIT times that.
+#: Drift: about a random walk of N/sqrt(s) and N m/sqrt(s), bounded to DRIFT_LIMIT times that.
 DRIFT_RATE = (0.01, 0.0005)
 DRIFT_LIMIT = 20.0
+#: Periods (s) of the drift's sinusoids; the one of period P has an amplitude of about
+#: DRIFT_RATE * sqrt(P / 2 pi), the size a random walk reaches in P / 2 pi seconds.
+DRIFT_PERIODS = (15.0, 60.0, 240.0, 960.0)
+#: The noise's default seed, and the number of control periods whose noise one keyed draw gives.
+NOISE_SEED = 0x0F75
+NOISE_BLOCK = 250
+#: Keys (after the seed) of the generators of the drift and of the identification's samples, apart
+#: from the per-block keys of the white noise (which are >= 0).
+_DRIFT_KEY = -1
+_IDEN_KEY = -2
 #: get_ft_sensor_error reads servo register ERROR_ADDRESS of axis 8; NO_SENSOR_ERROR means "fine".
 ERROR_ADDRESS = 0x0010
 NO_SENSOR_ERROR = 27
@@ -98,8 +121,10 @@ class FtSensorState:
     #: flange frame); ``None``: register 36's TCP load is the truth (see :func:`load_below`).
     payload: tuple[float, tuple[float, float, float]] | None = None
     wrenches: list[AppliedWrench] = field(default_factory=list)
-    drift: np.ndarray = field(default_factory=lambda: np.zeros(6))
-    rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0x0F75))
+    #: The seed of the noise and the drift (:func:`white_noise`, :func:`drift`).
+    seed: int = NOISE_SEED
+    #: Controller time the noise was last switched on: the drift starts from zero there.
+    noise_since: float = 0.0
     #: The raw reading of the last control period (sensor frame, about its origin).
     raw: np.ndarray = field(default_factory=lambda: np.zeros(6))
     #: Centre-of-mass positions (m, base frame) of the last two periods, for the load's acceleration.
@@ -137,9 +162,9 @@ def enabled(ctl: Any) -> bool:
 def set_noise(ctl: Any, on: bool) -> None:
     """Switch the sensor's noise and drift on or off (off: deterministic readings)."""
     st = state_of(ctl)
+    if on and not st.noise:
+        st.noise_since = float(ctl.data.time)
     st.noise = bool(on)
-    if not on:
-        st.drift = np.zeros(6)
 
 
 def error_register(ctl: Any) -> int:
@@ -172,6 +197,10 @@ class FtSensorComponent:
 
     def step(self, dt: float, view: Any) -> None:
         step(self.ctl, dt)
+
+    def idle_until(self, view: Any) -> float:
+        """Idle as :func:`idle_until` says (:func:`~.base.idle_until`)."""
+        return idle_until(self.ctl)
 
 
 #: The key of the saved configuration (register 40) that holds the sensor's load and zero.
@@ -364,9 +393,7 @@ def _measure(ctl: Any, q: np.ndarray | None = None, acc: np.ndarray | None = Non
 
 def _load_acceleration(ctl: Any, st: FtSensorState) -> np.ndarray:
     """The acceleration (m/s^2, base frame) of the load's centre of mass over the last periods."""
-    R, origin = _sensor_pose(ctl)
-    _, com = load_below(ctl)
-    p = (origin + R @ com) / 1000.0
+    p = _load_point(ctl)
     hist = st.com_history
     hist.append(p)
     if len(hist) > 3:
@@ -377,14 +404,97 @@ def _load_acceleration(ctl: Any, st: FtSensorState) -> np.ndarray:
     return (hist[2] - 2.0 * hist[1] + hist[0]) / (dt * dt)
 
 
-def _noise(st: FtSensorState, dt: float) -> np.ndarray:
+_SIGMA = np.array([NOISE_FORCE] * 3 + [NOISE_TORQUE] * 3)
+_WALK = np.array([DRIFT_RATE[0]] * 3 + [DRIFT_RATE[1]] * 3)
+#: The drift's sinusoids per seed: amplitudes, angular frequencies and phases, each (6, K), and the
+#: per-axis sum of amplitude times sine of phase (the value at 0, taken off).
+_DRIFTS: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
+_DRIFT_LO, _DRIFT_HI = -DRIFT_LIMIT * _WALK, DRIFT_LIMIT * _WALK
+
+
+def _keyed(seed: int, *key: int) -> np.random.Generator:
+    """A generator that depends on ``seed`` and ``key`` only (numpy's SeedSequence of both)."""
+    return np.random.default_rng(np.random.SeedSequence([seed & 0xFFFFFFFF, *(k & 0xFFFFFFFF for k in key)]))
+
+
+def white_noise(seed: int, period: int) -> np.ndarray:
+    """The white noise (N, N m; 1 sigma :data:`NOISE_FORCE` / :data:`NOISE_TORQUE`) of control period
+    ``period``: a pure function of the seed and the period, whatever was drawn before. The periods
+    of one block of :data:`NOISE_BLOCK` share one keyed draw."""
+    block, row = divmod(int(period), NOISE_BLOCK)
+    return _normals(int(seed), block)[row] * _SIGMA
+
+
+@functools.lru_cache(maxsize=8)
+def _normals(seed: int, block: int) -> np.ndarray:
+    """The standard normal draws of one block of periods (read-only: the memo shares them)."""
+    normals = _keyed(seed, block).standard_normal((NOISE_BLOCK, 6))
+    normals.flags.writeable = False
+    return normals
+
+
+def _drift_terms(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    terms = _DRIFTS.get(seed)
+    if terms is None:
+        g = _keyed(seed, _DRIFT_KEY)
+        periods = np.array(DRIFT_PERIODS)
+        k = len(periods)
+        amp = _WALK[:, None] * np.sqrt(periods / (2.0 * math.pi))[None, :] * g.uniform(0.5, 1.5, (6, k))
+        omega = np.broadcast_to(2.0 * math.pi / periods, (6, k)) * g.uniform(0.8, 1.25, (6, k))
+        phase = g.uniform(0.0, 2.0 * math.pi, (6, k))
+        terms = _DRIFTS[seed] = (amp, omega, phase, (amp * np.sin(phase)).sum(axis=1))
+    return terms
+
+
+def drift(seed: int, t: float) -> np.ndarray:
+    """The drift (N, N m) ``t`` seconds after the noise was switched on: zero at 0, a sum of slow
+    sinusoids (:data:`DRIFT_PERIODS`) with seeded amplitudes, frequencies and phases, bounded to
+    :data:`DRIFT_LIMIT` times :data:`DRIFT_RATE`."""
+    amp, omega, phase, at_zero = _drift_terms(int(seed))
+    value = (amp * np.sin(omega * t + phase)).sum(axis=1) - at_zero
+    return np.minimum(np.maximum(value, _DRIFT_LO), _DRIFT_HI)
+
+
+def _noise(ctl: Any, st: FtSensorState) -> np.ndarray:
+    """Noise and drift of the present control period (zeros with the noise off)."""
     if not st.noise:
         return np.zeros(6)
-    sig = np.array([NOISE_FORCE] * 3 + [NOISE_TORQUE] * 3)
-    walk = np.array([DRIFT_RATE[0]] * 3 + [DRIFT_RATE[1]] * 3)
-    st.drift = np.clip(st.drift + st.rng.normal(0.0, 1.0, 6) * walk * math.sqrt(dt),
-                       -DRIFT_LIMIT * walk, DRIFT_LIMIT * walk)
-    return st.drift + st.rng.normal(0.0, 1.0, 6) * sig
+    d = ctl.data
+    return drift(st.seed, float(d.time) - st.noise_since) + white_noise(st.seed, int(d.steps))
+
+
+def _load_point(ctl: Any) -> np.ndarray:
+    """The load's centre of mass (m, base frame) at the present joints."""
+    R, origin = _sensor_pose(ctl)
+    _, com = load_below(ctl)
+    return (origin + R @ com) / 1000.0
+
+
+def idle_until(ctl: Any) -> float:
+    """Controller time up to which the sensor is idle (:func:`~.base.idle_until`): while no force or
+    admittance application is set (register 202, the only reader of the sensor inside a period)
+    and, switched on, the load's centre of mass has stood still over the last periods (its
+    acceleration is zero), up to the end of the first played wrench that ends (:func:`step` removes
+    it then). With the arm at rest the reading is a function of the clock alone: the noise and the
+    drift (pure functions of the period and the time) and the played wrenches (a ramp is one of the
+    time), which the period that runs in full computes afresh."""
+    st = state_of(ctl)
+    horizon = math.inf
+    for w in st.wrenches:
+        if w.until is not None:
+            horizon = min(horizon, w.until - 1e-9)
+    from . import force_control
+
+    fc = getattr(ctl.data, force_control._ATTR, None)
+    if fc is not None and fc.app != force_control.APP_OFF:
+        return NOT_IDLE
+    hist = st.com_history
+    if not enabled(ctl):
+        return NOT_IDLE if hist else horizon
+    if len(hist) < 3:
+        return NOT_IDLE
+    p = _load_point(ctl)
+    return horizon if all(np.array_equal(h, p) for h in hist) else NOT_IDLE
 
 
 def step(ctl: Any, dt: float) -> None:
@@ -397,7 +507,7 @@ def step(ctl: Any, dt: float) -> None:
         st.com_history.clear()
         return
     acc = _load_acceleration(ctl, st)
-    st.raw = _measure(ctl, acc=acc) + _noise(st, dt)
+    st.raw = _measure(ctl, acc=acc) + _noise(ctl, st)
 
 
 def compensation(ctl: Any) -> np.ndarray:
@@ -451,15 +561,19 @@ def identify(ctl: Any) -> tuple[float, ...]:
     ext = external_wrench(ctl)
     q0 = np.asarray(ctl.data.q, dtype=float)
     rows_f, rhs_f, rows_t, rhs_t, forces = [], [], [], [], []
-    for d5, d6 in IDEN_POSES:
+    iden_noise = np.zeros((len(IDEN_POSES), IDEN_SAMPLES, 6))
+    if st.noise:  # the samples' noise, keyed by the period the identification runs in, and the drift
+        gen = _keyed(st.seed, _IDEN_KEY, int(ctl.data.steps))
+        iden_noise = gen.standard_normal(iden_noise.shape) * _SIGMA
+        iden_noise += drift(st.seed, float(ctl.data.time) - st.noise_since)
+    for i, (d5, d6) in enumerate(IDEN_POSES):
         q = q0.copy()
         if ctl.model.dof >= 6:
             q[4] += d5
             q[5] += d6
         else:
             q[3] += d5 + d6 * 0.5
-        w = np.mean([_measure(ctl, q, external=ext) + _noise(st, ctl.period) for _ in range(IDEN_SAMPLES)],
-                    axis=0)
+        w = np.mean([_measure(ctl, q, external=ext) + noise for noise in iden_noise[i]], axis=0)
         R, _ = _sensor_pose(ctl, q)
         gs = R.T @ g
         rows_f.append(np.hstack([gs[:, None], np.eye(3)]))

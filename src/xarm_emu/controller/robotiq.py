@@ -42,10 +42,12 @@ material gives none.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ..protocol import codes, rtu
+from .base import NOT_IDLE, ControllerView
 
 ROBOTIQ_ID = 9
 ROBOTIQ_BAUD_INDEX = 5  # 115200 bps in the register 127 baud table, the SDK's default for Robotiq
@@ -268,6 +270,11 @@ class RobotiqGripper:
         if not closing and inner is not None and self.opening_mm <= inner + 1e-9:
             return self._counts_at(inner)
         return None
+
+    def idle_until(self, ctl: ControllerView) -> float:
+        """Idle (:func:`~.base.idle_until`) while neither the activation runs nor the fingers move:
+        then :meth:`step` changes nothing until a request, an object or a fault comes from outside."""
+        return NOT_IDLE if self.gSTA == STA_ACTIVATING or self.moving else math.inf
 
     def step(self, dt: float) -> None:
         if self.gSTA == STA_ACTIVATING:
