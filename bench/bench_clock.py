@@ -3,6 +3,7 @@
 - a 60 s mixed program (joint, linear, circular moves, a dwell) and a 60 s mostly idle program (one
   move, delayed outputs, scheduled actions) run in process, as factors of real time, with the jump
   over idle periods and with every period stepped (``Emulator(exact_steps=True)``, the baseline);
+- the mostly idle program with the F/T sensor, the Robotiq or the BIO gripper mounted, the same way;
 - the cost of one ``step(25)`` (what a 100 Hz report reader makes the server run) of an idle arm
   against one of an arm in motion.
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from typing import Any
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.registers import REGISTERS
@@ -59,11 +61,12 @@ def _idle_program(emu: Emulator) -> None:
         emu.at(t + 1.0, lambda k=k: emu.set_input("cgpio", k % 8, k % 2))
 
 
-def _speed(setup: Callable[[Emulator], None], exact: bool) -> float:
-    """Best of :data:`REPEATS`: seconds of wall time for the program's 60 s, in one ``advance``."""
+def _speed(setup: Callable[[Emulator], None], exact: bool, **devices: Any) -> float:
+    """Best of :data:`REPEATS`: seconds of wall time for the program's 60 s, in one ``advance``
+    (``devices``: the emulator's keyword arguments for what is mounted)."""
     best = math.inf
     for _ in range(REPEATS):
-        emu = Emulator(6, exact_steps=exact)
+        emu = Emulator(6, exact_steps=exact, **devices)
         setup(emu)
         t0 = time.perf_counter()
         emu.advance(PROGRAM_SECONDS)
@@ -95,6 +98,13 @@ def run() -> list[str]:
         fast = _speed(setup, False)
         lines.append(f"stepped clock, 60 s {name} program (xArm6): {PROGRAM_SECONDS / fast:.0f}x real time "
                      f"(target >= {target}x); every period stepped (baseline, same run): "
+                     f"{PROGRAM_SECONDS / exact:.0f}x; jump speed-up {exact / fast:.1f}x")
+    for name, devices in (("F/T sensor", {"ft_sensor": True}), ("Robotiq gripper", {"gripper": "robotiq-2f85"}),
+                          ("BIO gripper", {"gripper": "bio"})):
+        exact = _speed(_idle_program, True, **devices)
+        fast = _speed(_idle_program, False, **devices)
+        lines.append(f"stepped clock, 60 s mostly idle program with the {name} mounted: "
+                     f"{PROGRAM_SECONDS / fast:.0f}x real time; every period stepped (baseline, same run): "
                      f"{PROGRAM_SECONDS / exact:.0f}x; jump speed-up {exact / fast:.1f}x")
     idle = min(_step25(False) for _ in range(REPEATS))
     busy = min(_step25(True) for _ in range(REPEATS))
