@@ -447,22 +447,27 @@ class Controller:
         d = self.data
         if d.faults.error == 0:
             state, mode = d.motion_state, d.mode
-            if mode == MODE_SERVO and d.servo_target is not None and state in (STATE_SLEEP, STATE_MOVING):
-                if not (settled and state == STATE_SLEEP and self._servo_holding()):
-                    return False
-            if mode == MODE_POSITION and state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
+            if mode == MODE_POSITION and state in _POSITION_STATES:
                 ex = self.executor
                 if not ex.active:
                     if state == STATE_MOVING:
                         return False
                 elif state == STATE_SLEEP or ex.dwell_rate(d.q) is None:  # a dwell only counts time
                     return False
+            elif mode == MODE_SERVO and d.servo_target is not None and state in _SERVO_STATES:
+                if not (settled and state == STATE_SLEEP and self._servo_holding()):
+                    return False
             elif (state == STATE_STOP and d.motion.stopping) or mode in MODE_STEPS:
                 return False
         qd, qdd = d.qd, d.qdd
-        if qd.any() or qdd.any() or np.signbit(qd).any() or np.signbit(qdd).any():
+        still = self._still
+        if not (still is not None and still[1] is qd and still[2] is qdd) and (  # known to be +0
+                qd.any() or qdd.any() or np.signbit(qd).any() or np.signbit(qdd).any()):
             return False
-        return all(EVERY_STEP_IDLE.get(hook, _never_idle)(self) for hook in EVERY_STEP)
+        for hook in EVERY_STEP:
+            if not EVERY_STEP_IDLE.get(hook, _never_idle)(self):
+                return False
+        return True
 
     def _servo_holding(self) -> bool:
         """Servo mode: the arm holds its target exactly, so a period gives the same joints again."""
