@@ -130,7 +130,7 @@ class Controller:
         #: (q, qd, qdd) when the last period ended at rest on joints it left alone: speeds and
         #: accelerations exactly +0, so a period that leaves these very arrays alone keeps them.
         self._still: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self._dt_vec = np.full(self.dof, period)  # the period, once per joint
+        self._dt_vec = (period, np.full(self.dof, period))  # the period, and it once per joint
         self._handlers: dict[int, Handler] = self.register_handlers()
         #: Tests set this: unexpected exceptions in handlers or steps propagate instead of being
         #: logged and answered with warning 12 / error C29 (what a running server does).
@@ -424,9 +424,10 @@ class Controller:
         if q is q_prev and still is not None and still[0] is q and d.qd is still[1] and d.qdd is still[2]:
             pass  # at rest as the last period ended, the joints untouched: speeds and accelerations stay +0
         else:
-            dt_vec = self._dt_vec
-            if dt_vec[0] != dt or len(dt_vec) != len(q):
-                dt_vec = self._dt_vec = np.full(len(q), dt)
+            of_dt, dt_vec = self._dt_vec
+            if of_dt != dt or len(dt_vec) != len(q):
+                dt_vec = np.full(len(q), dt)
+                self._dt_vec = (dt, dt_vec)
             qd = q - q_prev
             qd /= dt_vec  # an array divides faster than a Python float, to the same values
             qdd = qd - d.qd

@@ -166,7 +166,7 @@ class RobotModel:
 def joint_values(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
     """The first ``dof`` values of ``q`` as floats (extra values, such as the wire J7 of a 6-axis arm, are
     ignored); ``ValueError`` when there are fewer than ``dof`` or one is not finite."""
-    qs = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
+    qs = q.tolist() if isinstance(q, np.ndarray) else list(map(float, q))
     dof = model.dof
     if len(qs) != dof:
         if len(qs) < dof:
