@@ -73,6 +73,10 @@ FIRMWARE_VERSION = f"v{DEFAULT_PROFILE.version}"
 
 log = logging.getLogger("xarm_emu.controller")
 
+#: The states in which position mode runs the command buffer, and servo mode follows its target.
+_POSITION_STATES = frozenset((STATE_MOVING, STATE_SLEEP, STATE_SUSPEND))
+_SERVO_STATES = frozenset((STATE_SLEEP, STATE_MOVING))
+
 
 def version_string(model: RobotModel, robot_sn: str, box_sn: str,
                    firmware: FirmwareProfile = DEFAULT_PROFILE) -> str:
@@ -122,6 +126,11 @@ class Controller:
         self.components: list[Component] = []
         self._torque_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._pose_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
+        self._limits_cache: tuple[tuple[float, ...], Limits] | None = None
+        #: (q, qd, qdd) when the last period ended at rest on joints it left alone: speeds and
+        #: accelerations exactly +0, so a period that leaves these very arrays alone keeps them.
+        self._still: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._dt_vec = (period, np.full(self.dof, period))  # the period, and it once per joint
         self._handlers: dict[int, Handler] = self.register_handlers()
         #: Tests set this: unexpected exceptions in handlers or steps propagate instead of being
         #: logged and answered with warning 12 / error C29 (what a running server does).
@@ -139,7 +148,7 @@ class Controller:
         self.data = data
         self.settings = settings
         self.executor.data = data.motion
-        self._torque_cache = self._pose_cache = None
+        self._torque_cache = self._pose_cache = self._limits_cache = self._still = None
 
     # -- the state's values (ControllerState), by the names the handlers and components use ---
     #: Motion state (register 13); only :func:`.states.fire` changes it.
@@ -384,19 +393,19 @@ class Controller:
         try:
             if d.faults.error == 0:
                 state = d.motion_state
-                target = d.servo_target
-                if d.mode == MODE_SERVO and target is not None and state in (STATE_SLEEP, STATE_MOVING):
-                    tracker = self._tracker()
-                    tracker.set_target(target)
-                    q, _, _ = tracker.step(dt)
-                    d.q = q.copy()
-                    fire(self, Event.SERVO_AT_TARGET if tracker.at_target else Event.SERVO_MOVING)
-                elif d.mode == MODE_POSITION and state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
+                mode = d.mode
+                if mode == MODE_POSITION and state in _POSITION_STATES:
                     if not force_control.period(self, dt):  # admittance or force control (202)
                         self._step_position(dt)
+                elif mode == MODE_SERVO and d.servo_target is not None and state in _SERVO_STATES:
+                    tracker = self._tracker()
+                    tracker.set_target(d.servo_target)
+                    q, _, _ = tracker.step(dt)
+                    d.q = q.copy()
+                    fire(d, Event.SERVO_AT_TARGET if tracker.at_target else Event.SERVO_MOVING)
                 elif state == STATE_STOP and d.motion.stopping:
                     self._step_position(dt)
-                elif (mode_step := MODE_STEPS.get(d.mode)) is not None:
+                elif (mode_step := MODE_STEPS.get(mode)) is not None:
                     mode_step(self, dt)
                 if d.q is not q_prev:
                     self._check_safety(q_prev)
@@ -410,9 +419,22 @@ class Controller:
                 raise
             log.exception("control step failed")
             self.raise_error(C_OTHER)
-        qd = (d.q - q_prev) / dt
-        d.qdd = (qd - d.qd) / dt
-        d.qd = qd
+        q = d.q
+        still = self._still
+        if q is q_prev and still is not None and still[0] is q and d.qd is still[1] and d.qdd is still[2]:
+            pass  # at rest as the last period ended, the joints untouched: speeds and accelerations stay +0
+        else:
+            of_dt, dt_vec = self._dt_vec
+            if of_dt != dt or len(dt_vec) != len(q):
+                dt_vec = np.full(len(q), dt)
+                self._dt_vec = (dt, dt_vec)
+            qd = q - q_prev
+            qd /= dt_vec  # an array divides faster than a Python float, to the same values
+            qdd = qd - d.qd
+            qdd /= dt_vec
+            d.qd, d.qdd = qd, qdd
+            self._still = ((q, qd, qdd) if q is q_prev and not (qd.any() or qdd.any() or np.signbit(qd).any()
+                                                                  or np.signbit(qdd).any()) else None)
         for c in self.components:
             c.step(dt, self)
         for hook in EVERY_STEP:
@@ -430,22 +452,27 @@ class Controller:
         d = self.data
         if d.faults.error == 0:
             state, mode = d.motion_state, d.mode
-            if mode == MODE_SERVO and d.servo_target is not None and state in (STATE_SLEEP, STATE_MOVING):
-                if not (settled and state == STATE_SLEEP and self._servo_holding()):
-                    return False
-            if mode == MODE_POSITION and state in (STATE_MOVING, STATE_SLEEP, STATE_SUSPEND):
+            if mode == MODE_POSITION and state in _POSITION_STATES:
                 ex = self.executor
                 if not ex.active:
                     if state == STATE_MOVING:
                         return False
                 elif state == STATE_SLEEP or ex.dwell_rate(d.q) is None:  # a dwell only counts time
                     return False
+            elif mode == MODE_SERVO and d.servo_target is not None and state in _SERVO_STATES:
+                if not (settled and state == STATE_SLEEP and self._servo_holding()):
+                    return False
             elif (state == STATE_STOP and d.motion.stopping) or mode in MODE_STEPS:
                 return False
         qd, qdd = d.qd, d.qdd
-        if qd.any() or qdd.any() or np.signbit(qd).any() or np.signbit(qdd).any():
+        still = self._still
+        if not (still is not None and still[1] is qd and still[2] is qdd) and (  # known to be +0
+                qd.any() or qdd.any() or np.signbit(qd).any() or np.signbit(qdd).any()):
             return False
-        return all(EVERY_STEP_IDLE.get(hook, _never_idle)(self) for hook in EVERY_STEP)
+        for hook in EVERY_STEP:
+            if not EVERY_STEP_IDLE.get(hook, _never_idle)(self):
+                return False
+        return True
 
     def _servo_holding(self) -> bool:
         """Servo mode: the arm holds its target exactly, so a period gives the same joints again."""
@@ -484,20 +511,27 @@ class Controller:
         return self.executor.completed
 
     def limits(self) -> Limits:
-        """The motion limits of the settings (registers 31-34) and the model (Table 1.2)."""
+        """The motion limits of the settings (registers 31-34) and the model (Table 1.2); the same
+        object again while they stay (nothing changes a :class:`~.executor.Limits` once made)."""
         s = self.settings
         tcp_cap, joint_cap = reduced.speed_caps(self)
-        return Limits(s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed,
-                      tcp_cap, joint_cap)
+        key = (s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed,
+               tcp_cap, joint_cap)
+        cached = self._limits_cache
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        limits = Limits(*key)
+        self._limits_cache = (key, limits)
+        return limits
 
     def _step_position(self, dt: float) -> None:
         ex = self.executor
         if not ex.active:
-            fire(self, Event.IDLE)
+            fire(self.data, Event.IDLE)
             return
         d = self.data
         d.q = ex.step(dt, d.q, self.limits(), self.flange_target, self.tcp_matrix)
-        fire(self, Event.PLAN_RUNNING if ex.active else Event.PLAN_FINISHED)
+        fire(d, Event.PLAN_RUNNING if ex.active else Event.PLAN_FINISHED)
 
     def advance(self, seconds: float) -> None:
         """Step for ``seconds`` of controller time (in-process clock)."""

@@ -306,18 +306,21 @@ class Emulator:
         ctl = self.controller
         settled = self.generation == self._settled  # nothing changed the box since the last call
         self.generation += 1
+        step, at_rest, scheduled = ctl.step, ctl.at_rest, self._scheduled
+        last = n - 1
         i = 0
         while i < n:
-            if i < n - 1 and not self.exact_steps and ctl.at_rest(settled):
-                k = self._jump(n - 1 - i)
+            if i < last and not self.exact_steps and at_rest(settled):
+                k = self._jump(last - i)
                 if k:
                     i += k
                     continue
-            ctl.step()
+            step()
             settled = True
-            if ctl.steps % THERMAL_EVERY == 0:
+            d = ctl.data
+            if d.steps % THERMAL_EVERY == 0:
                 self.thermal.step(THERMAL_EVERY * ctl.period, np.abs(ctl.joint_currents()))
-            if self._scheduled and self._scheduled[0][0] <= ctl.time + 1e-9:
+            if scheduled and scheduled[0][0] <= d.time + 1e-9:
                 self._run_scheduled()
                 settled = False
             i += 1

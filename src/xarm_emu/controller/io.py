@@ -528,6 +528,10 @@ class IOModule:
             if self.tgpio_reset_on_stop:
                 self.tool.digital_outputs = 0
         self._last_state = state
+        if not self.pending:  # nothing delayed (the usual period)
+            self._last_tcp = None
+            self.cgpio.update_functions(ctl)
+            return
         if not any(p.due is None for p in self.pending):
             # No position trigger pending: skip the TCP read (it costs forward kinematics).
             self._last_tcp = None

@@ -15,6 +15,7 @@ reduced mode changes nothing until they are set. Register 53 reports them with t
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -51,8 +52,11 @@ def speed_caps(ctl: Any) -> tuple[float, float]:
     is on, else infinite."""
     r = getattr(ctl.data, _ATTR, None)
     if r is None or not r.on:
-        return float("inf"), float("inf")
+        return _NO_CAPS
     return r.tcp_speed, r.joint_speed
+
+
+_NO_CAPS = (math.inf, math.inf)
 
 
 def joint_range(ctl: Any) -> tuple[np.ndarray, np.ndarray]:

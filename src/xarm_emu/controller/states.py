@@ -93,8 +93,14 @@ def next_state(state: int, event: Event) -> int:
     return TRANSITIONS.get((state, event), state)
 
 
+#: :data:`TRANSITIONS` keyed by the events' values: an enum member hashes in Python code, an int in C,
+#: and :func:`fire` runs every control period.
+_BY_VALUE: dict[tuple[int, int], int] = {(s, e.value): new for (s, e), new in TRANSITIONS.items()}
+
+
 def fire(holder: HasState, event: Event) -> int:
     """Apply ``event`` to ``holder``'s motion state; returns the new state."""
-    new = TRANSITIONS.get((holder.motion_state, event), holder.motion_state)
+    state = holder.motion_state
+    new = _BY_VALUE.get((state, event._value_), state)
     holder.motion_state = new
     return new

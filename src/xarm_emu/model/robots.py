@@ -166,13 +166,18 @@ class RobotModel:
 def joint_values(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:
     """The first ``dof`` values of ``q`` as floats (extra values, such as the wire J7 of a 6-axis arm, are
     ignored); ``ValueError`` when there are fewer than ``dof`` or one is not finite."""
-    qs = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
-    if len(qs) < model.dof:
-        raise ValueError(f"{model.name} needs {model.dof} joint values, got {len(qs)}")
-    qs = qs[: model.dof]
-    for v in qs:
-        if not math.isfinite(v):
-            raise ValueError(f"non-finite joint value {v!r}")
+    qs = q.tolist() if isinstance(q, np.ndarray) else list(map(float, q))
+    dof = model.dof
+    if len(qs) != dof:
+        if len(qs) < dof:
+            raise ValueError(f"{model.name} needs {dof} joint values, got {len(qs)}")
+        qs = qs[:dof]
+    # A finite sum means every value is finite (an infinity or a NaN makes the sum one); a sum that is
+    # not finite (a value is not, or finite values overflow) is looked into value by value.
+    if not math.isfinite(sum(qs)):
+        for v in qs:
+            if not math.isfinite(v):
+                raise ValueError(f"non-finite joint value {v!r}")
     return qs
 
 
