@@ -99,8 +99,9 @@ def run() -> list[str]:
         lines.append(f"stepped clock, 60 s {name} program (xArm6): {PROGRAM_SECONDS / fast:.0f}x real time "
                      f"(target >= {target}x); every period stepped (baseline, same run): "
                      f"{PROGRAM_SECONDS / exact:.0f}x; jump speed-up {exact / fast:.1f}x")
-    for name, devices in (("F/T sensor", {"ft_sensor": True}), ("Robotiq gripper", {"gripper": "robotiq-2f85"}),
-                          ("BIO gripper", {"gripper": "bio"})):
+    mounted = (("F/T sensor", {"ft_sensor": True}), ("Robotiq gripper", {"gripper": "robotiq-2f85"}),
+               ("BIO gripper", {"gripper": "bio"}))
+    for name, devices in mounted:
         exact = _speed(_idle_program, True, **devices)
         fast = _speed(_idle_program, False, **devices)
         lines.append(f"stepped clock, 60 s mostly idle program with the {name} mounted: "
