@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import os
 import socket
@@ -231,3 +232,30 @@ def read_frames(sock: socket.socket, seconds: float, poll: float = 0.05) -> list
             out.append((now, buf[:size]))
             buf = buf[size:]
     return out
+
+
+def step_both(fast: Emulator, exact: Emulator, script: dict[int, list[Callable[[Emulator], object]]],
+              total: int, pattern: tuple[int, ...], observe: Callable[[Emulator], object]) -> int:
+    """Step a jumping and an exact (``exact_steps=True``) emulator ``total`` periods in strides of
+    ``pattern``, running ``script``'s actions (period count -> actions) on the same period in both
+    and comparing ``observe`` of both after every stride; returns the instants compared."""
+    for emu in (fast, exact):
+        for action in script.get(0, []):
+            action(emu)
+    done = instants = 0
+    marks = sorted(script)
+    strides = itertools.cycle(pattern)
+    while done < total:
+        n = min(next(strides), total - done)
+        upcoming = [m for m in marks if done < m < done + n]
+        if upcoming:
+            n = upcoming[0] - done  # actions land on the same period in both runs
+        for emu in (fast, exact):
+            emu.step(n)
+        done += n
+        for action in script.get(done, []):
+            for emu in (fast, exact):
+                action(emu)
+        assert observe(fast) == observe(exact), f"differ after period {done} ({done * 0.004:.3f} s)"
+        instants += 1
+    return instants

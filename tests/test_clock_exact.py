@@ -6,7 +6,6 @@ instant a report or a command could look, for firmware 1.6.0 and 2.7.103."""
 
 from __future__ import annotations
 
-import itertools
 import math
 import struct
 from collections.abc import Callable
@@ -14,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import step_both
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -74,28 +74,10 @@ def run_both(firmware: str, script: dict[int, list[Action]], total: int, pattern
     comparing what both show at every instant; returns the instants compared and the jumping one."""
     fast = Emulator(model, firmware=firmware, vacuum=vacuum)
     exact = Emulator(model, firmware=firmware, vacuum=vacuum, exact_steps=True)
-    for emu in (fast, exact):
-        if setup is not None:
-            setup(emu)
-        for action in script.get(0, []):
-            action(emu)
-    done = 0
-    instants = 0
-    marks = sorted(script)
-    strides = itertools.cycle(pattern)
-    while done < total:
-        n = min(next(strides), total - done)
-        upcoming = [m for m in marks if done < m < done + n]
-        if upcoming:
-            n = upcoming[0] - done  # actions land on the same period in both runs
+    if setup is not None:
         for emu in (fast, exact):
-            emu.step(n)
-        done += n
-        for action in script.get(done, []):
-            for emu in (fast, exact):
-                action(emu)
-        assert observe(fast) == observe(exact), f"differ after period {done} ({done * 0.004:.3f} s)"
-        instants += 1
+            setup(emu)
+    instants = step_both(fast, exact, script, total, pattern, observe)
     return instants, fast
 
 

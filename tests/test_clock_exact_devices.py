@@ -6,12 +6,12 @@ and the same clock at every instant a client could look, while most of the long 
 
 from __future__ import annotations
 
-import itertools
 import struct
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from helpers import step_both
 
 from xarm_emu.controller import bio_gripper as bio
 from xarm_emu.controller import ft_sensor as ft
@@ -78,25 +78,7 @@ def run_both(script: dict[int, list[Action]], total: int, pattern: tuple[int, ..
     exact = Emulator(6, exact_steps=True, **kw)
     for emu in (fast, exact):
         emu.controller.strict = True
-        for action in script.get(0, []):
-            action(emu)
-    done = instants = 0
-    marks = sorted(script)
-    strides = itertools.cycle(pattern)
-    while done < total:
-        n = min(next(strides), total - done)
-        upcoming = [m for m in marks if done < m < done + n]
-        if upcoming:
-            n = upcoming[0] - done  # actions land on the same period in both runs
-        for emu in (fast, exact):
-            emu.step(n)
-        done += n
-        for action in script.get(done, []):
-            for emu in (fast, exact):
-                action(emu)
-        assert observe(fast, device_reads) == observe(exact, device_reads), \
-            f"differ after period {done} ({done * 0.004:.3f} s)"
-        instants += 1
+    instants = step_both(fast, exact, script, total, pattern, lambda emu: observe(emu, device_reads))
     assert exact.periods_jumped == 0
     return instants, fast
 
