@@ -22,6 +22,8 @@ import numpy as np
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
 from xarm_emu.protocol.registers import REGISTERS
+from xarm_emu.protocol.reports import encoders_for
+from xarm_emu.server.report_ports import firmware2_fields
 
 
 def call(emu: Emulator, code: int, **values: Any) -> tuple[int, dict[str, Any]]:
@@ -259,3 +261,13 @@ def step_both(fast: Emulator, exact: Emulator, script: dict[int, list[Callable[[
         assert observe(fast) == observe(exact), f"differ after period {done} ({done * 0.004:.3f} s)"
         instants += 1
     return instants
+
+
+def report_frames(emu: Emulator) -> tuple[bytes, ...]:
+    """Every report frame the emulator's firmware sends (manual 2.1.6), encoded from one snapshot
+    as the report ports do (firmware 2.x fields included)."""
+    profile = emu.firmware
+    snap = emu.snapshot()
+    if profile.version.major >= 2:
+        snap = firmware2_fields(emu, snap)
+    return tuple(enc(snap) for _, enc in sorted(encoders_for(profile).items()))

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from helpers import step_both
+from helpers import report_frames, step_both
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -21,9 +21,7 @@ from xarm_emu.controller import gripper as grip
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.controller.feedback import feedback_queue
 from xarm_emu.protocol import rtu
-from xarm_emu.protocol.reports import encoders_for
 from xarm_emu.protocol.rtu import TOOL_HOST
-from xarm_emu.server.report_ports import firmware2_fields
 
 FIRMWARES = ("1.6.0", "2.7.103")
 #: Parameterless reads: version, serial, state, cmdnum, errors, poses, torques, IO, reduced mode,...
@@ -55,11 +53,7 @@ def gripper_to(emu: Emulator, pulse: int, speed: int = 3000) -> None:
 def observe(emu: Emulator) -> tuple[Any, ...]:
     """Everything a client can see now: every report frame, the replies of the reads, the clock
     (to the bit) and the thermal state behind the rich report's temperatures."""
-    profile = emu.firmware
-    snap = emu.snapshot()
-    if profile.version.major >= 2:
-        snap = firmware2_fields(emu, snap)
-    frames = tuple(enc(snap) for _, enc in sorted(encoders_for(profile).items()))
+    frames = report_frames(emu)
     regs = emu.controller.registers
     replies = tuple(emu.handle(code, b"") for code in READS if code in regs)
     tool = tuple(send(emu, 128, host=TOOL_HOST, addr=a) for a in TOOL_READS)

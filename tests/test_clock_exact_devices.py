@@ -11,16 +11,14 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from helpers import step_both
+from helpers import report_frames, step_both
 
 from xarm_emu.controller import bio_gripper as bio
 from xarm_emu.controller import ft_sensor as ft
 from xarm_emu.controller import robotiq
 from xarm_emu.controller.base import NOT_IDLE, idle_until
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.protocol.reports import encoders_for
 from xarm_emu.protocol.rtu import TOOL_HOST
-from xarm_emu.server.report_ports import firmware2_fields
 
 Action = Callable[[Emulator], object]
 #: Parameterless reads: version, state, cmdnum, errors, poses, torques, the gripper's error (106).
@@ -55,11 +53,7 @@ def observe(emu: Emulator, device_reads: tuple[bytes, ...]) -> tuple[Any, ...]:
     """Everything a client can see now: every report frame, the replies of the reads and of the
     device's own registers, the F/T registers when mounted, the clock to the bit and the thermal
     state behind the rich report's temperatures."""
-    profile = emu.firmware
-    snap = emu.snapshot()
-    if profile.version.major >= 2:
-        snap = firmware2_fields(emu, snap)
-    frames = tuple(enc(snap) for _, enc in sorted(encoders_for(profile).items()))
+    frames = report_frames(emu)
     regs = emu.controller.registers
     replies = tuple(emu.handle(code, b"") for code in READS if code in regs)
     device = tuple(tool_pdu(emu, pdu) for pdu in device_reads)
