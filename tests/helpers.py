@@ -101,27 +101,34 @@ def rz(a: float) -> np.ndarray:
 
 
 def free_ports(n: int) -> list[int]:
-    socks = [socket.socket() for _ in range(n)]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return ports
+    """``n`` distinct free loopback ports. With three or more, the port two below the third is free
+    and not among them too: `serve` given these as command, normal, rich, develop (...) ports opens
+    a 2.x box's real-time report there, beside the rich port."""
+    while True:
+        socks = [socket.socket() for _ in range(n)]
+        try:
+            for s in socks:
+                s.bind(("127.0.0.1", 0))
+            ports = [s.getsockname()[1] for s in socks]
+            if n < 3:
+                return ports
+            with socket.socket() as s:
+                try:
+                    s.bind(("127.0.0.1", ports[2] - 2))
+                except OSError:
+                    continue
+            return ports
+        finally:
+            for s in socks:
+                s.close()
 
 
 def serve_ports() -> tuple[list[int], int]:
     """Free ports for `serve` (command, normal, rich, develop) and the real-time report port a 2.x
     box opens beside them (two below the rich port), free too; wait on that one, the last the
     server binds: a child that cannot bind it exits after the others accepted connections."""
-    while True:
-        ports = free_ports(4)
-        with socket.socket() as s:
-            try:
-                s.bind(("127.0.0.1", ports[2] - 2))
-            except OSError:
-                continue
-        return ports, ports[2] - 2
+    ports = free_ports(4)
+    return ports, ports[2] - 2
 
 
 def port_args(cmd: int, normal: int, rich: int, develop: int) -> tuple[str, ...]:

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from helpers import free_ports, serve_subprocess
+from helpers import free_ports, serve_ports, serve_subprocess
 from helpers import run_cli as run
 
 from xarm_emu.protocol.admin import admin_host, derive_admin_port
@@ -99,7 +99,11 @@ def test_unreadable_or_invalid_files(tmp_path: Path) -> None:
 
 
 def test_serve_fleet_runs_every_arm_in_one_process(tmp_path: Path) -> None:
-    a, b = free_ports(4), free_ports(4)
+    a, _ = serve_ports()
+    while True:  # the second arm's five ports (its real-time port too) apart from the first's
+        b, _ = serve_ports()
+        if not {*a, a[2] - 2} & {*b, b[2] - 2}:
+            break
     text = "config_dir = \"cfg\"\n"
     for model, ports in ((6, a), (7, b)):
         cmd, normal, rich, develop = ports
@@ -112,7 +116,7 @@ def test_serve_fleet_runs_every_arm_in_one_process(tmp_path: Path) -> None:
         for ports in (a, b):
             code, out = run("status", "--json", "--wait", "30", "--port", str(ports[0]), "--report-port",
                             str(ports[3]))
-            assert code == 0, out
+            assert code == 0, (out, proc.poll() is not None and proc.communicate()[0])
             answers.append(json.loads(out)["version"])
         assert proc.poll() is None
     assert answers[0].startswith("6,6,XI1300,") and answers[1].startswith("7,7,XS1300,")
