@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from operator import le, sub
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -172,6 +173,8 @@ class Executor:
 
     def __init__(self, model: RobotModel, data: PlanState | None = None) -> None:
         self.model = model
+        #: The model's lower and upper joint limits as floats, for the per-period check.
+        self._bounds = (tuple(float(j.lower) for j in model.joints), tuple(float(j.upper) for j in model.joints))
         #: The buffer and plan state; part of the controller's :class:`~.state.ControllerState`.
         self.data = PlanState() if data is None else data
 
@@ -295,44 +298,55 @@ class Executor:
         Raises :class:`CommandError` for errors found while planning or moving.
         """
         d = self.data
-        self._advance_rate(dt)
+        if d.ramp_u < 1.0:
+            self._advance_rate(dt)
         if d.stopping and self.at_rest:
             self.clear()
             return q
-        if d.plan is None:
+        plan = d.plan
+        if plan is None:
             if not d.buffer or d.rate == 0.0:
                 d.tcp_speed = 0.0
                 return q
             d.current = d.buffer.popleft()
             d.t = 0.0
-            d.plan = self._plan(d.current, q, limits, to_flange, tcp_pose)
-        elif isinstance(d.plan, _CartesianPlan) and d.plan.blend_into is not None:
-            self._blend_late_arrival(q, limits, to_flange)
-        elif isinstance(d.plan, _JointPlan) and d.plan.blend is not None:
-            self._blend_joint_moves(q, limits, tcp_pose)
+            plan = d.plan = self._plan(d.current, q, limits, to_flange, tcp_pose)
+        else:
+            kind = type(plan)
+            if kind is _CartesianPlan and plan.blend_into is not None:
+                self._blend_late_arrival(q, limits, to_flange)
+                plan = d.plan
+            elif kind is _JointPlan and plan.blend is not None:
+                self._blend_joint_moves(q, limits, tcp_pose)
+                plan = d.plan
         d.t += dt * d.rate
-        plan = d.plan
-        t = min(d.t, plan.duration)
-        new_q = plan.joints(t, q)
+        t = d.t
+        duration = plan.duration
+        new_q = plan.joints(t if t < duration else duration, q)
         if new_q is None:
             self.clear()
             raise CommandError(C_KINEMATIC, "no inverse kinematics solution along the path")
-        if not kin.within_limits(self.model, new_q):
-            self.clear()
-            raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
-        if isinstance(plan, _CartesianPlan) and dt > 0.0:
+        new_q = np.asarray(new_q, dtype=float)
+        values = new_q.tolist()
+        lo, hi = self._bounds
+        # Inside the limits (manual 1.3), finite (a NaN compares false), the arm's own joint count.
+        if not (len(values) == len(lo) and all(map(le, lo, values)) and all(map(le, values, hi))):
+            if not kin.within_limits(self.model, new_q):
+                self.clear()
+                raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
+        if dt > 0.0 and type(plan) is _CartesianPlan:
             # Near a singularity a TCP path can need joint speeds beyond the limit (section 3.2.1, C24).
-            speed = float(np.abs(np.asarray(new_q) - q).max()) / dt
+            speed = max(map(abs, map(sub, values, q.tolist()))) / dt
             if speed > limits.max_joint_speed * SPEED_TOLERANCE:
                 self.clear()
                 raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")
         d.tcp_speed = plan.tcp_speed * d.rate
-        if d.t >= plan.duration:
+        if t >= duration:
             d.completed += 1 + d.merged
             d.plan = None
             d.current = None
             d.merged = 0
-        return np.asarray(new_q, dtype=float)
+        return new_q
 
     def _blend_late_arrival(self, q: np.ndarray, limits: Limits,
                             to_flange: Callable[[np.ndarray], np.ndarray]) -> None:
