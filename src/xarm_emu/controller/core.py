@@ -323,7 +323,12 @@ class Controller:
         return rot.matrix_to_pose(self.tcp_matrix())
 
     def flange_target(self, T_tcp_user: np.ndarray) -> np.ndarray:
-        return kin.flange_target(T_tcp_user, self.settings.tcp_offset, self.settings.world_offset)
+        """Flange pose (4x4, base frame) that puts the TCP at ``T_tcp_user`` (registers 35, 73)."""
+        s = self.settings
+        if (not (any(s.tcp_offset) or any(s.world_offset)) and type(T_tcp_user) is np.ndarray
+                and T_tcp_user.dtype == np.float64):
+            return T_tcp_user  # no offsets: the pose itself (what kin.flange_target returns then)
+        return kin.flange_target(T_tcp_user, s.tcp_offset, s.world_offset)
 
     def joints7(self, q: np.ndarray | None = None) -> tuple[float, ...]:
         v = self.q if q is None else q

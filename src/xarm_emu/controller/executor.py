@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from operator import le, sub
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from operator import le, sub
 
 import numpy as np
 
@@ -174,7 +174,8 @@ class Executor:
     def __init__(self, model: RobotModel, data: PlanState | None = None) -> None:
         self.model = model
         #: The model's lower and upper joint limits as floats, for the per-period check.
-        self._bounds = (tuple(float(j.lower) for j in model.joints), tuple(float(j.upper) for j in model.joints))
+        self._bounds = (tuple(float(j.lower) for j in model.joints),
+                        tuple(float(j.upper) for j in model.joints))
         #: The buffer and plan state; part of the controller's :class:`~.state.ControllerState`.
         self.data = PlanState() if data is None else data
 

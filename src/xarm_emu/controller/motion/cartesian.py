@@ -39,8 +39,10 @@ class CartesianMove:
 
     def at(self, t: float) -> tuple[np.ndarray, float]:
         """Pose (4x4, mm) and TCP linear speed (mm/s) at ``t``."""
-        s, v, _ = self.state(t)
-        return self.path.pose(s), abs(v) * self.path.linear_ratio(s)
+        s, v, _ = self.profile.sample(t)
+        path = self.path
+        s = min(max(self.s0 + s, 0.0), path.length)  # as :meth:`state`
+        return path.pose(s), abs(v) * path.linear_ratio(s)
 
 
 class MoveChain:
