@@ -177,7 +177,8 @@ def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], axes: Axes, n: int) -> l
     return out
 
 
-def _track_code(g: _Gen, R: list[list[Sym]], p: list[Sym], model: RobotModel, max_step: float) -> None:
+def _track_code(g: _Gen, R: list[list[Sym]], p: list[Sym], model: RobotModel, max_step: float,
+                max_move: float) -> None:
     """Emit the body of one chord iteration: the error and its convergence test (exactly the LM's), then
     the step dq = M e with the stored matrix M (dof x 6, row-major m0...), capped at ``max_step`` on
     any joint and clamped into the joint limits (the LM's projected step), into q."""
@@ -194,15 +195,16 @@ def _track_code(g: _Gen, R: list[list[Sym]], p: list[Sym], model: RobotModel, ma
     g.lines.append("        if s < 1e-300: wx = wy = wz = 0.0")
     g.lines.append("        else: k = atan2(s/2.0, c)/s; wx = vx*k; wy = vy*k; wz = vz*k")
     g.lines.append("    if px*px + py*py + pz*pz <= PTOL2 and wx*wx + wy*wy + wz*wz <= RTOL2:")
-    far = " or ".join(f"abs(q{i} - a{i}) > MAX_MOVE" for i in range(n))
-    g.lines.append(f"        return () if {far} else (" + "".join(f"q{i}, " for i in range(n)) + ")")
+    near = " and ".join(f"{-max_move!r} <= q{i} - a{i} <= {max_move!r}" for i in range(n))
+    g.lines.append("        return (" + "".join(f"q{i}, " for i in range(n)) + f") if {near} else ()")
     g.lines.append("    if it == chords: break")
     e = ("px", "py", "pz", "wx", "wy", "wz")
     for i in range(n):
         g.lines.append(f"    d{i} = " + " + ".join(f"m{6 * i + a}*{e[a]}" for a in range(6)))
-    g.lines.append("    big = max(" + ", ".join(f"abs(d{i})" for i in range(n)) + ")")
-    g.lines.append(f"    if big > {max_step!r}:")
-    g.lines.append(f"        k = {max_step!r}/big; " + "; ".join(f"d{i} *= k" for i in range(n)))
+    within = " and ".join(f"{-max_step!r} <= d{i} <= {max_step!r}" for i in range(n))
+    g.lines.append(f"    if not ({within}):")
+    g.lines.append(f"        k = {max_step!r}/max(" + ", ".join(f"abs(d{i})" for i in range(n)) + "); "
+                   + "; ".join(f"d{i} *= k" for i in range(n)))
     for i in range(n):
         g.lines.append(f"    q{i} += d{i}")
         g.lines += _clamp(model, i, "    ")
@@ -245,23 +247,25 @@ def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step:
         src = (f"def _chain({', '.join(args)}):\n    prev = INF\n    for it in range(max_iter):\n{body}\n"
                "    return (max_iter,)\n")
     elif mode == "track":
-        _track_code(g, R, p, model, max_step)
+        _track_code(g, R, p, model, max_step, max_move)
         body = "\n".join("    " + line for line in g.lines)
         qs = ", ".join(args)
-        src = (f"def _chain(q, target, matrix, chords, anchor):\n    {qs}, = q\n"
-               f"    {', '.join(f'a{i}' for i in range(model.dof))}, = anchor\n"
-               + "".join(line + "\n" for i in range(model.dof) for line in _clamp(model, i, "    ")) +
-               "    (T0, T1, T2, tx), (T3, T4, T5, ty), (T6, T7, T8, tz) = target[:3]\n"
-               "    tx *= 0.001; ty *= 0.001; tz *= 0.001\n"
-               f"    {', '.join(f'm{k}' for k in range(6 * model.dof))}, = matrix\n"
-               f"    for it in range(chords + 1):\n{body}\n    return ({qs}, None)\n")
+        n = model.dof
+        head = ["def _chain(q, target, matrix, chords, anchor):", f"    {qs}, = q",
+                f"    {', '.join(f'a{i}' for i in range(n))}, = anchor"]
+        head += [line for i in range(n) for line in _clamp(model, i, "    ")]
+        head += ["    (T0, T1, T2, tx), (T3, T4, T5, ty), (T6, T7, T8, tz) = target[:3]",
+                 "    tx *= 0.001; ty *= 0.001; tz *= 0.001",
+                 f"    {', '.join(f'm{k}' for k in range(6 * n))}, = matrix",
+                 "    for it in range(chords + 1):"]
+        src = "\n".join(head) + f"\n{body}\n    return ({qs}, None)\n"
     if mode not in ("lm", "track"):
         src = f"def _chain({', '.join(args)}):\n" + "\n".join(g.lines)
         src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
     namespace: dict[str, object] = {
         "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "atan2": math.atan2, "_rotvec": _rotvec,
         "INF": math.inf,
-        "PTOL2": ptol2, "RTOL2": rtol2, "MAX_STEP": max_step, "MAX_MOVE": max_move,
+        "PTOL2": ptol2, "RTOL2": rtol2, "MAX_STEP": max_step,
         "LO": tuple(j.lower for j in model.joints), "HI": tuple(j.upper for j in model.joints),
     }
     exec(compile(src, f"<kinematics {model.name} {mode}>", "exec"), namespace)  # noqa: S102

@@ -174,7 +174,7 @@ def track(
     (``start`` is clamped into them); a target with NaN or inf has no answer (every solve fails); xArm5
     (closed form) has no chord solve.
     """
-    if not model.fixed_roll_pitch:
+    if model.dof == 6 and not model.fixed_roll_pitch:
         fn = _chain_fn(model, "track")
         rows = T_target.tolist()
         q: Sequence[float] = start
