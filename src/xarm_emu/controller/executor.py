@@ -160,6 +160,16 @@ class _CartesianPlan(_Plan):
             sol = kin.ik(model, target, seed, limited=False)
             self._matrix = None
             q = None if sol is None else tuple(sol.tolist())
+        elif t >= self.duration:
+            # The period that ends the plan takes the full solve (from the previous joints, then the
+            # first-order start), whose quadratic convergence puts the arm at rest on its target some
+            # orders of magnitude closer than the convergence test asks, as it always did.
+            for start in (h[-1][1], *_first_order(h, t)):
+                sol = kin.ik(model, target, start, limited=False)
+                if sol is not None:
+                    break
+            self._matrix = None
+            q = None if sol is None else tuple(sol.tolist())
         else:
             q, self._matrix = kin.track(model, target, _start(h, t), self._matrix, h[-1][1],
                                         lambda: _first_order(h, t))
