@@ -1,4 +1,6 @@
-"""Kinematics benchmark: FK and IK time per call (xArm6) beside a plain-numpy reference, IK success rate.
+"""Kinematics benchmark: FK and IK time per call (xArm6) beside a plain-numpy reference, IK success rate,
+and the joints of one control period of a Cartesian path (the chord solve of ``kinematics.track``) against
+the full solve each period (the previous way), both measured in the same run.
 
 Targets: FK <= 10 us, IK <= 100 us (seed within 0.2 rad), IK success >= 99 % from seeds within
 0.5 rad of a solution. Run: ``python -m bench.bench_kinematics``.
@@ -8,9 +10,13 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 
+from bench.bench_clock import _program
+from xarm_emu.controller import executor as ex
+from xarm_emu.controller.emulator import Emulator
 from xarm_emu.model.kinematics import POS_TOL, ROT_TOL, fk, ik
 from xarm_emu.model.robots import XARM6, XARM7, RobotModel
 from xarm_emu.model.rotations import matrix_to_axis_angle, pose_to_matrix
@@ -85,6 +91,90 @@ def _problems(model: RobotModel, n: int, spread: float, seed: int) -> list[tuple
     return out
 
 
+Segment = tuple[np.ndarray, list[tuple[float, np.ndarray]]]
+
+
+def _path_targets() -> list[Segment]:
+    """The Cartesian plans of the stepped-clock benchmark's 60 s mixed program (xArm6): per plan the
+    joints it starts from and, per control period, its path time and flange target."""
+    segments: list[tuple[Any, np.ndarray, list[tuple[float, np.ndarray]]]] = []
+    joints = ex._CartesianPlan.joints
+
+    def recorded(self: ex._CartesianPlan, t: float, seed: np.ndarray) -> np.ndarray | None:
+        if not segments or segments[-1][0] is not self:
+            segments.append((self, seed.copy(), []))
+        segments[-1][2].append((t, self.to_flange(self.move.at(t)[0])))
+        return joints(self, t, seed)
+
+    ex._CartesianPlan.joints = recorded  # type: ignore[method-assign]
+    try:
+        emu = Emulator(6)
+        _program(emu)
+        emu.advance(60.0)
+    finally:
+        ex._CartesianPlan.joints = joints  # type: ignore[method-assign]
+    return [(q0, points) for _, q0, points in segments]
+
+
+class _Replay:
+    """A recorded path: ``at(t)`` gives the flange target recorded at path time ``t``."""
+
+    def __init__(self, points: list[tuple[float, np.ndarray]]) -> None:
+        self.targets = dict(points)
+        self.duration = points[-1][0]
+
+    def at(self, t: float) -> tuple[np.ndarray, float]:
+        return self.targets[t], 0.0
+
+
+def _full_solve(plan: Any, t: float, seed: np.ndarray) -> np.ndarray | None:
+    """A period as Cartesian plans ran it before the chord solve: the full solve from the first-order
+    extrapolation of the last two answers, then from the previous joints."""
+    target = plan.to_flange(plan.move.at(t)[0])
+    sol = None
+    h = plan.full_hist
+    if h is not None and seed is h[3] and h[2] > h[0]:
+        r = min((t - h[2]) / (h[2] - h[0]), 2.0)
+        sol = ik(plan.model, target, seed + (seed - h[1]) * r, limited=False)
+    if sol is None:
+        sol = ik(plan.model, target, seed, limited=False)
+    plan.full_hist = None if sol is None else (
+        (h[2], h[3], t, sol) if h is not None and seed is h[3] else (t - 1.0, sol, t, sol))
+    return sol
+
+
+def _replay(segments: list[Segment], period: Any) -> tuple[float, list[np.ndarray]]:
+    """Seconds to run ``period(plan, t, seed)`` over every recorded period, and the joints."""
+    out = []
+    t0 = time.perf_counter()
+    for q0, points in segments:
+        plan = ex._CartesianPlan(_Replay(points), lambda T: T, XARM6)  # type: ignore[arg-type]
+        plan.full_hist = None  # type: ignore[attr-defined]
+        q = q0
+        for t, _ in points:
+            q = period(plan, t, q)
+            out.append(q)
+    return time.perf_counter() - t0, out
+
+
+def path_following(repeats: int = 7) -> str:
+    """The report line of one Cartesian control period's joints, chord solve against full solve
+    (interleaved runs, best of ``repeats``)."""
+    segments = _path_targets()
+    n = sum(len(points) for _, points in segments)
+    best = {"chord": math.inf, "full": math.inf}
+    answers: dict[str, list[np.ndarray]] = {}
+    for _ in range(repeats):
+        for name, period in (("full", _full_solve), ("chord", ex._CartesianPlan.joints)):
+            wall, answers[name] = _replay(segments, period)
+            best[name] = min(best[name], wall)
+    worst = max(float(np.max(np.abs(a - b))) for a, b in zip(answers["chord"], answers["full"], strict=True))
+    chord, full = best["chord"] / n * 1e6, best["full"] / n * 1e6
+    return (f"  Cartesian period's joints ({n} periods of the 60 s mixed program): chord solve "
+            f"{chord:.1f} us, full solve each period (baseline, same run) {full:.1f} us: x{full / chord:.2f};"
+            f" answers within {worst:.0e} rad of each other")
+
+
 def run() -> list[str]:
     """Measure and return the report lines (``python -m bench`` prints them)."""
     model = XARM6
@@ -121,6 +211,7 @@ def run() -> list[str]:
                 ok += 1
         lines.append(f"  IK success {m.name}: {ok / len(probs):6.1%} of {len(probs)}"
                      " from seeds within 0.5 rad (target >= 99 %)")
+    lines.append(path_following())
     return lines
 
 

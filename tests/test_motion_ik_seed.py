@@ -1,8 +1,9 @@
 """The Cartesian plan's IK seed (controller/executor.py): each control period of a linear move
-(register 21) and an arc (register 27) starts the solver from the extrapolation of the last two
-answers; the joints it reaches put the flange on the path within the solver's convergence tolerance
-(|dp| <= 1e-6 mm, |d theta| <= 1e-7 rad), agree with a solve from the previous joints alone, and a pose
-out of reach still gives no solution (C21)."""
+(register 21) and an arc (register 27) starts the solver from the extrapolation of the last answers
+(the chord solve of kinematics.track, the full solve where it does not converge); the joints it
+reaches put the flange on the path within the solver's convergence tolerance (|dp| <= 1e-6 mm,
+|d theta| <= 1e-7 rad), agree with a solve from the previous joints alone, need fewer iterations of
+the full solver than that solve, and a pose out of reach still gives no solution (C21)."""
 
 from __future__ import annotations
 

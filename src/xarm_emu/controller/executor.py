@@ -132,8 +132,12 @@ class _CartesianPlan(_Plan):
         #: For a line (chain) whose last move has a blend radius: (its target, the radius, the first
         #: command of the chain), so that a linear move arriving later can still be blended into.
         self.blend_into = blend_into
-        #: The last two solutions and their path times, for the extrapolated seed of :meth:`joints`.
-        self._hist: tuple[float, np.ndarray, float, np.ndarray] | None = None
+        #: The last answers along the path: (path time, joints as floats), oldest first, at most four,
+        #: and the array of the last one (the executor hands it back as the next seed).
+        self._hist: tuple[tuple[float, tuple[float, ...]], ...] = ()
+        self._last: np.ndarray | None = None
+        #: The step matrix of the chord solve (kinematics.track), kept from period to period.
+        self._matrix: tuple[float, ...] | None = None
 
     def last_run(self, t: float) -> tuple[motion.CartesianMove, float] | None:
         """The final run of the plan and the time within it, if ``t`` lies in that run."""
@@ -149,23 +153,79 @@ class _CartesianPlan(_Plan):
         pose, speed = self.move.at(t)
         self.tcp_speed = speed
         target = self.to_flange(pose)
-        sol = None
-        h = self._hist
-        if h is not None and seed is h[3] and h[2] > h[0] and not self.model.fixed_roll_pitch:
-            # The previous period's answer is the seed: start from the first-order extrapolation of the
-            # last two answers along the path time, which converges in fewer iterations to the same
-            # tolerance; the plain seed still decides when that start does not converge. (The xArm5's
-            # closed form needs no start and picks the branch nearest the previous joints.)
-            r = min((t - h[2]) / (h[2] - h[0]), _EXTRAPOLATE_MAX)
-            sol = kin.ik(self.model, target, seed + (seed - h[1]) * r, limited=False)
-        if sol is None:
-            sol = kin.ik(self.model, target, seed, limited=False)
-        self._hist = None if sol is None else (
-            (h[2], h[3], t, sol) if h is not None and seed is h[3] else (t - 1.0, sol, t, sol))
+        model = self.model
+        h = self._hist if seed is self._last else ()
+        if not h or model.fixed_roll_pitch:
+            # No answer of this plan to start from (its first period, or the joints changed under it);
+            # the xArm5's closed form needs no start and picks the branch nearest the previous joints.
+            sol = kin.ik(model, target, seed, limited=False)
+            self._matrix = None
+            q = None if sol is None else tuple(sol.tolist())
+        elif t >= self.duration:
+            # The period that ends the plan takes the full solve (from the previous joints, then the
+            # first-order start), whose quadratic convergence puts the arm at rest on its target some
+            # orders of magnitude closer than the convergence test asks, as it always did.
+            for start in (h[-1][1], *_first_order(h, t)):
+                sol = kin.ik(model, target, start, limited=False)
+                if sol is not None:
+                    break
+            self._matrix = None
+            q = None if sol is None else tuple(sol.tolist())
+        else:
+            q, self._matrix = kin.track(model, target, _start(h, t), self._matrix, h[-1][1],
+                                        lambda: _first_order(h, t))
+            sol = None if q is None else np.array(q)
+        if q is None:
+            self._hist, self._last = (), None
+            return None
+        self._hist = (*h[-3:], (t, q))
+        self._last = sol
         return sol
 
     def stop_time(self, t: float, limits: Limits) -> float:
         return self.tcp_speed / limits.tcp_maxacc
+
+
+def _first_order(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tuple[tuple[float, ...], ...]:
+    """The first-order extrapolation to path time ``t`` of the last two answers of ``h`` ((path time,
+    joints), oldest first; the step ratio capped at :data:`_EXTRAPOLATE_MAX`), as the one extra seed
+    of the full solve (what a Cartesian plan started its solve from before the chord solve); none
+    without two answers at different times."""
+    if len(h) < 2 or not h[-1][0] > h[-2][0]:
+        return ()
+    (t2, q2), (t3, q3) = h[-2], h[-1]
+    r = min((t - t3) / (t3 - t2), _EXTRAPOLATE_MAX)
+    return (tuple([b + (b - a) * r for a, b in zip(q2, q3, strict=True)]),)
+
+
+def _start(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tuple[float, ...]:
+    """The start of a Cartesian plan's chord solve at path time ``t`` from its last answers ``h``
+    ((path time, joints), oldest first).
+
+    With four answers along a steady path time (no step more than :data:`_EXTRAPOLATE_MAX` times
+    another) the third-order extrapolation (Lagrange through the four; on equal steps the weights
+    -1, 4, -6, 4), which on the jerk-limited paths lies closest to the answer of the first to fifth
+    orders, so that one chord step usually converges; else the first-order one; else the last answer.
+    """
+    if len(h) < 4:
+        first = _first_order(h, t)
+        return first[0] if first else h[-1][1]
+    (t0, q0), (t1, q1), (t2, q2), (t3, q3) = h
+    step = t3 - t2
+    d = t - t3
+    lo, hi = step / _EXTRAPOLATE_MAX, step * _EXTRAPOLATE_MAX
+    if not (lo <= t1 - t0 <= hi and lo <= t2 - t1 <= hi and 0.0 <= d <= hi):
+        first = _first_order(h, t)
+        return first[0] if first else q3
+    tol = step * 1e-9
+    if abs(t1 - t0 - step) <= tol and abs(t2 - t1 - step) <= tol and abs(d - step) <= tol:
+        return tuple([4.0 * (d_ + b) - 6.0 * c - a for a, b, c, d_ in zip(q0, q1, q2, q3, strict=True)])
+    d0, d1, d2, d3 = t - t0, t - t1, t - t2, d  # Lagrange weights of the four answers at t
+    w0 = d1 * d2 * d3 / ((t0 - t1) * (t0 - t2) * (t0 - t3))
+    w1 = d0 * d2 * d3 / ((t1 - t0) * (t1 - t2) * (t1 - t3))
+    w2 = d0 * d1 * d3 / ((t2 - t0) * (t2 - t1) * (t2 - t3))
+    w3 = d0 * d1 * d2 / ((t3 - t0) * (t3 - t1) * (t3 - t2))
+    return tuple([w0 * a + w1 * b + w2 * c + w3 * d_ for a, b, c, d_ in zip(q0, q1, q2, q3, strict=True)])
 
 
 class Executor:

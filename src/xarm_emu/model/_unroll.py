@@ -177,9 +177,48 @@ def _lm_code(g: _Gen, R: list[list[Sym]], p: list[Sym], axes: Axes, n: int) -> l
     return out
 
 
-def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step: float
-             ) -> Callable[..., tuple[float, ...]]:
-    """Unrolled code of ``model`` as a Python function; mode is "fk", "jac" or "lm".
+def _track_code(g: _Gen, R: list[list[Sym]], p: list[Sym], model: RobotModel, max_step: float,
+                max_move: float) -> None:
+    """Emit the body of one chord iteration: the error and its convergence test (exactly the LM's), then
+    the step dq = M e with the stored matrix M (dof x 6, row-major m0...), capped at ``max_step`` on
+    any joint and clamped into the joint limits (the LM's projected step), into q."""
+    n = model.dof
+    E = [[g.assign(g.dot([f"T{3 * a + k}" for k in range(3)], R[b])) for b in range(3)] for a in range(3)]
+    entries = ", ".join(str(E[a][b]) for a in range(3) for b in range(3))
+    g.lines.append(f"    px = tx - {p[0]}; py = ty - {p[1]}; pz = tz - {p[2]}")
+    # the rotation vector of E = R_target R^T, as _rotvec computes it (its rare branch near pi called)
+    g.lines.append(f"    vx = {E[2][1]} - {E[1][2]}; vy = {E[0][2]} - {E[2][0]}; vz = {E[1][0]} - {E[0][1]}")
+    g.lines.append(f"    c = ({E[0][0]} + {E[1][1]} + {E[2][2]} - 1.0)/2.0")
+    g.lines.append(f"    if c < -0.99: wx, wy, wz = _rotvec({entries})")
+    g.lines.append("    else:")
+    g.lines.append("        s = sqrt(vx*vx + vy*vy + vz*vz)")
+    g.lines.append("        if s < 1e-300: wx = wy = wz = 0.0")
+    g.lines.append("        else: k = atan2(s/2.0, c)/s; wx = vx*k; wy = vy*k; wz = vz*k")
+    g.lines.append("    if px*px + py*py + pz*pz <= PTOL2 and wx*wx + wy*wy + wz*wz <= RTOL2:")
+    near = " and ".join(f"{-max_move!r} <= q{i} - a{i} <= {max_move!r}" for i in range(n))
+    g.lines.append("        return (" + "".join(f"q{i}, " for i in range(n)) + f") if {near} else ()")
+    g.lines.append("    if it == chords: break")
+    e = ("px", "py", "pz", "wx", "wy", "wz")
+    for i in range(n):
+        g.lines.append(f"    d{i} = " + " + ".join(f"m{6 * i + a}*{e[a]}" for a in range(6)))
+    within = " and ".join(f"{-max_step!r} <= d{i} <= {max_step!r}" for i in range(n))
+    g.lines.append(f"    if not ({within}):")
+    g.lines.append(f"        k = {max_step!r}/max(" + ", ".join(f"abs(d{i})" for i in range(n)) + "); "
+                   + "; ".join(f"d{i} *= k" for i in range(n)))
+    for i in range(n):
+        g.lines.append(f"    q{i} += d{i}")
+        g.lines += _clamp(model, i, "    ")
+
+
+def _clamp(model: RobotModel, i: int, indent: str) -> list[str]:
+    """Lines that clamp joint ``i`` (variable q{i}) into its limits."""
+    lo, hi = float(model.joints[i].lower), float(model.joints[i].upper)
+    return [f"{indent}if q{i} < {lo!r}: q{i} = {lo!r}", f"{indent}elif q{i} > {hi!r}: q{i} = {hi!r}"]
+
+
+def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step: float,
+             max_move: float = math.inf) -> Callable[..., tuple[float, ...]]:
+    """Unrolled code of ``model`` as a Python function; mode is "fk", "jac", "lm" or "track".
 
     fk: (R row-major 9, p 3) in mm.  jac: the same plus the 6 x dof Jacobian row-major.
     lm: args (q..., T0..T8, tx, ty, tz, mu, max_iter) in metres; the whole damped least-squares loop,
@@ -187,10 +226,16 @@ def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step:
     mu raised tenfold whenever the error grows. Returns (iterations, q...) once converged, else
     (max_iter,). ``ptol2`` and ``rtol2`` are the squared convergence tolerances (m^2, rad^2),
     ``max_step`` the step cap (rad).
+    track: args (q, target, matrix, chords, anchor): the start q (dof floats, clamped into the limits
+    first), the target (the rows of the 4x4 flange pose in mm), the step matrix M (dof x 6 row-major,
+    metres), the number of chord steps, the joints the answer must stay near. The chord loop: the LM's
+    convergence test, then a step dq = M e capped and clamped as the LM's, at most ``chords`` times.
+    Returns the joints once converged within ``max_move`` (rad, any joint) of ``anchor``, () when
+    converged farther away, and (q..., None) at the last iterate when not converged.
     """
     g = _Gen()
     args = [f"q{i}" for i in range(model.dof)]
-    unit = 1e-3 if mode == "lm" else 1.0
+    unit = 1e-3 if mode in ("lm", "track") else 1.0
     R, p, axes = _chain_code(g, model, unit)
     out: list[Sym] = [R[a][b] for a in range(3) for b in range(3)] + p
     if mode == "jac":
@@ -201,11 +246,25 @@ def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step:
         body = "\n".join("    " + line for line in g.lines)
         src = (f"def _chain({', '.join(args)}):\n    prev = INF\n    for it in range(max_iter):\n{body}\n"
                "    return (max_iter,)\n")
-    if mode != "lm":
+    elif mode == "track":
+        _track_code(g, R, p, model, max_step, max_move)
+        body = "\n".join("    " + line for line in g.lines)
+        qs = ", ".join(args)
+        n = model.dof
+        head = ["def _chain(q, target, matrix, chords, anchor):", f"    {qs}, = q",
+                f"    {', '.join(f'a{i}' for i in range(n))}, = anchor"]
+        head += [line for i in range(n) for line in _clamp(model, i, "    ")]
+        head += ["    (T0, T1, T2, tx), (T3, T4, T5, ty), (T6, T7, T8, tz) = target[:3]",
+                 "    tx *= 0.001; ty *= 0.001; tz *= 0.001",
+                 f"    {', '.join(f'm{k}' for k in range(6 * n))}, = matrix",
+                 "    for it in range(chords + 1):"]
+        src = "\n".join(head) + f"\n{body}\n    return ({qs}, None)\n"
+    if mode not in ("lm", "track"):
         src = f"def _chain({', '.join(args)}):\n" + "\n".join(g.lines)
         src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
     namespace: dict[str, object] = {
-        "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "_rotvec": _rotvec, "INF": math.inf,
+        "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "atan2": math.atan2, "_rotvec": _rotvec,
+        "INF": math.inf,
         "PTOL2": ptol2, "RTOL2": rtol2, "MAX_STEP": max_step,
         "LO": tuple(j.lower for j in model.joints), "HI": tuple(j.upper for j in model.joints),
     }

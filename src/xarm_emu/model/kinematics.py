@@ -43,6 +43,11 @@ XARM5_LEVEL_TOL = 1e-6  # allowed tilt of the xArm5 tool axis from vertical (rad
 _POS_SCALE = 1e-3  # IK weights position error in metres against rotation in rad
 LM_MU = 0.1
 MAX_STEP = 0.5  # rad
+#: Path following (:func:`track`): chord steps with the stored matrix before it is refreshed, and the
+#: farthest (rad, any joint) a tracked answer may lie from the previous joints before the full solve
+#: decides instead (a path needs at most pi rad/s * 4 ms = 0.013 rad per period, Table 1.2).
+TRACK_CHORDS = 2
+TRACK_MAX_MOVE = 0.05
 
 _CACHE: dict[int, tuple[RobotModel, dict[str, Callable[..., tuple[float, ...]]]]] = {}
 _LIMITS: dict[int, tuple[RobotModel, tuple[float, ...], tuple[float, ...]]] = {}
@@ -52,7 +57,8 @@ def _chain_fn(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
     entry = _CACHE.get(id(model))
     if entry is None or entry[0] is not model:
         ptol2, rtol2 = (POS_TOL * 1e-3) ** 2, ROT_TOL ** 2  # the LM step works in metres
-        fns = {m: generate(model, m, ptol2, rtol2, MAX_STEP) for m in ("fk", "jac", "lm")}
+        fns = {m: generate(model, m, ptol2, rtol2, MAX_STEP, TRACK_MAX_MOVE)
+               for m in ("fk", "jac", "lm", "track")}
         entry = _CACHE[id(model)] = (model, fns)
     return entry[1][mode]
 
@@ -132,6 +138,64 @@ def _lm(model: RobotModel, target: list[list[float]], seed: list[float]) -> list
     except ValueError:  # Cholesky of a matrix that is not positive definite (degenerate input)
         return None
     return list(r[1:]) if len(r) > 1 else None
+
+
+def step_matrix(model: RobotModel, q: Sequence[float]) -> tuple[float, ...]:
+    """The Newton step matrix M = J^T (J J^T + 1e-12 I)^-1 (dof x 6, row-major) of the flange at ``q``
+    (J with its position rows in metres, as the LM weighs the error), for :func:`track`."""
+    r = _chain_fn(model, "jac")(*q)
+    J = np.array(r[12:]).reshape(6, model.dof)
+    J[:3] *= 1e-3
+    A = J @ J.T
+    A.flat[::7] += 1e-12
+    return tuple(np.linalg.solve(A, J).T.ravel().tolist())
+
+
+def track(
+    model: RobotModel,
+    T_target: np.ndarray,
+    start: Sequence[float],
+    matrix: tuple[float, ...] | None,
+    previous: Sequence[float],
+    fallbacks: Callable[[], Sequence[Sequence[float]]] = tuple,
+) -> tuple[tuple[float, ...] | None, tuple[float, ...] | None]:
+    """Path following: joints (floats) that put the flange at ``T_target`` from a predicted ``start``,
+    and the step matrix to keep for the next period; ``(None, None)`` when there is no solution.
+
+    A chord (simplified Newton) solve: the same FK test as :func:`ik` (|dp| <= POS_TOL, |d theta| <=
+    ROT_TOL), then up to :data:`TRACK_CHORDS` steps dq = M e with the stored ``matrix`` M
+    (:func:`step_matrix`, kept from an earlier period; None: none yet), each capped at MAX_STEP and
+    clamped into the joint limits as the LM's steps, each followed by the test. When they do not converge,
+    M is refreshed at the current iterate and the chord solve runs once more (a full Newton step first).
+    An answer is taken only if no joint lies farther than :data:`TRACK_MAX_MOVE` from ``previous`` (the
+    last joints); otherwise, or without convergence, the full solve (``ik(..., limited=False)``) from each
+    of the seeds ``fallbacks()`` gives (computed only then) and then from ``previous`` decides, and no
+    matrix is kept. ``start`` and ``previous`` are ``dof`` finite floats, ``previous`` inside the limits
+    (``start`` is clamped into them); a target with NaN or inf has no answer (every solve fails); xArm5
+    (closed form) has no chord solve.
+    """
+    if model.dof == 6 and not model.fixed_roll_pitch:
+        fn = _chain_fn(model, "track")
+        rows = T_target.tolist()
+        q: Sequence[float] = start
+        for _ in range(2):
+            try:
+                if matrix is None:
+                    matrix = step_matrix(model, q)
+                r = fn(q, rows, matrix, TRACK_CHORDS, previous)
+            except (ValueError, TypeError):  # not a 4x4 of numbers, or NaN reached the step matrix
+                break
+            if len(r) == len(q):
+                return r, matrix
+            if not r:
+                break  # converged too far from the previous joints: the full solve decides
+            q = r[:-1]
+            matrix = None  # refresh at the current iterate
+    for seed in (*fallbacks(), previous):
+        sol = ik(model, T_target, seed, limited=False)
+        if sol is not None:
+            return tuple(sol.tolist()), None
+    return None, None
 
 
 def _fit_limits(model: RobotModel, q: list[float], limited: bool) -> np.ndarray | None:
