@@ -138,9 +138,10 @@ def test_xarm7_keeps_the_full_solve(name: str, monkeypatch: pytest.MonkeyPatch) 
         assert q.tobytes() == q_full.tobytes()
 
 
-def previous_joints(self: ex._CartesianPlan, t: float, seed: np.ndarray) -> np.ndarray | None:
+def previous_joints(self: ex._CartesianPlan, t: float, seed: np.ndarray, increment: float = 0.0
+                    ) -> np.ndarray | None:
     """A Cartesian plan's period as it was before the chord solve: the full solve from the first-order
-    extrapolation of the last two answers, then from the previous joints."""
+    extrapolation of the last two answers, then from the previous joints (each pose sampled alone)."""
     pose, speed = self.move.at(t)
     self.tcp_speed = speed
     target = self.to_flange(pose)

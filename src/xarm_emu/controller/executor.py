@@ -38,6 +38,9 @@ _SMOOTHSTEP_PEAK = 1.5
 #: A Cartesian step may exceed the joint speed limit by this factor before C24 (sampling slack).
 SPEED_TOLERANCE = 1.05
 
+#: Control periods of a Cartesian path sampled at once while the path rate is steady.
+SAMPLE_BATCH = 64
+
 #: Largest ratio of path-time steps over which a Cartesian plan extrapolates its IK seed.
 _EXTRAPOLATE_MAX = 2.0
 
@@ -138,6 +141,9 @@ class _CartesianPlan(_Plan):
         self._last: np.ndarray | None = None
         #: The step matrix of the chord solve (kinematics.track), kept from period to period.
         self._matrix: tuple[float, ...] | None = None
+        #: Path samples of upcoming periods (:meth:`sample`): path times, poses (N, 4, 4), TCP
+        #: speeds, and the index of the next one.
+        self._batch: tuple[list[float], np.ndarray, list[float], int] | None = None
 
     def last_run(self, t: float) -> tuple[motion.CartesianMove, float] | None:
         """The final run of the plan and the time within it, if ``t`` lies in that run."""
@@ -149,8 +155,33 @@ class _CartesianPlan(_Plan):
             return move.moves[-1], t - last_start
         return move, t
 
-    def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
-        pose, speed = self.move.at(t)
+    def sample(self, t: float, increment: float) -> tuple[np.ndarray, float]:
+        """The path's pose (4x4, user frame) and TCP speed at path time ``t``.
+
+        ``increment`` > 0: the path time will go on growing by this much a period (the executor's
+        path rate is steady), so the next :data:`SAMPLE_BATCH` path times, summed as the executor sums
+        them, are sampled at once (``at_many``) and later periods whose path time matches one of
+        them, bit for bit, take it from there. Which periods come from a batch depends only on the
+        sequence of path times, never on how the control periods are stepped."""
+        b = self._batch
+        if b is not None:
+            i = b[3]
+            ts = b[0]
+            if i < len(ts) and ts[i] == t:
+                self._batch = (ts, b[1], b[2], i + 1)
+                return b[1][i], b[2][i]
+        if increment > 0.0 and t < self.duration:
+            n = min(SAMPLE_BATCH, int((self.duration - t) / increment) + 2)
+            times = np.add.accumulate(np.concatenate(((t,), np.full(n - 1, increment))))
+            np.minimum(times, self.duration, out=times)  # the executor passes min(path time, duration)
+            poses, speeds = self.move.at_many(times)
+            self._batch = (times.tolist(), poses, speeds.tolist(), 1)
+            return poses[0], float(speeds[0])
+        self._batch = None
+        return self.move.at(t)
+
+    def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> np.ndarray | None:
+        pose, speed = self.sample(t, increment)
         self.tcp_speed = speed
         target = self.to_flange(pose)
         model = self.model
@@ -219,13 +250,13 @@ def _start(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tuple[fl
         return first[0] if first else q3
     tol = step * 1e-9
     if abs(t1 - t0 - step) <= tol and abs(t2 - t1 - step) <= tol and abs(d - step) <= tol:
-        return tuple([4.0 * (d_ + b) - 6.0 * c - a for a, b, c, d_ in zip(q0, q1, q2, q3, strict=True)])
+        return tuple([4.0 * (d_ + b) - 6.0 * c - a for a, b, c, d_ in zip(q0, q1, q2, q3, strict=False)])
     d0, d1, d2, d3 = t - t0, t - t1, t - t2, d  # Lagrange weights of the four answers at t
     w0 = d1 * d2 * d3 / ((t0 - t1) * (t0 - t2) * (t0 - t3))
     w1 = d0 * d2 * d3 / ((t1 - t0) * (t1 - t2) * (t1 - t3))
     w2 = d0 * d1 * d3 / ((t2 - t0) * (t2 - t1) * (t2 - t3))
     w3 = d0 * d1 * d2 / ((t3 - t0) * (t3 - t1) * (t3 - t2))
-    return tuple([w0 * a + w1 * b + w2 * c + w3 * d_ for a, b, c, d_ in zip(q0, q1, q2, q3, strict=True)])
+    return tuple([w0 * a + w1 * b + w2 * c + w3 * d_ for a, b, c, d_ in zip(q0, q1, q2, q3, strict=False)])
 
 
 class Executor:
@@ -383,7 +414,12 @@ class Executor:
         d.t += dt * d.rate
         t = d.t
         duration = plan.duration
-        new_q = plan.joints(t if t < duration else duration, q)
+        if type(plan) is _CartesianPlan:
+            # a steady path rate (no ramp, no stop): the plan may sample the next periods at once
+            steady = d.ramp_u >= 1.0 and not d.stopping
+            new_q = plan.joints(t if t < duration else duration, q, dt * d.rate if steady else 0.0)
+        else:
+            new_q = plan.joints(t if t < duration else duration, q)
         if new_q is None:
             self.clear()
             raise CommandError(C_KINEMATIC, "no inverse kinematics solution along the path")
