@@ -16,6 +16,12 @@ Table 1.2) time the whole move:
   rotation speed, in which case the rotation sets the pace and the TCP goes
   slower. ``linear_ratio(s)`` (mm of TCP travel per unit ``s``) gives the TCP
   speed from the path speed.
+
+``pose_many(s)`` and ``linear_ratio_many(s)`` take an array of path coordinates
+and return the same values, stacked ((N, 4, 4) and (N,)); every path here
+computes them with numpy in the same arithmetic as ``pose`` (bit for bit where
+numpy's ``sin`` and ``cos`` match :mod:`math`'s). A path class without them gets
+the base class's loop over ``pose``.
 """
 
 from __future__ import annotations
@@ -26,7 +32,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ._rot import Quat, Slerp, pose_matrix, quat_from_matrix
+from ._rot import Quat, Slerp, SlerpSet, pose_matrices, pose_matrix, quat_from_matrix
 
 #: Equivalent mm per rad of orientation change: speed 1000 <-> 180 deg/s (manual 1.3, note 2).
 ROT_MM_PER_RAD = 1000.0 / math.pi
@@ -74,6 +80,25 @@ class Path:
         """TCP mm travelled per unit of ``s`` at ``s`` (1 unless the rotation sets the pace)."""
         raise NotImplementedError
 
+    def pose_many(self, s: np.ndarray) -> np.ndarray:
+        """``pose`` of each entry of ``s`` (N,) -> (N, 4, 4)."""
+        pq = self._pq_many(s)
+        if pq is not None:
+            return pose_matrices(*pq)
+        out = np.empty((len(s), 4, 4))
+        for k, x in enumerate(s.tolist()):
+            out[k] = self.pose(x)
+        return out
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        """``linear_ratio`` of each entry of ``s`` (N,) -> (N,)."""
+        return np.array([self.linear_ratio(x) for x in s.tolist()], dtype=float)
+
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """Positions (N, 3) and unit quaternions (N, 4) of :meth:`pose_many`; ``None``: the path has
+        no vectorised form (``pose_many`` then loops over ``pose``)."""
+        return None
+
 
 class LinePath(Path):
     """Straight TCP line from ``T0`` to ``T1``; orientation by slerp on the shortest rotation.
@@ -89,6 +114,7 @@ class LinePath(Path):
         self.angle = self.slerp.angle
         self.length = max(self.distance, ROT_MM_PER_RAD * self.angle)
         self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
+        self._p0_array, self._delta_array = np.array(self.p0), np.array(self.delta)
 
     def point_u(self, u: float) -> Vec:
         p, d = self.p0, self.delta
@@ -105,6 +131,18 @@ class LinePath(Path):
 
     def linear_ratio(self, s: float) -> float:
         return self._ratio
+
+    def pq_u_many(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (N, 3) and quaternions (N, 4) at the fractions ``u`` (as :meth:`pose_u`)."""
+        return self._p0_array + u[:, None] * self._delta_array, self.slerp.at_many(u)
+
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.length <= 0.0:
+            return self.pq_u_many(np.ones(len(s)))
+        return self.pq_u_many(np.minimum(np.maximum(s / self.length, 0.0), 1.0))
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        return np.full(len(s), self._ratio)
 
 
 class CirclePath(Path):
@@ -147,6 +185,10 @@ class CirclePath(Path):
         q0, q1, q2 = (quat_from_matrix(t[:3, :3]) for t in (t0, p1, p2))
         self._bounds = (0.0, self.phi1, self.phi2, 2.0 * math.pi)
         self._slerps = (Slerp(q0, q1), Slerp(q1, q2), Slerp(q2, q0))
+        bd = self._bounds
+        self._many = (np.array(bd[1:3]), np.array(bd[:3]), np.array([bd[i + 1] - bd[i] for i in range(3)]),
+                      SlerpSet(self._slerps), np.array(self.center), np.array(self.e1), np.array(self.e2))
+        self._sorted = self.phi1 <= self.phi2
 
     def _angle_of(self, p: Vec) -> float:
         d = _sub(p, self.center)
@@ -172,6 +214,22 @@ class CirclePath(Path):
     def linear_ratio(self, s: float) -> float:
         return 1.0
 
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        inner, lower, width, slerps, center, e1, e2 = self._many
+        phi = np.minimum(np.maximum(s, 0.0), self.length) / self.radius
+        c, sn = np.cos(phi) * self.radius, np.sin(phi) * self.radius
+        p = center + c[:, None] * e1 + sn[:, None] * e2
+        # orientation_at_angle: the angle within the turn, the slerp of its part of the circle
+        f = phi - np.floor(phi / (2.0 * math.pi)) * 2.0 * math.pi
+        if self._sorted:
+            i = np.searchsorted(inner, f, side="right")
+        else:  # (only for points so close to collinear that round-off reorders them)
+            i = np.where(f < inner[0], 0, np.where(f < inner[1], 1, 2))
+        return p, slerps.at(i, (f - lower[i]) / width[i])
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        return np.ones(len(s))
+
 
 class _LinePiece(Path):
     """The part ``[u0, u1]`` of a :class:`LinePath`."""
@@ -185,6 +243,13 @@ class _LinePiece(Path):
 
     def linear_ratio(self, s: float) -> float:
         return self.line.linear_ratio(s)
+
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        f = s / self.length if self.length > 0.0 else np.ones(len(s))
+        return self.line.pq_u_many(self.u0 + self.du * f)
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        return self.line.linear_ratio_many(s)
 
 
 class BlendArc(Path):
@@ -211,6 +276,7 @@ class BlendArc(Path):
         self.slerp = Slerp(q_in, q_out)
         self.length = max(self.distance, ROT_MM_PER_RAD * self.slerp.angle)
         self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
+        self._arrays = np.array(self.center), np.array(m), np.array(d_in)
 
     def point_at_angle(self, psi: float) -> Vec:
         c, s, r = -math.cos(psi) * self.arc_radius, math.sin(psi) * self.arc_radius, self.center
@@ -224,6 +290,19 @@ class BlendArc(Path):
     def linear_ratio(self, s: float) -> float:
         return self._ratio
 
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.length > 0.0:
+            u = np.minimum(np.maximum(s / self.length, 0.0), 1.0)
+        else:
+            u = np.ones(len(s))
+        psi = u * self.turn
+        center, m, d = self._arrays
+        c, sn = -np.cos(psi) * self.arc_radius, np.sin(psi) * self.arc_radius
+        return center + c[:, None] * m + sn[:, None] * d, self.slerp.at_many(u)
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        return np.full(len(s), self._ratio)
+
 
 class CompositePath(Path):
     """Pieces joined end to end (a run of blended lines)."""
@@ -236,6 +315,7 @@ class CompositePath(Path):
             self._starts.append(total)
             total += p.length
         self.length = total
+        self._starts_array = np.array(self._starts)
 
     @property
     def starts(self) -> tuple[float, ...]:
@@ -254,6 +334,78 @@ class CompositePath(Path):
     def linear_ratio(self, s: float) -> float:
         i = self._find(min(s, self.length))
         return self.pieces[i].linear_ratio(s - self._starts[i])
+
+    def _split(self, s: np.ndarray, clamp_end: bool) -> tuple[np.ndarray, np.ndarray]:
+        """The piece of each entry and the coordinate within it (as :meth:`pose` with
+        ``clamp_end``, else as :meth:`linear_ratio`)."""
+        starts = self._starts_array
+        i = np.maximum(np.searchsorted(starts, np.minimum(s, self.length), side="right") - 1, 0)
+        local = s - starts[i]
+        if clamp_end:
+            end = s >= self.length
+            if end.any():
+                i[end] = len(self.pieces) - 1
+                local[end] = self.pieces[-1].length
+        return i, local
+
+    def _groups(self, i: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
+        """The pieces present in ``i``, each with its entries (``None``: all of them)."""
+        lo, hi = int(i.min()), int(i.max())
+        if lo == hi:
+            return [(lo, None)]
+        groups: list[tuple[int, np.ndarray | None]] = []
+        for k in range(lo, hi + 1):
+            rows = np.flatnonzero(i == k)
+            if len(rows):
+                groups.append((k, rows))
+        return groups
+
+    def pose_many(self, s: np.ndarray) -> np.ndarray:
+        if not len(s):
+            return np.empty((0, 4, 4))
+        i, local = self._split(s, True)
+        groups = self._groups(i)
+        if len(groups) == 1:
+            return self.pieces[groups[0][0]].pose_many(local)
+        p, q = np.empty((len(s), 3)), np.zeros((len(s), 4))
+        direct: list[tuple[np.ndarray, np.ndarray]] = []
+        for k, rows in groups:
+            assert rows is not None
+            piece, sub = self.pieces[k], local[rows]
+            pq = piece._pq_many(sub)
+            if pq is None:
+                direct.append((rows, piece.pose_many(sub)))
+            else:
+                p[rows], q[rows] = pq
+        out = pose_matrices(p, q)
+        for rows, poses in direct:
+            out[rows] = poses
+        return out
+
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        if not len(s):
+            return np.empty((0, 3)), np.empty((0, 4))
+        i, local = self._split(s, True)
+        p, q = np.empty((len(s), 3)), np.empty((len(s), 4))
+        for k, rows in self._groups(i):
+            pq = self.pieces[k]._pq_many(local if rows is None else local[rows])
+            if pq is None:
+                return None
+            if rows is None:
+                return pq
+            p[rows], q[rows] = pq
+        return p, q
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        if not len(s):
+            return np.empty(0)
+        i, local = self._split(s, False)
+        out = np.empty(len(s))
+        for k, rows in self._groups(i):
+            if rows is None:
+                return self.pieces[k].linear_ratio_many(local)
+            out[rows] = self.pieces[k].linear_ratio_many(local[rows])
+        return out
 
 
 #: Turns below this (rad) are travelled as a straight line through the blend zone.
