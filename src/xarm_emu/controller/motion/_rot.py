@@ -49,42 +49,46 @@ def pose_matrix(p: tuple[float, float, float], q: Quat) -> np.ndarray:
     )).reshape(4, 4)
 
 
-#: ``pose_matrices``: the nine rotation entries (row-major) are ``2 (p[A] + SIGN p[B])``, the diagonal
-#: ``1 - 2 (...)``, from the products ``p = (xx, yy, zz, xy, xz, yz, wx, wy, wz)`` as in :func:`pose_matrix`.
-_PROD_I = np.array((1, 2, 3, 1, 1, 2, 0, 0, 0))
-_PROD_J = np.array((1, 2, 3, 2, 3, 3, 1, 2, 3))
-_SUM_A = np.array((1, 3, 4, 3, 0, 5, 4, 5, 0))
-_SUM_B = np.array((2, 8, 7, 8, 2, 6, 7, 6, 1))
-_SUM_SIGN = np.array((1.0, -1.0, 1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0))
-_DIAG = np.array((0, 4, 8))
-_LAST_ROW = np.array((0.0, 0.0, 0.0, 1.0))
+#: ``pose_matrices``: the rows of ``big`` are the products ``(2 q[i]) q[j]`` (rows ``4 i + j``) and
+#: ``(-2 q[i]) q[j]`` (rows ``16 + 4 i + j``), then the position and a row of -0.0. The first twelve
+#: rows of the matrix (row-major) are ``big[_TERM_A] + big[_TERM_B]``: for the rotation the two terms
+#: of :func:`pose_matrix`'s ``2 (a + b)`` or ``2 (a - b)`` with the factor 2 (exact) taken inside,
+#: for the position ``p + (-0.0)``, which is ``p``; the diagonal is then ``1 - ...``.
+_PRODUCTS = ((1, 1), (2, 2), (3, 3), (1, 2), (1, 3), (2, 3), (0, 1), (0, 2), (0, 3))
+_XX, _YY, _ZZ, _XY, _XZ, _YZ, _WX, _WY, _WZ = (4 * i + j for i, j in _PRODUCTS)
+_P, _NEG0 = 32, 35
+_TERMS = np.array((_YY, _XY, _XZ, _P, _XY, _XX, _YZ, _P + 1, _XZ, _YZ, _XX, _P + 2,
+                   _ZZ, 16 + _WZ, _WY, _NEG0, _WZ, _ZZ, 16 + _WX, _NEG0, 16 + _WY, _WX, _YY, _NEG0))
+_DOUBLE = np.array((2.0, -2.0))[:, None, None]
+_LAST_ROW = np.array((0.0, 0.0, 0.0, 1.0))[:, None]
 
 
 def pose_matrices(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """:func:`pose_matrix` of each row: positions ``p`` (N, 3), unit quaternions ``q`` (N, 4) ->
-    (N, 4, 4)."""
-    n = len(q)
-    prod = q[:, _PROD_I] * q[:, _PROD_J]
-    r = 2.0 * (prod[:, _SUM_A] + prod[:, _SUM_B] * _SUM_SIGN)
-    r[:, _DIAG] = 1.0 - r[:, _DIAG]
-    out = np.empty((n, 4, 4))
-    out[:, :3, :3] = r.reshape(n, 3, 3)
-    out[:, :3, 3] = p
-    out[:, 3] = _LAST_ROW
-    return out
+    """:func:`pose_matrix` of each column: positions ``p`` (3, N), unit quaternions ``q`` (4, N) ->
+    (N, 4, 4).
+
+    The work is done on rows of N samples (each a contiguous vector) and transposed once at the end.
+    """
+    n = q.shape[1]
+    big = np.empty((36, n))
+    np.multiply((_DOUBLE * q).reshape(8, 1, n), q, out=big[:32].reshape(8, 4, n))
+    big[32:35] = p
+    big[35] = -0.0
+    terms = big.take(_TERMS, axis=0)
+    flat = np.empty((16, n))
+    np.add(terms[:12], terms[12:], out=flat[:12])
+    diagonal = flat[0:11:5]
+    np.subtract(1.0, diagonal, out=diagonal)
+    flat[12:] = _LAST_ROW
+    return np.ascontiguousarray(flat.T).reshape(n, 4, 4)
 
 
-#: ``quat_mul(a, b)`` with ``a`` fixed: component ``k`` is the sum, in this order, of
-#: ``coefficient[k, m] * b[_MUL_INDEX[k, m]]``; the coefficients are ``_MUL_SIGN * a[_MUL_A]``.
-_MUL_INDEX = np.array(((0, 1, 2, 3), (1, 0, 3, 2), (2, 3, 0, 1), (3, 2, 1, 0)))
-_MUL_SIGN = np.array(((1.0, -1.0, -1.0, -1.0), (1.0, 1.0, 1.0, -1.0), (1.0, -1.0, 1.0, 1.0),
-                      (1.0, 1.0, -1.0, 1.0)))
-_MUL_A = np.array(((0, 1, 2, 3),) * 4)
-
-
-def _left_factors(a: Quat) -> np.ndarray:
-    """The (4, 4) coefficients with which ``quat_mul(a, b)`` weighs the entries of ``b``."""
-    return _MUL_SIGN * np.array(a)[_MUL_A]
+#: ``quat_mul(a, b)`` with ``a`` fixed: component ``k`` is the sum over the terms ``m = 0..3``, in this
+#: order, of ``factor[4 m + k] * b[_MUL_INDEX[4 m + k]]``, the factors being ``_MUL_SIGN * a[_MUL_A]``.
+_MUL_INDEX = np.array((0, 1, 2, 3, 1, 0, 3, 2, 2, 3, 0, 1, 3, 2, 1, 0)).reshape(4, 4).T.ravel()
+_MUL_SIGN = np.array((1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0, 1.0, 1.0, -1.0,
+                      1.0)).reshape(4, 4).T.ravel()
+_MUL_A = np.array((0, 1, 2, 3) * 4).reshape(4, 4).T.ravel()
 
 
 class Slerp:
@@ -112,7 +116,7 @@ class Slerp:
         return self._axis
 
     def at_many(self, u: np.ndarray) -> np.ndarray:
-        """:meth:`at` of each entry of ``u`` (N,) -> (N, 4)."""
+        """:meth:`at` of each entry of ``u`` (N,) -> unit quaternions as columns (4, N)."""
         many = self._many
         if many is None:
             many = self._many = SlerpSet((self,))
@@ -131,34 +135,43 @@ class Slerp:
 
 
 class SlerpSet:
-    """Several :class:`Slerp` evaluated at once: ``at(which, u)[k] == slerps[which[k]].at(u[k])``."""
+    """Several :class:`Slerp` evaluated at once: column ``k`` of ``at(which, u)`` is
+    ``slerps[which[k]].at(u[k])``."""
 
-    __slots__ = ("_factors", "_q0", "_q1", "_axis", "_angle")
+    __slots__ = ("_table", "_zero_angle")
+
+    #: Rows of the table: the slerp's angle, its axis, the 16 factors of ``quat_mul(q0, .)``, q0, q1.
+    _ANGLE, _AXIS, _FACTORS, _Q0, _Q1 = 0, slice(1, 4), slice(4, 20), slice(20, 24), slice(24, 28)
 
     def __init__(self, slerps: Sequence[Slerp]) -> None:
-        self._factors = np.array([_left_factors(sl.q0) for sl in slerps])  # (K, 4, 4)
-        self._q0 = np.array([sl.q0 for sl in slerps])
-        self._q1 = np.array([sl.q1 for sl in slerps])
-        self._axis = np.array([sl.axis for sl in slerps])
-        self._angle = np.array([sl.angle for sl in slerps])
+        self._table = np.array([(sl.angle, *sl.axis, *(_MUL_SIGN * np.array(sl.q0)[_MUL_A]), *sl.q0, *sl.q1)
+                                for sl in slerps]).T.copy()
+        self._zero_angle = any(sl.angle == 0.0 for sl in slerps)
 
     def at(self, which: np.ndarray | None, u: np.ndarray) -> np.ndarray:
-        """Unit quaternions (N, 4); ``which=None``: every entry from the first slerp."""
+        """Unit quaternions (4, N) at the fractions ``u`` (N,); ``which=None``: all from the first slerp."""
+        n = len(u)
         if which is None:
-            ang, axis, factors = self._angle[0], self._axis[0], self._factors[0]
+            tab = self._table[:, :1]
+            if self._table[self._ANGLE, 0] == 0.0:  # no rotation: q0 throughout
+                return np.repeat(tab[self._Q0], n, axis=1)
         else:
-            ang, axis, factors = self._angle[which], self._axis[which], self._factors[which]
+            tab = self._table.take(which, axis=1)
+        ang = tab[self._ANGLE]
         h = 0.5 * u * ang
-        sn = np.sin(h)
-        b = np.empty((len(u), 4))
-        b[:, 0] = np.cos(h)
-        b[:, 1:] = axis * sn[:, None]
-        terms = factors * b[:, _MUL_INDEX]
-        q = terms[:, :, 0] + terms[:, :, 1] + terms[:, :, 2] + terms[:, :, 3]
+        b = np.empty((4, n))
+        np.cos(h, out=b[0])
+        np.multiply(tab[self._AXIS], np.sin(h), out=b[1:])
+        terms = (tab[self._FACTORS] * b.take(_MUL_INDEX, axis=0)).reshape(4, 4, n)
+        q = terms[0] + terms[1]
+        q += terms[2]
+        q += terms[3]
         late = u >= 1.0
-        if late.any():
-            q[late] = self._q1[0] if which is None else self._q1[which[late]]
-        early = (u <= 0.0) | (ang == 0.0)
-        if early.any():
-            q[early] = self._q0[0] if which is None else self._q0[which[early]]
+        if np.count_nonzero(late):
+            q[:, late] = tab[self._Q1] if which is None else tab[self._Q1][:, late]
+        early = u <= 0.0
+        if self._zero_angle and which is not None:
+            early |= ang == 0.0
+        if np.count_nonzero(early):
+            q[:, early] = tab[self._Q0] if which is None else tab[self._Q0][:, early]
         return q

@@ -95,8 +95,8 @@ class Path:
         return np.array([self.linear_ratio(x) for x in s.tolist()], dtype=float)
 
     def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        """Positions (N, 3) and unit quaternions (N, 4) of :meth:`pose_many`; ``None``: the path has
-        no vectorised form (``pose_many`` then loops over ``pose``)."""
+        """Positions (3, N) and unit quaternions (4, N) of :meth:`pose_many`, one sample a column;
+        ``None``: the path has no vectorised form (``pose_many`` then loops over ``pose``)."""
         return None
 
 
@@ -114,7 +114,7 @@ class LinePath(Path):
         self.angle = self.slerp.angle
         self.length = max(self.distance, ROT_MM_PER_RAD * self.angle)
         self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
-        self._p0_array, self._delta_array = np.array(self.p0), np.array(self.delta)
+        self._p0_array, self._delta_array = np.array(self.p0)[:, None], np.array(self.delta)[:, None]
 
     def point_u(self, u: float) -> Vec:
         p, d = self.p0, self.delta
@@ -133,8 +133,8 @@ class LinePath(Path):
         return self._ratio
 
     def pq_u_many(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Positions (N, 3) and quaternions (N, 4) at the fractions ``u`` (as :meth:`pose_u`)."""
-        return self._p0_array + u[:, None] * self._delta_array, self.slerp.at_many(u)
+        """Positions (3, N) and quaternions (4, N) at the fractions ``u`` (as :meth:`pose_u`)."""
+        return self._p0_array + u * self._delta_array, self.slerp.at_many(u)
 
     def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.length <= 0.0:
@@ -186,8 +186,9 @@ class CirclePath(Path):
         self._bounds = (0.0, self.phi1, self.phi2, 2.0 * math.pi)
         self._slerps = (Slerp(q0, q1), Slerp(q1, q2), Slerp(q2, q0))
         bd = self._bounds
-        self._many = (np.array(bd[1:3]), np.array(bd[:3]), np.array([bd[i + 1] - bd[i] for i in range(3)]),
-                      SlerpSet(self._slerps), np.array(self.center), np.array(self.e1), np.array(self.e2))
+        self._many = (np.array(bd[1:3]), np.array([bd[:3], [bd[i + 1] - bd[i] for i in range(3)]]),
+                      SlerpSet(self._slerps), np.array(self.center)[:, None], np.array(self.e1)[:, None],
+                      np.array(self.e2)[:, None])
         self._sorted = self.phi1 <= self.phi2
 
     def _angle_of(self, p: Vec) -> float:
@@ -215,17 +216,18 @@ class CirclePath(Path):
         return 1.0
 
     def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        inner, lower, width, slerps, center, e1, e2 = self._many
+        inner, parts, slerps, center, e1, e2 = self._many
         phi = np.minimum(np.maximum(s, 0.0), self.length) / self.radius
         c, sn = np.cos(phi) * self.radius, np.sin(phi) * self.radius
-        p = center + c[:, None] * e1 + sn[:, None] * e2
+        p = center + c * e1 + sn * e2
         # orientation_at_angle: the angle within the turn, the slerp of its part of the circle
         f = phi - np.floor(phi / (2.0 * math.pi)) * 2.0 * math.pi
         if self._sorted:
             i = np.searchsorted(inner, f, side="right")
         else:  # (only for points so close to collinear that round-off reorders them)
             i = np.where(f < inner[0], 0, np.where(f < inner[1], 1, 2))
-        return p, slerps.at(i, (f - lower[i]) / width[i])
+        lower, width = parts.take(i, axis=1)
+        return p, slerps.at(i, (f - lower) / width)
 
     def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
         return np.ones(len(s))
@@ -276,7 +278,7 @@ class BlendArc(Path):
         self.slerp = Slerp(q_in, q_out)
         self.length = max(self.distance, ROT_MM_PER_RAD * self.slerp.angle)
         self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
-        self._arrays = np.array(self.center), np.array(m), np.array(d_in)
+        self._arrays = np.array(self.center)[:, None], np.array(m)[:, None], np.array(d_in)[:, None]
 
     def point_at_angle(self, psi: float) -> Vec:
         c, s, r = -math.cos(psi) * self.arc_radius, math.sin(psi) * self.arc_radius, self.center
@@ -298,7 +300,7 @@ class BlendArc(Path):
         psi = u * self.turn
         center, m, d = self._arrays
         c, sn = -np.cos(psi) * self.arc_radius, np.sin(psi) * self.arc_radius
-        return center + c[:, None] * m + sn[:, None] * d, self.slerp.at_many(u)
+        return center + c * m + sn * d, self.slerp.at_many(u)
 
     def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
         return np.full(len(s), self._ratio)
@@ -316,6 +318,7 @@ class CompositePath(Path):
             total += p.length
         self.length = total
         self._starts_array = np.array(self._starts)
+        self._inner_starts = self._starts_array[1:]  # searchsorted on these: the piece index
 
     @property
     def starts(self) -> tuple[float, ...]:
@@ -338,27 +341,22 @@ class CompositePath(Path):
     def _split(self, s: np.ndarray, clamp_end: bool) -> tuple[np.ndarray, np.ndarray]:
         """The piece of each entry and the coordinate within it (as :meth:`pose` with
         ``clamp_end``, else as :meth:`linear_ratio`)."""
-        starts = self._starts_array
-        i = np.maximum(np.searchsorted(starts, np.minimum(s, self.length), side="right") - 1, 0)
-        local = s - starts[i]
+        i = np.searchsorted(self._inner_starts, np.minimum(s, self.length), side="right")
+        local = s - self._starts_array.take(i)
         if clamp_end:
             end = s >= self.length
-            if end.any():
+            if np.count_nonzero(end):
                 i[end] = len(self.pieces) - 1
                 local[end] = self.pieces[-1].length
         return i, local
 
-    def _groups(self, i: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
+    @staticmethod
+    def _groups(i: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
         """The pieces present in ``i``, each with its entries (``None``: all of them)."""
-        lo, hi = int(i.min()), int(i.max())
-        if lo == hi:
-            return [(lo, None)]
-        groups: list[tuple[int, np.ndarray | None]] = []
-        for k in range(lo, hi + 1):
-            rows = np.flatnonzero(i == k)
-            if len(rows):
-                groups.append((k, rows))
-        return groups
+        first = int(i[0])
+        if not np.count_nonzero(i != first):
+            return [(first, None)]
+        return [(int(k), np.flatnonzero(i == k)) for k in np.unique(i)]
 
     def pose_many(self, s: np.ndarray) -> np.ndarray:
         if not len(s):
@@ -367,7 +365,8 @@ class CompositePath(Path):
         groups = self._groups(i)
         if len(groups) == 1:
             return self.pieces[groups[0][0]].pose_many(local)
-        p, q = np.empty((len(s), 3)), np.zeros((len(s), 4))
+        p, q = np.empty((3, len(s))), np.zeros((4, len(s)))
+        q[0] = 1.0
         direct: list[tuple[np.ndarray, np.ndarray]] = []
         for k, rows in groups:
             assert rows is not None
@@ -376,7 +375,7 @@ class CompositePath(Path):
             if pq is None:
                 direct.append((rows, piece.pose_many(sub)))
             else:
-                p[rows], q[rows] = pq
+                p[:, rows], q[:, rows] = pq
         out = pose_matrices(p, q)
         for rows, poses in direct:
             out[rows] = poses
@@ -384,26 +383,28 @@ class CompositePath(Path):
 
     def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         if not len(s):
-            return np.empty((0, 3)), np.empty((0, 4))
+            return np.empty((3, 0)), np.empty((4, 0))
         i, local = self._split(s, True)
-        p, q = np.empty((len(s), 3)), np.empty((len(s), 4))
-        for k, rows in self._groups(i):
-            pq = self.pieces[k]._pq_many(local if rows is None else local[rows])
+        groups = self._groups(i)
+        if len(groups) == 1:
+            return self.pieces[groups[0][0]]._pq_many(local)
+        p, q = np.empty((3, len(s))), np.empty((4, len(s)))
+        for k, rows in groups:
+            pq = self.pieces[k]._pq_many(local[rows])
             if pq is None:
                 return None
-            if rows is None:
-                return pq
-            p[rows], q[rows] = pq
+            p[:, rows], q[:, rows] = pq
         return p, q
 
     def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
         if not len(s):
             return np.empty(0)
         i, local = self._split(s, False)
+        groups = self._groups(i)
+        if len(groups) == 1:
+            return self.pieces[groups[0][0]].linear_ratio_many(local)
         out = np.empty(len(s))
-        for k, rows in self._groups(i):
-            if rows is None:
-                return self.pieces[k].linear_ratio_many(local)
+        for k, rows in groups:
             out[rows] = self.pieces[k].linear_ratio_many(local[rows])
         return out
 
