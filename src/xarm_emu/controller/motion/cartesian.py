@@ -58,7 +58,11 @@ class CartesianMove:
             s, v = rows[:, 0], rows[:, 1]
         path = self.path
         s = np.minimum(np.maximum(self.s0 + s, 0.0), path.length)
-        return path.pose_many(s), np.abs(v) * path.linear_ratio_many(s)
+        ratio = path.constant_ratio
+        if ratio is not None:
+            return path.pose_many(s), np.abs(v) * ratio
+        poses, ratios = path.pose_ratio_many(s)
+        return poses, np.abs(v) * ratios
 
 
 class MoveChain:

@@ -94,6 +94,13 @@ class Path:
         """``linear_ratio`` of each entry of ``s`` (N,) -> (N,)."""
         return np.array([self.linear_ratio(x) for x in s.tolist()], dtype=float)
 
+    def pose_ratio_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`pose_many` and :meth:`linear_ratio_many` of ``s`` together."""
+        return self.pose_many(s), self.linear_ratio_many(s)
+
+    #: TCP mm per unit ``s``, the same all along the path (``None``: it varies, ask ``linear_ratio``).
+    constant_ratio: float | None = None
+
     def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """Positions (3, N) and unit quaternions (4, N) of :meth:`pose_many`, one sample a column;
         ``None``: the path has no vectorised form (``pose_many`` then loops over ``pose``)."""
@@ -114,6 +121,7 @@ class LinePath(Path):
         self.angle = self.slerp.angle
         self.length = max(self.distance, ROT_MM_PER_RAD * self.angle)
         self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
+        self.constant_ratio = self._ratio
         self._p0_array, self._delta_array = np.array(self.p0)[:, None], np.array(self.delta)[:, None]
 
     def point_u(self, u: float) -> Vec:
@@ -190,6 +198,8 @@ class CirclePath(Path):
                       SlerpSet(self._slerps), np.array(self.center)[:, None], np.array(self.e1)[:, None],
                       np.array(self.e2)[:, None])
         self._sorted = self.phi1 <= self.phi2
+        self._one_turn = self.length / self.radius < 6.0  # every angle well within the first turn
+        self.constant_ratio = 1.0
 
     def _angle_of(self, p: Vec) -> float:
         d = _sub(p, self.center)
@@ -221,7 +231,7 @@ class CirclePath(Path):
         c, sn = np.cos(phi) * self.radius, np.sin(phi) * self.radius
         p = center + c * e1 + sn * e2
         # orientation_at_angle: the angle within the turn, the slerp of its part of the circle
-        f = phi - np.floor(phi / (2.0 * math.pi)) * 2.0 * math.pi
+        f = phi if self._one_turn else phi - np.floor(phi / (2.0 * math.pi)) * 2.0 * math.pi
         if self._sorted:
             i = np.searchsorted(inner, f, side="right")
         else:  # (only for points so close to collinear that round-off reorders them)
@@ -239,6 +249,7 @@ class _LinePiece(Path):
     def __init__(self, line: LinePath, u0: float, u1: float) -> None:
         self.line, self.u0, self.du = line, u0, u1 - u0
         self.length = line.length * self.du
+        self.constant_ratio = line.constant_ratio
 
     def pose(self, s: float) -> np.ndarray:
         return self.line.pose_u(self.u0 + self.du * (s / self.length if self.length > 0.0 else 1.0))
@@ -278,6 +289,7 @@ class BlendArc(Path):
         self.slerp = Slerp(q_in, q_out)
         self.length = max(self.distance, ROT_MM_PER_RAD * self.slerp.angle)
         self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
+        self.constant_ratio = self._ratio
         self._arrays = np.array(self.center)[:, None], np.array(m)[:, None], np.array(d_in)[:, None]
 
     def point_at_angle(self, psi: float) -> Vec:
@@ -319,6 +331,8 @@ class CompositePath(Path):
         self.length = total
         self._starts_array = np.array(self._starts)
         self._inner_starts = self._starts_array[1:]  # searchsorted on these: the piece index
+        ratios = [p.constant_ratio for p in self.pieces]
+        self._ratios = None if None in ratios else np.array(ratios, dtype=float)
 
     @property
     def starts(self) -> tuple[float, ...]:
@@ -365,7 +379,12 @@ class CompositePath(Path):
         groups = self._groups(i)
         if len(groups) == 1:
             return self.pieces[groups[0][0]].pose_many(local)
-        p, q = np.empty((3, len(s))), np.zeros((4, len(s)))
+        return self._pose_groups(groups, local)
+
+    def _pose_groups(self, groups: list[tuple[int, np.ndarray | None]], local: np.ndarray) -> np.ndarray:
+        """Poses of the entries of several pieces (their coordinates ``local`` within them)."""
+        n = len(local)
+        p, q = np.empty((3, n)), np.zeros((4, n))
         q[0] = 1.0
         direct: list[tuple[np.ndarray, np.ndarray]] = []
         for k, rows in groups:
@@ -395,6 +414,17 @@ class CompositePath(Path):
                 return None
             p[:, rows], q[:, rows] = pq
         return p, q
+
+    def pose_ratio_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self._ratios is None or not len(s):
+            return self.pose_many(s), self.linear_ratio_many(s)
+        # linear_ratio's piece is pose's (at and past the end both take the last one).
+        i, local = self._split(s, True)
+        ratios = self._ratios.take(i)
+        groups = self._groups(i)
+        if len(groups) == 1:
+            return self.pieces[groups[0][0]].pose_many(local), ratios
+        return self._pose_groups(groups, local), ratios
 
     def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
         if not len(s):

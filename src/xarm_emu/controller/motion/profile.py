@@ -62,8 +62,12 @@ class JerkProfile:
             self._v.append(v0)
             self._a.append(a0)
             self._j.append(0.0)
-        self._starts = np.array(self._t[1:])  # searchsorted on these: the segment index
-        self._table = _segment_table(self._s, self._v, self._a, self._j, self._t)
+        # sample_many: searchsorted on the segment starts after the first gives the segment index, and
+        # on the duration after them the final state (one more column, started at the duration).
+        self._starts = np.array([*self._t[1:], t])
+        end_s, end_v, end_a = self._end
+        self._table = _segment_table([*self._s, end_s], [*self._v, end_v], [*self._a, end_a],
+                                     [*self._j, 0.0], [*self._t, t])
 
     @property
     def start(self) -> tuple[float, float]:
@@ -85,15 +89,11 @@ class JerkProfile:
 
     def sample_many(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`sample` of each entry of ``ts`` (N,): ``s``, ``v`` and ``a`` as three (N,) arrays."""
-        rows = self._table.take(np.searchsorted(self._starts, ts, side="right"), axis=1)
-        s, v, a = _integrate(ts - rows[_T0], rows)
-        start = ts <= 0.0
-        if np.count_nonzero(start):
-            s[start], v[start], a[start] = 0.0, self._v[0], self._a[0]
-        end = ts >= self.duration
-        if np.count_nonzero(end):
-            s[end], v[end], a[end] = self._end
-        return s, v, a
+        # Times clamped to [0, duration]: at 0 the first segment's start state (0, v0, a0), at the
+        # duration the final state, both from a step of exactly 0 (which adds a zero to each).
+        t = np.minimum(np.maximum(ts, 0.0), self.duration)
+        rows = self._table.take(np.searchsorted(self._starts, t, side="right"), axis=1)
+        return _integrate(t - rows[_T0], rows)
 
 
 #: Rows of a segment table (:func:`_segment_table`).
