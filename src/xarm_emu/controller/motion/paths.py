@@ -16,6 +16,12 @@ Table 1.2) time the whole move:
   rotation speed, in which case the rotation sets the pace and the TCP goes
   slower. ``linear_ratio(s)`` (mm of TCP travel per unit ``s``) gives the TCP
   speed from the path speed.
+
+``pose_many(s)`` and ``linear_ratio_many(s)`` take an array of path coordinates
+and return the same values, stacked ((N, 4, 4) and (N,)); every path here
+computes them with numpy in the same arithmetic as ``pose`` (bit for bit where
+numpy's ``sin`` and ``cos`` match :mod:`math`'s). A path class without them gets
+the base class's loop over ``pose``.
 """
 
 from __future__ import annotations
@@ -26,7 +32,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ._rot import Quat, Slerp, pose_matrix, quat_from_matrix
+from ._rot import Quat, Slerp, SlerpSet, pose_matrices, pose_matrix, quat_from_matrix
 
 #: Equivalent mm per rad of orientation change: speed 1000 <-> 180 deg/s (manual 1.3, note 2).
 ROT_MM_PER_RAD = 1000.0 / math.pi
@@ -74,6 +80,32 @@ class Path:
         """TCP mm travelled per unit of ``s`` at ``s`` (1 unless the rotation sets the pace)."""
         raise NotImplementedError
 
+    def pose_many(self, s: np.ndarray) -> np.ndarray:
+        """``pose`` of each entry of ``s`` (N,) -> (N, 4, 4)."""
+        pq = self._pq_many(s)
+        if pq is not None:
+            return pose_matrices(*pq)
+        out = np.empty((len(s), 4, 4))
+        for k, x in enumerate(s.tolist()):
+            out[k] = self.pose(x)
+        return out
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        """``linear_ratio`` of each entry of ``s`` (N,) -> (N,)."""
+        return np.array([self.linear_ratio(x) for x in s.tolist()], dtype=float)
+
+    def pose_ratio_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`pose_many` and :meth:`linear_ratio_many` of ``s`` together."""
+        return self.pose_many(s), self.linear_ratio_many(s)
+
+    #: TCP mm per unit ``s``, the same all along the path (``None``: it varies, ask ``linear_ratio``).
+    constant_ratio: float | None = None
+
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """Positions (3, N) and unit quaternions (4, N) of :meth:`pose_many`, one sample a column;
+        ``None``: the path has no vectorised form (``pose_many`` then loops over ``pose``)."""
+        return None
+
 
 class LinePath(Path):
     """Straight TCP line from ``T0`` to ``T1``; orientation by slerp on the shortest rotation.
@@ -89,6 +121,8 @@ class LinePath(Path):
         self.angle = self.slerp.angle
         self.length = max(self.distance, ROT_MM_PER_RAD * self.angle)
         self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
+        self.constant_ratio = self._ratio
+        self._p0_array, self._delta_array = np.array(self.p0)[:, None], np.array(self.delta)[:, None]
 
     def point_u(self, u: float) -> Vec:
         p, d = self.p0, self.delta
@@ -105,6 +139,18 @@ class LinePath(Path):
 
     def linear_ratio(self, s: float) -> float:
         return self._ratio
+
+    def pq_u_many(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (3, N) and quaternions (4, N) at the fractions ``u`` (as :meth:`pose_u`)."""
+        return self._p0_array + u * self._delta_array, self.slerp.at_many(u)
+
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.length <= 0.0:
+            return self.pq_u_many(np.ones(len(s)))
+        return self.pq_u_many(np.minimum(np.maximum(s / self.length, 0.0), 1.0))
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        return np.full(len(s), self._ratio)
 
 
 class CirclePath(Path):
@@ -147,6 +193,13 @@ class CirclePath(Path):
         q0, q1, q2 = (quat_from_matrix(t[:3, :3]) for t in (t0, p1, p2))
         self._bounds = (0.0, self.phi1, self.phi2, 2.0 * math.pi)
         self._slerps = (Slerp(q0, q1), Slerp(q1, q2), Slerp(q2, q0))
+        bd = self._bounds
+        self._many = (np.array(bd[1:3]), np.array([bd[:3], [bd[i + 1] - bd[i] for i in range(3)]]),
+                      SlerpSet(self._slerps), np.array(self.center)[:, None], np.array(self.e1)[:, None],
+                      np.array(self.e2)[:, None])
+        self._sorted = self.phi1 <= self.phi2
+        self._one_turn = self.length / self.radius < 6.0  # every angle well within the first turn
+        self.constant_ratio = 1.0
 
     def _angle_of(self, p: Vec) -> float:
         d = _sub(p, self.center)
@@ -172,6 +225,23 @@ class CirclePath(Path):
     def linear_ratio(self, s: float) -> float:
         return 1.0
 
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        inner, parts, slerps, center, e1, e2 = self._many
+        phi = np.minimum(np.maximum(s, 0.0), self.length) / self.radius
+        c, sn = np.cos(phi) * self.radius, np.sin(phi) * self.radius
+        p = center + c * e1 + sn * e2
+        # orientation_at_angle: the angle within the turn, the slerp of its part of the circle
+        f = phi if self._one_turn else phi - np.floor(phi / (2.0 * math.pi)) * 2.0 * math.pi
+        if self._sorted:
+            i = np.searchsorted(inner, f, side="right")
+        else:  # (only for points so close to collinear that round-off reorders them)
+            i = np.where(f < inner[0], 0, np.where(f < inner[1], 1, 2))
+        lower, width = parts.take(i, axis=1)
+        return p, slerps.at(i, (f - lower) / width)
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        return np.ones(len(s))
+
 
 class _LinePiece(Path):
     """The part ``[u0, u1]`` of a :class:`LinePath`."""
@@ -179,12 +249,20 @@ class _LinePiece(Path):
     def __init__(self, line: LinePath, u0: float, u1: float) -> None:
         self.line, self.u0, self.du = line, u0, u1 - u0
         self.length = line.length * self.du
+        self.constant_ratio = line.constant_ratio
 
     def pose(self, s: float) -> np.ndarray:
         return self.line.pose_u(self.u0 + self.du * (s / self.length if self.length > 0.0 else 1.0))
 
     def linear_ratio(self, s: float) -> float:
         return self.line.linear_ratio(s)
+
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        f = s / self.length if self.length > 0.0 else np.ones(len(s))
+        return self.line.pq_u_many(self.u0 + self.du * f)
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        return self.line.linear_ratio_many(s)
 
 
 class BlendArc(Path):
@@ -211,6 +289,8 @@ class BlendArc(Path):
         self.slerp = Slerp(q_in, q_out)
         self.length = max(self.distance, ROT_MM_PER_RAD * self.slerp.angle)
         self._ratio = self.distance / self.length if self.length > 0.0 else 1.0
+        self.constant_ratio = self._ratio
+        self._arrays = np.array(self.center)[:, None], np.array(m)[:, None], np.array(d_in)[:, None]
 
     def point_at_angle(self, psi: float) -> Vec:
         c, s, r = -math.cos(psi) * self.arc_radius, math.sin(psi) * self.arc_radius, self.center
@@ -224,6 +304,19 @@ class BlendArc(Path):
     def linear_ratio(self, s: float) -> float:
         return self._ratio
 
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.length > 0.0:
+            u = np.minimum(np.maximum(s / self.length, 0.0), 1.0)
+        else:
+            u = np.ones(len(s))
+        psi = u * self.turn
+        center, m, d = self._arrays
+        c, sn = -np.cos(psi) * self.arc_radius, np.sin(psi) * self.arc_radius
+        return center + c * m + sn * d, self.slerp.at_many(u)
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        return np.full(len(s), self._ratio)
+
 
 class CompositePath(Path):
     """Pieces joined end to end (a run of blended lines)."""
@@ -236,6 +329,10 @@ class CompositePath(Path):
             self._starts.append(total)
             total += p.length
         self.length = total
+        self._starts_array = np.array(self._starts)
+        self._inner_starts = self._starts_array[1:]  # searchsorted on these: the piece index
+        ratios = [p.constant_ratio for p in self.pieces]
+        self._ratios = None if None in ratios else np.array(ratios, dtype=float)
 
     @property
     def starts(self) -> tuple[float, ...]:
@@ -254,6 +351,92 @@ class CompositePath(Path):
     def linear_ratio(self, s: float) -> float:
         i = self._find(min(s, self.length))
         return self.pieces[i].linear_ratio(s - self._starts[i])
+
+    def _split(self, s: np.ndarray, clamp_end: bool) -> tuple[np.ndarray, np.ndarray]:
+        """The piece of each entry and the coordinate within it (as :meth:`pose` with
+        ``clamp_end``, else as :meth:`linear_ratio`)."""
+        i = np.searchsorted(self._inner_starts, np.minimum(s, self.length), side="right")
+        local = s - self._starts_array.take(i)
+        if clamp_end:
+            end = s >= self.length
+            if np.count_nonzero(end):
+                i[end] = len(self.pieces) - 1
+                local[end] = self.pieces[-1].length
+        return i, local
+
+    @staticmethod
+    def _groups(i: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
+        """The pieces present in ``i``, each with its entries (``None``: all of them)."""
+        first = int(i[0])
+        if not np.count_nonzero(i != first):
+            return [(first, None)]
+        return [(int(k), np.flatnonzero(i == k)) for k in np.unique(i)]
+
+    def pose_many(self, s: np.ndarray) -> np.ndarray:
+        if not len(s):
+            return np.empty((0, 4, 4))
+        i, local = self._split(s, True)
+        groups = self._groups(i)
+        if len(groups) == 1:
+            return self.pieces[groups[0][0]].pose_many(local)
+        return self._pose_groups(groups, local)
+
+    def _pose_groups(self, groups: list[tuple[int, np.ndarray | None]], local: np.ndarray) -> np.ndarray:
+        """Poses of the entries of several pieces (their coordinates ``local`` within them)."""
+        n = len(local)
+        p, q = np.empty((3, n)), np.zeros((4, n))
+        q[0] = 1.0
+        direct: list[tuple[np.ndarray, np.ndarray]] = []
+        for k, rows in groups:
+            assert rows is not None
+            piece, sub = self.pieces[k], local[rows]
+            pq = piece._pq_many(sub)
+            if pq is None:
+                direct.append((rows, piece.pose_many(sub)))
+            else:
+                p[:, rows], q[:, rows] = pq
+        out = pose_matrices(p, q)
+        for rows, poses in direct:
+            out[rows] = poses
+        return out
+
+    def _pq_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        if not len(s):
+            return np.empty((3, 0)), np.empty((4, 0))
+        i, local = self._split(s, True)
+        groups = self._groups(i)
+        if len(groups) == 1:
+            return self.pieces[groups[0][0]]._pq_many(local)
+        p, q = np.empty((3, len(s))), np.empty((4, len(s)))
+        for k, rows in groups:
+            pq = self.pieces[k]._pq_many(local[rows])
+            if pq is None:
+                return None
+            p[:, rows], q[:, rows] = pq
+        return p, q
+
+    def pose_ratio_many(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self._ratios is None or not len(s):
+            return self.pose_many(s), self.linear_ratio_many(s)
+        # linear_ratio's piece is pose's (at and past the end both take the last one).
+        i, local = self._split(s, True)
+        ratios = self._ratios.take(i)
+        groups = self._groups(i)
+        if len(groups) == 1:
+            return self.pieces[groups[0][0]].pose_many(local), ratios
+        return self._pose_groups(groups, local), ratios
+
+    def linear_ratio_many(self, s: np.ndarray) -> np.ndarray:
+        if not len(s):
+            return np.empty(0)
+        i, local = self._split(s, False)
+        groups = self._groups(i)
+        if len(groups) == 1:
+            return self.pieces[groups[0][0]].linear_ratio_many(local)
+        out = np.empty(len(s))
+        for k, rows in groups:
+            out[rows] = self.pieces[k].linear_ratio_many(local[rows])
+        return out
 
 
 #: Turns below this (rad) are travelled as a straight line through the blend zone.
