@@ -100,11 +100,12 @@ def _path_targets() -> list[Segment]:
     segments: list[tuple[Any, np.ndarray, list[tuple[float, np.ndarray]]]] = []
     joints = ex._CartesianPlan.joints
 
-    def recorded(self: ex._CartesianPlan, t: float, seed: np.ndarray) -> np.ndarray | None:
+    def recorded(self: ex._CartesianPlan, t: float, seed: np.ndarray, increment: float = 0.0
+                 ) -> np.ndarray | None:
         if not segments or segments[-1][0] is not self:
             segments.append((self, seed.copy(), []))
         segments[-1][2].append((t, self.to_flange(self.move.at(t)[0])))
-        return joints(self, t, seed)
+        return joints(self, t, seed, increment)
 
     ex._CartesianPlan.joints = recorded  # type: ignore[method-assign]
     try:
