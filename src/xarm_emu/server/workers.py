@@ -13,9 +13,9 @@ The parent (:class:`Supervisor`) starts the workers, waits until every arm liste
   the configuration directory) and listen on the same addresses (ports 0 keep the port the first
   start got). A restarted worker that dies again within :data:`STABLE` seconds waits before its next
   start, twice as long each time (from :data:`FIRST_BACKOFF` up to :data:`MAX_BACKOFF`).
-- :meth:`Supervisor.stop` (SIGTERM or Ctrl-C to the parent) sends SIGTERM to every worker; each
-  closes its servers (pending saves are written, manual 2.1.3 register 39) and exits 0; a worker
-  still running after the grace period is killed.
+- :meth:`Supervisor.stop` (SIGTERM or Ctrl-C to the parent) asks every worker to stop on its pipe and
+  sends it SIGTERM; each closes its servers (pending saves are written, manual 2.1.3 register 39) and
+  exits 0; a worker still running after the grace period is killed.
 - A worker whose parent is gone (its pipe to the parent ends) stops the same way.
 
 Other workers never notice a restart: they share nothing with it but the listening addresses of
@@ -211,7 +211,11 @@ async def _serve(plan: WorkerPlan, conn: multiprocessing.connection.Connection) 
     _send(conn, ("ready", ready))
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
-    loop.add_signal_handler(signal.SIGTERM, stop.set)
+    # A plain Python handler, not loop.add_signal_handler: the loop learns of those signals through the
+    # bytes of its wake-up pipe, which the report sender thread also writes to (call_soon_threadsafe)
+    # and which a saturated worker can let fill up, so that SIGTERM's byte is lost and the worker never
+    # stops. A Python handler always runs in the main thread and hands the stop to the loop.
+    signal.signal(signal.SIGTERM, lambda _sig, _frame: loop.call_soon_threadsafe(stop.set))
 
     def parent_message() -> None:  # EOF: the parent is gone; "stop": asked to stop
         try:
@@ -408,9 +412,14 @@ class Supervisor:
 
     # -- stopping ----------------------------------------------------------------------------------------
     def stop(self, grace: float = STOP_GRACE) -> None:
-        """SIGTERM every worker and wait up to ``grace`` s for them to close; kill the rest."""
+        """Ask every worker to stop (its pipe, then SIGTERM) and wait up to ``grace`` s for them to
+        close; kill the rest."""
         self._stopping = True
         procs = [w.process for w in self.workers if w.process is not None and w.process.is_alive()]
+        for w in self.workers:  # asked on the pipe first (each worker reads it), then SIGTERM
+            if w.conn is not None and w.process is not None and w.process.is_alive():
+                with contextlib.suppress(OSError, ValueError):
+                    w.conn.send("stop")
         for p in procs:
             with contextlib.suppress(OSError):
                 p.terminate()
