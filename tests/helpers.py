@@ -100,6 +100,14 @@ def rz(a: float) -> np.ndarray:
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
 
 
+def pose(x: float, y: float, z: float, roll: float = 0.0, pitch: float = 0.0, yaw: float = 0.0) -> np.ndarray:
+    """4x4 pose (mm), R = Rz(yaw) Ry(pitch) Rx(roll) (manual 1.5), built independently of the package."""
+    t = np.eye(4)
+    t[:3, :3] = rz(yaw) @ ry(pitch) @ rx(roll)
+    t[:3, 3] = (x, y, z)
+    return t
+
+
 def free_ports(n: int) -> list[int]:
     """``n`` distinct free loopback ports. With three or more, the port two below the third is free
     and not among them too: `serve` given these as command, normal, rich, develop (...) ports opens

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import ready
 
 from xarm_emu.controller import executor as ex
 from xarm_emu.controller.emulator import Emulator
@@ -30,15 +31,11 @@ def send(emu: Emulator, code: int, **values: Any) -> int:
 
 
 def program(emu: Emulator, offsets: bool) -> None:
-    send(emu, 11, joint=8, enable=1)
-    send(emu, 19, mode=0)
-    send(emu, 12, state=0)
+    ready(emu)
     if offsets:
         send(emu, 35, pose=(10.0, -5.0, 80.0, 0.1, 0.0, 0.2))
         send(emu, 73, pose=(20.0, 30.0, 0.0, 0.0, 0.0, 0.3))
-        send(emu, 11, joint=8, enable=1)  # the offsets reset the box (section 1.5)
-        send(emu, 19, mode=0)
-        send(emu, 12, state=0)
+        ready(emu)  # the offsets reset the box (section 1.5)
     send(emu, 23, joints=(0.4, 0.1, -0.3, 0.0, 0.2, 0.0, 0.0), speed=1.0, acc=8.0, mvtime=0.0)
     send(emu, 22, pose=(300.0, 50.0, 200.0, PI, 0.0, 0.0), speed=150.0, acc=2000.0, mvtime=0.0, radius=20.0)
     send(emu, 21, pose=(300.0, -50.0, 220.0, PI, 0.1, 0.0), speed=150.0, acc=2000.0, mvtime=0.0)

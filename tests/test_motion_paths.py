@@ -8,23 +8,12 @@ import time
 
 import numpy as np
 import pytest
+from helpers import pose
 
 from xarm_emu.controller.motion.cartesian import CartesianMove, MoveChain, plan_blended
 from xarm_emu.controller.motion.paths import ROT_MM_PER_RAD, CirclePath, CollinearError, LinePath
 
 DT = 0.004
-
-
-def pose(x, y, z, roll=0.0, pitch=0.0, yaw=0.0):
-    """4x4 pose, R = Rz(yaw) Ry(pitch) Rx(roll) (manual 1.5)."""
-    cr, sr, cp, sp, cy, sy = (f(a) for a in (roll, pitch, yaw) for f in (math.cos, math.sin))
-    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
-    t = np.eye(4)
-    t[:3, :3] = rz @ ry @ rx
-    t[:3, 3] = (x, y, z)
-    return t
 
 
 def rot_angle(r0, r1):

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import pose
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -33,18 +34,6 @@ from xarm_emu.controller.motion._rot import Slerp, SlerpSet, pose_matrices, pose
 #: Tolerances of the batch against the one-at-a-time answers (positions mm, rotation entries, mm/s).
 POS_TOL, ROT_TOL, SPEED_TOL = 1e-12, 1e-15, 1e-12
 SPEED, ACC, JERK = 150.0, 2000.0, 20000.0
-
-
-def pose(x, y, z, roll=0.0, pitch=0.0, yaw=0.0):
-    """4x4 pose, R = Rz(yaw) Ry(pitch) Rx(roll) (manual 1.5)."""
-    cr, sr, cp, sp, cy, sy = (f(a) for a in (roll, pitch, yaw) for f in (math.cos, math.sin))
-    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
-    t = np.eye(4)
-    t[:3, :3] = rz @ ry @ rx
-    t[:3, 3] = (x, y, z)
-    return t
 
 
 def times(duration, n=400, seed=0):

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import ready
 
 from xarm_emu.controller import executor as ex
 from xarm_emu.controller.base import C_KINEMATIC, C_SPEED
@@ -36,12 +37,6 @@ AGREE = 1e-6
 def send(emu: Emulator, code: int, **values: Any) -> int:
     reg = emu.controller.registers[code]
     return emu.handle(code, reg.request.encode(values))[0]
-
-
-def ready(emu: Emulator) -> None:
-    send(emu, 11, joint=8, enable=1)
-    send(emu, 19, mode=0)
-    send(emu, 12, state=0)
 
 
 def at_start(arm: int | str) -> tuple[Emulator, np.ndarray]:
