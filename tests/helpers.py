@@ -108,6 +108,20 @@ def pose(x: float, y: float, z: float, roll: float = 0.0, pitch: float = 0.0, ya
     return t
 
 
+def count_calls(monkeypatch: Any, owner: object, name: str) -> list[int]:
+    """Replace ``owner.name`` (for the test) by a wrapper that counts its calls in the returned
+    one-element list, calling the original."""
+    original = getattr(owner, name)
+    calls = [0]
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        calls[0] += 1
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(owner, name, counted)
+    return calls
+
+
 def free_ports(n: int) -> list[int]:
     """``n`` distinct free loopback ports. With three or more, the port two below the third is free
     and not among them too: `serve` given these as command, normal, rich, develop (...) ports opens

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import count_calls
 
 from xarm_emu.model import kinematics as kin
 from xarm_emu.model.robots import LITE6, UF850, XARM6, XARM7, RobotModel
@@ -54,14 +55,7 @@ def passes(model: RobotModel, q: Any, T: np.ndarray) -> bool:
 @pytest.mark.parametrize("model", [XARM6, LITE6, UF850], ids=lambda m: m.name)
 @pytest.mark.parametrize("kind", ["line", "arc"])
 def test_track_follows_a_path_like_ik(model: RobotModel, kind: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    refreshes = [0]
-    step_matrix = kin.step_matrix
-
-    def counted(*args: Any) -> tuple[float, ...]:
-        refreshes[0] += 1
-        return step_matrix(*args)
-
-    monkeypatch.setattr(kin, "step_matrix", counted)
+    refreshes = count_calls(monkeypatch, kin, "step_matrix")
     prev = prev2 = start_joints(model)
     matrix = None
     targets = path(model, kind)

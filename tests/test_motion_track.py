@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from helpers import ready
+from helpers import count_calls, ready
 
 from xarm_emu.controller import executor as ex
 from xarm_emu.controller.base import C_KINEMATIC, C_SPEED
@@ -96,14 +96,7 @@ def follow(emu: Emulator) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
 def test_tracked_joints_agree_with_the_full_solve(arm: int | str, name: str,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     emu, pose = at_start(arm)
-    refreshes = [0]
-    step_matrix = kin.step_matrix
-
-    def counted(*args: Any) -> tuple[float, ...]:
-        refreshes[0] += 1
-        return step_matrix(*args)
-
-    monkeypatch.setattr(kin, "step_matrix", counted)
+    refreshes = count_calls(monkeypatch, kin, "step_matrix")
     queue_moves(emu, name, pose)
     periods = follow(emu)
     assert emu.controller.error_code == 0
