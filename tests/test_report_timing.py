@@ -14,9 +14,11 @@ import threading
 import time
 
 import pytest
-from helpers import read_frames, wait_for
+from helpers import connect, read_frames, recv_frame, wait_for
+from helpers import ready as emu_ready
 
 from xarm_emu.protocol import reports
+from xarm_emu.protocol.frame import encode_request
 from xarm_emu.server import report_sender
 from xarm_emu.server.app import ServerThread
 from xarm_emu.server.report_sender import LATE_FRAMES, Reader, next_deadline
@@ -251,3 +253,65 @@ def test_a_closing_server_prepares_no_more_frames(make_server) -> None:  # type:
         assert srv.server.reports.frames_sent["develop"] == before
     finally:
         sock.close()
+
+
+class _FrameCursor:
+    """Whole develop frames read from a report socket, each with the stream offset it starts at."""
+
+    def __init__(self, sock: socket.socket) -> None:
+        self.sock, self.buf, self.base = sock, bytearray(), 0
+
+    def received(self) -> int:
+        """Take every byte already arrived; returns the stream offset after them."""
+        self.sock.setblocking(False)
+        try:
+            while True:
+                chunk = self.sock.recv(65536)
+                if not chunk:
+                    break
+                self.buf += chunk
+        except BlockingIOError:
+            pass
+        finally:
+            self.sock.settimeout(2)
+        return self.base + len(self.buf)
+
+    def first_frame_from(self, offset: int) -> bytes:
+        """The first whole frame that starts at or after stream ``offset`` (waits for it)."""
+        while True:
+            while len(self.buf) >= 4:
+                (size,) = struct.unpack_from(">I", self.buf)
+                if len(self.buf) < size:
+                    break
+                frame = bytes(self.buf[:size])
+                start = self.base
+                del self.buf[:size]
+                self.base += size
+                if start >= offset:
+                    return frame
+            chunk = self.sock.recv(65536)
+            assert chunk, "the report connection closed"
+            self.buf += chunk
+
+
+def test_no_frame_after_a_reply_shows_the_state_from_before_its_command(make_server, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """A frame is prepared a little before its deadline; a command answered in between must not be
+    undone by it: a client that reads set_state's reply and then the report sees the new state."""
+    # half the develop interval: about every other command lands between a frame's preparation
+    # and its deadline
+    monkeypatch.setattr(report_sender, "LEAD", INTERVAL / 2)
+    srv: ServerThread = make_server()
+    srv.call(lambda: emu_ready(srv.emulator))
+    with connect(srv.ports["command"]) as cmd, \
+            socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
+        frames = _FrameCursor(dev)
+        frames.first_frame_from(0)
+        for tid in range(1, 41):
+            time.sleep((tid * 0.37) % 1.0 * INTERVAL)  # the commands fall anywhere between frames
+            cmd.sendall(encode_request(tid, 12, bytes([4 if tid % 2 else 0])))  # set_state
+            assert recv_frame(cmd)[6] == 12
+            cmd.sendall(encode_request(tid, 13))  # get_state
+            state = recv_frame(cmd)[8]
+            assert state == 4 if tid % 2 else state in (0, 1, 2)
+            got = frames.first_frame_from(frames.received())
+            assert got[4] & 0x0F == state, (tid, got[4] & 0x0F, state)

@@ -115,6 +115,8 @@ class CommandTarget(Protocol):
 
     def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
 
+    def settle_reports(self) -> None: ...
+
     def disk_job(self) -> concurrent.futures.Future[Any] | None: ...
 
     def answer_after_disk(self, frame: bytes,
@@ -364,7 +366,9 @@ class CommandProtocol(asyncio.Protocol):
             self.server.scheduler.wake(self)
 
     def _reply(self, transport: asyncio.Transport, payload: bytes) -> None:
-        """One write per read, now or after the injected reply delay."""
+        """One write per read, now or after the injected reply delay; report frames prepared before
+        these requests were answered are prepared again first."""
+        self.server.settle_reports()
         delay = self.server.reply_delay
         if delay > 0.0:
             asyncio.get_running_loop().call_later(delay, self._send, payload)

@@ -261,6 +261,8 @@ class EmulatorServer:
         self._report_pause_until = 0.0  # fault injection: loop time until which reports pause
         self._stopped = asyncio.Event()
         self._read_cache = ReadCache()
+        #: A command may have changed the box since the report frames were last prepared.
+        self._touched = False
         self._loop: asyncio.AbstractEventLoop | None = None
         #: name -> factory of what the composer attached; started by start() (:meth:`attach`).
         self._attach: dict[str, Callable[[], Attachment]] = {}
@@ -521,8 +523,10 @@ class EmulatorServer:
         if not params and register in PURE_READS:
             frame = self._read_cache.reply(emu, tid, protocol, register)
         elif self.feedback is not None:
+            self._touched = True
             frame = self._answer_with_feedback(tid, protocol, register, params, client)
         else:
+            self._touched = True
             state, reply = emu.handle(register, params)
             frame = encode_reply(tid, protocol, register, state, reply)
         self.code_watch.check(emu.controller)
@@ -584,7 +588,16 @@ class EmulatorServer:
         """The reply frame to one standard Modbus-TCP request (protocol id 0): the map of
         :mod:`xarm_emu.protocol.modbus` over the live emulator, after the due control periods."""
         self.catch_up()
+        self._touched = True
         return modbus_map.answer(self.emulator, tid, unit, pdu)
+
+    def settle_reports(self) -> None:
+        """Before replies go out: if a command may have changed the box, the report frames already
+        prepared for their coming deadlines are prepared again, so that no frame sent after a reply
+        shows the state from before its command."""
+        if self._touched:
+            self._touched = False
+            self.reports.refresh()
 
     def advance(self, seconds: float) -> int:
         """Lockstep: run ``seconds`` of controller time now (whole control periods); returns the

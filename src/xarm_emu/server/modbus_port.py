@@ -34,6 +34,8 @@ class ModbusTarget(Protocol):
 
     def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
 
+    def settle_reports(self) -> None: ...
+
 
 def split_frames(buf: bytearray) -> tuple[list[tuple[int, int, bytes]], bool]:
     """Take the whole MBAP frames off the front of ``buf`` as (tid, unit, pdu); the flag is False when
@@ -79,6 +81,7 @@ class ModbusPortProtocol(asyncio.Protocol):
                 log.exception("modbus port: no answer to a request")
                 ok = False
                 break
+            self.target.settle_reports()
             self.transport.write(reply)
         if not ok:
             self.transport.close()

@@ -114,6 +114,15 @@ class ReportStreams:
 
         return prepare
 
+    def refresh(self) -> None:
+        """Prepare again every frame already prepared for a deadline not yet reached: a command
+        answered since then changed the box, and no frame sent after its reply may show the state
+        from before it (a client that reads its reply and then the report must never see the
+        command undone)."""
+        for stream in self.streams.values():
+            if stream.frame_deadline == stream.deadline and stream.readers:
+                stream.publish(stream.deadline)
+
     # -- counters (written by the sender thread) -----------------------------------------------
     @property
     def frames_sent(self) -> dict[str, int]:
