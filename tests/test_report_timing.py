@@ -315,3 +315,34 @@ def test_no_frame_after_a_reply_shows_the_state_from_before_its_command(make_ser
             assert state == 4 if tid % 2 else state in (0, 1, 2)
             got = frames.first_frame_from(frames.received())
             assert got[4] & 0x0F == state, (tid, got[4] & 0x0F, state)
+
+
+def test_a_blocked_loop_is_asked_once_and_publishes_for_the_deadline_to_come(make_server) -> None:  # type: ignore[no-untyped-def]
+    """While a loop is held, the sender keeps at most one publish call queued on it: when it is
+    free it prepares each frame once, for the coming deadline, instead of working through one
+    stale call per missed deadline (a saturated fleet worker fell seconds behind that way, and its
+    stop waited behind them)."""
+    srv: ServerThread = make_server()
+    stream = srv.server.reports.streams["develop"]
+    prepared: list[tuple[float, float]] = []  # (when, the stream's deadline then)
+    inner = stream.prepare
+
+    def counting() -> bytes | None:
+        prepared.append((time.perf_counter(), stream.deadline))
+        return inner()
+
+    stream.prepare = counting
+    with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
+        _arrivals(dev, 0.2)
+        blocker = threading.Thread(target=srv.call, args=(lambda: time.sleep(0.4),))
+        blocker.start()  # 40 develop deadlines pass while the loop sleeps
+        time.sleep(0.1)
+        held_from = time.perf_counter()
+        blocker.join()
+        freed = time.perf_counter()
+        _arrivals(dev, 0.05)
+        after = [p for p in prepared if p[0] >= held_from]
+    burst = [p for p in after if p[0] < freed + 0.004]  # what the loop did on getting free
+    assert len(burst) <= 2, len(burst)
+    assert all(deadline >= freed - INTERVAL for _, deadline in burst)  # for a deadline still to come
+    assert srv.server.reports.frames_stale["develop"] >= 20

@@ -10,7 +10,9 @@ it: the frame is the state no older than one control period at its deadline); at
 sender writes the freshest published frame to every reader itself, with non-blocking ``send`` calls
 on its own duplicates of the sockets, without waiting on the loop. A frame the loop could not
 publish in time (it was blocked) goes out on time with the previous state and is counted
-(``frames_stale``): timing first, as a real-time controller's report.
+(``frames_stale``): timing first, as a real-time controller's report. A loop has at most one such
+request queued (:class:`LoopAsk`): one that has fallen behind publishes once for the coming
+deadline, and its queue never fills with requests for deadlines already past.
 
 The sends hold the interpreter lock for the whole burst (``send(2)`` through ``ctypes.PyDLL``, a
 few microseconds per reader) so the sender does not hand the lock back to the loop between
@@ -97,10 +99,38 @@ def on_grid(now: float, interval: float) -> float:
     return (math.floor(now / interval) + 1) * interval
 
 
-def _publish(due: list[tuple[SendStream, float]]) -> None:
-    """In one loop: publish the frames of every stream due at one instant."""
-    for stream, deadline in due:
-        stream.publish(deadline)
+class LoopAsk:
+    """The publish requests waiting on one event loop: at most one call is queued on the loop at a
+    time. A loop that has fallen behind (saturated, or blocked) finds every stream asked for since
+    its last turn in one call and publishes each for its current deadline, so requests never pile up
+    in its queue: the frames it publishes are the freshest it can, and anything else it has to do
+    (a stop, a closing connection) waits at most one such call."""
+
+    __slots__ = ("streams", "queued", "lock")
+
+    def __init__(self) -> None:
+        self.streams: dict[SendStream, None] = {}
+        self.queued = False
+        self.lock = threading.Lock()
+
+    def ask(self, streams: list[SendStream]) -> bool:
+        """Add ``streams`` (sender thread); ``True`` if the loop must be called (none is queued)."""
+        with self.lock:
+            for stream in streams:
+                self.streams[stream] = None
+            if self.queued:
+                return False
+            self.queued = True
+            return True
+
+    def run(self) -> None:
+        """In the loop: publish every stream asked for, each for its current deadline."""
+        with self.lock:
+            streams = tuple(self.streams)
+            self.streams.clear()
+            self.queued = False
+        for stream in streams:
+            stream.publish(stream.deadline)
 
 
 class Reader:
@@ -196,6 +226,7 @@ class ReportSender:
         self._seq = 0
         self._stop = False
         self._retired: deque[Reader] = deque()
+        self._asks: dict[asyncio.AbstractEventLoop, LoopAsk] = {}
         #: The sender thread's real-time priority (0: normal scheduling), :meth:`set_priority`.
         self.priority = 0
         self._switch = sys.getswitchinterval()
@@ -211,6 +242,8 @@ class ReportSender:
     def add(self, stream: SendStream, reader: Reader, loop: asyncio.AbstractEventLoop) -> None:
         """A new reader of ``stream``; a stream that had none starts its schedule now."""
         with self._cond:
+            for gone in [lp for lp in self._asks if lp.is_closed()]:  # servers stopped since
+                del self._asks[gone]
             stream.loop = loop
             stream.readers = (*stream.readers, reader)
             if not stream.scheduled:
@@ -272,8 +305,17 @@ class ReportSender:
             if stream.loop is not None:
                 by_loop.setdefault(stream.loop, []).append(stream)
         for loop, group in by_loop.items():
-            with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
-                loop.call_soon_threadsafe(_publish, [(st, st.deadline) for st in group])
+            with self._cond:
+                pending = self._asks.get(loop)
+                if pending is None:
+                    pending = self._asks[loop] = LoopAsk()
+            if not pending.ask(group):
+                continue  # the loop has not got to the last call yet: it publishes these with it
+            try:
+                loop.call_soon_threadsafe(pending.run)
+            except RuntimeError:  # the loop closed meanwhile
+                with self._cond:
+                    self._asks.pop(loop, None)
         with self._cond:
             for stream in streams:
                 self._push(stream.deadline, stream, False)
