@@ -5,6 +5,7 @@ saved configuration while the other worker's arms keep their connections, SIGTER
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import queue
 import re
@@ -23,7 +24,7 @@ import pytest
 from helpers import free_ports, wait_for
 from helpers import run_cli as run
 
-from xarm_emu.server.workers import assign, describe_exit
+from xarm_emu.server.workers import STALE_WARN, ReportCounts, assign, describe_exit, report_counts_message
 
 _WORKER = re.compile(r"fleet worker (\d+) \(pid (\d+)\): arms ([\d, ]+)")
 
@@ -227,3 +228,26 @@ def test_a_port_taken_stops_every_worker_with_one_line_and_exit_1(tmp_path: Path
     assert "Traceback" not in proc.stderr
     for p in ports[0].values():  # the other worker's arm was closed again
         assert _bindable(p)
+
+
+def test_a_stopped_worker_reports_its_frames_and_warns_when_it_was_saturated(tmp_path: Path) -> None:
+    ports = _arm_ports()
+    path = _fleet_file(tmp_path, [ports])
+    with fleet_running(path, "--workers", "1") as fleet:
+        fleet.workers(1)
+        with socket.create_connection(("127.0.0.1", ports["develop_port"]), timeout=3) as dev:
+            t0 = time.monotonic()
+            got = 0
+            while time.monotonic() - t0 < 0.6:
+                got += len(dev.recv(65536))
+        assert got >= 87 * 30  # 100 Hz develop frames of 87 bytes (manual 2.1.6)
+        assert fleet.stop() == 0
+        m = fleet.wait_line(re.compile(r"fleet worker 1 \(arms 1\): (\d+) report frames sent, "
+                                       r"([\d.]+) % with an earlier deadline's state, (\d+) missed"))
+    assert int(m[1]) >= 30 and float(m[2]) <= 100 * STALE_WARN and int(m[3]) == 0, m[0]
+    # the line's verdict follows the counts
+    level, text = report_counts_message(2, "5, 6", ReportCounts(sent=1000, stale=80, missed=0))
+    assert level == logging.WARNING and "8.0 %" in text and "saturated" in text
+    level, text = report_counts_message(2, "5, 6", ReportCounts(sent=1000, stale=10, missed=0))
+    assert level == logging.INFO and "saturated" not in text
+    assert report_counts_message(0, "1", ReportCounts(sent=10, stale=0, missed=3))[0] == logging.WARNING

@@ -14,8 +14,10 @@ The parent (:class:`Supervisor`) starts the workers, waits until every arm liste
   start got). A restarted worker that dies again within :data:`STABLE` seconds waits before its next
   start, twice as long each time (from :data:`FIRST_BACKOFF` up to :data:`MAX_BACKOFF`).
 - :meth:`Supervisor.stop` (SIGTERM or Ctrl-C to the parent) asks every worker to stop on its pipe and
-  sends it SIGTERM; each closes its servers (pending saves are written, manual 2.1.3 register 39) and
-  exits 0; a worker still running after the grace period is killed.
+  sends it SIGTERM; each closes its servers (pending saves are written, manual 2.1.3 register 39),
+  tells the parent its report counts (:class:`ReportCounts`; logged, a warning when its frames were
+  often stale: it had more arms than its core could serve) and exits 0; a worker still running
+  after the grace period is killed.
 - A worker whose parent is gone (its pipe to the parent ends) stops the same way.
 
 Other workers never notice a restart: they share nothing with it but the listening addresses of
@@ -53,6 +55,43 @@ MAX_BACKOFF = 30.0
 START_TIMEOUT = 60.0
 #: Seconds :meth:`Supervisor.stop` waits for workers to close before killing them.
 STOP_GRACE = 10.0
+
+
+#: Share of a worker's report frames sent with an earlier deadline's state above which its stop
+#: logs a warning that it was saturated.
+STALE_WARN = 0.05
+
+
+@dataclass(frozen=True)
+class ReportCounts:
+    """A worker's report frames over its run, every arm and stream summed (``ReportStreams``):
+    sent, sent with the state prepared for an earlier deadline (``stale``: its loop was too busy
+    to prepare them in time), and never sent (``missed``: the process was starved)."""
+
+    sent: int = 0
+    stale: int = 0
+    missed: int = 0
+
+    @classmethod
+    def of(cls, servers: Sequence[EmulatorServer]) -> ReportCounts:
+        return cls(sum(sum(s.reports.frames_sent.values()) for s in servers),
+                   sum(sum(s.reports.frames_stale.values()) for s in servers),
+                   sum(sum(s.reports.frames_missed.values()) for s in servers))
+
+    @property
+    def stale_share(self) -> float:
+        return self.stale / self.sent if self.sent else 0.0
+
+
+def report_counts_message(index: int, arms: str, counts: ReportCounts) -> tuple[int, str]:
+    """The log level and line of a stopped worker's report counts: a warning when more than
+    :data:`STALE_WARN` of its frames were stale or any was missed (the worker had more arms than
+    its core could serve)."""
+    text = (f"fleet worker {index} (arms {arms}): {counts.sent} report frames sent, "
+            f"{100 * counts.stale_share:.1f} % with an earlier deadline's state, {counts.missed} missed")
+    if counts.stale_share > STALE_WARN or counts.missed:
+        return logging.WARNING, text + "; it was saturated: run more workers or fewer arms each"
+    return logging.INFO, text
 
 
 class WorkersError(ValueError):
@@ -229,6 +268,7 @@ async def _serve(plan: WorkerPlan, conn: multiprocessing.connection.Connection) 
     loop.add_reader(conn.fileno(), parent_message)
     await stop.wait()
     await asyncio.gather(*(srv.close() for srv in servers), return_exceptions=True)
+    _send(conn, ("stopped", ReportCounts.of(servers)))
 
 
 # -- the parent --------------------------------------------------------------------------------------
@@ -283,6 +323,8 @@ class Supervisor:
         os.set_blocking(self._wake_w, False)
         #: (worker index, exit description) of every death seen, oldest first.
         self.deaths: list[tuple[int, str]] = []
+        #: Worker index -> its report counts, sent by each worker that stopped cleanly.
+        self.report_counts: dict[int, ReportCounts] = {}
 
     # -- starting --------------------------------------------------------------------------------------
     def start(self) -> None:
@@ -403,6 +445,17 @@ class Supervisor:
         log.info("fleet worker %d (pid %s; arms %s) started again", w.plan.index, w.process.pid,
                  _arms_text(w.plan))
 
+    def _take_counts(self, w: _Worker) -> None:
+        """Read what a stopped worker left on its pipe: its report counts, logged."""
+        if w.conn is None:
+            return
+        with contextlib.suppress(EOFError, OSError):
+            while w.conn.poll(0):
+                kind, value = w.conn.recv()
+                if kind == "stopped" and isinstance(value, ReportCounts):
+                    self.report_counts[w.plan.index] = value
+                    log.log(*report_counts_message(w.plan.index, _arms_text(w.plan), value))
+
     @staticmethod
     def _close_conn(w: _Worker) -> None:
         if w.conn is not None:
@@ -432,6 +485,7 @@ class Supervisor:
                 p.kill()
                 p.join(5)
         for w in self.workers:
+            self._take_counts(w)
             self._close_conn(w)
         for fd in (self._wake_r, self._wake_w):
             with contextlib.suppress(OSError):
