@@ -8,8 +8,9 @@ import struct
 
 import numpy as np
 import pytest
-from helpers import bits, call, joints7
+from helpers import bits, call, count_calls, joints7, ready
 
+from xarm_emu.controller import core as controller_core
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.model import kinematics as kin
 from xarm_emu.model import rotations as rot
@@ -143,3 +144,28 @@ def test_register_42_joint_states_blocks(emu: Emulator) -> None:
     values = struct.unpack("<21f", reply)
     assert values[:3] == pytest.approx((0.1, 0.2, -0.3), abs=1e-7)
     assert values[14:21] == pytest.approx(emu.controller.joint_torques7(), abs=1e-4)
+
+
+def test_torques_are_computed_again_only_when_their_inputs_change(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """Every report frame carries the joint torques (manual 2.1.6); an arm at rest does not redo the
+    Newton-Euler pass for each, and whatever changes an input gets fresh torques."""
+    emu = Emulator(6)
+    ready(emu)
+    ctl = emu.controller
+    calls = count_calls(monkeypatch, controller_core, "joint_torques")
+    first = ctl.joint_torques().copy()
+    for _ in range(50):  # at rest: 50 periods, a report read after each
+        emu.step(1)
+        assert np.array_equal(ctl.joint_torques(), first)
+    assert calls[0] == 1
+    call(emu, 36, mass=1.5, center=(0.0, 0.0, 30.0))  # payload (register 36)
+    loaded = ctl.joint_torques().copy()
+    assert calls[0] == 2 and not np.array_equal(loaded, first)
+    call(emu, 23, joints=(0.3, 0.2, -0.2, 0.0, 0.1, 0.0, 0.0), speed=1.0, acc=8.0, mvtime=0.0)
+    moving = []
+    for _ in range(20):
+        emu.step(1)
+        moving.append(ctl.joint_torques().copy())
+        fresh = controller_core.joint_torques(ctl.model, ctl.data, ctl.settings)
+        assert np.array_equal(moving[-1], fresh)  # never a stale value
+    assert calls[0] >= 2 + 2 * 20 - 1  # recomputed as the joints move (and once per check above)

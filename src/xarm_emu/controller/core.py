@@ -592,9 +592,11 @@ class Controller:
 
     # torques (the dynamic model, model/dynamics.py)
     def joint_torques(self) -> np.ndarray:
-        """:func:`joint_torques` of the box, computed at most once per step."""
-        s = self.settings
-        key = (self.data.steps, tuple(s.tcp_load), tuple(s.gravity_direction))
+        """:func:`joint_torques` of the box, computed again only when its inputs change (joints,
+        speeds, accelerations, payload, gravity direction): an arm at rest is not recomputed for
+        every report frame."""
+        s, d = self.settings, self.data
+        key = (d.q.tobytes(), d.qd.tobytes(), d.qdd.tobytes(), tuple(s.tcp_load), tuple(s.gravity_direction))
         if self._torque_cache is not None and self._torque_cache[0] == key:
             return self._torque_cache[1]
         tau = joint_torques(self.model, self.data, s)
