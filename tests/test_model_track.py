@@ -191,7 +191,9 @@ def test_track_steady_is_track_from_the_third_order_start(model: RobotModel, mat
         else:
             use = {"kept": matrix, "stale": tuple(3.0 * v for v in matrix),
                    "wrong way": tuple(-v for v in matrix), "zero": (0.0,) * len(matrix)}[matrix_kind]
-            fallbacks = (lambda h=h: (tuple(2.0 * b - a for a, b in zip(h[2], h[3], strict=True)),))
+            def fallbacks(h: list[tuple[float, ...]] = h) -> tuple[tuple[float, ...], ...]:
+                return (tuple(2.0 * b - a for a, b in zip(h[2], h[3], strict=True)),)
+
             expected = kin.track(model, T, start, use, h[3], fallbacks)
             got = kin.track_steady(model, T, tuple(h), use, fallbacks)
             assert got == expected

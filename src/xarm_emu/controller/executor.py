@@ -181,7 +181,13 @@ class _CartesianPlan(_Plan):
         return self.move.at(t)
 
     def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> np.ndarray | None:
-        pose, speed = self.sample(t, increment)
+        b = self._batch
+        if b is not None and b[3] < len(b[0]) and b[0][b[3]] == t:  # sample's usual case, inline
+            i = b[3]
+            self._batch = (b[0], b[1], b[2], i + 1)
+            pose, speed = b[1][i], b[2][i]
+        else:
+            pose, speed = self.sample(t, increment)
         self.tcp_speed = speed
         target = self.to_flange(pose)
         model = self.model
