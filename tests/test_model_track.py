@@ -170,3 +170,36 @@ def test_redundant_arm_takes_the_full_solve() -> None:
     q, kept = kin.track(model, T, q0, None, q0)
     expected = kin.ik(model, T, q0, limited=False)
     assert expected is not None and q == tuple(expected.tolist()) and kept is None
+
+
+@pytest.mark.parametrize("model", [XARM6, LITE6, UF850], ids=lambda m: m.name)
+@pytest.mark.parametrize("matrix_kind", ["kept", "stale", "wrong way", "zero"])
+def test_track_steady_is_track_from_the_third_order_start(model: RobotModel, matrix_kind: str) -> None:
+    """``track_steady`` answers as ``track`` from 4 (h3 + h1) - 6 h2 - h0 (computed here, joint by
+    joint) with h3 as the previous joints, bit for bit: with a matrix that converges, one that must
+    be refreshed, one whose refresh is far off and one that never converges (the full solve)."""
+    targets = path(model, "line", 60)
+    q0 = start_joints(model)
+    h = [q0] * 4
+    matrix: tuple[float, ...] | None = None
+    compared = 0
+    for T in targets:
+        start = tuple(4.0 * (d + b) - 6.0 * c - a for a, b, c, d in zip(*h, strict=True))
+        if matrix is None:
+            q, matrix = kin.track(model, T, start, None, h[3])
+            assert q is not None
+        else:
+            use = {"kept": matrix, "stale": tuple(3.0 * v for v in matrix),
+                   "wrong way": tuple(-v for v in matrix), "zero": (0.0,) * len(matrix)}[matrix_kind]
+            def fallbacks(h: list[tuple[float, ...]] = h) -> tuple[tuple[float, ...], ...]:
+                return (tuple(2.0 * b - a for a, b in zip(h[2], h[3], strict=True)),)
+
+            expected = kin.track(model, T, start, use, h[3], fallbacks)
+            got = kin.track_steady(model, T, tuple(h), use, fallbacks)
+            assert got == expected
+            compared += 1
+            q = got[0]
+            assert q is not None
+            matrix = got[1] if got[1] is not None else kin.step_matrix(model, q)
+        h = [*h[1:], q]
+    assert compared == len(targets) - 1

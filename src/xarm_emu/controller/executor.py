@@ -181,7 +181,13 @@ class _CartesianPlan(_Plan):
         return self.move.at(t)
 
     def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> np.ndarray | None:
-        pose, speed = self.sample(t, increment)
+        b = self._batch
+        if b is not None and b[3] < len(b[0]) and b[0][b[3]] == t:  # sample's usual case, inline
+            i = b[3]
+            self._batch = (b[0], b[1], b[2], i + 1)
+            pose, speed = b[1][i], b[2][i]
+        else:
+            pose, speed = self.sample(t, increment)
         self.tcp_speed = speed
         target = self.to_flange(pose)
         model = self.model
@@ -203,8 +209,14 @@ class _CartesianPlan(_Plan):
             self._matrix = None
             q = None if sol is None else tuple(sol.tolist())
         else:
-            q, self._matrix = kin.track(model, target, _start(h, t), self._matrix, h[-1][1],
-                                        lambda: _first_order(h, t))
+            matrix = self._matrix
+            if matrix is not None and model.dof == 6 and _equal_steps(h, t):
+                # the usual period: the third-order start computed in the generated code itself
+                q, self._matrix = kin.track_steady(model, target, (h[0][1], h[1][1], h[2][1], h[3][1]),
+                                                   matrix, lambda: _first_order(h, t))
+            else:
+                q, self._matrix = kin.track(model, target, _start(h, t), matrix, h[-1][1],
+                                            lambda: _first_order(h, t))
             sol = None if q is None else np.array(q)
         if q is None:
             self._hist, self._last = (), None
@@ -227,6 +239,22 @@ def _first_order(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tu
     (t2, q2), (t3, q3) = h[-2], h[-1]
     r = min((t - t3) / (t3 - t2), _EXTRAPOLATE_MAX)
     return (tuple([b + (b - a) * r for a, b in zip(q2, q3, strict=True)]),)
+
+
+def _equal_steps(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> bool:
+    """Whether :func:`_start` takes the third-order extrapolation over equal steps (weights -1, 4,
+    -6, 4) from the answers ``h`` to path time ``t``: four answers, and the three steps between them
+    and the one to ``t`` equal (within 1e-9 of the last)."""
+    if len(h) < 4:
+        return False
+    t0, t1, t2, t3 = h[0][0], h[1][0], h[2][0], h[3][0]
+    step = t3 - t2
+    d = t - t3
+    lo, hi = step / _EXTRAPOLATE_MAX, step * _EXTRAPOLATE_MAX
+    if not (lo <= t1 - t0 <= hi and lo <= t2 - t1 <= hi and 0.0 <= d <= hi):
+        return False
+    tol = step * 1e-9
+    return abs(t1 - t0 - step) <= tol and abs(t2 - t1 - step) <= tol and abs(d - step) <= tol
 
 
 def _start(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tuple[float, ...]:

@@ -218,7 +218,7 @@ def _clamp(model: RobotModel, i: int, indent: str) -> list[str]:
 
 def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step: float,
              max_move: float = math.inf) -> Callable[..., tuple[float, ...]]:
-    """Unrolled code of ``model`` as a Python function; mode is "fk", "jac", "lm" or "track".
+    """Unrolled code of ``model`` as a Python function; mode is "fk", "jac", "lm", "track" or "track3".
 
     fk: (R row-major 9, p 3) in mm.  jac: the same plus the 6 x dof Jacobian row-major.
     lm: args (q..., T0..T8, tx, ty, tz, mu, max_iter) in metres; the whole damped least-squares loop,
@@ -232,10 +232,13 @@ def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step:
     convergence test, then a step dq = M e capped and clamped as the LM's, at most ``chords`` times.
     Returns the joints once converged within ``max_move`` (rad, any joint) of ``anchor``, () when
     converged farther away, and (q..., None) at the last iterate when not converged.
+    track3: args (h0, h1, h2, h3, target, matrix, chords): the same chord loop from the third-order
+    extrapolation over equal path-time steps of four answers h0...h3 (oldest first, dof floats each),
+    4 (h3 + h1) - 6 h2 - h0 per joint, with h3 as the anchor.
     """
     g = _Gen()
     args = [f"q{i}" for i in range(model.dof)]
-    unit = 1e-3 if mode in ("lm", "track") else 1.0
+    unit = 1e-3 if mode in ("lm", "track", "track3") else 1.0
     R, p, axes = _chain_code(g, model, unit)
     out: list[Sym] = [R[a][b] for a in range(3) for b in range(3)] + p
     if mode == "jac":
@@ -246,20 +249,26 @@ def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step:
         body = "\n".join("    " + line for line in g.lines)
         src = (f"def _chain({', '.join(args)}):\n    prev = INF\n    for it in range(max_iter):\n{body}\n"
                "    return (max_iter,)\n")
-    elif mode == "track":
+    elif mode in ("track", "track3"):
         _track_code(g, R, p, model, max_step, max_move)
         body = "\n".join("    " + line for line in g.lines)
         qs = ", ".join(args)
         n = model.dof
-        head = ["def _chain(q, target, matrix, chords, anchor):", f"    {qs}, = q",
-                f"    {', '.join(f'a{i}' for i in range(n))}, = anchor"]
+        if mode == "track":
+            head = ["def _chain(q, target, matrix, chords, anchor):", f"    {qs}, = q",
+                    f"    {', '.join(f'a{i}' for i in range(n))}, = anchor"]
+        else:  # the start: third-order extrapolation over equal steps, 4 (h3 + h1) - 6 h2 - h0
+            head = ["def _chain(h0, h1, h2, anchor, target, matrix, chords):",
+                    f"    {', '.join(f'a{i}' for i in range(n))}, = anchor"]
+            head += [f"    {', '.join(f'{x}{i}' for i in range(n))}, = h{k}" for k, x in enumerate("efg")]
+            head += [f"    q{i} = 4.0 * (a{i} + f{i}) - 6.0 * g{i} - e{i}" for i in range(n)]
         head += [line for i in range(n) for line in _clamp(model, i, "    ")]
         head += ["    (T0, T1, T2, tx), (T3, T4, T5, ty), (T6, T7, T8, tz) = target[:3]",
                  "    tx *= 0.001; ty *= 0.001; tz *= 0.001",
                  f"    {', '.join(f'm{k}' for k in range(6 * n))}, = matrix",
                  "    for it in range(chords + 1):"]
         src = "\n".join(head) + f"\n{body}\n    return ({qs}, None)\n"
-    if mode not in ("lm", "track"):
+    if mode not in ("lm", "track", "track3"):
         src = f"def _chain({', '.join(args)}):\n" + "\n".join(g.lines)
         src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
     namespace: dict[str, object] = {

@@ -58,7 +58,7 @@ def _chain_fn(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
     if entry is None or entry[0] is not model:
         ptol2, rtol2 = (POS_TOL * 1e-3) ** 2, ROT_TOL ** 2  # the LM step works in metres
         fns = {m: generate(model, m, ptol2, rtol2, MAX_STEP, TRACK_MAX_MOVE)
-               for m in ("fk", "jac", "lm", "track")}
+               for m in ("fk", "jac", "lm", "track", "track3")}
         entry = _CACHE[id(model)] = (model, fns)
     return entry[1][mode]
 
@@ -192,6 +192,43 @@ def track(
             q = r[:-1]
             matrix = None  # refresh at the current iterate
     for seed in (*fallbacks(), previous):
+        sol = ik(model, T_target, seed, limited=False)
+        if sol is not None:
+            return tuple(sol.tolist()), None
+    return None, None
+
+
+def track_steady(
+    model: RobotModel,
+    T_target: np.ndarray,
+    h: Sequence[Sequence[float]],
+    matrix: tuple[float, ...],
+    fallbacks: Callable[[], Sequence[Sequence[float]]] = tuple,
+) -> tuple[tuple[float, ...] | None, tuple[float, ...] | None]:
+    """:func:`track` from the third-order extrapolation over equal path-time steps of the last four
+    answers ``h`` (oldest first): ``track(model, T_target, start, matrix, h[3], fallbacks)`` with
+    ``start`` = 4 (h3 + h1) - 6 h2 - h0 per joint, the same answer bit for bit, in one call of the
+    generated code (the start computed there). Only for a 6-axis arm other than the xArm5, with a
+    stored ``matrix``."""
+    fn = _chain_fn(model, "track3")
+    rows = T_target.tolist()
+    anchor = h[3]
+    try:
+        r = fn(h[0], h[1], h[2], anchor, rows, matrix, TRACK_CHORDS)
+    except (ValueError, TypeError):  # not a 4x4 of numbers, or NaN reached the step
+        r = ()
+    if len(r) == len(anchor):
+        return r, matrix
+    if r:  # not converged: refresh the matrix at the last iterate, the chord solve once more
+        q = r[:-1]
+        try:
+            matrix = step_matrix(model, q)
+            r = _chain_fn(model, "track")(q, rows, matrix, TRACK_CHORDS, anchor)
+        except (ValueError, TypeError):
+            r = ()
+        if len(r) == len(q):
+            return r, matrix
+    for seed in (*fallbacks(), anchor):
         sol = ik(model, T_target, seed, limited=False)
         if sol is not None:
             return tuple(sol.tolist()), None
