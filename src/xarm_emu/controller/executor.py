@@ -210,7 +210,7 @@ class _CartesianPlan(_Plan):
             q = None if sol is None else tuple(sol.tolist())
         else:
             matrix = self._matrix
-            if matrix is not None and model.dof == 6 and _equal_steps(h, t):
+            if matrix is not None and model.dof == 6 and _steps(h, t) == _EQUAL:
                 # the usual period: the third-order start computed in the generated code itself
                 q, self._matrix = kin.track_steady(model, target, (h[0][1], h[1][1], h[2][1], h[3][1]),
                                                    matrix, lambda: _first_order(h, t))
@@ -241,20 +241,26 @@ def _first_order(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tu
     return (tuple([b + (b - a) * r for a, b in zip(q2, q3, strict=True)]),)
 
 
-def _equal_steps(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> bool:
-    """Whether :func:`_start` takes the third-order extrapolation over equal steps (weights -1, 4,
-    -6, 4) from the answers ``h`` to path time ``t``: four answers, and the three steps between them
-    and the one to ``t`` equal (within 1e-9 of the last)."""
+#: How the path times of a plan's last answers and the next one lie (:func:`_steps`).
+_UNSTEADY, _STEADY, _EQUAL = 0, 1, 2
+
+
+def _steps(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> int:
+    """How the path times of the answers ``h`` and ``t`` lie: :data:`_EQUAL` (four answers, the three
+    steps between them and the one to ``t`` equal within 1e-9 of the last), :data:`_STEADY` (four
+    answers, no step more than :data:`_EXTRAPOLATE_MAX` times another) or :data:`_UNSTEADY`."""
     if len(h) < 4:
-        return False
+        return _UNSTEADY
     t0, t1, t2, t3 = h[0][0], h[1][0], h[2][0], h[3][0]
     step = t3 - t2
     d = t - t3
     lo, hi = step / _EXTRAPOLATE_MAX, step * _EXTRAPOLATE_MAX
     if not (lo <= t1 - t0 <= hi and lo <= t2 - t1 <= hi and 0.0 <= d <= hi):
-        return False
+        return _UNSTEADY
     tol = step * 1e-9
-    return abs(t1 - t0 - step) <= tol and abs(t2 - t1 - step) <= tol and abs(d - step) <= tol
+    if abs(t1 - t0 - step) <= tol and abs(t2 - t1 - step) <= tol and abs(d - step) <= tol:
+        return _EQUAL
+    return _STEADY
 
 
 def _start(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tuple[float, ...]:
@@ -266,20 +272,14 @@ def _start(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tuple[fl
     -1, 4, -6, 4), which on the jerk-limited paths lies closest to the answer of the first to fifth
     orders, so that one chord step usually converges; else the first-order one; else the last answer.
     """
-    if len(h) < 4:
+    how = _steps(h, t)
+    if how == _UNSTEADY:
         first = _first_order(h, t)
         return first[0] if first else h[-1][1]
     (t0, q0), (t1, q1), (t2, q2), (t3, q3) = h
-    step = t3 - t2
-    d = t - t3
-    lo, hi = step / _EXTRAPOLATE_MAX, step * _EXTRAPOLATE_MAX
-    if not (lo <= t1 - t0 <= hi and lo <= t2 - t1 <= hi and 0.0 <= d <= hi):
-        first = _first_order(h, t)
-        return first[0] if first else q3
-    tol = step * 1e-9
-    if abs(t1 - t0 - step) <= tol and abs(t2 - t1 - step) <= tol and abs(d - step) <= tol:
+    if how == _EQUAL:
         return tuple([4.0 * (d_ + b) - 6.0 * c - a for a, b, c, d_ in zip(q0, q1, q2, q3, strict=False)])
-    d0, d1, d2, d3 = t - t0, t - t1, t - t2, d  # Lagrange weights of the four answers at t
+    d0, d1, d2, d3 = t - t0, t - t1, t - t2, t - t3  # Lagrange weights of the four answers at t
     w0 = d1 * d2 * d3 / ((t0 - t1) * (t0 - t2) * (t0 - t3))
     w1 = d0 * d2 * d3 / ((t1 - t0) * (t1 - t2) * (t1 - t3))
     w2 = d0 * d1 * d3 / ((t2 - t0) * (t2 - t1) * (t2 - t3))

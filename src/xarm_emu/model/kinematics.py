@@ -175,22 +175,38 @@ def track(
     (closed form) has no chord solve.
     """
     if model.dof == 6 and not model.fixed_roll_pitch:
-        fn = _chain_fn(model, "track")
-        rows = T_target.tolist()
-        q: Sequence[float] = start
-        for _ in range(2):
-            try:
-                if matrix is None:
-                    matrix = step_matrix(model, q)
-                r = fn(q, rows, matrix, TRACK_CHORDS, previous)
-            except (ValueError, TypeError):  # not a 4x4 of numbers, or NaN reached the step matrix
-                break
-            if len(r) == len(q):
-                return r, matrix
-            if not r:
-                break  # converged too far from the previous joints: the full solve decides
-            q = r[:-1]
-            matrix = None  # refresh at the current iterate
+        return _chords(model, T_target, T_target.tolist(), start, matrix, previous, fallbacks, 2)
+    return _full_solve(model, T_target, previous, fallbacks)
+
+
+def _chords(model: RobotModel, T_target: np.ndarray, rows: list[list[float]], q: Sequence[float],
+            matrix: tuple[float, ...] | None, previous: Sequence[float],
+            fallbacks: Callable[[], Sequence[Sequence[float]]], rounds: int,
+            ) -> tuple[tuple[float, ...] | None, tuple[float, ...] | None]:
+    """Up to ``rounds`` chord solves of :func:`track` from ``q`` (the matrix refreshed at the
+    iterate before each after the first, or before the first when ``matrix`` is None), then the
+    full solve."""
+    fn = _chain_fn(model, "track")
+    for _ in range(rounds):
+        try:
+            if matrix is None:
+                matrix = step_matrix(model, q)
+            r = fn(q, rows, matrix, TRACK_CHORDS, previous)
+        except (ValueError, TypeError):  # not a 4x4 of numbers, or NaN reached the step matrix
+            break
+        if len(r) == len(q):
+            return r, matrix
+        if not r:
+            break  # converged too far from the previous joints: the full solve decides
+        q = r[:-1]
+        matrix = None  # refresh at the current iterate
+    return _full_solve(model, T_target, previous, fallbacks)
+
+
+def _full_solve(model: RobotModel, T_target: np.ndarray, previous: Sequence[float],
+                fallbacks: Callable[[], Sequence[Sequence[float]]],
+                ) -> tuple[tuple[float, ...] | None, tuple[float, ...] | None]:
+    """:func:`ik` from each seed of ``fallbacks()``, then from ``previous``; no matrix kept."""
     for seed in (*fallbacks(), previous):
         sol = ik(model, T_target, seed, limited=False)
         if sol is not None:
@@ -220,19 +236,8 @@ def track_steady(
     if len(r) == len(anchor):
         return r, matrix
     if r:  # not converged: refresh the matrix at the last iterate, the chord solve once more
-        q = r[:-1]
-        try:
-            matrix = step_matrix(model, q)
-            r = _chain_fn(model, "track")(q, rows, matrix, TRACK_CHORDS, anchor)
-        except (ValueError, TypeError):
-            r = ()
-        if len(r) == len(q):
-            return r, matrix
-    for seed in (*fallbacks(), anchor):
-        sol = ik(model, T_target, seed, limited=False)
-        if sol is not None:
-            return tuple(sol.tolist()), None
-    return None, None
+        return _chords(model, T_target, rows, r[:-1], None, anchor, fallbacks, 1)
+    return _full_solve(model, T_target, anchor, fallbacks)
 
 
 def _fit_limits(model: RobotModel, q: list[float], limited: bool) -> np.ndarray | None:
