@@ -122,6 +122,8 @@ class ReportStreams:
         for stream in self.streams.values():
             if stream.frame_deadline == stream.deadline and stream.readers:
                 stream.publish(stream.deadline)
+                with stream.sending:  # a send that took the old frame has finished writing it
+                    pass
 
     # -- counters (written by the sender thread) -----------------------------------------------
     @property

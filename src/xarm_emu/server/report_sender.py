@@ -204,6 +204,9 @@ class SendStream:
         self.frames_skipped = 0
         self.frames_missed = 0
         self.frames_stale = 0
+        #: Held by the sender from taking the frame to its last write of it: whoever replaces the
+        #: frame and then takes this lock knows no write of the old one is still to come.
+        self.sending = threading.Lock()
         #: Set to a list to record each frame's send time (perf_counter; benchmarks).
         self.frame_times: list[float] | None = None
         #: Set to a list to record each frame's lateness after its deadline (seconds; benchmarks).
@@ -323,15 +326,17 @@ class ReportSender:
     def _send(self, stream: SendStream) -> None:
         deadline = stream.deadline
         readers = stream.readers
-        frame = stream.frame
+        with stream.sending:  # from taking the frame to its last write (ReportStreams.refresh)
+            frame = stream.frame
+            skipped = 0
+            if readers and frame is not None:
+                for r in readers:
+                    if not r.dead and not r.offer(frame):
+                        skipped += 1
         if readers and frame is not None:
             now = time.perf_counter()
             if stream.frame_deadline != deadline:
                 stream.frames_stale += 1
-            skipped = 0
-            for r in readers:
-                if not r.dead and not r.offer(frame):
-                    skipped += 1
             stream.frames_skipped += skipped
             stream.frames_sent += 1
             if stream.frame_times is not None:
