@@ -63,3 +63,29 @@ def test_errors_warnings_and_clients_are_logged(caplog: pytest.LogCaptureFixture
     assert "command client connected from 127.0.0.1" in text
     assert any(t.startswith("command client from 127.0.0.1 left") for t in text)
     assert "warning W13 Unknown command: Check the register of the command sent." in text
+
+
+def test_an_error_raised_between_two_pure_reads_is_logged_at_the_second(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """Lockstep time, so that no control period runs: a repeated state read is answered from the
+    reply made for the first, yet an error injected between them shows in the log at the second."""
+    cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0,
+                       stepped=True, admin=True, admin_token="t")
+    emu = Emulator(6)
+
+    def get_state(s: socket.socket) -> bytes:
+        s.sendall(encode_request(1, 13))
+        head = s.recv(6)
+        return head + s.recv(struct.unpack(">H", head[4:6])[0])
+
+    with caplog.at_level(logging.INFO, logger="xarm_emu"), ServerThread(emu, cfg) as st, \
+            socket.create_connection(("127.0.0.1", st.ports["command"]), timeout=3.0) as s:
+        first = get_state(s)
+        assert get_state(s) == first  # the same reply again: nothing changed
+        caplog.clear()
+        st.call(lambda: emu.inject_error(22))
+        after = get_state(s)
+        st.call(lambda: None)
+    assert after[7] & 0x40  # the status byte's error bit (manual 2.1.2)
+    text = [r.getMessage() for r in caplog.records]
+    assert any(t.startswith("error C22") for t in text), text

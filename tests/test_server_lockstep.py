@@ -8,6 +8,8 @@ import time
 
 import pytest
 from helpers import call, joints7, ready
+from hypothesis import given, settings
+from hypothesis import strategies as hs
 
 from xarm_emu.client import Client
 from xarm_emu.client.admin import AdminClient, AdminRefused
@@ -56,3 +58,24 @@ def test_scaled_clock_caps_each_catch_up_and_keeps_the_rest_due() -> None:
     assert clock.due(1.0) == 25000 - 500
     assert clock.due(1.0) == 0
     assert clock.due(1.004) == 100
+
+
+@settings(max_examples=200, deadline=None)
+@given(speed=hs.sampled_from([0.001, 0.1, 1.0, 3.0, 100.0, 1e5]),
+       start=hs.floats(0.0, 1e6),
+       gaps=hs.lists(hs.floats(0.0, 0.02), min_size=1, max_size=60))
+def test_scaled_clock_counts_the_periods_its_arithmetic_gives(speed: float, start: float,
+                                                              gaps: list[float]) -> None:
+    """Whatever shortcut ``due`` takes, the periods run by each wall time are those of
+    int((wall - start) * speed / period), never more and never fewer."""
+    from xarm_emu.server.clock import ScaledClock
+
+    period = 0.004
+    clock = ScaledClock(period, speed=speed)
+    clock.start(start)
+    wall, total = start, 0
+    for gap in gaps:
+        wall += gap
+        total += clock.due(wall)
+        assert total == max(0, int((wall - start) * speed / period))
+        assert clock.due(wall) == 0

@@ -13,6 +13,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+#: Seconds short of the next step's wall time within which :meth:`ScaledClock.due` computes in full.
+QUIET_MARGIN = 1e-6
+
 
 @dataclass
 class ScaledClock:
@@ -22,6 +25,10 @@ class ScaledClock:
     speed: float = 1.0
     _wall0: float | None = None
     _steps: int = 0
+    #: Wall time before which no step can fall due (a margin short of :meth:`next_wall`, far wider
+    #: than the rounding of its arithmetic): most calls of :meth:`due` compare once, and a caller may
+    #: compare itself before calling.
+    quiet_until: float = -math.inf
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.speed) and self.speed > 0.0):
@@ -30,10 +37,13 @@ class ScaledClock:
     def start(self, wall: float) -> None:
         self._wall0 = wall
         self._steps = 0
+        self.quiet_until = -math.inf
 
     def due(self, wall: float, limit: int | None = None) -> int:
         """Steps to run now to catch up with ``wall``; at most ``limit`` (the rest stays due, so a
         machine too slow for the requested speed runs slower instead of stalling in one burst)."""
+        if wall < self.quiet_until:
+            return 0
         if self._wall0 is None:
             self.start(wall)
         assert self._wall0 is not None
@@ -42,6 +52,7 @@ class ScaledClock:
         if limit is not None:
             n = min(n, limit)
         self._steps += n
+        self.quiet_until = self.next_wall() - QUIET_MARGIN
         return n
 
     def next_wall(self) -> float:

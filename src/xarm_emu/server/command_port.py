@@ -82,6 +82,14 @@ class ReadCache:
         #: register -> (emulator generation, length field, reply after the header)
         self._entries: dict[int, tuple[int, int, bytes]] = {}
 
+    def hit(self, emu: Emulator, tid: int, protocol: int, register: int) -> bytes | None:
+        """The reply frame to a parameterless pure read if one was made at the emulator's present
+        generation, else ``None``."""
+        hit = self._entries.get(register)
+        if hit is None or hit[0] != emu.generation:
+            return None
+        return HEADER.pack(tid & 0xFFFF, protocol, hit[1]) + hit[2]
+
     def reply(self, emu: Emulator, tid: int, protocol: int, register: int) -> bytes:
         """The reply frame to a parameterless pure read (manual 2.1.2 header with ``tid``)."""
         hit = self._entries.get(register)

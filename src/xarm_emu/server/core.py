@@ -257,7 +257,8 @@ class EmulatorServer:
         self._servers: list[asyncio.AbstractServer] = []
         self._tasks: list[asyncio.Task[None]] = []
         self.ports: dict[str, int] = {}
-        self._reply_delay = 0.0  # fault injection: seconds before each reply
+        #: Seconds each command reply waits (fault injection ``reply-delay``; 0: none).
+        self.reply_delay = 0.0
         self._report_pause_until = 0.0  # fault injection: loop time until which reports pause
         self._stopped = asyncio.Event()
         self._read_cache = ReadCache()
@@ -385,13 +386,8 @@ class EmulatorServer:
         """Lockstep time: controller time advances only by :meth:`advance` (admin ``step``)."""
         return self.config.stepped
 
-    @property
-    def reply_delay(self) -> float:
-        """Seconds each command reply waits (fault injection ``reply-delay``; 0: none)."""
-        return self._reply_delay
-
     def set_reply_delay(self, seconds: float) -> None:
-        self._reply_delay = float(seconds)
+        self.reply_delay = float(seconds)
 
     @property
     def report_pause_until(self) -> float:
@@ -400,7 +396,7 @@ class EmulatorServer:
 
     def clear_delays(self) -> None:
         """No reply delay and no report pause (admin ``clear``)."""
-        self._reply_delay = 0.0
+        self.reply_delay = 0.0
         self._report_pause_until = 0.0
 
     # -- the report streams' state, as before the split ---------------------------------------------
@@ -504,9 +500,12 @@ class EmulatorServer:
         control loop only has to wake up now and then (:data:`IDLE_WAKE`) when nobody is looking.
         """
         loop = self._loop
-        if loop is None or self.config.stepped:
+        if loop is None:
             return 0
-        n = self.clock.due(loop.time(), MAX_CATCH_UP)
+        now = loop.time()
+        if now < self.clock.quiet_until or self.config.stepped:  # the usual case: nothing due yet
+            return 0
+        n = self.clock.due(now, MAX_CATCH_UP)
         if n:
             self.emulator.step(n)
             if self.feedback is not None and self.feedback.pending:
@@ -521,6 +520,11 @@ class EmulatorServer:
         self.catch_up()
         emu = self.emulator
         if not params and register in PURE_READS:
+            frame = self._read_cache.hit(emu, tid, protocol, register)
+            if frame is not None:  # nothing changed since this reply was made and the codes were watched
+                if self.trace is not None:
+                    self.trace.command(emu.time, peer, tid, protocol, register, params, frame)
+                return frame
             frame = self._read_cache.reply(emu, tid, protocol, register)
         elif self.feedback is not None:
             self._touched = True
@@ -550,8 +554,8 @@ class EmulatorServer:
             fb.end(ctl, state)
         if fb.pending and not self._feedback_soon and self._loop is not None:
             self._feedback_soon = True  # after the reply, also when an injected delay holds it back
-            if self._reply_delay > 0.0:
-                self._loop.call_later(self._reply_delay, self._deliver_soon)
+            if self.reply_delay > 0.0:
+                self._loop.call_later(self.reply_delay, self._deliver_soon)
             else:
                 self._loop.call_soon(self._deliver_soon)
         return encode_reply(tid, protocol, register, state, reply)
