@@ -346,3 +346,33 @@ def test_a_blocked_loop_is_asked_once_and_publishes_for_the_deadline_to_come(mak
     assert len(burst) <= 2, len(burst)
     assert all(deadline >= freed - INTERVAL for _, deadline in burst)  # for a deadline still to come
     assert srv.server.reports.frames_stale["develop"] >= 20
+
+
+def test_an_arm_at_rest_is_encoded_once_and_a_change_shows_in_the_next_frames(make_server) -> None:  # type: ignore[no-untyped-def]
+    """While nothing changes but the clock, the develop frame is encoded once and sent again at
+    every deadline; a command that changes the box (a TCP offset, register 35) shows in the frames
+    that follow its reply."""
+    srv: ServerThread = make_server()
+    emu = srv.emulator
+    calls = [0]
+    snapshot = emu.snapshot
+
+    def counted():  # type: ignore[no-untyped-def]
+        calls[0] += 1
+        return snapshot()
+
+    srv.call(lambda: setattr(emu, "snapshot", counted))
+    with connect(srv.ports["command"]) as cmd, \
+            socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
+        frames = _FrameCursor(dev)
+        first = frames.first_frame_from(0)
+        before = calls[0]
+        seen = [frames.first_frame_from(frames.received() + 1) for _ in range(30)]  # 30 later frames
+        assert all(f == first for f in seen)
+        assert calls[0] - before <= 3  # the thermal model's step (once a second) may change it
+        offset = struct.pack("<6f", 0.0, 0.0, 55.0, 0.0, 0.0, 0.0)
+        cmd.sendall(encode_request(1, 35, offset))
+        assert recv_frame(cmd)[6] == 35
+        got = frames.first_frame_from(frames.received())
+    z_before, z_after = reports.decode_develop(first).pose[2], reports.decode_develop(got).pose[2]
+    assert z_after == pytest.approx(z_before - 55.0, abs=1e-3)  # the TCP 55 mm below the flange

@@ -231,6 +231,8 @@ class Emulator:
         #: command, control period and change from outside the protocol), so readers can key
         #: derived values on it instead of being told to forget them.
         self.generation = 0
+        #: ``step()`` calls in which nothing changed but the clock (:attr:`revision`).
+        self._quiet_calls = 0
         if ft_sensor:  # the six-axis F/T sensor between flange and tool (controller/ft_sensor.py)
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
@@ -308,6 +310,8 @@ class Emulator:
         self.generation += 1
         step, at_rest, scheduled = ctl.step, ctl.at_rest, self._scheduled
         last = n - 1
+        quiet = True  # so far nothing has changed but the clock (revision)
+        steps0 = ctl.data.steps
         i = 0
         while i < n:
             if i < last and not self.exact_steps and at_rest(settled):
@@ -315,6 +319,8 @@ class Emulator:
                 if k:
                     i += k
                     continue
+            if quiet and (i < last or not self._quiet_period(settled)):
+                quiet = False
             step()
             settled = True
             d = ctl.data
@@ -323,9 +329,35 @@ class Emulator:
             if scheduled and scheduled[0][0] <= d.time + 1e-9:
                 self._run_scheduled()
                 settled = False
+                quiet = False
             i += 1
         if n > 0:
             self._settled = self.generation
+        if quiet and ctl.data.steps // THERMAL_EVERY == steps0 // THERMAL_EVERY:  # no thermal step ran
+            self._quiet_calls += 1
+
+    @property
+    def revision(self) -> int:
+        """Like :attr:`generation`, but a :meth:`step` call in which nothing changed but the clock
+        (every period at rest, jumped over or run in full, no component, scheduled action or
+        thermal step due) is not a change: what a register or a report shows that does not carry
+        the time is the same at one revision. Every change from outside the protocol must go
+        through a command or :meth:`touch` to be seen."""
+        return self.generation - self._quiet_calls
+
+    def _quiet_period(self, settled: bool) -> bool:
+        """Whether the control period about to run in full changes nothing but the clock: the
+        controller at rest (:meth:`Controller.at_rest`), each component idle beyond it and no
+        scheduled action at its end (what :meth:`_jump` would jump over; thermal steps are
+        counted by the caller), and no F/T sensor, whose readings change with the clock alone."""
+        ctl = self.controller
+        if not ctl.at_rest(settled) or ft_sensor.attached(ctl):  # its readings follow the clock (noise,
+            return False                                        # drift, wrench ramps)
+        d = ctl.data
+        t_next = d.time + ctl.period
+        if self._scheduled and self._scheduled[0][0] <= t_next + 1e-9:
+            return False
+        return all(t_next < idle_until(c, ctl) for c in ctl.components)
 
     def _jump(self, most: int) -> int:
         """Jump over at most ``most`` control periods while the controller is at rest

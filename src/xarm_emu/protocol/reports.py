@@ -400,6 +400,10 @@ DEVELOP2_SIZE = 135  # develop report with F/T external and raw forces
 REALTIME_SIZE = 804  # port 30000
 REALTIME_PORT = 30000
 REALTIME_RATE = 250.0  # Hz (200 with an F/T sensor)
+#: Ports whose frames carry the controller's clock (the real-time report's timestamp): each of their
+#: frames differs from the last. The other reports show the clock nowhere; their frames change only
+#: when the box does.
+CLOCKED_PORTS = frozenset({REALTIME_PORT})
 
 OFF_DEVELOP_FT = 87
 OFF_RICH_TAIL = 433

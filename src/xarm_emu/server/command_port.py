@@ -76,27 +76,28 @@ def _host_of(peer: str) -> str:
 
 
 class ReadCache:
-    """Reply frames of :data:`PURE_READS`, reused while the emulator's generation stays the same."""
+    """Reply frames of :data:`PURE_READS`, reused while the emulator's revision stays the same (none
+    of them shows the clock)."""
 
     def __init__(self) -> None:
-        #: register -> (emulator generation, length field, reply after the header)
+        #: register -> (emulator revision, length field, reply after the header)
         self._entries: dict[int, tuple[int, int, bytes]] = {}
 
     def hit(self, emu: Emulator, tid: int, protocol: int, register: int) -> bytes | None:
         """The reply frame to a parameterless pure read if one was made at the emulator's present
-        generation, else ``None``."""
+        revision, else ``None``."""
         hit = self._entries.get(register)
-        if hit is None or hit[0] != emu.generation:
+        if hit is None or hit[0] != emu.revision:
             return None
         return HEADER.pack(tid & 0xFFFF, protocol, hit[1]) + hit[2]
 
     def reply(self, emu: Emulator, tid: int, protocol: int, register: int) -> bytes:
         """The reply frame to a parameterless pure read (manual 2.1.2 header with ``tid``)."""
         hit = self._entries.get(register)
-        if hit is None or hit[0] != emu.generation:
+        if hit is None or hit[0] != emu.revision:
             state, values = emu.handle(register, b"")
             frame = encode_reply(0, 0, register, state, values)
-            hit = (emu.generation, HEADER.unpack_from(frame)[2], frame[HEADER_SIZE:])
+            hit = (emu.revision, HEADER.unpack_from(frame)[2], frame[HEADER_SIZE:])
             self._entries[register] = hit
         return HEADER.pack(tid & 0xFFFF, protocol, hit[1]) + hit[2]
 

@@ -246,7 +246,8 @@ class EmulatorServer:
         defaults = reports.rates_for(profile)
         rates = {kind: defaults[port] for kind, port in ALL_KIND_PORTS.items() if port in defaults}
         rates.update(self.config.report_rates)
-        self.reports = ReportStreams(self._report_snapshot, self.reports_paused, rates, profile)
+        self.reports = ReportStreams(self._report_snapshot, self.reports_paused, rates, profile,
+                                     self._report_revision)
         #: The controller's feedback events (firmware >= 2.0.102), else ``None``.
         self.feedback: FeedbackQueue | None = (feedback_queue(emulator.controller) if profile.feedback
                                                else None)
@@ -430,6 +431,11 @@ class EmulatorServer:
         """Have :meth:`start` build ``factory()`` after the ports are open, start it, and record its
         port under ``name`` in :attr:`ports`; :meth:`close` stops it."""
         self._attach[name] = factory
+
+    def _report_revision(self) -> int:
+        """The box's revision (``Emulator.revision``) after the due control periods."""
+        self.catch_up()
+        return self.emulator.revision
 
     def _report_snapshot(self) -> reports.ReportSnapshot:
         self.catch_up()

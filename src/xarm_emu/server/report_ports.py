@@ -85,13 +85,18 @@ class ReportStreams:
     process's report sender (:mod:`.report_sender`) on an absolute schedule.
 
     ``snapshot`` gives the state to report (after the server has caught up on due control periods);
-    ``paused`` says whether an injected report pause is on.
+    ``paused`` says whether an injected report pause is on; ``revision``, when given, the box's
+    revision after catching up (``Emulator.revision``): a frame that carries no clock
+    (``reports.CLOCKED_PORTS``) is encoded once per revision and sent again while the box stays as
+    it was, as an arm at rest does.
     """
 
     def __init__(self, snapshot: Callable[[], reports.ReportSnapshot], paused: Callable[[], bool],
-                 rates: dict[str, float], profile: FirmwareProfile = DEFAULT_PROFILE) -> None:
+                 rates: dict[str, float], profile: FirmwareProfile = DEFAULT_PROFILE,
+                 revision: Callable[[], int] | None = None) -> None:
         self.snapshot = snapshot
         self.paused = paused
+        self.revision = revision
         self.rates = rates
         #: Report kind -> standard port of the streams this box serves (its firmware's).
         self.kinds = kinds_for(profile)
@@ -108,11 +113,24 @@ class ReportStreams:
 
     def _preparer(self, kind: str) -> Callable[[], bytes | None]:
         encode = self.encoders[kind]
+        revision = self.revision
+        if revision is None or ALL_KIND_PORTS[kind] in reports.CLOCKED_PORTS:
+            def prepare() -> bytes | None:
+                return None if self._closing or self.paused() else encode(self.snapshot())
 
-        def prepare() -> bytes | None:
-            return None if self._closing or self.paused() else encode(self.snapshot())
+            return prepare
+        last: list[Any] = [None, b""]  # the revision of the last frame encoded, the frame
 
-        return prepare
+        def prepare_once() -> bytes | None:
+            if self._closing or self.paused():
+                return None
+            now = revision()
+            if now != last[0]:
+                last[1] = encode(self.snapshot())
+                last[0] = now
+            return last[1]  # type: ignore[no-any-return]
+
+        return prepare_once
 
     def refresh(self) -> None:
         """Prepare again every frame already prepared for a deadline not yet reached: a command

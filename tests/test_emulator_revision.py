@@ -1,0 +1,102 @@
+"""``Emulator.revision`` (controller/emulator.py): a ``step()`` call in which nothing changed but the
+clock leaves it as it was, and at one revision everything a register read or a report frame without
+the clock shows is the same. The servers encode report frames and answer pure reads once per
+revision (server/report_ports.py, server/command_port.py ``ReadCache``), so this is what keeps an
+arm at rest cheap without showing anything old."""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import pytest
+from helpers import report_frames
+from test_clock_exact import IDLE, MIXED, READS, Action, gripper_to, ready, schedule_faults, send
+
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.protocol import reports
+
+
+def shown(emu: Emulator) -> tuple[Any, ...]:
+    """What a client sees that does not carry the clock: the report frames but the clocked ones,
+    the snapshot behind them and the pure reads' replies (read without counting as a change)."""
+    ports = sorted(reports.encoders_for(emu.firmware))
+    frames = tuple(f for port, f in zip(ports, report_frames(emu), strict=True)
+                   if port not in reports.CLOCKED_PORTS)
+    regs = emu.controller.registers
+    replies = tuple(emu.controller.handle(code, b"") for code in READS if code in regs)
+    return frames, emu.snapshot(), replies
+
+
+def walk(emu: Emulator, script: dict[int, list[Action]], total: int,
+         pattern: tuple[int, ...]) -> tuple[int, int]:
+    """Step ``emu`` through ``script`` in strides of ``pattern``; at every instant whose revision is
+    the one before, what it shows must be the same. Returns (instants at an unchanged revision,
+    instants at a new one)."""
+    for action in script.get(0, []):
+        action(emu)
+    done, same, new = 0, 0, 0
+    before: tuple[int, tuple[Any, ...]] | None = None
+    strides = itertools.cycle(pattern)
+    marks = sorted(script)
+    while done < total:
+        n = min(next(strides), total - done)
+        upcoming = [m for m in marks if done < m < done + n]
+        if upcoming:
+            n = upcoming[0] - done
+        emu.step(n)
+        done += n
+        for action in script.get(done, []):
+            action(emu)
+        now = (emu.revision, shown(emu))
+        if before is not None and now[0] == before[0]:
+            assert now[1] == before[1], f"revision {now[0]} shows something new after period {done}"
+            same += 1
+        else:
+            new += 1
+        before = now
+    return same, new
+
+
+@pytest.mark.parametrize("firmware", ["1.6.0", "2.7.103"])
+def test_mixed_program_shows_nothing_new_at_one_revision(firmware: str) -> None:
+    emu = Emulator(6, firmware=firmware)
+    schedule_faults(emu)
+    same, new = walk(emu, MIXED, 45 * 250, (2, 3, 1, 7, 250, 25))
+    assert same > 100 and new > 50  # both kinds of instant occur: the test can fail either way
+
+
+@pytest.mark.parametrize(("devices", "script"), [
+    ({}, IDLE),
+    ({"vacuum": True}, {0: [ready, lambda e: send(e, 143, ionum=0, on=1, delay=1.0)]}),
+    ({"gripper": "robotiq-2f85"}, IDLE),
+    ({"gripper": "bio"}, IDLE),
+    ({"ft_sensor": True}, IDLE),
+])
+def test_idle_programs_with_devices_show_nothing_new_at_one_revision(
+        devices: dict[str, Any], script: dict[int, list[Action]]) -> None:
+    emu = Emulator(6, **devices)
+    walk(emu, script, 30 * 250, (2, 3, 25, 1, 300))
+
+
+def test_a_box_at_rest_keeps_its_revision_and_any_change_moves_it() -> None:
+    emu = Emulator(6)
+    ready(emu)
+    emu.step(10)
+    rev = emu.revision
+    for n in (1, 2, 3, 40, 7):  # periods at rest, none with a thermal step
+        emu.step(n)
+    assert emu.revision == rev
+    for change in (lambda: send(emu, 13), emu.touch, lambda: emu.inject_warning(12),
+                   lambda: emu.set_input("cgpio", 1, 1), lambda: emu.step(250)):  # 250: a thermal step
+        change()
+        assert emu.revision > rev
+        rev = emu.revision
+    send(emu, 23, joints=(0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), speed=1.0, acc=8.0, mvtime=0.0)
+    rev = emu.revision
+    emu.step(2)
+    assert emu.revision > rev  # in motion every call is a change
+    gripper_to(emu, 400)
+    rev = emu.revision
+    emu.step(1)
+    assert emu.revision > rev  # the gripper moving on its own is a change too
