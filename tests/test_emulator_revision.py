@@ -100,3 +100,30 @@ def test_a_box_at_rest_keeps_its_revision_and_any_change_moves_it() -> None:
     rev = emu.revision
     emu.step(1)
     assert emu.revision > rev  # the gripper moving on its own is a change too
+
+
+@pytest.mark.parametrize("devices", [{}, {"vacuum": True}, {"gripper": "robotiq-2f85"}, {"ft_sensor": True}])
+def test_quiet_periods_is_a_promise_the_steps_keep(devices: dict[str, Any]) -> None:
+    """``quiet_periods()`` periods stepped in any calls leave the revision, and what shows, as they
+    were (a server lets the last frame stand for the deadlines they cover); through the idle
+    program's timers, delayed outputs and scheduled faults."""
+    emu = Emulator(6, **devices)
+    schedule_faults(emu)
+    for action in IDLE[0]:
+        action(emu)
+    kept = 0
+    while emu.controller.steps < 60 * 250:
+        k = emu.quiet_periods()
+        if k == 0:
+            emu.step(3)
+            continue
+        assert not devices.get("ft_sensor")  # its readings follow the clock: never quiet
+        rev, before = emu.revision, shown(emu)
+        n = int(min(k, 700))
+        for part in (n // 3, n - n // 3):
+            emu.step(part)
+        assert emu.revision == rev and shown(emu) == before, emu.controller.steps
+        kept += n
+        emu.step(1)  # on into whatever ended the promise
+    if not devices.get("ft_sensor"):
+        assert kept > 30 * 250  # most of the idle minute was promised quiet

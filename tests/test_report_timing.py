@@ -14,7 +14,7 @@ import threading
 import time
 
 import pytest
-from helpers import connect, read_frames, recv_frame, wait_for
+from helpers import call, connect, joints7, read_frames, recv_frame, wait_for
 from helpers import ready as emu_ready
 
 from xarm_emu.protocol import reports
@@ -141,8 +141,21 @@ def test_a_frame_partly_taken_is_finished_before_the_next_and_the_frames_between
         b.close()
 
 
+def _slow_move(srv: ServerThread) -> None:
+    """A joint move of some seconds: an arm in motion, whose frames never stand for a later
+    deadline by themselves (each must come from the loop)."""
+    emu = srv.emulator
+
+    def move() -> None:
+        emu_ready(emu)
+        call(emu, 23, joints=joints7(1.5), speed=0.2, acc=2.0, mvtime=0.0)
+
+    srv.call(move)
+
+
 def test_frames_keep_their_schedule_while_the_event_loop_is_blocked(make_server) -> None:  # type: ignore[no-untyped-def]
     srv: ServerThread = make_server()
+    _slow_move(srv)
     with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
         _arrivals(dev, 0.3)  # the stream runs
         blocker = threading.Thread(target=srv.call, args=(lambda: time.sleep(0.4),))
@@ -332,6 +345,7 @@ def test_a_blocked_loop_is_asked_once_and_publishes_for_the_deadline_to_come(mak
         return inner()
 
     stream.prepare = counting
+    _slow_move(srv)
     with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
         _arrivals(dev, 0.2)
         blocker = threading.Thread(target=srv.call, args=(lambda: time.sleep(0.4),))
@@ -376,3 +390,34 @@ def test_an_arm_at_rest_is_encoded_once_and_a_change_shows_in_the_next_frames(ma
         got = frames.first_frame_from(frames.received())
     z_before, z_after = reports.decode_develop(first).pose[2], reports.decode_develop(got).pose[2]
     assert z_after == pytest.approx(z_before - 55.0, abs=1e-3)  # the TCP 55 mm below the flange
+
+
+def test_an_arm_at_rest_needs_no_loop_for_its_frames_and_a_change_still_shows(make_server) -> None:  # type: ignore[no-untyped-def]
+    """While the box is at rest and unchanged, a published frame stands for the later deadlines:
+    a loop held for 400 ms sends them all fresh (none stale). A change made while the loop is held
+    (an injected error, through the emulator) is seen by the sender, which asks the loop again: the
+    frames sent while the loop is still held are counted stale, and those after show the error's
+    state 4 (develop report byte 4, manual 2.1.6)."""
+    srv: ServerThread = make_server()
+    emu = srv.emulator
+    srv.call(lambda: emu_ready(emu))
+    with socket.create_connection(("127.0.0.1", srv.ports["develop"]), timeout=2) as dev:
+        frames = _FrameCursor(dev)
+        frames.first_frame_from(0)
+        time.sleep(0.2)
+        stale0 = srv.server.reports.frames_stale["develop"]
+        sent0 = srv.server.reports.frames_sent["develop"]
+        srv.call(lambda: time.sleep(0.4))  # the loop held: frames go on, from the sender alone
+        assert srv.server.reports.frames_sent["develop"] - sent0 >= 30
+        assert srv.server.reports.frames_stale["develop"] == stale0
+
+        assert frames.first_frame_from(frames.received())[4] & 0x0F == 2  # ready, at rest
+
+        def error_then_hold() -> None:
+            emu.inject_error(22)
+            time.sleep(0.1)  # the loop held after the change: the old frame no longer stands
+
+        srv.call(error_then_hold)
+        got = frames.first_frame_from(frames.received())
+        assert srv.server.reports.frames_stale["develop"] >= stale0 + 5
+    assert got[4] & 0x0F == 4

@@ -345,6 +345,26 @@ class Emulator:
         through a command or :meth:`touch` to be seen."""
         return self.generation - self._quiet_calls
 
+    def quiet_periods(self) -> float:
+        """How many control periods from now would, stepped in any calls, change nothing but the
+        clock (:attr:`revision` unchanged) unless something outside changes the box: 0 unless the
+        controller is at rest and no F/T sensor is mounted; else up to the period before the next
+        thermal step, component time (:func:`~.base.idle_until`) or scheduled action; may be
+        ``math.inf``. A lower bound (one period short of each event's own period)."""
+        ctl = self.controller
+        if not ctl.at_rest(self.generation == self._settled) or ft_sensor.attached(ctl):
+            return 0
+        d = ctl.data
+        dt = ctl.period
+        count: float = THERMAL_EVERY - 1 - d.steps % THERMAL_EVERY  # the thermal step's period is not
+        due = min((idle_until(c, ctl) for c in ctl.components), default=math.inf)
+        if self._scheduled:
+            due = min(due, self._scheduled[0][0] - 1e-9)
+        span = (due - d.time) / dt  # periods to the next event (inf: none; -inf: a busy component)
+        if span < count + 2:
+            count = math.floor(span) - 1 if span > 1.0 else 0
+        return max(0, count)
+
     def _quiet_period(self, settled: bool) -> bool:
         """Whether the control period about to run in full changes nothing but the clock: the
         controller at rest (:meth:`Controller.at_rest`), each component idle beyond it and no

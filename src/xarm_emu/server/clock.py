@@ -57,5 +57,11 @@ class ScaledClock:
 
     def next_wall(self) -> float:
         """Wall time at which the next step falls due."""
+        return self.wall_after(0)
+
+    def wall_after(self, k: float) -> float:
+        """Wall time at which the step after the next ``k`` falls due (``k`` may be ``math.inf``)."""
         assert self._wall0 is not None
-        return self._wall0 + (self._steps + 1) * self.period / self.speed
+        if k == math.inf:
+            return math.inf
+        return self._wall0 + (self._steps + k + 1) * self.period / self.speed

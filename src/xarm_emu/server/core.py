@@ -22,6 +22,7 @@ import contextlib
 import errno
 import io
 import logging
+import math
 import os
 import socket
 import time
@@ -247,7 +248,8 @@ class EmulatorServer:
         rates = {kind: defaults[port] for kind, port in ALL_KIND_PORTS.items() if port in defaults}
         rates.update(self.config.report_rates)
         self.reports = ReportStreams(self._report_snapshot, self.reports_paused, rates, profile,
-                                     self._report_revision)
+                                     self._report_revision, current_revision=lambda: emulator.revision,
+                                     horizon=self._report_horizon)
         #: The controller's feedback events (firmware >= 2.0.102), else ``None``.
         self.feedback: FeedbackQueue | None = (feedback_queue(emulator.controller) if profile.feedback
                                                else None)
@@ -436,6 +438,24 @@ class EmulatorServer:
         """The box's revision (``Emulator.revision``) after the due control periods."""
         self.catch_up()
         return self.emulator.revision
+
+    def _report_horizon(self) -> float:
+        """Until when (perf_counter) the report frames just prepared stay what fresh ones would show,
+        while the box's revision holds: lockstep time moves only through the emulator, which the
+        revision shows; in real or scaled time, until the first control period due that would not
+        be quiet (``Emulator.quiet_periods``), less one period."""
+        if self.config.stepped:
+            return math.inf
+        loop = self._loop
+        if loop is None:
+            return -math.inf
+        k = self.emulator.quiet_periods()
+        if k <= 0:
+            return -math.inf
+        due = self.clock.wall_after(k)
+        if due == math.inf:
+            return math.inf
+        return time.perf_counter() + (due - loop.time()) - PERIOD / self.clock.speed
 
     def _report_snapshot(self) -> reports.ReportSnapshot:
         self.catch_up()
@@ -708,6 +728,7 @@ class EmulatorServer:
     def pause_reports(self, seconds: float) -> None:
         """No report frame goes out for ``seconds`` of wall time (fault injection ``report-pause``)."""
         self._report_pause_until = asyncio.get_running_loop().time() + seconds
+        self.reports.invalidate()
 
     def reports_paused(self) -> bool:
         """Whether an injected report pause is on now."""

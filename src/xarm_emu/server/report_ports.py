@@ -14,6 +14,7 @@ import asyncio
 import contextlib
 import math
 import socket
+import time
 from collections.abc import Awaitable, Callable
 from typing import Any
 
@@ -93,7 +94,9 @@ class ReportStreams:
 
     def __init__(self, snapshot: Callable[[], reports.ReportSnapshot], paused: Callable[[], bool],
                  rates: dict[str, float], profile: FirmwareProfile = DEFAULT_PROFILE,
-                 revision: Callable[[], int] | None = None) -> None:
+                 revision: Callable[[], int] | None = None, *,
+                 current_revision: Callable[[], int] | None = None,
+                 horizon: Callable[[], float] | None = None) -> None:
         self.snapshot = snapshot
         self.paused = paused
         self.revision = revision
@@ -103,7 +106,9 @@ class ReportStreams:
         self.encoders = encoders_by_kind(profile)
         self.clients: dict[str, set[asyncio.StreamWriter]] = {k: set() for k in self.kinds}
         #: Report kind -> the stream the sender writes.
-        self.streams = {k: SendStream(k, 1.0 / rates[k], self._preparer(k)) for k in self.kinds}
+        self.streams = {k: SendStream(k, 1.0 / rates[k], self._preparer(k), *(
+            (current_revision, horizon) if ALL_KIND_PORTS[k] not in reports.CLOCKED_PORTS else ()))
+            for k in self.kinds}
         self.client_tasks: set[asyncio.Task[None]] = set()
         #: Whether a new client of a kind may stay (the server's per-port cap); ``None``: always.
         self.admit: Callable[[str], bool] | None = None
@@ -137,11 +142,24 @@ class ReportStreams:
         answered since then changed the box, and no frame sent after its reply may show the state
         from before it (a client that reads its reply and then the report must never see the
         command undone)."""
+        now = time.perf_counter()
         for stream in self.streams.values():
-            if stream.frame_deadline == stream.deadline and stream.readers:
+            if not stream.readers:
+                continue
+            with stream.sending:  # the sender takes a frame as standing for a deadline under it
+                # prepared for the coming deadline, or asked for by now (a loop that is late)
+                pending = (stream.frame_deadline == stream.deadline
+                           or stream.deadline - now <= report_sender.LEAD)
+            if pending:
                 stream.publish(stream.deadline)
                 with stream.sending:  # a send that took the old frame has finished writing it
                     pass
+
+    def invalidate(self) -> None:
+        """No published frame stands for a later deadline (reports paused: nothing the box's
+        revision shows)."""
+        for stream in self.streams.values():
+            stream.invalidate()
 
     # -- counters (written by the sender thread) -----------------------------------------------
     @property
@@ -190,6 +208,7 @@ class ReportStreams:
         frames of those still closing would otherwise keep the event loop busy and delay every
         close behind them."""
         self._closing = True
+        self.invalidate()
 
     def stop(self) -> None:
         """Stop using the sender (after every client is gone; the last user stops it)."""

@@ -5,7 +5,9 @@ Each report stream (:class:`SendStream`) is due at ``k * interval`` (perf_counte
 absolute deadlines on one grid per rate, nothing accumulates; the streams of one rate share their
 instants, so one wake-up and one call into each event loop serve all of them). A little before each
 deadline (:data:`LEAD`) the sender
-asks the stream's event loop to publish its frame (the loop catches the controller up and encodes
+asks the stream's event loop to publish its frame, unless the last one still stands for it (the
+box has not changed and its next timer is later: an arm at rest costs its loop nothing per frame,
+:meth:`SendStream.stands_for`) (the loop catches the controller up and encodes
 it: the frame is the state no older than one control period at its deadline); at the deadline the
 sender writes the freshest published frame to every reader itself, with non-blocking ``send`` calls
 on its own duplicates of the sockets, without waiting on the loop. A frame the loop could not
@@ -187,12 +189,25 @@ class SendStream:
 
     ``prepare`` runs in the stream's event loop before each deadline and returns the frame to send
     (``None``: none, e.g. reports paused). The counters are the sender's to write.
+
+    ``revision`` and ``horizon``, when given, let a frame stand for later deadlines without the loop:
+    ``revision()`` reads the box's revision (``Emulator.revision``; safe from the sender thread, it
+    runs nothing) and ``horizon()``, in the loop right after ``prepare``, says until when
+    (perf_counter) the frame stays what a fresh one would be while that revision holds (an arm at
+    rest: until its next timer, thermal step or scheduled action).
     """
 
-    def __init__(self, kind: str, interval: float, prepare: Callable[[], bytes | None]) -> None:
+    def __init__(self, kind: str, interval: float, prepare: Callable[[], bytes | None],
+                 revision: Callable[[], int] | None = None,
+                 horizon: Callable[[], float] | None = None) -> None:
         self.kind = kind
         self.interval = interval
         self.prepare = prepare
+        self.revision = revision
+        self.horizon = horizon
+        #: The published frame stays valid for deadlines before this time at :attr:`valid_revision`.
+        self.valid_until = -math.inf
+        self.valid_revision = -1
         self.readers: tuple[Reader, ...] = ()
         self.loop: asyncio.AbstractEventLoop | None = None
         self.frame: bytes | None = None
@@ -213,11 +228,33 @@ class SendStream:
         self.lateness: list[float] | None = None
 
     def publish(self, deadline: float) -> None:
-        """In the loop: encode the frame for ``deadline``."""
+        """In the loop: encode the frame for ``deadline`` (and say how long it stays valid)."""
         if not self.readers:
             return
-        self.frame = self.prepare()
+        self.frame = frame = self.prepare()
+        if frame is not None and self.horizon is not None and self.revision is not None:
+            self.valid_revision = self.revision()
+            self.valid_until = self.horizon()
+        else:
+            self.valid_until = -math.inf
         self.frame_deadline = deadline
+
+    def invalidate(self) -> None:
+        """The published frame stands for no later deadline: the loop is asked again (reports
+        paused or closing: things the box's revision does not show)."""
+        self.valid_until = -math.inf
+
+    def stands_for(self, deadline: float) -> bool:
+        """Sender thread: whether the published frame is what the loop would publish for
+        ``deadline`` (the box unchanged, its horizon not reached); if so it is taken as published
+        for it. Under :attr:`sending`, so that a refresh sees either the old deadline or this one."""
+        if deadline >= self.valid_until or self.frame is None or self.revision is None:
+            return False
+        with self.sending:
+            if self.revision() != self.valid_revision or deadline >= self.valid_until:
+                return False
+            self.frame_deadline = deadline
+            return True
 
 
 class ReportSender:
@@ -305,7 +342,7 @@ class ReportSender:
             return
         by_loop: dict[asyncio.AbstractEventLoop, list[SendStream]] = {}
         for stream in streams:
-            if stream.loop is not None:
+            if stream.loop is not None and not stream.stands_for(stream.deadline):
                 by_loop.setdefault(stream.loop, []).append(stream)
         for loop, group in by_loop.items():
             with self._cond:
