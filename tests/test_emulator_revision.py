@@ -127,3 +127,13 @@ def test_quiet_periods_is_a_promise_the_steps_keep(devices: dict[str, Any]) -> N
         emu.step(1)  # on into whatever ended the promise
     if not devices.get("ft_sensor"):
         assert kept > 30 * 250  # most of the idle minute was promised quiet
+
+
+def test_a_dwell_ending_in_a_one_period_call_is_a_change() -> None:
+    """A dwell (register 26) counts only time, yet its last period ends the command (cmdnum, state):
+    stepped one period per call, no call of its run may keep the revision while that shows."""
+    emu = Emulator(6)
+    script: dict[int, list[Action]] = {0: [ready, lambda e: send(e, 26, seconds=0.1)],
+                                       60: [lambda e: send(e, 26, seconds=0.05)]}
+    walk(emu, script, 120, (1,))
+    assert emu.controller.executor.completed == 2

@@ -347,12 +347,12 @@ class Emulator:
 
     def quiet_periods(self) -> float:
         """How many control periods from now would, stepped in any calls, change nothing but the
-        clock (:attr:`revision` unchanged) unless something outside changes the box: 0 unless the
-        controller is at rest and no F/T sensor is mounted; else up to the period before the next
-        thermal step, component time (:func:`~.base.idle_until`) or scheduled action; may be
-        ``math.inf``. A lower bound (one period short of each event's own period)."""
+        clock (:attr:`revision` unchanged) unless something outside changes the box: 0 unless
+        :meth:`_quiet_now`; else up to the period before the next thermal step, component time
+        (:func:`~.base.idle_until`) or scheduled action. A lower bound (one period short of each
+        event's own period)."""
         ctl = self.controller
-        if not ctl.at_rest(self.generation == self._settled) or ft_sensor.attached(ctl):
+        if not self._quiet_now(self.generation == self._settled):
             return 0
         d = ctl.data
         dt = ctl.period
@@ -365,14 +365,20 @@ class Emulator:
             count = math.floor(span) - 1 if span > 1.0 else 0
         return max(0, count)
 
-    def _quiet_period(self, settled: bool) -> bool:
-        """Whether the control period about to run in full changes nothing but the clock: the
-        controller at rest (:meth:`Controller.at_rest`), each component idle beyond it and no
-        scheduled action at its end (what :meth:`_jump` would jump over; thermal steps are
-        counted by the caller), and no F/T sensor, whose readings change with the clock alone."""
+    def _quiet_now(self, settled: bool) -> bool:
+        """The controller at rest (:meth:`Controller.at_rest`) with no command in its buffer (a
+        dwell counts time at rest, yet its last period ends it: cmdnum and state change) and no
+        F/T sensor (its readings follow the clock: noise, drift, wrench ramps)."""
         ctl = self.controller
-        if not ctl.at_rest(settled) or ft_sensor.attached(ctl):  # its readings follow the clock (noise,
-            return False                                        # drift, wrench ramps)
+        return ctl.at_rest(settled) and not ctl.executor.active and not ft_sensor.attached(ctl)
+
+    def _quiet_period(self, settled: bool) -> bool:
+        """Whether the control period about to run in full changes nothing but the clock
+        (:meth:`_quiet_now`), each component idle beyond it and no scheduled action at its end
+        (thermal steps are counted by the caller)."""
+        ctl = self.controller
+        if not self._quiet_now(settled):
+            return False
         d = ctl.data
         t_next = d.time + ctl.period
         if self._scheduled and self._scheduled[0][0] <= t_next + 1e-9:
