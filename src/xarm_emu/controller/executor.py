@@ -139,6 +139,10 @@ class _CartesianPlan(_Plan):
         #: and the array of the last one (the executor hands it back as the next seed).
         self._hist: tuple[tuple[float, tuple[float, ...]], ...] = ()
         self._last: np.ndarray | None = None
+        #: The floats of the last answer (:meth:`joints`) and of the seed it started from when that
+        #: seed was the plan's own answer before (else None), for the executor's per-period checks.
+        self.values: tuple[float, ...] = ()
+        self.seed_values: tuple[float, ...] | None = None
         #: The step matrix of the chord solve (kinematics.track), kept from period to period.
         self._matrix: tuple[float, ...] | None = None
         #: Path samples of upcoming periods (:meth:`sample`): path times, poses (N, 4, 4), TCP
@@ -221,6 +225,8 @@ class _CartesianPlan(_Plan):
         if q is None:
             self._hist, self._last = (), None
             return None
+        self.seed_values = h[-1][1] if h else None
+        self.values = q
         self._hist = (*h[-3:], (t, q))
         self._last = sol
         return sol
@@ -442,7 +448,8 @@ class Executor:
         d.t += dt * d.rate
         t = d.t
         duration = plan.duration
-        if type(plan) is _CartesianPlan:
+        cartesian = type(plan) is _CartesianPlan
+        if cartesian:
             # a steady path rate (no ramp, no stop): the plan may sample the next periods at once
             steady = d.ramp_u >= 1.0 and not d.stopping
             new_q = plan.joints(t if t < duration else duration, q, dt * d.rate if steady else 0.0)
@@ -451,17 +458,22 @@ class Executor:
         if new_q is None:
             self.clear()
             raise CommandError(C_KINEMATIC, "no inverse kinematics solution along the path")
-        new_q = np.asarray(new_q, dtype=float)
-        values = new_q.tolist()
+        values: tuple[float, ...] | list[float]
+        prev: tuple[float, ...] | None = None
+        if cartesian and new_q is plan._last:  # the plan's answer: its floats are already at hand
+            values, prev = plan.values, plan.seed_values
+        else:
+            new_q = np.asarray(new_q, dtype=float)
+            values = new_q.tolist()
         lo, hi = self._bounds
         # Inside the limits (manual 1.3), finite (a NaN compares false), the arm's own joint count.
         if not (len(values) == len(lo) and all(map(le, lo, values)) and all(map(le, values, hi))):
             if not kin.within_limits(self.model, new_q):
                 self.clear()
                 raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
-        if dt > 0.0 and type(plan) is _CartesianPlan:
+        if dt > 0.0 and cartesian:
             # Near a singularity a TCP path can need joint speeds beyond the limit (section 3.2.1, C24).
-            speed = max(map(abs, map(sub, values, q.tolist()))) / dt
+            speed = max(map(abs, map(sub, values, q.tolist() if prev is None else prev))) / dt
             if speed > limits.max_joint_speed * SPEED_TOLERANCE:
                 self.clear()
                 raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")
