@@ -76,6 +76,10 @@ log = logging.getLogger("xarm_emu.controller")
 #: The states in which position mode runs the command buffer, and servo mode follows its target.
 _POSITION_STATES = frozenset((STATE_MOVING, STATE_SLEEP, STATE_SUSPEND))
 _SERVO_STATES = frozenset((STATE_SLEEP, STATE_MOVING))
+#: The offsets (registers 35, 73) that change no pose, and the dtype of a pose that needs no
+#: conversion, for :meth:`Controller.flange_target`'s usual case.
+_NO_OFFSET = [0.0] * 6
+_FLOAT64 = np.dtype(np.float64)
 
 
 def version_string(model: RobotModel, robot_sn: str, box_sn: str,
@@ -325,10 +329,11 @@ class Controller:
     def flange_target(self, T_tcp_user: np.ndarray) -> np.ndarray:
         """Flange pose (4x4, base frame) that puts the TCP at ``T_tcp_user`` (registers 35, 73)."""
         s = self.settings
-        if (not (any(s.tcp_offset) or any(s.world_offset)) and type(T_tcp_user) is np.ndarray
-                and T_tcp_user.dtype == np.float64):
+        tcp, world = s.tcp_offset, s.world_offset
+        if (type(T_tcp_user) is np.ndarray and T_tcp_user.dtype is _FLOAT64 and type(tcp) is list
+                and tcp == _NO_OFFSET and type(world) is list and world == _NO_OFFSET):
             return T_tcp_user  # no offsets: the pose itself (what kin.flange_target returns then)
-        return kin.flange_target(T_tcp_user, s.tcp_offset, s.world_offset)
+        return kin.flange_target(T_tcp_user, tcp, world)
 
     def joints7(self, q: np.ndarray | None = None) -> tuple[float, ...]:
         v = self.q if q is None else q
@@ -458,11 +463,11 @@ class Controller:
         if d.faults.error == 0:
             state, mode = d.motion_state, d.mode
             if mode == MODE_POSITION and state in _POSITION_STATES:
-                ex = self.executor
-                if not ex.active:
+                plan = d.motion
+                if plan.current is None and not plan.buffer:  # the executor is not active
                     if state == STATE_MOVING:
                         return False
-                elif state == STATE_SLEEP or ex.dwell_rate(d.q) is None:  # a dwell only counts time
+                elif state == STATE_SLEEP or self.executor.dwell_rate(d.q) is None:  # a dwell counts time
                     return False
             elif mode == MODE_SERVO and d.servo_target is not None and state in _SERVO_STATES:
                 if not (settled and state == STATE_SLEEP and self._servo_holding()):
