@@ -80,6 +80,8 @@ _SERVO_STATES = frozenset((STATE_SLEEP, STATE_MOVING))
 #: conversion, for :meth:`Controller.flange_target`'s usual case.
 _NO_OFFSET = [0.0] * 6
 _FLOAT64 = np.dtype(np.float64)
+#: The events of a position-mode period (an enum member read from its class costs a lookup).
+_IDLE, _PLAN_RUNNING, _PLAN_FINISHED = Event.IDLE, Event.PLAN_RUNNING, Event.PLAN_FINISHED
 
 
 def version_string(model: RobotModel, robot_sn: str, box_sn: str,
@@ -535,13 +537,13 @@ class Controller:
         return limits
 
     def _step_position(self, dt: float) -> None:
-        ex = self.executor
-        if not ex.active:
-            fire(self.data, Event.IDLE)
-            return
         d = self.data
-        d.q = ex.step(dt, d.q, self.limits(), self.flange_target, self.tcp_matrix)
-        fire(d, Event.PLAN_RUNNING if ex.active else Event.PLAN_FINISHED)
+        plan = d.motion  # the executor's state: it is active while a command runs or waits
+        if plan.current is None and not plan.buffer:
+            fire(d, _IDLE)
+            return
+        d.q = self.executor.step(dt, d.q, self.limits(), self.flange_target, self.tcp_matrix)
+        fire(d, _PLAN_RUNNING if plan.current is not None or plan.buffer else _PLAN_FINISHED)
 
     def advance(self, seconds: float) -> None:
         """Step for ``seconds`` of controller time (in-process clock)."""

@@ -90,6 +90,10 @@ class _Plan:
 
     duration: float = 0.0
     tcp_speed: float = 0.0
+    #: The array :meth:`joints` answered last and its floats (the executor's checks read them), when
+    #: the plan keeps them.
+    _last: np.ndarray | None = None
+    values: tuple[float, ...] | list[float] = ()
 
     def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
         raise NotImplementedError
@@ -108,7 +112,9 @@ class _JointPlan(_Plan):
         self.blend = blend
 
     def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
-        return self.traj.at(t)[0]
+        q, self.values = self.traj.position(t)
+        self._last = q
+        return q
 
     def stop_time(self, t: float, limits: Limits) -> float:
         qd = self.traj.at(min(t, self.duration))[1]
@@ -138,10 +144,9 @@ class _CartesianPlan(_Plan):
         #: The last answers along the path: (path time, joints as floats), oldest first, at most four,
         #: and the array of the last one (the executor hands it back as the next seed).
         self._hist: tuple[tuple[float, tuple[float, ...]], ...] = ()
-        self._last: np.ndarray | None = None
-        #: The floats of the last answer (:meth:`joints`) and of the seed it started from when that
-        #: seed was the plan's own answer before (else None), for the executor's per-period checks.
-        self.values: tuple[float, ...] = ()
+        self._last = None
+        #: The floats of the seed the last answer started from when that seed was the plan's own
+        #: answer before (else None), for the executor's speed check.
         self.seed_values: tuple[float, ...] | None = None
         #: The step matrix of the chord solve (kinematics.track), kept from period to period.
         self._matrix: tuple[float, ...] | None = None
@@ -472,8 +477,10 @@ class Executor:
             raise CommandError(C_KINEMATIC, "no inverse kinematics solution along the path")
         values: tuple[float, ...] | list[float]
         prev: tuple[float, ...] | None = None
-        if cartesian and new_q is plan._last:  # the plan's answer: its floats are already at hand
-            values, prev = plan.values, plan.seed_values
+        if new_q is plan._last:  # the plan's own answer: its floats are already at hand
+            values = plan.values
+            if cartesian:
+                prev = plan.seed_values
         else:
             new_q = np.asarray(new_q, dtype=float)
             values = new_q.tolist()
