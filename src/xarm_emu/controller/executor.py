@@ -266,24 +266,28 @@ def _first_order(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tu
 
 #: How the path times of a plan's last answers and the next one lie (:func:`_steps`).
 _UNSTEADY, _STEADY, _EQUAL = 0, 1, 2
+_INF = math.inf
 
 
 def _steps(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> int:
     """How the path times of the answers ``h`` and ``t`` lie: :data:`_EQUAL` (four answers, the three
     steps between them and the one to ``t`` equal within 1e-9 of the last), :data:`_STEADY` (four
-    answers, no step more than :data:`_EXTRAPOLATE_MAX` times another) or :data:`_UNSTEADY`."""
+    answers, no step more than :data:`_EXTRAPOLATE_MAX` times another) or :data:`_UNSTEADY`.
+
+    Equal steps are tested first (the usual period): for a finite, non-negative last step they lie
+    within the steady bounds too, and the tolerance of an infinite one never counts as equal."""
     if len(h) < 4:
         return _UNSTEADY
-    t0, t1, t2, t3 = h[0][0], h[1][0], h[2][0], h[3][0]
+    (t0, _), (t1, _), (t2, _), (t3, _) = h
     step = t3 - t2
-    d = t - t3
-    lo, hi = step / _EXTRAPOLATE_MAX, step * _EXTRAPOLATE_MAX
-    if not (lo <= t1 - t0 <= hi and lo <= t2 - t1 <= hi and 0.0 <= d <= hi):
-        return _UNSTEADY
+    s1, s2, d = t1 - t0, t2 - t1, t - t3
     tol = step * 1e-9
-    if abs(t1 - t0 - step) <= tol and abs(t2 - t1 - step) <= tol and abs(d - step) <= tol:
+    if tol < _INF and abs(s1 - step) <= tol and abs(s2 - step) <= tol and abs(d - step) <= tol:
         return _EQUAL
-    return _STEADY
+    lo, hi = step / _EXTRAPOLATE_MAX, step * _EXTRAPOLATE_MAX
+    if lo <= s1 <= hi and lo <= s2 <= hi and 0.0 <= d <= hi:
+        return _STEADY
+    return _UNSTEADY
 
 
 def _start(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tuple[float, ...]:
