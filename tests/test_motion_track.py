@@ -234,7 +234,8 @@ def test_steps_classifies_path_times_as_defined() -> None:
             times.append(times[-1] + step + jitter)
         cases.append((times[:4], times[4]))
     inf, nan = math.inf, math.nan
-    cases += [([0.0, 1.0, 2.0, inf], inf), ([0.0, 1.0, 2.0, inf], 5.0), ([0.0, 1.0, 2.0, 3.0], inf), ([-inf, 0.0, 1.0, 2.0], 3.0),
+    cases += [([0.0, 1.0, 2.0, inf], inf), ([0.0, 1.0, 2.0, inf], 5.0), ([0.0, 1.0, 2.0, 3.0], inf),
+              ([-inf, 0.0, 1.0, 2.0], 3.0),
               ([0.0, 1.0, 2.0, nan], 4.0), ([0.0, 0.0, 0.0, 0.0], 0.0), ([0.0, 0.0, 0.0, 0.0], -0.0),
               ([0.0, -0.0, 0.0, -0.0], 0.0), ([0.0, 1.0, 2.0, 3.0], 3.0), ([0.0, 1.0], 2.0)]
     seen = set()
