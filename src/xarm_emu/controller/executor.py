@@ -39,7 +39,7 @@ _SMOOTHSTEP_PEAK = 1.5
 SPEED_TOLERANCE = 1.05
 
 #: Control periods of a Cartesian path sampled at once while the path rate is steady.
-SAMPLE_BATCH = 64
+SAMPLE_BATCH = 128
 
 #: Largest ratio of path-time steps over which a Cartesian plan extrapolates its IK seed.
 _EXTRAPOLATE_MAX = 2.0
