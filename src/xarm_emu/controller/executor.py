@@ -150,12 +150,10 @@ class _CartesianPlan(_Plan):
         self.seed_values: tuple[float, ...] | None = None
         #: The step matrix of the chord solve (kinematics.track), kept from period to period.
         self._matrix: tuple[float, ...] | None = None
-        #: Path samples of upcoming periods (:meth:`sample`): path times, poses (N, 4, 4), the poses'
-        #: rows as floats (what the chord solve reads), TCP speeds; and the index of the next one.
-        self._batch: tuple[list[float], np.ndarray, list[list[list[float]]], list[float]] | None = None
+        #: Path samples of upcoming periods (:meth:`sample`): path times, poses (N, 4, 4), TCP speeds;
+        #: and the index of the next one.
+        self._batch: tuple[list[float], np.ndarray, list[float]] | None = None
         self._next = 0
-        #: The rows of the pose :meth:`sample` answered last, when it came from a batch (else None).
-        self._rows: list[list[float]] | None = None
 
     def last_run(self, t: float) -> tuple[motion.CartesianMove, float] | None:
         """The final run of the plan and the time within it, if ``t`` lies in that run."""
@@ -181,18 +179,14 @@ class _CartesianPlan(_Plan):
             ts = b[0]
             if i < len(ts) and ts[i] == t:
                 self._next = i + 1
-                self._rows = b[2][i]
-                return b[1][i], b[3][i]
-        self._rows = None
+                return b[1][i], b[2][i]
         if increment > 0.0 and t < self.duration:
             n = min(SAMPLE_BATCH, int((self.duration - t) / increment) + 2)
             times = np.add.accumulate(np.concatenate(((t,), np.full(n - 1, increment))))
             np.minimum(times, self.duration, out=times)  # the executor passes min(path time, duration)
             poses, speeds = self.move.at_many(times)
-            rows = poses.tolist()
-            self._batch = (times.tolist(), poses, rows, speeds.tolist())
+            self._batch = (times.tolist(), poses, speeds.tolist())
             self._next = 1
-            self._rows = rows[0]
             return poses[0], float(speeds[0])
         self._batch = None
         return self.move.at(t)
@@ -200,17 +194,13 @@ class _CartesianPlan(_Plan):
     def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> np.ndarray | None:
         b = self._batch
         i = self._next
-        rows: list[list[float]] | None
         if b is not None and i < len(b[0]) and b[0][i] == t:  # sample's usual case, inline
             self._next = i + 1
-            pose, rows, speed = b[1][i], b[2][i], b[3][i]
+            pose, speed = b[1][i], b[2][i]
         else:
             pose, speed = self.sample(t, increment)
-            rows = self._rows
         self.tcp_speed = speed
         target = self.to_flange(pose)
-        if target is not pose:
-            rows = None  # an offset made a new target: its rows are read from it
         model = self.model
         h = self._hist if seed is self._last else ()
         if not h or model.fixed_roll_pitch:
@@ -234,7 +224,7 @@ class _CartesianPlan(_Plan):
             if matrix is not None and model.dof == 6 and _steps(h, t) == _EQUAL:
                 # the usual period: the third-order start computed in the generated code itself
                 q, self._matrix = kin.track_steady(model, target, (h[0][1], h[1][1], h[2][1], h[3][1]),
-                                                   matrix, lambda: _first_order(h, t), rows)
+                                                   matrix, lambda: _first_order(h, t))
             else:
                 q, self._matrix = kin.track(model, target, _start(h, t), matrix, h[-1][1],
                                             lambda: _first_order(h, t))

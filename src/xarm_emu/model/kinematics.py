@@ -227,16 +227,14 @@ def track_steady(
     h: Sequence[Sequence[float]],
     matrix: tuple[float, ...],
     fallbacks: Callable[[], Sequence[Sequence[float]]] = tuple,
-    rows: list[list[float]] | None = None,
 ) -> tuple[tuple[float, ...] | None, tuple[float, ...] | None]:
     """:func:`track` from the third-order extrapolation over equal path-time steps of the last four
     answers ``h`` (oldest first): ``track(model, T_target, start, matrix, h[3], fallbacks)`` with
     ``start`` = 4 (h3 + h1) - 6 h2 - h0 per joint, the same answer bit for bit, in one call of the
     generated code (the start computed there). Only for a 6-axis arm other than the xArm5, with a
-    stored ``matrix``. ``rows``: ``T_target.tolist()`` when the caller has it already."""
+    stored ``matrix``."""
     fn = _chain_fn(model, "track3")
-    if rows is None:
-        rows = T_target.tolist()
+    rows = T_target.tolist()
     anchor = h[3]
     try:
         r = fn(h[0], h[1], h[2], anchor, rows, matrix, TRACK_CHORDS)
