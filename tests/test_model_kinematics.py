@@ -257,9 +257,9 @@ def test_pose_offset_register76_example():
 
 
 def test_each_model_object_keeps_its_own_generated_chain_when_calls_alternate() -> None:
-    """The generated code is looked up per model object (the last one answered first): calls that
-    alternate between arms, and between two objects of the same arm with different joint origins,
-    each get their own chain (checked against the plain numpy chain)."""
+    """The generated code is looked up per model object: calls that alternate between arms, and
+    between two objects of the same arm with different joint origins, each get their own chain
+    (checked against the plain numpy chain)."""
     import dataclasses
 
     j = XARM6.joints[2]

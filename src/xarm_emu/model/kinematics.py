@@ -51,23 +51,16 @@ TRACK_MAX_MOVE = 0.05
 
 _CACHE: dict[int, tuple[RobotModel, dict[str, Callable[..., tuple[float, ...]]]]] = {}
 _LIMITS: dict[int, tuple[RobotModel, tuple[float, ...], tuple[float, ...]]] = {}
-#: The :data:`_CACHE` entry :func:`_chain_fn` answered last from.
-_LAST: tuple[RobotModel | None, dict[str, Callable[..., tuple[float, ...]]]] = (None, {})
 
 
 def _chain_fn(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
-    global _LAST
-    entry = _LAST
-    if entry[0] is model:  # the model of the last call (one arm steps period after period)
-        return entry[1][mode]
-    cached = _CACHE.get(id(model))
-    if cached is None or cached[0] is not model:
+    entry = _CACHE.get(id(model))
+    if entry is None or entry[0] is not model:
         ptol2, rtol2 = (POS_TOL * 1e-3) ** 2, ROT_TOL ** 2  # the LM step works in metres
         fns = {m: generate(model, m, ptol2, rtol2, MAX_STEP, TRACK_MAX_MOVE)
                for m in ("fk", "jac", "lm", "track", "track3")}
-        cached = _CACHE[id(model)] = (model, fns)
-    _LAST = cached
-    return cached[1][mode]
+        entry = _CACHE[id(model)] = (model, fns)
+    return entry[1][mode]
 
 
 def _limits(model: RobotModel) -> tuple[tuple[float, ...], tuple[float, ...]]:
