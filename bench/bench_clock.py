@@ -20,7 +20,7 @@ from xarm_emu.protocol.registers import REGISTERS
 
 PROGRAM_SECONDS = 60.0
 PERIODS = round(PROGRAM_SECONDS / 0.004)
-REPEATS = 3
+REPEATS = 5
 
 
 def _call(emu: Emulator, code: int, **values: object) -> None:

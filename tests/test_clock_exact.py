@@ -339,3 +339,33 @@ def test_observe_sees_a_difference() -> None:
     assert observe(a) == observe(b)
     b.thermal._temps = np.nextafter(b.thermal._temps, np.inf)
     assert observe(a) != observe(b)
+
+
+def test_a_long_jump_taken_in_chunks_is_the_jump_period_by_period(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Jumps of many periods sum the time (and a dwell's path time) a chunk at a time and run the
+    thermal steps that fall due in between: the clock, the period count, the dwell and the
+    temperatures come out bit for bit as when every jumped period is summed alone, for jumps that
+    end on a scheduled action, a dwell's end, a batch's last period or a move."""
+    from xarm_emu.controller import emulator as emulator_module
+
+    def run() -> list[tuple[Any, ...]]:
+        emu = Emulator(6)
+        for code, values in ((11, {"joint": 8, "enable": 1}), (19, {"mode": 0}), (12, {"state": 0})):
+            send(emu, code, **values)
+        emu.at(3.3337, lambda: send(emu, 26, seconds=11.1))  # a dwell, jumped over until its end
+        emu.at(21.0, lambda: send(emu, 23, angles=(0.3, -0.2, -0.4, 0.0, 0.5, 0.0, 0.0), speed=0.5,
+                                     acc=5.0, mvtime=0.0))
+        emu.at(87.654, lambda: None)
+        seen = []
+        sizes = np.random.default_rng(3).integers(1, 3000, 60).tolist()
+        for n in (1, 63, 64, 65, 250, 251, 700, 5000, 2, 30000, 17, 9000, *sizes):
+            emu.step(n)
+            d = emu.controller.data
+            seen.append((d.time, d.steps, d.motion.t, d.q.tobytes(), emu.thermal.temperatures.tobytes(),
+                         emu.periods_jumped))
+        return seen
+
+    chunked = run()
+    monkeypatch.setattr(emulator_module, "JUMP_CHUNK", 10 ** 9)  # every jumped period summed alone
+    assert run() == chunked
+    assert chunked[-1][5] > 30000  # most periods were jumped

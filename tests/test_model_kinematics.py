@@ -254,3 +254,19 @@ def test_pose_offset_register76_example():
     """Register 76 example: (400, 0, 200, pi, 0, 0) to (400, 0, 100, pi, 0, 0) -> z = -100, no rotation."""
     D = pose_offset(pose_to_matrix((400, 0, 200, PI, 0, 0)), pose_to_matrix((400, 0, 100, PI, 0, 0)))
     assert matrix_to_pose(D) == pytest.approx([0, 0, -100, 0, 0, 0], abs=1e-9)
+
+
+def test_each_model_object_keeps_its_own_generated_chain_when_calls_alternate() -> None:
+    """The generated code is looked up per model object: calls that alternate between arms, and
+    between two objects of the same arm with different joint origins, each get their own chain
+    (checked against the plain numpy chain)."""
+    import dataclasses
+
+    j = XARM6.joints[2]
+    moved = dataclasses.replace(j, origin_xyz=(j.origin_xyz[0] + 10.0, *j.origin_xyz[1:]))
+    other6 = dataclasses.replace(XARM6, joints=(*XARM6.joints[:2], moved, *XARM6.joints[3:]))
+    q = (0.3, -0.4, -0.6, 0.2, 0.5, -0.1, 0.25)
+    for model in (XARM6, XARM7, XARM6, other6, XARM6, other6, XARM5, XARM6):
+        want = joint_frames(model, q[: model.dof])[-1]
+        assert np.allclose(fk(model, q[: model.dof]), want, atol=1e-9)
+    assert not np.allclose(fk(XARM6, q[:6]), fk(other6, q[:6]), atol=1.0)

@@ -59,8 +59,8 @@ def follow(emu: Emulator, seconds: float, events: dict[float, int]) -> tuple[int
         if not isinstance(plan, ex._CartesianPlan) or ctl.data.motion.t >= plan.duration:
             continue
         t = ctl.data.motion.t
-        b = plan._batch
-        batched += b is not None and b[3] > 1 and b[0][b[3] - 1] == t
+        b, i = plan._batch, plan._next
+        batched += b is not None and i > 1 and b[0][i - 1] == t
         want = plan.move.at(t)[0]
         got = ctl.tcp_matrix()
         assert np.linalg.norm(got[:3, 3] - want[:3, 3]) <= POS_TOL, (ctl.data.time, t)

@@ -117,3 +117,17 @@ def test_planner_failure_from_a_moving_state_is_a_planning_error(monkeypatch: py
     with pytest.raises(joint.PlanningError):
         plan_joint_move(np.zeros(6), np.ones(6), 1.0, 1.0, 10.0, qd0=np.full(6, 0.1))
     assert plan_joint_move(np.zeros(6), np.ones(6), 1.0, 1.0, 10.0).duration > 1.0  # from rest: a line
+
+
+@pytest.mark.parametrize("straight", [False, True])
+def test_position_is_the_joints_of_at_bit_for_bit(straight: bool) -> None:
+    """``position(t)`` answers ``at(t)[0]`` (a new array each time) and its floats, before the start,
+    along the move and after the end, for ruckig's trajectories and straight lines."""
+    q0, q1 = np.array([0.1, -0.4, 0.3, 0.0, 0.7, -0.2]), np.array([1.0, -0.5, 0.0, 0.25, 0.0, 0.4])
+    traj = plan_joint_move(q0, q1, 1e-4, 1e-3, 500.0) if straight else plan_joint_move(q0, q1, 1.0, 5.0, 50.0)
+    for t in (-1.0, 0.0, *np.linspace(1e-3, traj.duration, 41).tolist(), traj.duration + 1.0):
+        q, values = traj.position(t)
+        want = traj.at(t)[0]
+        assert q.tobytes() == want.tobytes() and q.dtype == np.float64
+        assert values == want.tolist() and all(type(v) is float for v in values)
+        assert traj.position(t)[0] is not q  # the caller may keep it

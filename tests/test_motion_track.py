@@ -202,3 +202,46 @@ def test_checkpoint_mid_line_continues_identically() -> None:
         again.append(emu.controller.q.tobytes())
     assert again == first
     assert emu.controller.is_moving or emu.controller.error_code == 0
+
+
+def _steps_by_definition(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> int:
+    """The classification as its definition reads: steady bounds first, then equal steps."""
+    if len(h) < 4:
+        return ex._UNSTEADY
+    t0, t1, t2, t3 = (x[0] for x in h)
+    step, d = t3 - t2, t - t3
+    lo, hi = step / ex._EXTRAPOLATE_MAX, step * ex._EXTRAPOLATE_MAX
+    if not (lo <= t1 - t0 <= hi and lo <= t2 - t1 <= hi and 0.0 <= d <= hi):
+        return ex._UNSTEADY
+    tol = step * 1e-9
+    if abs(t1 - t0 - step) <= tol and abs(t2 - t1 - step) <= tol and abs(d - step) <= tol:
+        return ex._EQUAL
+    return ex._STEADY
+
+
+def test_steps_classifies_path_times_as_defined() -> None:
+    """The equal-steps-first test answers as the definition, for summed path times, near-equal and
+    uneven steps, zero, negative, subnormal, huge and non-finite steps and short histories."""
+    rng = np.random.default_rng(7)
+    cases: list[tuple[list[float], float]] = []
+    for _ in range(3000):
+        step = float(rng.choice([0.004, 0.0001, 1e-300, 5e-324, 0.0, -0.004, 1e300, 1.7e308]))
+        times = [float(rng.uniform(0.0, 10.0))]
+        for _ in range(4):
+            kind = rng.integers(0, 4)
+            jitter = (0.0 if kind == 0 else step * float(rng.choice([1e-10, 1e-9, 2e-9, 0.4, 1.5, 2.5]))
+                      * float(rng.choice([-1.0, 1.0])))
+            times.append(times[-1] + step + jitter)
+        cases.append((times[:4], times[4]))
+    inf, nan = math.inf, math.nan
+    cases += [([0.0, 1.0, 2.0, inf], inf), ([0.0, 1.0, 2.0, inf], 5.0), ([0.0, 1.0, 2.0, 3.0], inf),
+              ([-inf, 0.0, 1.0, 2.0], 3.0),
+              ([0.0, 1.0, 2.0, nan], 4.0), ([0.0, 0.0, 0.0, 0.0], 0.0), ([0.0, 0.0, 0.0, 0.0], -0.0),
+              ([0.0, -0.0, 0.0, -0.0], 0.0), ([0.0, 1.0, 2.0, 3.0], 3.0), ([0.0, 1.0], 2.0)]
+    seen = set()
+    for times, t in cases:
+        h = tuple((x, (x,)) for x in times)
+        want = _steps_by_definition(h, t)
+        assert ex._steps(h, t) == want, (times, t)
+        seen.add(want)
+    assert seen == {ex._UNSTEADY, ex._STEADY, ex._EQUAL}

@@ -76,6 +76,12 @@ log = logging.getLogger("xarm_emu.controller")
 #: The states in which position mode runs the command buffer, and servo mode follows its target.
 _POSITION_STATES = frozenset((STATE_MOVING, STATE_SLEEP, STATE_SUSPEND))
 _SERVO_STATES = frozenset((STATE_SLEEP, STATE_MOVING))
+#: The offsets (registers 35, 73) that change no pose, and the dtype of a pose that needs no
+#: conversion, for :meth:`Controller.flange_target`'s usual case.
+_NO_OFFSET = [0.0] * 6
+_FLOAT64 = np.dtype(np.float64)
+#: The events of a position-mode period (an enum member read from its class costs a lookup).
+_IDLE, _PLAN_RUNNING, _PLAN_FINISHED = Event.IDLE, Event.PLAN_RUNNING, Event.PLAN_FINISHED
 
 
 def version_string(model: RobotModel, robot_sn: str, box_sn: str,
@@ -325,10 +331,11 @@ class Controller:
     def flange_target(self, T_tcp_user: np.ndarray) -> np.ndarray:
         """Flange pose (4x4, base frame) that puts the TCP at ``T_tcp_user`` (registers 35, 73)."""
         s = self.settings
-        if (not (any(s.tcp_offset) or any(s.world_offset)) and type(T_tcp_user) is np.ndarray
-                and T_tcp_user.dtype == np.float64):
+        tcp, world = s.tcp_offset, s.world_offset
+        if (type(T_tcp_user) is np.ndarray and T_tcp_user.dtype is _FLOAT64 and type(tcp) is list
+                and tcp == _NO_OFFSET and type(world) is list and world == _NO_OFFSET):
             return T_tcp_user  # no offsets: the pose itself (what kin.flange_target returns then)
-        return kin.flange_target(T_tcp_user, s.tcp_offset, s.world_offset)
+        return kin.flange_target(T_tcp_user, tcp, world)
 
     def joints7(self, q: np.ndarray | None = None) -> tuple[float, ...]:
         v = self.q if q is None else q
@@ -458,11 +465,11 @@ class Controller:
         if d.faults.error == 0:
             state, mode = d.motion_state, d.mode
             if mode == MODE_POSITION and state in _POSITION_STATES:
-                ex = self.executor
-                if not ex.active:
+                plan = d.motion
+                if plan.current is None and not plan.buffer:  # the executor is not active
                     if state == STATE_MOVING:
                         return False
-                elif state == STATE_SLEEP or ex.dwell_rate(d.q) is None:  # a dwell only counts time
+                elif state == STATE_SLEEP or self.executor.dwell_rate(d.q) is None:  # a dwell counts time
                     return False
             elif mode == MODE_SERVO and d.servo_target is not None and state in _SERVO_STATES:
                 if not (settled and state == STATE_SLEEP and self._servo_holding()):
@@ -530,13 +537,13 @@ class Controller:
         return limits
 
     def _step_position(self, dt: float) -> None:
-        ex = self.executor
-        if not ex.active:
-            fire(self.data, Event.IDLE)
-            return
         d = self.data
-        d.q = ex.step(dt, d.q, self.limits(), self.flange_target, self.tcp_matrix)
-        fire(d, Event.PLAN_RUNNING if ex.active else Event.PLAN_FINISHED)
+        plan = d.motion  # the executor's state: it is active while a command runs or waits
+        if plan.current is None and not plan.buffer:
+            fire(d, _IDLE)
+            return
+        d.q = self.executor.step(dt, d.q, self.limits(), self.flange_target, self.tcp_matrix)
+        fire(d, _PLAN_RUNNING if plan.current is not None or plan.buffer else _PLAN_FINISHED)
 
     def advance(self, seconds: float) -> None:
         """Step for ``seconds`` of controller time (in-process clock)."""

@@ -46,6 +46,8 @@ from .vacuum import VacuumGripper
 
 #: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
 THERMAL_EVERY = 250
+#: Jumps over at least this many periods take them a chunk at a time (:meth:`Emulator._jump`).
+JUMP_CHUNK = 64
 
 log = logging.getLogger("xarm_emu.emulator")
 
@@ -409,6 +411,29 @@ class Emulator:
         rate = ctl.executor.dwell_rate(d.q) if plan.plan is not None else None
         path_t = plan.t
         k = 0
+        while most - k >= JUMP_CHUNK:
+            # Many periods: the same sums and tests on a chunk at once (an accumulation adds in order,
+            # as the loop below), then the thermal steps that fell due within the periods taken.
+            m = min(most - k, 16 * JUMP_CHUNK)
+            times = np.add.accumulate(np.concatenate(((t,), np.full(m, dt))))[1:]
+            ok = (times < horizon) & ~(due <= times + 1e-9)
+            if rate is not None:
+                paths = np.add.accumulate(np.concatenate(((path_t,), np.full(m, dt * rate))))[1:]
+                ok &= paths < plan.plan.duration
+            taken = m if ok.all() else int(np.argmin(ok))
+            if taken:
+                t = float(times[taken - 1])
+                if rate is not None:
+                    path_t = float(paths[taken - 1])
+                first = THERMAL_EVERY - steps % THERMAL_EVERY  # periods to the next thermal step
+                for _ in range(first, taken + 1, THERMAL_EVERY):
+                    if currents is None:
+                        currents = self._rest_currents()
+                    self.thermal.step(THERMAL_EVERY * dt, currents)
+                steps += taken
+                k += taken
+            if taken < m:
+                most = k  # a period that cannot be jumped: stop here
         while k < most:
             t_next = t + dt
             if not t_next < horizon or due <= t_next + 1e-9:

@@ -39,7 +39,7 @@ _SMOOTHSTEP_PEAK = 1.5
 SPEED_TOLERANCE = 1.05
 
 #: Control periods of a Cartesian path sampled at once while the path rate is steady.
-SAMPLE_BATCH = 64
+SAMPLE_BATCH = 128
 
 #: Largest ratio of path-time steps over which a Cartesian plan extrapolates its IK seed.
 _EXTRAPOLATE_MAX = 2.0
@@ -90,6 +90,10 @@ class _Plan:
 
     duration: float = 0.0
     tcp_speed: float = 0.0
+    #: The array :meth:`joints` answered last and its floats (the executor's checks read them), when
+    #: the plan keeps them.
+    _last: np.ndarray | None = None
+    values: tuple[float, ...] | list[float] = ()
 
     def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
         raise NotImplementedError
@@ -108,7 +112,9 @@ class _JointPlan(_Plan):
         self.blend = blend
 
     def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
-        return self.traj.at(t)[0]
+        q, self.values = self.traj.position(t)
+        self._last = q
+        return q
 
     def stop_time(self, t: float, limits: Limits) -> float:
         qd = self.traj.at(min(t, self.duration))[1]
@@ -138,12 +144,16 @@ class _CartesianPlan(_Plan):
         #: The last answers along the path: (path time, joints as floats), oldest first, at most four,
         #: and the array of the last one (the executor hands it back as the next seed).
         self._hist: tuple[tuple[float, tuple[float, ...]], ...] = ()
-        self._last: np.ndarray | None = None
+        self._last = None
+        #: The floats of the seed the last answer started from when that seed was the plan's own
+        #: answer before (else None), for the executor's speed check.
+        self.seed_values: tuple[float, ...] | None = None
         #: The step matrix of the chord solve (kinematics.track), kept from period to period.
         self._matrix: tuple[float, ...] | None = None
-        #: Path samples of upcoming periods (:meth:`sample`): path times, poses (N, 4, 4), TCP
-        #: speeds, and the index of the next one.
-        self._batch: tuple[list[float], np.ndarray, list[float], int] | None = None
+        #: Path samples of upcoming periods (:meth:`sample`): path times, poses (N, 4, 4), TCP speeds;
+        #: and the index of the next one.
+        self._batch: tuple[list[float], np.ndarray, list[float]] | None = None
+        self._next = 0
 
     def last_run(self, t: float) -> tuple[motion.CartesianMove, float] | None:
         """The final run of the plan and the time within it, if ``t`` lies in that run."""
@@ -165,26 +175,27 @@ class _CartesianPlan(_Plan):
         sequence of path times, never on how the control periods are stepped."""
         b = self._batch
         if b is not None:
-            i = b[3]
+            i = self._next
             ts = b[0]
             if i < len(ts) and ts[i] == t:
-                self._batch = (ts, b[1], b[2], i + 1)
+                self._next = i + 1
                 return b[1][i], b[2][i]
         if increment > 0.0 and t < self.duration:
             n = min(SAMPLE_BATCH, int((self.duration - t) / increment) + 2)
             times = np.add.accumulate(np.concatenate(((t,), np.full(n - 1, increment))))
             np.minimum(times, self.duration, out=times)  # the executor passes min(path time, duration)
             poses, speeds = self.move.at_many(times)
-            self._batch = (times.tolist(), poses, speeds.tolist(), 1)
+            self._batch = (times.tolist(), poses, speeds.tolist())
+            self._next = 1
             return poses[0], float(speeds[0])
         self._batch = None
         return self.move.at(t)
 
     def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> np.ndarray | None:
         b = self._batch
-        if b is not None and b[3] < len(b[0]) and b[0][b[3]] == t:  # sample's usual case, inline
-            i = b[3]
-            self._batch = (b[0], b[1], b[2], i + 1)
+        i = self._next
+        if b is not None and i < len(b[0]) and b[0][i] == t:  # sample's usual case, inline
+            self._next = i + 1
             pose, speed = b[1][i], b[2][i]
         else:
             pose, speed = self.sample(t, increment)
@@ -221,6 +232,8 @@ class _CartesianPlan(_Plan):
         if q is None:
             self._hist, self._last = (), None
             return None
+        self.seed_values = h[-1][1] if h else None
+        self.values = q
         self._hist = (*h[-3:], (t, q))
         self._last = sol
         return sol
@@ -243,24 +256,28 @@ def _first_order(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tu
 
 #: How the path times of a plan's last answers and the next one lie (:func:`_steps`).
 _UNSTEADY, _STEADY, _EQUAL = 0, 1, 2
+_INF = math.inf
 
 
 def _steps(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> int:
     """How the path times of the answers ``h`` and ``t`` lie: :data:`_EQUAL` (four answers, the three
     steps between them and the one to ``t`` equal within 1e-9 of the last), :data:`_STEADY` (four
-    answers, no step more than :data:`_EXTRAPOLATE_MAX` times another) or :data:`_UNSTEADY`."""
+    answers, no step more than :data:`_EXTRAPOLATE_MAX` times another) or :data:`_UNSTEADY`.
+
+    Equal steps are tested first (the usual period): for a finite, non-negative last step they lie
+    within the steady bounds too, and the tolerance of an infinite one never counts as equal."""
     if len(h) < 4:
         return _UNSTEADY
-    t0, t1, t2, t3 = h[0][0], h[1][0], h[2][0], h[3][0]
+    (t0, _), (t1, _), (t2, _), (t3, _) = h
     step = t3 - t2
-    d = t - t3
-    lo, hi = step / _EXTRAPOLATE_MAX, step * _EXTRAPOLATE_MAX
-    if not (lo <= t1 - t0 <= hi and lo <= t2 - t1 <= hi and 0.0 <= d <= hi):
-        return _UNSTEADY
+    s1, s2, d = t1 - t0, t2 - t1, t - t3
     tol = step * 1e-9
-    if abs(t1 - t0 - step) <= tol and abs(t2 - t1 - step) <= tol and abs(d - step) <= tol:
+    if tol < _INF and abs(s1 - step) <= tol and abs(s2 - step) <= tol and abs(d - step) <= tol:
         return _EQUAL
-    return _STEADY
+    lo, hi = step / _EXTRAPOLATE_MAX, step * _EXTRAPOLATE_MAX
+    if lo <= s1 <= hi and lo <= s2 <= hi and 0.0 <= d <= hi:
+        return _STEADY
+    return _UNSTEADY
 
 
 def _start(h: tuple[tuple[float, tuple[float, ...]], ...], t: float) -> tuple[float, ...]:
@@ -442,7 +459,8 @@ class Executor:
         d.t += dt * d.rate
         t = d.t
         duration = plan.duration
-        if type(plan) is _CartesianPlan:
+        cartesian = type(plan) is _CartesianPlan
+        if cartesian:
             # a steady path rate (no ramp, no stop): the plan may sample the next periods at once
             steady = d.ramp_u >= 1.0 and not d.stopping
             new_q = plan.joints(t if t < duration else duration, q, dt * d.rate if steady else 0.0)
@@ -451,17 +469,24 @@ class Executor:
         if new_q is None:
             self.clear()
             raise CommandError(C_KINEMATIC, "no inverse kinematics solution along the path")
-        new_q = np.asarray(new_q, dtype=float)
-        values = new_q.tolist()
+        values: tuple[float, ...] | list[float]
+        prev: tuple[float, ...] | None = None
+        if new_q is plan._last:  # the plan's own answer: its floats are already at hand
+            values = plan.values
+            if cartesian:
+                prev = plan.seed_values
+        else:
+            new_q = np.asarray(new_q, dtype=float)
+            values = new_q.tolist()
         lo, hi = self._bounds
         # Inside the limits (manual 1.3), finite (a NaN compares false), the arm's own joint count.
         if not (len(values) == len(lo) and all(map(le, lo, values)) and all(map(le, values, hi))):
             if not kin.within_limits(self.model, new_q):
                 self.clear()
                 raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
-        if dt > 0.0 and type(plan) is _CartesianPlan:
+        if dt > 0.0 and cartesian:
             # Near a singularity a TCP path can need joint speeds beyond the limit (section 3.2.1, C24).
-            speed = max(map(abs, map(sub, values, q.tolist()))) / dt
+            speed = max(map(abs, map(sub, values, q.tolist() if prev is None else prev))) / dt
             if speed > limits.max_joint_speed * SPEED_TOLERANCE:
                 self.clear()
                 raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")

@@ -100,6 +100,15 @@ class JointTrajectory:
         pos, vel, acc = self._traj.at_time(t)
         return np.array(pos), np.array(vel), np.array(acc)
 
+    def position(self, t: float) -> tuple[np.ndarray, list[float]]:
+        """``at(t)[0]`` (a new array) and the same joints as a list of floats, without the speeds and
+        accelerations (what a control period needs)."""
+        if t >= self.duration or self._traj is None or t <= 0.0:
+            q = self.at(t)[0]
+            return q, q.tolist()
+        pos = self._traj.at_time(t)[0]
+        return np.array(pos), pos
+
 
 def _run(inp: InputParameter, dof: int) -> Trajectory:
     traj = Trajectory(dof)
