@@ -5,10 +5,10 @@ Each report stream (:class:`SendStream`) is due at ``k * interval`` (perf_counte
 absolute deadlines on one grid per rate, nothing accumulates; the streams of one rate share their
 instants, so one wake-up and one call into each event loop serve all of them). A little before each
 deadline (:data:`LEAD`) the sender
-asks the stream's event loop to publish its frame, unless the last one still stands for it (the
-box has not changed and its next timer is later: an arm at rest costs its loop nothing per frame,
-:meth:`SendStream.stands_for`) (the loop catches the controller up and encodes
-it: the frame is the state no older than one control period at its deadline); at the deadline the
+asks the stream's event loop to publish its frame (the loop catches the controller up and encodes
+it: the frame is the state no older than one control period at its deadline), unless the last
+frame still stands for it (the box has not changed and its next timer is later:
+:meth:`SendStream.stands_for`, so an arm at rest costs its loop nothing per frame); at the deadline the
 sender writes the freshest published frame to every reader itself, with non-blocking ``send`` calls
 on its own duplicates of the sockets, without waiting on the loop. A frame the loop could not
 publish in time (it was blocked) goes out on time with the previous state and is counted
