@@ -321,7 +321,7 @@ class Emulator:
                 if k:
                     i += k
                     continue
-            if quiet and (i < last or not self._quiet_period(settled)):
+            if quiet and (i < last or not self.quiet_periods(settled)):
                 quiet = False
             step()
             settled = True
@@ -347,14 +347,16 @@ class Emulator:
         through a command or :meth:`touch` to be seen."""
         return self.generation - self._quiet_calls
 
-    def quiet_periods(self) -> float:
+    def quiet_periods(self, settled: bool | None = None) -> float:
         """How many control periods from now would, stepped in any calls, change nothing but the
         clock (:attr:`revision` unchanged) unless something outside changes the box: 0 unless
         :meth:`_quiet_now`; else up to the period before the next thermal step, component time
         (:func:`~.base.idle_until`) or scheduled action. A lower bound (one period short of each
-        event's own period)."""
+        event's own period). ``settled``: as :meth:`Controller.at_rest` takes it (``None``: nothing
+        has changed the box since the last :meth:`step` call); :meth:`step` asks it of its last
+        period."""
         ctl = self.controller
-        if not self._quiet_now(self.generation == self._settled):
+        if not self._quiet_now(self.generation == self._settled if settled is None else settled):
             return 0
         d = ctl.data
         dt = ctl.period
@@ -373,19 +375,6 @@ class Emulator:
         F/T sensor (its readings follow the clock: noise, drift, wrench ramps)."""
         ctl = self.controller
         return ctl.at_rest(settled) and not ctl.executor.active and not ft_sensor.attached(ctl)
-
-    def _quiet_period(self, settled: bool) -> bool:
-        """Whether the control period about to run in full changes nothing but the clock
-        (:meth:`_quiet_now`), each component idle beyond it and no scheduled action at its end
-        (thermal steps are counted by the caller)."""
-        ctl = self.controller
-        if not self._quiet_now(settled):
-            return False
-        d = ctl.data
-        t_next = d.time + ctl.period
-        if self._scheduled and self._scheduled[0][0] <= t_next + 1e-9:
-            return False
-        return all(t_next < idle_until(c, ctl) for c in ctl.components)
 
     def _jump(self, most: int) -> int:
         """Jump over at most ``most`` control periods while the controller is at rest

@@ -93,13 +93,13 @@ class ReadCache:
 
     def reply(self, emu: Emulator, tid: int, protocol: int, register: int) -> bytes:
         """The reply frame to a parameterless pure read (manual 2.1.2 header with ``tid``)."""
-        hit = self._entries.get(register)
-        if hit is None or hit[0] != emu.revision:
-            state, values = emu.handle(register, b"")
-            frame = encode_reply(0, 0, register, state, values)
-            hit = (emu.revision, HEADER.unpack_from(frame)[2], frame[HEADER_SIZE:])
-            self._entries[register] = hit
-        return HEADER.pack(tid & 0xFFFF, protocol, hit[1]) + hit[2]
+        frame = self.hit(emu, tid, protocol, register)
+        if frame is not None:
+            return frame
+        state, values = emu.handle(register, b"")
+        made = encode_reply(0, 0, register, state, values)
+        entry = self._entries[register] = (emu.revision, HEADER.unpack_from(made)[2], made[HEADER_SIZE:])
+        return HEADER.pack(tid & 0xFFFF, protocol, entry[1]) + entry[2]
 
 
 class CommandTarget(Protocol):

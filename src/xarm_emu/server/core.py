@@ -455,7 +455,7 @@ class EmulatorServer:
         due = self.clock.wall_after(k)
         if due == math.inf:
             return math.inf
-        return time.perf_counter() + (due - loop.time()) - PERIOD / self.clock.speed
+        return time.perf_counter() + (due - loop.time()) - self.clock.period / self.clock.speed
 
     def _report_snapshot(self) -> reports.ReportSnapshot:
         self.catch_up()
@@ -545,13 +545,12 @@ class EmulatorServer:
         ``client`` (its :attr:`CommandProtocol.client_id`; 0: none)."""
         self.catch_up()
         emu = self.emulator
+        cached: bytes | None = None
         if not params and register in PURE_READS:
-            frame = self._read_cache.hit(emu, tid, protocol, register)
-            if frame is not None:  # nothing changed since this reply was made and the codes were watched
-                if self.trace is not None:
-                    self.trace.command(emu.time, peer, tid, protocol, register, params, frame)
-                return frame
-            frame = self._read_cache.reply(emu, tid, protocol, register)
+            # a hit: nothing has changed since this reply was made and the codes were watched
+            cached = frame = self._read_cache.hit(emu, tid, protocol, register)
+            if frame is None:
+                frame = self._read_cache.reply(emu, tid, protocol, register)
         elif self.feedback is not None:
             self._touched = True
             frame = self._answer_with_feedback(tid, protocol, register, params, client)
@@ -559,7 +558,8 @@ class EmulatorServer:
             self._touched = True
             state, reply = emu.handle(register, params)
             frame = encode_reply(tid, protocol, register, state, reply)
-        self.code_watch.check(emu.controller)
+        if cached is None:
+            self.code_watch.check(emu.controller)
         if self.trace is not None:
             self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
         return frame
