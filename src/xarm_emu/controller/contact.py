@@ -183,7 +183,7 @@ def load_scene(path: str | Path) -> Scene:
 
 def scene_of(ctl: Any) -> Scene:
     """The contact scene of ``ctl`` (in its controller state); empty unless one was set."""
-    sc = getattr(ctl.data, "contact_scene", None)
+    sc = ctl.data.contact_scene
     return sc if isinstance(sc, Scene) else Scene()
 
 

@@ -74,7 +74,6 @@ DEFAULT_DAMPING = (100.0, 100.0, 100.0, 2.0, 2.0, 2.0)
 #: A speed below this (mm/s, rad/s) counts as rest for the motion state.
 REST = 1e-6
 
-_ATTR = "_force_control"
 
 
 # -- parameter checks ------------------------------------------------------------------------------
@@ -222,10 +221,10 @@ class ForceControl:
 
 def control_of(ctl: Any) -> ForceControl:
     """The force-control state of ``ctl`` (created, off, on first use)."""
-    fc = getattr(ctl.data, _ATTR, None)
+    fc = ctl.data.force_control
     if fc is None:
         fc = ForceControl()
-        setattr(ctl.data, _ATTR, fc)
+        ctl.data.force_control = fc
     return fc
 
 
@@ -267,7 +266,7 @@ def target_pose(anchor: np.ndarray, x: np.ndarray, frame: int) -> np.ndarray:
 def runs(ctl: Any) -> bool:
     """Whether an application is set, the arm is in position mode and ready, and no queued command
     is running: then :func:`step` moves the arm this period."""
-    fc = getattr(ctl.data, _ATTR, None)
+    fc = ctl.data.force_control
     return (fc is not None and fc.app != APP_OFF and ctl.mode == 0
             and ctl.motion_state in (STATE_SLEEP, STATE_MOVING) and not ctl.executor.active)
 
@@ -275,7 +274,7 @@ def runs(ctl: Any) -> bool:
 def period(ctl: Any, dt: float) -> bool:
     """The core's call each control period in position mode: run the application when it
     :func:`runs` (True: this period's motion is done), else let queued commands run (False)."""
-    fc = getattr(ctl.data, _ATTR, None)
+    fc = ctl.data.force_control
     if fc is None or fc.app == APP_OFF:
         return False
     if not runs(ctl):

@@ -133,7 +133,7 @@ class FtSensorState:
 
 def state_of(ctl: Any) -> FtSensorState:
     """The sensor state of ``ctl`` (in its :class:`~.state.ControllerState`), created on first use."""
-    st = getattr(ctl.data, "ft_sensor", None)
+    st = ctl.data.ft_sensor
     if not isinstance(st, FtSensorState):
         st = FtSensorState()
         ctl.data.ft_sensor = st
@@ -485,7 +485,7 @@ def idle_until(ctl: Any) -> float:
             horizon = min(horizon, w.until - 1e-9)
     from . import force_control
 
-    fc = getattr(ctl.data, force_control._ATTR, None)
+    fc = ctl.data.force_control
     if fc is not None and fc.app != force_control.APP_OFF:
         return NOT_IDLE
     hist = st.com_history

@@ -56,9 +56,9 @@ def route(ctl: Any, code: int) -> Handler | None:
 
 
 def create_state(ctl: Any) -> None:
-    """Create the state behind modes 4-7 and 11, trajectories and reduced mode at construction, as
-    attributes of ``ctl.data`` (the :class:`~.state.ControllerState`), so that a checkpoint (a copy
-    of that state) always holds it."""
+    """Create the state behind modes 4-7 and 11, trajectories and reduced mode at construction, in
+    their declared fields of ``ctl.data`` (the :class:`~.state.ControllerState`), so that a
+    checkpoint (a copy of that state) always holds it."""
     velocity.control_of(ctl)
     online.planner_of(ctl)
     trajectory.store_of(ctl)

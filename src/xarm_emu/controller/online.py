@@ -35,7 +35,6 @@ MODE_CARTESIAN_ONLINE = 7
 #: The first firmware answering modes 6 and 7.
 SINCE = "2.0.0"
 
-_ATTR = "_online_planner"
 
 
 @dataclass
@@ -57,10 +56,10 @@ class OnlinePlanner:
 
 
 def planner_of(ctl: Any) -> OnlinePlanner:
-    p = getattr(ctl.data, _ATTR, None)
+    p = ctl.data.online_planner
     if p is None:
         p = OnlinePlanner()
-        setattr(ctl.data, _ATTR, p)
+        ctl.data.online_planner = p
     return p
 
 

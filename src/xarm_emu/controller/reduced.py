@@ -23,8 +23,6 @@ import numpy as np
 
 from .base import C_JOINT_LIMIT, CommandError
 
-_ATTR = "_reduced_mode"
-
 
 @dataclass
 class ReducedMode:
@@ -38,19 +36,19 @@ class ReducedMode:
 
 def reduced_of(ctl: Any) -> ReducedMode:
     """The reduced-mode settings of ``ctl`` (the model's maxima and limits until set)."""
-    r = getattr(ctl.data, _ATTR, None)
+    r = ctl.data.reduced
     if r is None:
         m = ctl.model
         r = ReducedMode(tcp_speed=float(m.max_tcp_speed), joint_speed=float(m.max_joint_speed),
                         joint_ranges=reduced_of_default(ctl))
-        setattr(ctl.data, _ATTR, r)
+        ctl.data.reduced = r
     return r
 
 
 def speed_caps(ctl: Any) -> tuple[float, float]:
     """(TCP mm/s, joint rad/s) speed caps of queued moves: the reduced maxima while reduced mode
     is on, else infinite."""
-    r = getattr(ctl.data, _ATTR, None)
+    r = ctl.data.reduced
     if r is None or not r.on:
         return _NO_CAPS
     return r.tcp_speed, r.joint_speed
@@ -62,7 +60,7 @@ _NO_CAPS = (math.inf, math.inf)
 def joint_range(ctl: Any) -> tuple[np.ndarray, np.ndarray]:
     """Joint limits (rad), narrowed to the reduced ranges while reduced mode is on."""
     lo, hi = ctl.model.lower.copy(), ctl.model.upper.copy()
-    r = getattr(ctl.data, _ATTR, None)
+    r = ctl.data.reduced
     if r is not None and r.on:
         rng = np.asarray(r.joint_ranges[: 2 * ctl.dof], dtype=float).reshape(-1, 2)
         lo, hi = np.maximum(lo, rng[:, 0]), np.minimum(hi, rng[:, 1])
@@ -71,7 +69,7 @@ def joint_range(ctl: Any) -> tuple[np.ndarray, np.ndarray]:
 
 def check_step(ctl: Any, q_prev: np.ndarray) -> None:
     """Each control period that moved the arm: stop with C23 where a joint leaves its reduced range."""
-    r = getattr(ctl.data, _ATTR, None)
+    r = ctl.data.reduced
     if r is None or not r.on:
         return
     lo, hi = joint_range(ctl)
@@ -90,7 +88,7 @@ CONFIG_KEY = "reduced"
 
 def config_of(ctl: Any) -> dict[str, Any] | None:
     """What register 40 saves of reduced mode; None while every setting has its default."""
-    r = getattr(ctl.data, _ATTR, None)
+    r = ctl.data.reduced
     if r is None:
         return None
     m = ctl.model
@@ -113,7 +111,7 @@ def reduced_of_default(ctl: Any) -> list[float]:
 def load_config(ctl: Any, data: Any) -> None:
     """Apply saved reduced-mode settings; anything of the wrong shape or out of range keeps the
     defaults."""
-    setattr(ctl.data, _ATTR, None)
+    ctl.data.reduced = None
     if not isinstance(data, dict):
         return
     r = reduced_of(ctl)

@@ -23,7 +23,16 @@ from .states import MODE_POSITION, STATE_STOP
 
 if TYPE_CHECKING:
     from .commands import QueuedCommand
+    from .contact import Scene
+    from .force_control import ForceControl
+    from .ft_sensor import FtSensorState
+    from .handlers.extras import ExtraState
+    from .handlers.ft_sensor import FtConfig
     from .motion import ServoTracker
+    from .online import OnlinePlanner
+    from .reduced import ReducedMode
+    from .trajectory import TrajectoryStore
+    from .velocity import VelocityControl
 
 T = TypeVar("T")
 
@@ -61,9 +70,13 @@ class PlanState:
         return len(self.buffer) + (1 + self.merged if self.current is not None else 0)
 
 
-@dataclass
+@dataclass(slots=True)
 class ControllerState:
-    """Every mutable value of the controller core and its executor (see the module docstring)."""
+    """Every mutable value of the controller core and its executor (see the module docstring).
+
+    Slotted: a value that is not declared here cannot be attached at run time. The application
+    states below start as None and are created on first use by the module that owns them
+    (``reduced.reduced_of`` and the like), all of them at construction (``mode_steps.create_state``)."""
 
     dof: int
     time: float = 0.0  # controller time, s
@@ -89,9 +102,23 @@ class ControllerState:
     check_q: np.ndarray | None = None
     motion: PlanState = field(default_factory=PlanState)
     #: The F/T sensor (controller/ft_sensor.py: mounted, switched on, wrenches, readings).
-    ft_sensor: Any = None
+    ft_sensor: FtSensorState | None = None
     #: The contact scene (controller/contact.py), fixed in the base frame.
-    contact_scene: Any = None
+    contact_scene: Scene | None = None
+    #: The F/T configuration registers 201-208 (controller/handlers/ft_sensor.py).
+    ft_config: FtConfig | None = None
+    #: Force control and impedance control (register 202, controller/force_control.py).
+    force_control: ForceControl | None = None
+    #: Reduced mode and its limits (registers 47-52, controller/reduced.py).
+    reduced: ReducedMode | None = None
+    #: Velocity control (modes 4 and 5, controller/velocity.py).
+    velocity_control: VelocityControl | None = None
+    #: The online planner (modes 7 and 11, controller/online.py).
+    online_planner: OnlinePlanner | None = None
+    #: Trajectory recording and playback (registers 61-66, controller/trajectory.py).
+    trajectory_store: TrajectoryStore | None = None
+    #: The less common registers' values (controller/handlers/extras.py).
+    extra_state: ExtraState | None = None
 
     @classmethod
     def initial(cls, dof: int) -> ControllerState:

@@ -57,7 +57,6 @@ LEAD_IN_ACC = 5.0
 
 _NAME = re.compile(r"^[A-Za-z0-9_\-. ]{1,80}$")
 _FORMAT = "xarm-emu trajectory"
-_ATTR = "_trajectory_store"
 
 
 class TrajectoryError(ValueError):
@@ -175,10 +174,10 @@ class TrajectoryStore:
 
 def store_of(ctl: Any) -> TrajectoryStore:
     """The trajectory store of ``ctl`` (in memory until :func:`attach` gives it a directory)."""
-    st = getattr(ctl.data, _ATTR, None)
+    st = ctl.data.trajectory_store
     if st is None:
         st = TrajectoryStore(record_period=ctl.period)
-        setattr(ctl.data, _ATTR, st)
+        ctl.data.trajectory_store = st
     return st
 
 
@@ -201,7 +200,7 @@ def set_recording(ctl: Any, on: bool) -> None:
 def record_step(ctl: Any, dt: float) -> None:
     """Every control period: keep the joints while recording; a playback whose mode 11 was left
     (register 19) ends unfinished."""
-    st = getattr(ctl.data, _ATTR, None)
+    st = ctl.data.trajectory_store
     if st is None:
         return
     if st.playback is not None and ctl.mode != MODE_PLAYBACK:
@@ -216,7 +215,7 @@ def record_step(ctl: Any, dt: float) -> None:
 
 def record_idle(ctl: Any) -> bool:
     """:func:`record_step` would change nothing now: no recording, no playback left unfinished."""
-    st = getattr(ctl.data, _ATTR, None)
+    st = ctl.data.trajectory_store
     return st is None or (not st.recording and (st.playback is None or ctl.mode == MODE_PLAYBACK))
 
 

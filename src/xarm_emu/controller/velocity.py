@@ -32,7 +32,6 @@ MODE_JOINT_VELOCITY = 4
 MODE_CARTESIAN_VELOCITY = 5
 
 #: The rotational part of a Cartesian velocity ramps with the joint acceleration and jerk.
-_ATTR = "_velocity_control"
 
 #: A velocity below this (rad/s or mm/s) counts as rest for the motion state.
 REST = 1e-9
@@ -60,10 +59,10 @@ class VelocityControl:
 
 def control_of(ctl: Any) -> VelocityControl:
     """The velocity control state of ``ctl`` (created at rest on first use)."""
-    vc = getattr(ctl.data, _ATTR, None)
+    vc = ctl.data.velocity_control
     if vc is None:
         vc = VelocityControl()
-        setattr(ctl.data, _ATTR, vc)
+        ctl.data.velocity_control = vc
     return vc
 
 

@@ -77,12 +77,12 @@ class ExtraState:
 
 def extra_state(ctl: Any) -> ExtraState:
     """The :class:`ExtraState` of ``ctl``, created on first use."""
-    st = getattr(ctl.data, "extra_state", None)
+    st = ctl.data.extra_state
     if not isinstance(st, ExtraState):
         st = ExtraState()
         st.dh = [x for joint in DH_PARAMS.get(ctl.dof, ()) for x in joint]
         st.dh += [0.0] * (28 - len(st.dh))
-        ctl.data.extra_state = st  # in the controller's state, so a checkpoint holds it
+        ctl.data.extra_state = st
     return st
 
 

@@ -46,10 +46,10 @@ class FtConfig:
 
 def ft_config(ctl: Any) -> FtConfig:
     """The F/T configuration of ``ctl``, created on first use."""
-    cfg = getattr(ctl.data, "ft_config", None)
+    cfg = ctl.data.ft_config
     if not isinstance(cfg, FtConfig):
         cfg = FtConfig()
-        ctl.data.ft_config = cfg  # in the controller's state, so a checkpoint holds it
+        ctl.data.ft_config = cfg
     return cfg
 
 
