@@ -104,3 +104,23 @@ def test_motion_package_imports_no_controller_module() -> None:
                 assert node.level != 2 and not mod.startswith("xarm_emu.controller"), (path.name, mod)
                 if node.level == 3:
                     assert mod.startswith("model"), (path.name, mod)
+
+
+def test_ft_sensor_pose_follows_each_models_own_geometry() -> None:
+    """Two arms of one name whose upper arms differ by 40 mm give their own F/T sensor origins, each
+    read right after the other (a cache keyed by the name would answer the first one's)."""
+    from xarm_emu.controller import ft_sensor
+    from xarm_emu.controller.emulator import Emulator
+
+    x, y, z = XARM6.joints[2].origin_xyz
+    longer = _with_origin(XARM6, 2, (x, y - 40.0, z))
+    assert longer.name == XARM6.name
+    origins = []
+    for model in (XARM6, longer, XARM6, longer):
+        emu = Emulator(model, ft_sensor=True)
+        _, origin = ft_sensor._sensor_pose(emu.controller)
+        T = kinematics.fk(model, emu.controller.q)
+        np.testing.assert_allclose(origin, T[:3, 3] + T[:3, 2] * ft_sensor.SENSOR_HEIGHT, atol=1e-9)
+        origins.append(origin)
+    assert math.dist(origins[0], origins[1]) == pytest.approx(40.0, abs=1e-9)
+    np.testing.assert_allclose(origins[0], origins[2], atol=0)

@@ -252,8 +252,10 @@ def cross(a: Any, b: Any) -> np.ndarray:
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
-#: The last sensor pose computed per robot model (it depends on the model and the joints only).
-_POSE_CACHE: dict[str, tuple[bytes, tuple[np.ndarray, np.ndarray]]] = {}
+#: The last sensor pose computed per robot model object (it depends on the model and the joints
+#: only): ``id(model)`` -> (the model, the joints' bytes, the pose). Keyed by the object, checked by
+#: identity, never by the model's name: two models of one name may differ in geometry.
+_POSE_CACHE: dict[int, tuple[Any, bytes, tuple[np.ndarray, np.ndarray]]] = {}
 
 
 def _sensor_pose(ctl: Any, q: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -261,12 +263,12 @@ def _sensor_pose(ctl: Any, q: np.ndarray | None = None) -> tuple[np.ndarray, np.
     present joints' pose is computed once per joint vector (a period asks for it several times)."""
     if q is None:
         key = np.asarray(ctl.data.q, dtype=float).tobytes()
-        name = ctl.model.name
-        hit = _POSE_CACHE.get(name)
-        if hit is not None and hit[0] == key:
-            return hit[1]
+        model = ctl.model
+        hit = _POSE_CACHE.get(id(model))
+        if hit is not None and hit[0] is model and hit[1] == key:
+            return hit[2]
         pose = _sensor_pose(ctl, ctl.data.q)
-        _POSE_CACHE[name] = (key, pose)
+        _POSE_CACHE[id(model)] = (model, key, pose)
         return pose
     T = kin.fk(ctl.model, q)
     R = T[:3, :3]
