@@ -37,8 +37,8 @@ def test_the_controller_names_are_the_state_values() -> None:
 def test_report_snapshot_is_a_function_of_model_state_settings_and_components() -> None:
     emu = _moving()
     ctl = emu.controller
-    copied = emu.checkpoint().parts["controller"]  # a deep copy (planned trajectories are shared)
-    data, settings = copied["data"], copied["settings"]
+    copied = emu.checkpoint().state  # a deep copy (planned trajectories are shared)
+    data, settings = copied.controller, copied.settings
     assert data is not ctl.data and settings is not ctl.settings
     expected = emu.snapshot()
     emu.advance(0.5)  # the live box moves on; the copied state still gives the old report
@@ -56,4 +56,4 @@ def test_a_restored_state_answers_with_its_own_pose_and_torques() -> None:
     assert emu.handle(41, b"") != before[0]
     emu.restore(cp)
     assert (emu.handle(41, b""), emu.handle(55, b""), emu.snapshot()) == before
-    assert np.array_equal(emu.joints, cp.parts["controller"]["data"].q)
+    assert np.array_equal(emu.joints, cp.state.controller.q)

@@ -45,9 +45,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 from ..protocol import codes, rtu
 from .base import NOT_IDLE, ControllerView
+from .state import holds
 
 BIO_ID = 8
 BIO_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default for the BIO gripper
@@ -109,6 +111,27 @@ def _refuse() -> rtu.RtuError:
     return rtu.RtuError(rtu.ILLEGAL_VALUE)
 
 
+@dataclass(slots=True)
+class BioGripperState:
+    """Every mutable value of a BIO gripper (power-on values: :class:`BioGripper`)."""
+
+    baud_index: int = 0
+    mode: int = 0
+    next_mode: int = 0
+    enable: int = 0
+    enable_left: float = 0.0
+    speed: int = 0
+    force: int = 0
+    position: float = 0.0  # pulses
+    goal: float = 0.0
+    target_raw: int = 0
+    moving: bool = False
+    detected: bool = False
+    code: int = 0
+    object_mm: float | None = None
+
+
+@holds(BioGripperState)
 class BioGripper:
     """The simulated BIO gripper: a Modbus slave (:class:`rtu.RegisterDevice`) that moves in
     :meth:`step` (a :class:`~xarm_emu.controller.gripper.ToolDevice`)."""
@@ -116,6 +139,7 @@ class BioGripper:
     slave_id = BIO_ID
 
     def __init__(self, baud_index: int = BIO_BAUD_INDEX) -> None:
+        self.data = BioGripperState()
         self.baud_index = baud_index
         self.mode = 0
         self.next_mode = 0

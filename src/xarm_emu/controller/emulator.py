@@ -31,6 +31,7 @@ from ..protocol.rtu import CONTROL_BOX_HOST
 from . import contact, ft_sensor, safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
 from .bio_gripper import BioGripper
+from .box_state import EmulatorState, ModbusUserState, Schedule
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .gripper import GripperModule, ToolDevice
@@ -87,13 +88,18 @@ def check_firmware(model: RobotModel, firmware: FirmwareProfile) -> None:
 
 @dataclass(frozen=True)
 class Checkpoint:
-    """The whole state of an emulator at one instant (:meth:`Emulator.checkpoint`): controller and
-    motion (buffer, plan, ramps), settings, IO, gripper, vacuum, thermal model and the clock. Actions
-    scheduled with :meth:`Emulator.at` are not part of it. Holds its own deep copy: restoring it
-    any number of times gives the same state."""
+    """The whole state of an emulator at one instant (:meth:`Emulator.checkpoint`): its
+    :class:`~.box_state.EmulatorState` tree, copied as a whole (controller and motion with the
+    buffer, plan and ramps, settings, IO, every attached device, the Modbus user storage, the
+    tool bus timeouts, the thermal model, the pending scheduled actions and the clock). Holds its
+    own deep copy: restoring it any number of times gives the same state."""
 
-    time: float
-    parts: dict[str, dict[str, Any]]
+    state: EmulatorState
+
+    @property
+    def time(self) -> float:
+        """Controller time at the checkpoint, s."""
+        return self.state.controller.time
 
 
 def _shared_immutables(root: object) -> dict[int, object]:
@@ -247,8 +253,11 @@ class Emulator:
         self.periods_jumped = 0
         self._rest_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._settled = -1  # the generation at the end of the last step() call
-        self._scheduled: list[tuple[float, int, Callable[[], object]]] = []  # heap: (time, seq, action)
-        self._schedule_seq = 0
+        #: Actions due at a controller time (:meth:`at`); ``_scheduled`` is its heap.
+        self.schedule = Schedule()
+        self._scheduled = self.schedule.heap
+        #: What Modbus-TCP clients store in the box (controller/modbus_map.py).
+        self.modbus = ModbusUserState()
         self.config_dir = config_dir
         trajectory.attach(self.controller, config_dir)  # trajectory files (registers 62/63)
         self.config_message: str | None = None
@@ -461,8 +470,8 @@ class Emulator:
         given; one that raises is logged and the others still run."""
         if not math.isfinite(seconds):
             raise ValueError(f"time must be finite, got {seconds!r}")
-        self._schedule_seq += 1
-        heapq.heappush(self._scheduled, (float(seconds), self._schedule_seq, action))
+        self.schedule.seq += 1
+        heapq.heappush(self._scheduled, (float(seconds), self.schedule.seq, action))
 
     def _run_scheduled(self) -> None:
         now = self.controller.time + 1e-9
@@ -495,57 +504,64 @@ class Emulator:
         return snap
 
     # -- checkpoint and restore (no real control box has these) ---------------------------------
-    def _parts(self) -> dict[str, dict[str, Any]]:
-        ctl = self.controller
-        parts: dict[str, dict[str, Any]] = {
-            "controller": {"data": ctl.data, "settings": ctl.settings},
-            "io": dict(vars(self.io)),
-            "gripper": dict(vars(self.gripper.gripper)),
-            "thermal": dict(vars(self.thermal)),
-        }
-        if self.gripper.device is not self.gripper.gripper:
-            parts["tool_device"] = dict(vars(self.gripper.device))
-        if self.vacuum is not None:
-            parts["vacuum"] = {k: v for k, v in vars(self.vacuum).items() if k != "tool"}
-        if self.lite6_gripper is not None:
-            parts["lite6_gripper"] = {k: v for k, v in vars(self.lite6_gripper).items() if k != "tool"}
-        if self.linear_track is not None:
-            parts["linear_track"] = dict(vars(self.linear_track))
-        return parts
+    @property
+    def state(self) -> EmulatorState:
+        """Every mutable value of the box as one tree (:class:`~.box_state.EmulatorState`): the
+        live objects themselves, each part the one its component works on now."""
+        ctl, g = self.controller, self.gripper
+        return EmulatorState(
+            controller=ctl.data, settings=ctl.settings, io=self.io.data, tool_bus=g.data,
+            xarm_gripper=g.gripper.data, thermal=self.thermal.data, modbus=self.modbus,
+            schedule=self.schedule,
+            tool_device=None if g.device is g.gripper else g.device.data,
+            vacuum=None if self.vacuum is None else self.vacuum.data,
+            lite6_gripper=None if self.lite6_gripper is None else self.lite6_gripper.data,
+            linear_track=None if self.linear_track is None else self.linear_track.data)
 
-    def _memo(self, parts: object) -> dict[int, object]:
-        """Objects a copy shares instead of copying: the model, the controller and the emulator
-        (plans refer to the controller's pose functions) and the planned trajectories."""
-        memo = _shared_immutables(parts)
+    def _adopt(self, state: EmulatorState) -> None:
+        """Make ``state`` the box's state, each part handed to its component as a whole."""
+        ctl, g = self.controller, self.gripper
+        ctl.adopt(state.controller, state.settings)
+        self.io.data = state.io
+        g.data, g.gripper.data = state.tool_bus, state.xarm_gripper
+        self.thermal.data = state.thermal
+        self.modbus = state.modbus
+        self.schedule = state.schedule
+        self._scheduled = state.schedule.heap
+        if state.tool_device is not None:
+            g.device.data = state.tool_device
+        if self.vacuum is not None and state.vacuum is not None:
+            self.vacuum.data = state.vacuum
+            self.vacuum.tool = self.io.tool
+        if self.lite6_gripper is not None and state.lite6_gripper is not None:
+            self.lite6_gripper.data = state.lite6_gripper
+            self.lite6_gripper.tool = self.io.tool
+        if self.linear_track is not None and state.linear_track is not None:
+            self.linear_track.data = state.linear_track
+
+    def _memo(self) -> dict[int, object]:
+        """Objects a copy of the state shares instead of copying: the model, the controller and the
+        emulator (plans refer to the controller's pose functions, scheduled actions to the
+        emulator) and the planned trajectories, which cannot be copied and never change once
+        planned."""
+        memo = _shared_immutables(self.state)
         for shared in (self.model, self.controller, self):
             memo[id(shared)] = shared
         return memo
 
     def checkpoint(self) -> Checkpoint:
         """The whole emulator state as an independent deep copy (:class:`Checkpoint`)."""
-        parts = self._parts()
-        return Checkpoint(self.time, copy.deepcopy(parts, self._memo(parts)))
+        return Checkpoint(copy.deepcopy(self.state, self._memo()))
 
     def restore(self, cp: Checkpoint) -> None:
-        """Put the state of ``cp`` back exactly; ``cp`` stays usable for further restores."""
+        """Put the state of ``cp`` back exactly, as a whole; ``cp`` stays usable for further restores."""
         self.generation += 1
-        if set(cp.parts) != set(self._parts()):
-            raise ValueError("checkpoint of an emulator with other components (vacuum gripper)")
-        parts = copy.deepcopy(cp.parts, self._memo(cp.parts))
-        self.controller.adopt(parts["controller"]["data"], parts["controller"]["settings"])
-        vars(self.io).update(parts["io"])
-        vars(self.gripper.gripper).update(parts["gripper"])
-        if "tool_device" in parts:
-            vars(self.gripper.device).update(parts["tool_device"])
-        vars(self.thermal).update(parts["thermal"])
-        if self.vacuum is not None:
-            vars(self.vacuum).update(parts["vacuum"])
-            self.vacuum.tool = self.io.tool
-        if self.lite6_gripper is not None:
-            vars(self.lite6_gripper).update(parts["lite6_gripper"])
-            self.lite6_gripper.tool = self.io.tool
-        if self.linear_track is not None:
-            vars(self.linear_track).update(parts["linear_track"])
+        if cp.state.layout() != self.state.layout():
+            raise ValueError("checkpoint of an emulator with other components (grippers, linear track)")
+        memo = _shared_immutables(cp.state)
+        for shared in (self.model, self.controller, self):
+            memo[id(shared)] = shared
+        self._adopt(copy.deepcopy(cp.state, memo))
 
     # -- in-process API ------------------------------------------------------------------------
     @property

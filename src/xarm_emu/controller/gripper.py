@@ -51,11 +51,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from ..protocol import codes, rtu
 from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from .base import NOT_IDLE, ControllerView, Handler, ParameterError, idle_until
+from .state import holds
 
 GRIPPER_ID = 8  # section 2.1.4 "Gripper ID 0x08"
 GRIPPER_BAUD_INDEX = 11  # 2,000,000 bps (register 127 baud table)
@@ -113,6 +115,8 @@ class ToolDevice(rtu.RegisterDevice, Protocol):
 
     slave_id: int
     baud_index: int
+    #: Every mutable value of the device, one dataclass (:func:`~.state.holds`; a checkpoint holds it).
+    data: Any
 
     @property
     def error(self) -> int: ...  # the device's own error or fault code, 0 = none
@@ -128,6 +132,21 @@ class ToolDevice(rtu.RegisterDevice, Protocol):
     def set_object(self, width_mm: float | None, inner: bool = False) -> None: ...
 
 
+@dataclass(slots=True)
+class XArmGripperState:
+    """Every mutable value of the xArm gripper (registers 124/125; section 3.3 for the error)."""
+
+    baud_index: int = 0
+    enabled: bool = False
+    mode: int = 0
+    speed: int = 0
+    position: float = 0.0  # pulses
+    target: int = 0
+    error: int = 0
+    _target_words: list[int] = field(default_factory=lambda: [0, 0])
+
+
+@holds(XArmGripperState)
 class XArmGripper:
     """The simulated gripper: a Modbus slave (:class:`rtu.RegisterDevice`) that moves in :meth:`step`."""
 
@@ -135,6 +154,7 @@ class XArmGripper:
 
     def __init__(self, version: tuple[int, int, int] = (3, 4, 3),
                  baud_index: int = GRIPPER_BAUD_INDEX) -> None:
+        self.data = XArmGripperState()
         self.version = version
         self.baud_index = baud_index
         self.reset()
@@ -321,6 +341,15 @@ def _baud(index: int) -> int:
     return BAUD_RATES[index] if 0 <= index < len(BAUD_RATES) else BAUD_RATES[-1]
 
 
+@dataclass(slots=True)
+class ToolBusState:
+    """The tool RS-485 bridge's timeouts: register 123 (Modbus-RTU) and 241 (transparent transfer)."""
+
+    modbus_timeout_ms: int = DEFAULT_MODBUS_TIMEOUT_MS
+    transparent_timeout_ms: int = DEFAULT_TRANSPARENT_TIMEOUT_MS
+
+
+@holds(ToolBusState)
 class GripperModule:
     """Controller component for the tool RS-485 bus with the gripper on it: register 124 (Modbus-RTU
     through the bridge), 123 (the bridge's timeout), 240/241 (transparent transfer and its timeout)
@@ -335,6 +364,7 @@ class GripperModule:
 
     def __init__(self, gripper: XArmGripper | None = None,
                  tool_baud: Callable[[], int] | None = None, device: ToolDevice | None = None) -> None:
+        self.data = ToolBusState()
         #: The xArm gripper (kept for the old non-Modbus path and the view even when another device
         #: is attached; then it is not on the bus).
         self.gripper = gripper or XArmGripper()

@@ -37,12 +37,13 @@ import functools
 import math
 import weakref
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from ..protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
 from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from .base import C_DELAYED_IO, NOT_IDLE, CommandError, ControllerView, Handler, ParameterError
+from .state import holds
 from .states import STATE_STOP
 
 # Tool board addresses (registers 127/128).
@@ -307,11 +308,28 @@ class ControlBoxGpio:
         return out
 
 
+@dataclass(slots=True)
+class IOState:
+    """Every mutable value of the IO component: the tool IO board, the control box GPIO, the
+    delayed and position-triggered outputs (registers 142-147) and the stop-clearing switches."""
+
+    tool: ToolIO = field(default_factory=ToolIO)
+    cgpio: ControlBoxGpio = field(default_factory=ControlBoxGpio)
+    pending: list[PendingIO] = field(default_factory=list)
+    cgpio_reset_on_stop: bool = False
+    tgpio_reset_on_stop: bool = False
+    now: float = 0.0  # controller time of the last step, s
+    _last_tcp: tuple[float, float, float] | None = None
+    _last_state: int | None = None
+
+
+@holds(IOState)
 class IOModule:
     """Controller component: tool IO, control box GPIO and special IO (registers 127-147)."""
 
     def __init__(self, n_digital: int = 16, tool_version: tuple[int, int, int] = (1, 0, 0),
                  tool_ti2: bool = False) -> None:
+        self.data = IOState()
         self.tool = ToolIO(tool_version, has_ti2=tool_ti2)
         self.cgpio = ControlBoxGpio(n_digital)
         self.pending: list[PendingIO] = []
@@ -320,6 +338,7 @@ class IOModule:
         self.now = 0.0
         self._last_tcp: tuple[float, float, float] | None = None
         self._last_state: int | None = None
+
         #: The controller whose command buffer queues IO in its turn (:meth:`attach`); a weak
         #: reference, so checkpoints copy the IO state without the controller.
         self._ctl: weakref.ref[Any] | None = None

@@ -58,9 +58,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 
 from ..protocol import rtu
 from .base import C_ESTOP, NOT_IDLE, ControllerView, Handler
+from .state import holds
 
 TRACK_ID = 1  # the SDK's linear motor slave id on the control box RS-485
 TRACK_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default baud for the track
@@ -189,13 +191,38 @@ def check_length(length: int) -> int:
     return length
 
 
+@dataclass(slots=True)
+class LinearTrackState:
+    """Every mutable value of the track's drive (power-on values: :class:`LinearTrack`)."""
+
+    position: float = 0.0  # mm
+    velocity: float = 0.0  # mm/s
+    target: float = 0.0  # mm
+    enabled: bool = False
+    on_zero: bool = False
+    homing: str = ""  # "" | "travel" (to the switch) | "latch"
+    latch_left: float = 0.0
+    error: int = 0
+    stopped: bool = False
+    speed_value: int = 0
+    sci: int = 0
+    sco: list[int] = field(default_factory=lambda: [0, 0])
+    parameters: dict[int, int] = field(default_factory=dict)
+    target_words: list[int] = field(default_factory=lambda: [0, 0])
+    plan: list[tuple[float, float, float, float]] = field(default_factory=list)
+    plan_time: float = 0.0
+    plan_goal: float = 0.0
+
+
+@holds(LinearTrackState)
 class LinearTrack:
     """The track's drive: a Modbus slave (:class:`rtu.RegisterDevice`) and a controller component
-    whose carriage moves in :meth:`step`. Every value is a plain attribute (a checkpoint copies
-    them)."""
+    whose carriage moves in :meth:`step`. Its changing values are one :class:`LinearTrackState`
+    (``self.data``); the length, version and serial number are fixed."""
 
     def __init__(self, length: int = DEFAULT_LENGTH, *, position: float = 0.0,
                  version: tuple[int, int, int] = (1, 0, 0), sn: str | None = None) -> None:
+        self.data = LinearTrackState()
         self.length = check_length(length)
         if not 0.0 <= position <= length:
             raise ValueError(f"carriage position {position} mm outside the stroke 0..{length}")

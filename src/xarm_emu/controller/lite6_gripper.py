@@ -17,10 +17,12 @@ was asked. The emulator keeps the jaw state for tests and the admin channel:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from ..model.robots import PneumaticGripper
 from .base import NOT_IDLE, ControllerView, Handler
 from .io import ToolIO
+from .state import holds
 
 TRAVEL_TIME = 0.3  # s for a full stroke, either way
 
@@ -31,10 +33,19 @@ JAW_CLOSING = "closing"
 JAW_STOPPED = "stopped"
 
 
+@dataclass(slots=True)
+class Lite6GripperState:
+    """How far the jaws are open: 0 closed .. 1 open."""
+
+    opening: float = 1.0
+
+
+@holds(Lite6GripperState)
 class Lite6Gripper:
     """Controller component: the Lite 6 gripper's jaws, following the TO0/TO1 command."""
 
     def __init__(self, tool: ToolIO, spec: PneumaticGripper | None = None) -> None:
+        self.data = Lite6GripperState()
         self.tool = tool
         self.spec = spec or PneumaticGripper()
         self.opening = 1.0  # 0 closed .. 1 open

@@ -5,13 +5,13 @@ period) and, for the tool IO the reports lack, register 128. Writes go through
 :meth:`Emulator.handle` with the private register each point names (134 for the control box digital
 outputs, 127 for the tool outputs, 135/136 analog outputs, 19 mode, 12 state), so each behaviour
 keeps one home; a write the register refuses with a new warning gets exception 3. User storage
-and the Blockly / G-code trigger values live here only.
+and the Blockly / G-code trigger values live in the emulator's state
+(:class:`~xarm_emu.controller.box_state.ModbusUserState`), so a checkpoint holds them.
 """
 
 from __future__ import annotations
 
 import math
-import weakref
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -42,13 +42,12 @@ class EmulatorDatastore:
 
     def __init__(self, emu: Emulator) -> None:
         self.emu = emu
-        self.user_coils = [0] * modbus.POINTS["user_coils"].count
-        self.user_registers = [0] * modbus.POINTS["user_registers"].count
-        self.blockly_trigger = [0] * modbus.POINTS["blockly_trigger"].count
-        self.gcode_trigger = [0]
-        #: Every trigger written, in order: ("blockly" | "gcode", "%05d" name).
-        self.triggered: list[tuple[str, str]] = []
         self._snap: tuple[int, ReportSnapshot] | None = None
+
+    @property
+    def triggered(self) -> list[tuple[str, str]]:
+        """Every trigger written, in order: ("blockly" | "gcode", "%05d" name)."""
+        return self.emu.modbus.triggered
 
     # -- the emulator's public surface ------------------------------------------------------------
     def snapshot(self) -> ReportSnapshot:
@@ -81,13 +80,13 @@ class EmulatorDatastore:
                                                 "cgpio_output_word_hi", "cgpio_input_word_hi"):
             return [0.0] * point.count
         if name == "user_coils":
-            return [float(v) for v in self.user_coils]
+            return [float(v) for v in self.emu.modbus.user_coils]
         if name == "user_registers":
-            return [float(v) for v in self.user_registers]
+            return [float(v) for v in self.emu.modbus.user_registers]
         if name == "blockly_trigger":
-            return [float(v) for v in self.blockly_trigger]
+            return [float(v) for v in self.emu.modbus.blockly_trigger]
         if name == "gcode_trigger":
-            return [float(v) for v in self.gcode_trigger]
+            return [float(v) for v in self.emu.modbus.gcode_trigger]
         if name in ("tgpio_outputs", "tgpio_output_word"):
             word = self._tool_read(ADDR_TOOL_DO_READ)
             return _bits(word, 2) if point.kind.bits else [float(word & 0xFF)]
@@ -153,16 +152,17 @@ class EmulatorDatastore:
 
     def write(self, point: Point, offset: int, values: Sequence[int]) -> None:
         name = point.name
+        user = self.emu.modbus
         if name == "user_coils":
-            self.user_coils[offset:offset + len(values)] = [v & 1 for v in values]
+            user.user_coils[offset:offset + len(values)] = [v & 1 for v in values]
         elif name == "user_registers":
-            self.user_registers[offset:offset + len(values)] = list(values)
+            user.user_registers[offset:offset + len(values)] = list(values)
         elif name == "blockly_trigger":
-            self.blockly_trigger[offset:offset + len(values)] = list(values)
-            self.triggered += [("blockly", f"{v:05d}") for v in values]
+            user.blockly_trigger[offset:offset + len(values)] = list(values)
+            user.triggered += [("blockly", f"{v:05d}") for v in values]
         elif name == "gcode_trigger":
-            self.gcode_trigger[:] = list(values)
-            self.triggered += [("gcode", f"{v:05d}") for v in values]
+            user.gcode_trigger[:] = list(values)
+            user.triggered += [("gcode", f"{v:05d}") for v in values]
         elif name == "cgpio_outputs":
             mask = value = 0
             for i, v in enumerate(values):
@@ -196,17 +196,7 @@ class EmulatorDatastore:
         self._call(134, {"digital": lo, "digital_hi": hi})
 
 
-_STORES: weakref.WeakKeyDictionary[Any, EmulatorDatastore] = weakref.WeakKeyDictionary()
-
-
-def datastore_for(emu: Emulator) -> EmulatorDatastore:
-    """The one datastore of ``emu`` (user storage is per emulator, as on the box)."""
-    store = _STORES.get(emu)
-    if store is None:
-        store = _STORES[emu] = EmulatorDatastore(emu)
-    return store
-
-
 def answer(emu: Emulator, tid: int, unit: int, pdu: bytes) -> bytes:
-    """The reply frame to one protocol-0 request on the command port (MBAP header + PDU)."""
-    return modbus.encode_adu(tid, unit, modbus.handle_pdu(pdu, datastore_for(emu)))
+    """The reply frame to one protocol-0 request on the command port (MBAP header + PDU); the user
+    storage it reads and writes is the emulator's own (per box, as on the box)."""
+    return modbus.encode_adu(tid, unit, modbus.handle_pdu(pdu, EmulatorDatastore(emu)))

@@ -44,10 +44,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..protocol import codes, rtu
 from .base import NOT_IDLE, ControllerView
+from .state import holds
 
 ROBOTIQ_ID = 9
 ROBOTIQ_BAUD_INDEX = 5  # 115200 bps in the register 127 baud table, the SDK's default for Robotiq
@@ -91,6 +92,28 @@ ROBOTIQ_2F140 = RobotiqModel("2F-140", 140.0, 30.0, 250.0, 10.0, 125.0, 2.0)
 MODELS = {"robotiq-2f85": ROBOTIQ_2F85, "robotiq-2f140": ROBOTIQ_2F140}
 
 
+@dataclass(slots=True)
+class RobotiqState:
+    """Every mutable value of a Robotiq 2F gripper (power-on values: :class:`RobotiqGripper`)."""
+
+    baud_index: int = 0
+    output: list[int] = field(default_factory=list)
+    gACT: int = 0
+    gSTA: int = 0
+    gGTO: int = 0
+    gOBJ: int = 0
+    fault: int = 0
+    position: float = 0.0  # encoder counts
+    goal: float = 0.0
+    moving: bool = False
+    activation_left: float = 0.0
+    pending_goto: bool = False
+    object_mm: float | None = None
+    inner_object_mm: float | None = None
+    gripping: bool = False
+
+
+@holds(RobotiqState)
 class RobotiqGripper:
     """The simulated Robotiq 2F gripper: a Modbus slave (:class:`rtu.RegisterDevice`) that moves in
     :meth:`step` (a :class:`~xarm_emu.controller.gripper.ToolDevice`)."""
@@ -98,6 +121,7 @@ class RobotiqGripper:
     slave_id = ROBOTIQ_ID
 
     def __init__(self, model: RobotiqModel = ROBOTIQ_2F85, baud_index: int = ROBOTIQ_BAUD_INDEX) -> None:
+        self.data = RobotiqState()
         self.model = model
         self.baud_index = baud_index
         self.output = [0] * (2 * N_REGS)  # robot output bytes as last written

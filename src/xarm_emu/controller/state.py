@@ -12,7 +12,8 @@ control box; derived values such as cached poses and torques are not part of it.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
@@ -35,6 +36,7 @@ if TYPE_CHECKING:
     from .velocity import VelocityControl
 
 T = TypeVar("T")
+C = TypeVar("C", bound=type)
 
 #: Shortest time to ramp the path rate between full speed and rest for suspend/stop (s); faster
 #: motion ramps longer so that the deceleration stays within the acceleration limit.
@@ -146,3 +148,21 @@ class StateField(Generic[T]):
 
     def __set__(self, obj: object, value: T) -> None:
         setattr(obj.data, self.name, value)  # type: ignore[attr-defined]
+
+
+def holds(state_type: type) -> Callable[[C], C]:
+    """Class decorator of a component whose mutable values are one ``state_type`` dataclass in
+    ``self.data``: every field of it becomes a :class:`StateField` of the class, so the component's
+    code reads and writes ``self.position`` while the value lives in ``self.data.position``, and a
+    checkpoint (the emulator's state tree, controller/box_state.py) holds ``self.data`` whole.
+    The component sets ``self.data`` first thing in ``__init__``; attributes that are not fields
+    (references to other objects, fixed configuration) stay plain attributes."""
+
+    def decorate(cls: C) -> C:
+        for f in fields(state_type):
+            descriptor: StateField[Any] = StateField()
+            descriptor.name = f.name
+            setattr(cls, f.name, descriptor)
+        return cls
+
+    return decorate

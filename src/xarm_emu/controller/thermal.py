@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..model.inertials import joint_sizes
+from .state import holds
 
 #: Ambient temperature (C); the manual's operating range is 0-50 C.
 AMBIENT_C = 25.0
@@ -40,12 +41,21 @@ THERMAL_BY_SIZE: dict[str, JointThermal] = {
 }
 
 
+@dataclass(slots=True)
+class ThermalState:
+    """The joints' temperatures (C), the thermal model's only changing values."""
+
+    _temps: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+@holds(ThermalState)
 class ThermalModel:
     """Temperatures of ``dof`` joints, advanced by :meth:`step`. Starts at ambient (cold start)."""
 
     def __init__(self, dof: int, ambient: float = AMBIENT_C, initial: Sequence[float] | None = None,
                  sizes: Sequence[str] | None = None) -> None:
         params = [THERMAL_BY_SIZE[s] for s in (joint_sizes(dof) if sizes is None else sizes)]
+        self.data = ThermalState()
         self.dof = dof
         self.ambient = float(ambient)
         self._tau = np.array([p.time_constant for p in params])

@@ -24,10 +24,12 @@ delays are the emulator's; the vendor publishes none.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 from ..model.robots import VACUUM_WIRING, VacuumWiring
 from .base import NOT_IDLE, ControllerView, Handler
 from .io import ToolIO
+from .state import holds
 
 PRESSURE_BUILD = 0.3  # s from pump on (object present) to the pressure input = 1
 PRESSURE_RELEASE = 0.2  # s from pump off / release to the pressure input = 0
@@ -40,13 +42,24 @@ def _input_number(name: str) -> int:
     return int(name.removeprefix("TI"))
 
 
+@dataclass(slots=True)
+class VacuumState:
+    """Whether an object seals the cup, and how long each wiring's pressure has been heading where
+    it now heads (s, by hardware version)."""
+
+    object_present: bool = True
+    _since: dict[int, float] = field(default_factory=lambda: {version: 0.0 for version in VACUUM_WIRING})
+
+
+@holds(VacuumState)
 class VacuumGripper:
     """Controller component: the vacuum gripper's pressure switch, driven through either wiring."""
 
     def __init__(self, tool: ToolIO) -> None:
+        self.data = VacuumState()
+        #: The tool IO board the pump and the pressure switch are wired to (the IO component's).
         self.tool = tool
         self.object_present = True
-        #: How long each wiring's pressure has been heading where it now heads (by hardware version).
         self._since = {version: 0.0 for version in VACUUM_WIRING}
 
     def pumping_on(self, version: int) -> bool:
