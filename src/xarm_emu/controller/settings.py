@@ -32,7 +32,7 @@ def in_range(value: float, hi: float, lo: float = 0.0) -> bool:
     return math.isfinite(value) and lo <= value <= hi
 
 
-@dataclass
+@dataclass(slots=True)
 class Settings:
     """The saved configuration (register 40 saves it, 39 restores defaults)."""
 

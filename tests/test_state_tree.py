@@ -1,0 +1,249 @@
+"""The emulator's state is one tree (controller/box_state.py): every object reachable from an
+``Emulator`` either lies in ``emu.state`` (which a checkpoint copies as a whole) or is one of a short,
+reasoned list of values fixed at construction, derived from the state, or the wiring between
+components. A new attribute anywhere fails here until it is declared in the tree or listed below."""
+
+from __future__ import annotations
+
+import dataclasses
+import struct
+import types
+from collections import deque
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+from xarm_emu.controller import box_state
+from xarm_emu.controller.emulator import Emulator, _shared_immutables
+
+FIXED = "fixed at construction (model, firmware, wiring options, serial numbers)"
+DERIVED = "derived from the state (a cache, recomputed or keyed on what it depends on)"
+WIRING = "a reference to another part of the emulator (walked in turn)"
+TRACKING = "change tracking and diagnostics of the control loop, not a value the box shows"
+
+#: Attributes outside the state tree, by class and name, with the reason each is not state.
+OUTSIDE: dict[tuple[str, str], str] = {
+    ("Emulator", "model"): FIXED,
+    ("Emulator", "firmware"): FIXED,
+    ("Emulator", "gripper_kind"): FIXED,
+    ("Emulator", "config_dir"): FIXED,
+    ("Emulator", "config_message"): FIXED,  # what loading the saved configuration reported
+    ("Emulator", "exact_steps"): FIXED,
+    ("Emulator", "_store"): FIXED,  # the saved configuration's file (register 39/40)
+    ("Emulator", "controller"): WIRING,
+    ("Emulator", "io"): WIRING,
+    ("Emulator", "gripper"): WIRING,
+    ("Emulator", "vacuum"): WIRING,
+    ("Emulator", "lite6_gripper"): WIRING,
+    ("Emulator", "linear_track"): WIRING,
+    ("Emulator", "thermal"): WIRING,
+    ("Emulator", "modbus"): WIRING,  # the tree's part (checked to be the tree's own object)
+    ("Emulator", "schedule"): WIRING,  # idem
+    ("Emulator", "_scheduled"): WIRING,  # the schedule's heap
+    ("Emulator", "generation"): TRACKING,
+    ("Emulator", "_quiet_calls"): TRACKING,
+    ("Emulator", "_settled"): TRACKING,
+    ("Emulator", "periods_jumped"): TRACKING,
+    ("Emulator", "_rest_cache"): DERIVED,
+    ("Controller", "model"): FIXED,
+    ("Controller", "firmware"): FIXED,
+    ("Controller", "dof"): FIXED,
+    ("Controller", "period"): FIXED,
+    ("Controller", "robot_sn"): FIXED,
+    ("Controller", "box_sn"): FIXED,
+    ("Controller", "registers"): FIXED,  # the register table of the firmware and attached devices
+    ("Controller", "_handlers"): FIXED,
+    ("Controller", "_float_checked"): FIXED,
+    ("Controller", "_inf_unchanged"): FIXED,
+    ("Controller", "components"): WIRING,
+    ("Controller", "hooks"): WIRING,
+    ("Controller", "executor"): WIRING,
+    ("Controller", "data"): WIRING,
+    ("Controller", "settings"): WIRING,
+    ("Controller", "strict"): FIXED,  # a test switch: raise instead of logging internal errors
+    ("Controller", "_dt_vec"): DERIVED,
+    ("Controller", "_pose_cache"): DERIVED,
+    ("Controller", "_torque_cache"): DERIVED,
+    ("Controller", "_limits_cache"): DERIVED,
+    ("Controller", "_still"): DERIVED,
+    ("Executor", "model"): FIXED,
+    ("Executor", "_bounds"): FIXED,
+    ("Executor", "data"): WIRING,
+    ("Hooks", "tool_error"): WIRING,
+    ("Hooks", "on_save"): WIRING,
+    ("Hooks", "on_clean_conf"): WIRING,
+    ("IOModule", "data"): WIRING,
+    ("IOModule", "_ctl"): WIRING,
+    ("IOModule", "sync_io"): FIXED,
+    ("GripperModule", "data"): WIRING,
+    ("GripperModule", "gripper"): WIRING,
+    ("GripperModule", "device"): WIRING,
+    ("GripperModule", "tool_baud"): WIRING,
+    ("GripperModule", "box_devices"): WIRING,
+    ("XArmGripper", "data"): WIRING,
+    ("XArmGripper", "version"): FIXED,
+    ("RobotiqGripper", "data"): WIRING,
+    ("RobotiqGripper", "model"): FIXED,
+    ("BioGripper", "data"): WIRING,
+    ("VacuumGripper", "data"): WIRING,
+    ("VacuumGripper", "tool"): WIRING,
+    ("Lite6Gripper", "data"): WIRING,
+    ("Lite6Gripper", "tool"): WIRING,
+    ("Lite6Gripper", "spec"): FIXED,
+    ("LinearTrack", "data"): WIRING,
+    ("LinearTrack", "length"): FIXED,
+    ("LinearTrack", "version"): FIXED,
+    ("LinearTrack", "sn"): FIXED,
+    ("ThermalModel", "data"): WIRING,
+    ("ThermalModel", "dof"): FIXED,
+    ("ThermalModel", "ambient"): FIXED,
+    ("ThermalModel", "_tau"): FIXED,
+    ("ThermalModel", "_k"): FIXED,
+    ("ThermalModel", "_idle"): FIXED,
+    ("FtSensorComponent", "ctl"): WIRING,
+}
+
+_ATOMS = (int, float, str, bytes, bool, complex, type(None), types.FunctionType, types.BuiltinFunctionType,
+          type, types.ModuleType)
+
+
+def _own(obj: object) -> bool:
+    return type(obj).__module__.startswith("xarm_emu.")
+
+
+def _frozen(obj: object) -> bool:
+    return dataclasses.is_dataclass(obj) and type(obj).__dataclass_params__.frozen  # type: ignore[attr-defined]
+
+
+def _attributes(obj: object) -> dict[str, Any]:
+    out = dict(vars(obj)) if hasattr(obj, "__dict__") else {}
+    for klass in type(obj).__mro__:
+        for slot in getattr(klass, "__slots__", ()):
+            if hasattr(obj, slot):
+                out[slot] = getattr(obj, slot)
+    return out
+
+
+def _children(obj: object) -> list[Any]:
+    if isinstance(obj, dict):
+        return [*obj.keys(), *obj.values()]
+    if isinstance(obj, (list, tuple, set, frozenset, deque)):
+        return list(obj)
+    if isinstance(obj, types.MethodType):
+        return [obj.__self__]
+    if isinstance(obj, _ATOMS):
+        return []
+    if _own(obj) or dataclasses.is_dataclass(obj):
+        return list(_attributes(obj).values())
+    return []
+
+
+def _reach(root: object, stop: set[int]) -> dict[int, object]:
+    seen: dict[int, object] = {}
+    stack = [root]
+    while stack:
+        obj = stack.pop()
+        if id(obj) in seen or id(obj) in stop:
+            continue
+        seen[id(obj)] = obj
+        stack.extend(_children(obj))
+    return seen
+
+
+def _shared(emu: Emulator) -> set[int]:
+    """What a checkpoint shares instead of copying: the model, the controller and the emulator
+    (referred to by plans and scheduled actions) and planned trajectories."""
+    return {id(emu.model), id(emu.controller), id(emu)} | set(_shared_immutables(emu.state))
+
+
+def _mutable(obj: object) -> bool:
+    return not isinstance(obj, (*_ATOMS, tuple, frozenset)) and not _frozen(obj)
+
+
+def _outside(emu: Emulator) -> Iterator[tuple[str, object, str]]:
+    """(path, owner, attribute) of every attribute of an emulator object that is not in the tree."""
+    tree = _reach(emu.state, _shared(emu))
+    seen: set[int] = set()
+    stack: list[tuple[str, object]] = [("emu", emu)]
+    while stack:
+        path, obj = stack.pop()
+        if id(obj) in seen or (id(obj) in tree and _mutable(obj)):
+            continue
+        seen.add(id(obj))
+        if _own(obj) and _mutable(obj):
+            for name, value in _attributes(obj).items():
+                yield path, obj, name
+                if OUTSIDE.get((type(obj).__name__, name)) == WIRING:
+                    stack.append((f"{path}.{name}", value))
+        else:
+            stack.extend((f"{path}[]", c) for c in _children(obj))
+
+
+def _moving_box(**kw: Any) -> Emulator:
+    emu = Emulator(6, **kw)
+    for code, params in ((11, bytes([8, 1])), (19, bytes([0])), (12, bytes([0]))):
+        emu.handle(code, params)
+    emu.handle(23, struct.pack("<10f", 0.4, -0.2, 0, 0, 0.1, 0, 0, 0.6, 4.0, 0))
+    emu.handle(21, struct.pack("<9f", 250, 0, 300, 3.1416, 0, 0, 100, 1000, 0))
+    emu.handle(142, struct.pack("<BBf", 2, 1, 0.5))  # a delayed output
+    emu.at(5.0, lambda: None)
+    emu.advance(0.3)
+    return emu
+
+
+BOXES = {
+    "xarm gripper": {},
+    "vacuum, track, F/T": {"vacuum": True, "linear_track": 700, "ft_sensor": True, "firmware": "2.7.103"},
+    "robotiq": {"gripper": "robotiq-2f85"},
+    "bio": {"gripper": "bio", "firmware": "2.7.103"},
+}
+
+
+@pytest.mark.parametrize("kw", BOXES.values(), ids=BOXES.keys())
+def test_every_mutable_value_is_in_the_state_tree_or_listed(kw: dict[str, Any]) -> None:
+    emu = _moving_box(**kw)
+    unlisted = sorted({f"{path}.{name} ({type(obj).__name__})" for path, obj, name in _outside(emu)
+                       if (type(obj).__name__, name) not in OUTSIDE})
+    assert unlisted == [], "mutable values outside the state tree (declare them in box_state.py):\n" + \
+        "\n".join(unlisted)
+
+
+@pytest.mark.parametrize("kw", BOXES.values(), ids=BOXES.keys())
+def test_the_components_work_on_the_trees_own_parts(kw: dict[str, Any]) -> None:
+    """Each component's ``data`` is the tree's part (so the tree is the state, not a copy of it),
+    also after a restore has replaced the tree."""
+    emu = _moving_box(**kw)
+    for _ in range(2):
+        st = emu.state
+        assert emu.controller.data is st.controller and emu.controller.settings is st.settings
+        assert emu.controller.executor.data is st.controller.motion
+        assert emu.io.data is st.io and emu.gripper.data is st.tool_bus
+        assert emu.gripper.gripper.data is st.xarm_gripper and emu.thermal.data is st.thermal
+        assert emu._scheduled is st.schedule.heap
+        for part in (emu.vacuum, emu.lite6_gripper):
+            assert part is None or part.tool is st.io.tool
+        emu.restore(emu.checkpoint())
+
+
+@pytest.mark.parametrize("kw", BOXES.values(), ids=BOXES.keys())
+def test_a_checkpoint_shares_no_mutable_object_with_the_live_box(kw: dict[str, Any]) -> None:
+    emu = _moving_box(**kw)
+    shared = _shared(emu)
+    cp = emu.checkpoint()
+    live = {i for i, o in _reach(emu.state, shared).items() if _mutable(o)}
+    kept = {i for i, o in _reach(cp.state, shared).items() if _mutable(o)}
+    assert live & kept == set()
+    emu.restore(cp)
+    assert {i for i, o in _reach(emu.state, shared).items() if _mutable(o)} & kept == set()
+
+
+def test_no_value_can_be_attached_to_a_part_of_the_state() -> None:
+    """Every dataclass of the tree is slotted: a value not declared in it cannot be set."""
+    emu = _moving_box(**BOXES["vacuum, track, F/T"])
+    parts = [emu.state, *(getattr(emu.state, f.name) for f in dataclasses.fields(box_state.EmulatorState))]
+    for part in parts:
+        if part is None:
+            continue
+        with pytest.raises(AttributeError):
+            part.undeclared = 1
