@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import struct
+from typing import Any
+
+import pytest
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol import reports
@@ -48,8 +51,11 @@ def _run(emu: Emulator) -> list[tuple[int, bytes, bytes, bytes, bytes]]:
     return out
 
 
-def test_restore_replays_byte_for_byte() -> None:
-    emu = Emulator(6)
+@pytest.mark.parametrize("kw", [{}, {"firmware": "2.7.103", "linear_track": 700, "ft_sensor": True},
+                                {"firmware": "2.7.103", "gripper": "bio", "vacuum": False}],
+                         ids=["1.6.0", "2.7.103-track-ft", "2.7.103-bio"])
+def test_restore_replays_byte_for_byte(kw: dict[str, Any]) -> None:
+    emu = Emulator(6, **kw)
     _prepare(emu)
     cp = emu.checkpoint()
     first = _run(emu)
@@ -91,3 +97,19 @@ def test_clear_faults_resets_the_fault_group_and_the_gripper_error() -> None:
     assert emu.gripper.gripper.error == 0
     status, reply = emu.handle(15, b"")
     assert reply == b"\x00\x00" and status & 0x60 == 0
+
+
+def test_restore_puts_the_schedule_back_where_it_was() -> None:
+    """Actions pending at the checkpoint (a fault schedule) run again after a restore; one scheduled
+    after the checkpoint is gone with the rest of that later state."""
+    emu = Emulator(6)
+    emu.at(0.5, lambda: emu.inject_warning(11))
+    emu.advance(0.2)
+    cp = emu.checkpoint()
+    emu.at(0.6, lambda: emu.inject_error(22))
+    emu.advance(1.0)
+    assert (emu.controller.warning_code, emu.controller.error_code) == (11, 22)
+    emu.restore(cp)
+    assert (emu.controller.warning_code, emu.controller.error_code) == (0, 0)
+    emu.advance(1.0)
+    assert (emu.controller.warning_code, emu.controller.error_code) == (11, 0)
