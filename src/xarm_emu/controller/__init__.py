@@ -6,6 +6,8 @@
 - :mod:`.handlers`: register handlers as plain functions, bound to codes in one table.
 - :mod:`.states`: the motion state machine (states, modes, events, transition table).
 - :mod:`.state`: :class:`~.state.ControllerState`, every mutable value of the controller.
+- :mod:`.box_state`: :class:`~.box_state.EmulatorState`, every mutable value of the box as one
+  tree (controller, settings, each component, Modbus user storage, schedule); checkpoints copy it.
 - :mod:`.settings`, :mod:`.config`: settable parameters and their saved files.
 - :mod:`.executor`, :mod:`.commands`, :mod:`.motion`, :mod:`.poses`: the command buffer and motion.
 - :mod:`.mode_steps`: modes 4-7 and 11 of register 19 (:mod:`.velocity` control, :mod:`.online`
@@ -23,7 +25,7 @@
   live box.
 """
 
-__all__ = ["base", "bio_gripper", "commands", "config", "contact", "core", "emulator", "executor", "faults",
+__all__ = ["base", "bio_gripper", "box_state", "commands", "config", "contact", "core", "emulator", "executor", "faults",
            "feedback", "force_control", "ft_sensor", "gripper", "handlers", "io", "linear_track",
            "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "poses", "reduced", "robotiq",
            "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum", "velocity"]
