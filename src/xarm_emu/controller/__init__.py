@@ -25,7 +25,8 @@
   live box.
 """
 
-__all__ = ["base", "bio_gripper", "box_state", "commands", "config", "contact", "core", "emulator", "executor", "faults",
-           "feedback", "force_control", "ft_sensor", "gripper", "handlers", "io", "linear_track",
-           "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "poses", "reduced", "robotiq",
-           "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum", "velocity"]
+__all__ = ["base", "bio_gripper", "box_state", "commands", "config", "contact", "core", "emulator",
+           "executor", "faults", "feedback", "force_control", "ft_sensor", "gripper", "handlers", "io",
+           "linear_track", "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "poses",
+           "reduced", "robotiq", "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum",
+           "velocity"]
