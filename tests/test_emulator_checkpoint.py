@@ -113,3 +113,12 @@ def test_restore_puts_the_schedule_back_where_it_was() -> None:
     assert (emu.controller.warning_code, emu.controller.error_code) == (0, 0)
     emu.advance(1.0)
     assert (emu.controller.warning_code, emu.controller.error_code) == (11, 0)
+
+
+def test_a_checkpoint_of_another_layout_is_refused_and_changes_nothing() -> None:
+    vacuum, plain = Emulator(6, vacuum=True), Emulator(6)
+    plain.advance(0.1)
+    before = reports.encode_rich(plain.snapshot())
+    with pytest.raises(ValueError, match="other components"):
+        plain.restore(vacuum.checkpoint())
+    assert reports.encode_rich(plain.snapshot()) == before

@@ -539,29 +539,27 @@ class Emulator:
         if self.linear_track is not None and state.linear_track is not None:
             self.linear_track.data = state.linear_track
 
-    def _memo(self) -> dict[int, object]:
-        """Objects a copy of the state shares instead of copying: the model, the controller and the
+    def _memo(self, state: EmulatorState) -> dict[int, object]:
+        """Objects a copy of ``state`` shares instead of copying: the model, the controller and the
         emulator (plans refer to the controller's pose functions, scheduled actions to the
         emulator) and the planned trajectories, which cannot be copied and never change once
         planned."""
-        memo = _shared_immutables(self.state)
+        memo = _shared_immutables(state)
         for shared in (self.model, self.controller, self):
             memo[id(shared)] = shared
         return memo
 
     def checkpoint(self) -> Checkpoint:
         """The whole emulator state as an independent deep copy (:class:`Checkpoint`)."""
-        return Checkpoint(copy.deepcopy(self.state, self._memo()))
+        state = self.state
+        return Checkpoint(copy.deepcopy(state, self._memo(state)))
 
     def restore(self, cp: Checkpoint) -> None:
         """Put the state of ``cp`` back exactly, as a whole; ``cp`` stays usable for further restores."""
         self.generation += 1
         if cp.state.layout() != self.state.layout():
             raise ValueError("checkpoint of an emulator with other components (grippers, linear track)")
-        memo = _shared_immutables(cp.state)
-        for shared in (self.model, self.controller, self):
-            memo[id(shared)] = shared
-        self._adopt(copy.deepcopy(cp.state, memo))
+        self._adopt(copy.deepcopy(cp.state, self._memo(cp.state)))
 
     # -- in-process API ------------------------------------------------------------------------
     @property
