@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 
-@dataclass
+@dataclass(slots=True)
 class Faults:
     """Error (section 3.2.1, 0 none), warning (3.2.2) and per-joint servo error codes (3.1)."""
 

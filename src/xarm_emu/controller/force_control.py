@@ -159,7 +159,7 @@ def admittance_update(x: np.ndarray, v: np.ndarray, wrench: np.ndarray, M: Seque
 
 # -- the force-control law -------------------------------------------------------------------------
 
-@dataclass
+@dataclass(slots=True)
 class Pid:
     """The force-control PID's memory: the error sum and the last error per axis."""
 
@@ -190,7 +190,7 @@ def force_update(pid: Pid, applied: np.ndarray, f_ref: Sequence[float], kp: Sequ
 
 # -- the per-period step ---------------------------------------------------------------------------
 
-@dataclass
+@dataclass(slots=True)
 class ForceControl:
     """The application of register 202 and what it runs on (in the controller's state)."""
 

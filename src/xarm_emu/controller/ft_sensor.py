@@ -108,7 +108,7 @@ class AppliedWrench:
         return np.asarray(self.wrench, dtype=float) * k
 
 
-@dataclass
+@dataclass(slots=True)
 class FtSensorState:
     """Everything of the sensor that changes: switches, external wrenches, drift, readings."""
 

@@ -90,7 +90,7 @@ def _volts_to_raw(volts: float, full_scale: float) -> int:
     return max(0, min(ANALOG_MAX, int(round(volts / full_scale * ANALOG_MAX))))
 
 
-@dataclass
+@dataclass(slots=True)
 class PendingIO:
     """A delayed (``due`` set) or position-triggered (``center`` set) output command."""
 

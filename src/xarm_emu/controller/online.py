@@ -37,7 +37,7 @@ SINCE = "2.0.0"
 
 
 
-@dataclass
+@dataclass(slots=True)
 class OnlinePlanner:
     """The target of mode 6 or 7 and the trajectory towards it."""
 

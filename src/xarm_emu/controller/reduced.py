@@ -24,7 +24,7 @@ import numpy as np
 from .base import C_JOINT_LIMIT, CommandError
 
 
-@dataclass
+@dataclass(slots=True)
 class ReducedMode:
     on: bool = False
     tcp_speed: float = 0.0  # mm/s

@@ -43,7 +43,7 @@ C = TypeVar("C", bound=type)
 RAMP_TIME = 0.2
 
 
-@dataclass
+@dataclass(slots=True)
 class PlanState:
     """The command buffer and the motion that runs from it (:class:`~.executor.Executor`)."""
 

@@ -107,7 +107,7 @@ def _finished(ctl: Any, origin: Any, register: int, code: int) -> None:
         fq.finish_other(origin, register, ctl.time, ok=code == 0)
 
 
-@dataclass
+@dataclass(slots=True)
 class TrajectoryStore:
     """Recording, the loaded trajectory, the files and the playback of one controller."""
 

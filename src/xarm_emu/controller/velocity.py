@@ -37,7 +37,7 @@ MODE_CARTESIAN_VELOCITY = 5
 REST = 1e-9
 
 
-@dataclass
+@dataclass(slots=True)
 class VelocityControl:
     """The commanded velocity of mode 4 or 5 and the arm's present velocity along the ramp."""
 

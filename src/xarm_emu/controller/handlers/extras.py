@@ -60,7 +60,7 @@ DH_PARAMS: dict[int, tuple[tuple[float, float, float, float], ...]] = {
 }
 
 
-@dataclass
+@dataclass(slots=True)
 class ExtraState:
     """The box's state behind these registers (one per controller, see :func:`extra_state`)."""
 

@@ -24,7 +24,7 @@ NOT_ENABLED = "the F/T sensor is not switched on (register 201)"
 ZEROS6 = (0.0,) * 6
 
 
-@dataclass
+@dataclass(slots=True)
 class FtConfig:
     """What registers 205 and 207-211 set, as register 212 reports it."""
 
