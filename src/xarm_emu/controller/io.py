@@ -538,17 +538,18 @@ class IOModule:
         return math.dist(closest, c) <= p.radius
 
     def step(self, dt: float, ctl: ControllerView) -> None:
-        self.now = ctl.time
+        d = self.data  # written through directly: this runs every period
+        d.now = ctl.time
         state = ctl.state
-        if state == STATE_STOP and self._last_state not in (None, STATE_STOP):
-            self.pending.clear()
-            if self.cgpio_reset_on_stop:
-                self.cgpio.general_outputs = 0
-            if self.tgpio_reset_on_stop:
-                self.tool.digital_outputs = 0
-        self._last_state = state
-        if not self.pending:  # nothing delayed (the usual period)
-            self._last_tcp = None
+        if state == STATE_STOP and d._last_state not in (None, STATE_STOP):
+            d.pending.clear()
+            if d.cgpio_reset_on_stop:
+                d.cgpio.general_outputs = 0
+            if d.tgpio_reset_on_stop:
+                d.tool.digital_outputs = 0
+        d._last_state = state
+        if not d.pending:  # nothing delayed (the usual period)
+            d._last_tcp = None
             self.cgpio.update_functions(ctl)
             return
         if not any(p.due is None for p in self.pending):
