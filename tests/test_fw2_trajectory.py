@@ -187,6 +187,14 @@ def test_recording_stops_at_its_longest(tmp_path: Path, monkeypatch: pytest.Monk
     assert len(trajectory.store_of(emu.controller).recorded) == round(0.2 / emu.controller.period) + 1
 
 
+def _recording(emu: Emulator) -> RecordingFeedback:
+    """Put a :class:`RecordingFeedback` in the place of ``emu``'s own feedback queue."""
+    fb = RecordingFeedback()
+    components = emu.controller.components
+    components[components.index(emu.feedback)] = fb  # type: ignore[call-overload]
+    return fb
+
+
 class RecordingFeedback:
     """Stands in for the controller's feedback queue: records what trajectory tasks report."""
 
@@ -216,8 +224,7 @@ class RecordingFeedback:
 
 def test_save_load_and_playback_report_other_start_and_finish_to_their_origin(tmp_path: Path) -> None:
     emu = _emu(tmp_path)
-    fb = RecordingFeedback()
-    emu.controller.add_component(fb)  # type: ignore[arg-type]
+    fb = _recording(emu)
     record(emu, 0.5)
     call(emu, 62, filename="a")
     call(emu, 63, filename="missing")
@@ -239,8 +246,7 @@ def test_save_load_and_playback_report_other_start_and_finish_to_their_origin(tm
 
 def test_leaving_mode_11_ends_the_playback_unfinished(tmp_path: Path) -> None:
     emu = _emu(tmp_path)
-    fb = RecordingFeedback()
-    emu.controller.add_component(fb)  # type: ignore[arg-type]
+    fb = _recording(emu)
     record(emu, 0.5)
     call(emu, 62, filename="a")
     call(emu, 63, filename="a")

@@ -37,6 +37,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Emulator", "lite6_gripper"): WIRING,
     ("Emulator", "linear_track"): WIRING,
     ("Emulator", "thermal"): WIRING,
+    ("Emulator", "feedback"): WIRING,
     ("Emulator", "modbus"): WIRING,  # the tree's part (checked to be the tree's own object)
     ("Emulator", "schedule"): WIRING,  # idem
     ("Emulator", "_scheduled"): WIRING,  # the schedule's heap
@@ -101,6 +102,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("ThermalModel", "_k"): FIXED,
     ("ThermalModel", "_idle"): FIXED,
     ("FtSensorComponent", "ctl"): WIRING,
+    ("FeedbackQueue", "data"): WIRING,
 }
 
 _ATOMS = (int, float, str, bytes, bool, complex, type(None), types.FunctionType, types.BuiltinFunctionType,
@@ -220,6 +222,10 @@ def test_the_components_work_on_the_trees_own_parts(kw: dict[str, Any]) -> None:
         assert emu.io.data is st.io and emu.gripper.data is st.tool_bus
         assert emu.gripper.gripper.data is st.xarm_gripper and emu.thermal.data is st.thermal
         assert emu._scheduled is st.schedule.heap
+        if emu.feedback is None:
+            assert st.feedback is None
+        else:
+            assert emu.feedback.data is st.feedback
         for part in (emu.vacuum, emu.lite6_gripper):
             assert part is None or part.tool is st.io.tool
         emu.restore(emu.checkpoint())

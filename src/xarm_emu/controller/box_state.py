@@ -6,9 +6,10 @@ servo target, F/T sensor and contact scene, reduced mode, force, velocity and on
 trajectories, the less common registers), its :class:`~.settings.Settings` (registers 31-79), and
 one state object per component (IO, the tool RS-485 bridge's timeouts, the xArm gripper, the
 device on the tool bus, vacuum and Lite 6 grippers, linear track, thermal model), the Modbus-TCP
-user storage and the pending scheduled actions. Everything else an :class:`~.emulator.Emulator`
-holds is fixed at construction (model, firmware, serial numbers, wiring between components) or
-derived from this tree (caches); ``tests/test_state_tree.py`` walks the emulator and checks it.
+user storage, the feedback queue of firmware 2.x and the pending scheduled actions. Everything
+else an :class:`~.emulator.Emulator` holds is fixed at construction (model, firmware, serial
+numbers, wiring between components) or derived from this tree (caches);
+``tests/test_state_tree.py`` walks the emulator and checks it.
 
 A checkpoint is this tree copied as a whole, and restoring one hands every part back to its
 component as a whole (:meth:`~.emulator.Emulator.restore`), like MuJoCo's ``mjData`` beside the
@@ -26,6 +27,7 @@ from dataclasses import dataclass, field
 
 from ..protocol.modbus import POINTS
 from .bio_gripper import BioGripperState
+from .feedback import FeedbackState
 from .gripper import ToolBusState, XArmGripperState
 from .io import IOState
 from .linear_track import LinearTrackState
@@ -86,8 +88,11 @@ class EmulatorState:
     vacuum: VacuumState | None = None
     lite6_gripper: Lite6GripperState | None = None
     linear_track: LinearTrackState | None = None
+    #: The feedback queue of firmware 2.x (registers 253/254 and the 0xFF frames' events).
+    feedback: FeedbackState | None = None
 
     def layout(self) -> tuple[type | None, ...]:
         """Which optional parts the box has, by type: two states of one layout fit one emulator."""
         return tuple(None if x is None else type(x)
-                     for x in (self.tool_device, self.vacuum, self.lite6_gripper, self.linear_track))
+                     for x in (self.tool_device, self.vacuum, self.lite6_gripper, self.linear_track,
+                               self.feedback))

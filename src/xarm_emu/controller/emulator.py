@@ -34,6 +34,7 @@ from .bio_gripper import BioGripper
 from .box_state import EmulatorState, ModbusUserState, Schedule
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
+from .feedback import FeedbackQueue, feedback_queue, find_feedback_queue
 from .gripper import GripperModule, ToolDevice
 from .io import IOModule
 from .linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
@@ -235,6 +236,10 @@ class Emulator:
             self.controller.add_component(track)
             self.gripper.box_devices = lambda: (
                 {TRACK_ID: track} if self.io.tool.baud_index[CONTROL_BOX_HOST] == TRACK_BAUD_INDEX else {})
+        #: The feedback queue of firmware 2.x (registers 253/254, 0xFF frames), part of the box
+        #: from the start so that every checkpoint holds it.
+        self.feedback: FeedbackQueue | None = (feedback_queue(self.controller) if self.firmware.feedback
+                                               else None)
         #: Changes whenever anything a register or a report could show may have changed (every
         #: command, control period and change from outside the protocol), so readers can key
         #: derived values on it instead of being told to forget them.
@@ -516,7 +521,8 @@ class Emulator:
             tool_device=None if g.device is g.gripper else g.device.data,
             vacuum=None if self.vacuum is None else self.vacuum.data,
             lite6_gripper=None if self.lite6_gripper is None else self.lite6_gripper.data,
-            linear_track=None if self.linear_track is None else self.linear_track.data)
+            linear_track=None if self.linear_track is None else self.linear_track.data,
+            feedback=None if (fq := find_feedback_queue(ctl)) is None else fq.data)
 
     def _adopt(self, state: EmulatorState) -> None:
         """Make ``state`` the box's state, each part handed to its component as a whole."""
@@ -538,6 +544,8 @@ class Emulator:
             self.lite6_gripper.tool = self.io.tool
         if self.linear_track is not None and state.linear_track is not None:
             self.linear_track.data = state.linear_track
+        if (fq := find_feedback_queue(ctl)) is not None and state.feedback is not None:
+            fq.data = state.feedback
 
     def _memo(self, state: EmulatorState) -> dict[int, object]:
         """Objects a copy of ``state`` shares instead of copying: the model, the controller and the

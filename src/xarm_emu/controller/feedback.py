@@ -25,13 +25,14 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from ..protocol.feedback import Feedback, FeedbackCode, FeedbackType
 from ..protocol.frame import PROTOCOL_PRIVATE_V3
 from .base import NOT_IDLE, ControllerView, Handler
 from .commands import CircleMove, Dwell, JointMove, LineMove
+from .state import holds
 
 #: Queued task classes that move the arm (MOTION_START/MOTION_FINISH); any other queued task is a
 #: non-motion task (TRIGGER).
@@ -94,10 +95,29 @@ class _Check:
     task_id: int
 
 
+@dataclass(slots=True)
+class FeedbackState:
+    """Every mutable value of the feedback queue (power-on values: :class:`FeedbackQueue`)."""
+
+    masks: dict[int, int] = field(default_factory=dict)
+    _origin: tuple[int, int, int] | None = None
+    _register: int = 0
+    _codes_before: tuple[int, int] = (0, 0)
+    _last_before: Any = None
+    _tasks: list[_Task] = field(default_factory=list)
+    _checks: list[_Check] = field(default_factory=list)
+    _events: deque[FeedbackEvent] = field(default_factory=deque)
+    _task_id: int = 0
+    _seen: tuple[int, int, int] = (0, 0, 0)
+    dropped: int = 0
+
+
+@holds(FeedbackState)
 class FeedbackQueue:
     """Per-connection masks, the watched tasks and the events not yet drained (module docstring)."""
 
     def __init__(self) -> None:
+        self.data = FeedbackState()
         #: connection -> register-254 mask (0 until the connection sets one)
         self.masks: dict[int, int] = {}
         self._origin: tuple[int, int, int] | None = None  # (client, tid, protocol) of the request
