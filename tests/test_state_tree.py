@@ -262,3 +262,15 @@ def test_no_value_can_be_attached_to_a_part_of_the_state(kw: dict[str, Any]) -> 
             obj.undeclared = 1  # type: ignore[attr-defined]
         checked.add(type(obj).__name__)
     assert {"EmulatorState", "ControllerState", "PlanState", "Settings", "IOState"} <= checked
+
+
+def test_serving_a_box_adds_nothing_outside_the_tree() -> None:
+    """The server attaches its feedback queue, report streams and admin channel without leaving a
+    value on the emulator that the tree does not hold."""
+    from xarm_emu.testing import running_emulator
+
+    with running_emulator(6, firmware="2.7.103", admin=True, linear_track=700, ft_sensor=True) as st:
+        emu = st.emulator
+        unlisted = st.call(lambda: sorted({f"{path}.{name}" for path, obj, name in _outside(emu)
+                                           if (type(obj).__name__, name) not in OUTSIDE}))
+    assert unlisted == []
