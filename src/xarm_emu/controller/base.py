@@ -84,6 +84,13 @@ class CommandFailed(Exception):
     """The command cannot be carried out now (reply bit 0x08, the SDK's code 10); nothing changes."""
 
 
+class NotReady(Exception):
+    """A motion command while the arm cannot move: nothing queued, no warning, the reply shows 0x10."""
+
+    def __init__(self) -> None:
+        super().__init__("arm not ready for motion")
+
+
 class CommandError(Exception):
     """Raise a control box error (0x40 in the reply, state 4)."""
 

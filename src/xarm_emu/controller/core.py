@@ -44,6 +44,7 @@ from .base import (
     Component,
     Handler,
     Hooks,
+    NotReady,
     ParameterError,
 )
 from .commands import QueuedCommand
@@ -628,8 +629,3 @@ def _never_idle(ctl: Controller) -> bool:
     return False
 
 
-class NotReady(Exception):
-    """A motion command while the arm cannot move: nothing queued, no warning, the reply shows 0x10."""
-
-    def __init__(self) -> None:
-        super().__init__("arm not ready for motion")

@@ -24,7 +24,7 @@ import numpy as np
 from ..model import kinematics as kin
 from ..model import rotations as rot
 from . import motion, reduced
-from .base import C_JOINT_LIMIT, C_KINEMATIC, CommandError, ParameterError, Values
+from .base import C_JOINT_LIMIT, C_KINEMATIC, CommandError, NotReady, ParameterError, Values
 from .poses import wire_pose_to_matrix
 from .settings import in_range
 from .states import STATE_MOVING, STATE_SLEEP, Event, fire
@@ -68,8 +68,6 @@ def available(ctl: Any) -> bool:
 
 
 def _require(ctl: Any, mode: int) -> None:
-    from .core import NotReady
-
     if ctl.error_code or not ctl.ready or ctl.mode != mode:
         raise NotReady()
 
