@@ -23,7 +23,6 @@ from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
 from xarm_emu.protocol.registers import REGISTERS
 from xarm_emu.protocol.reports import encoders_for
-from xarm_emu.server.report_ports import firmware2_fields
 
 
 def call(emu: Emulator, code: int, **values: Any) -> tuple[int, dict[str, Any]]:
@@ -297,6 +296,4 @@ def report_frames(emu: Emulator) -> tuple[bytes, ...]:
     as the report ports do (firmware 2.x fields included)."""
     profile = emu.firmware
     snap = emu.snapshot()
-    if profile.version.major >= 2:
-        snap = firmware2_fields(emu, snap)
     return tuple(enc(snap) for _, enc in sorted(encoders_for(profile).items()))

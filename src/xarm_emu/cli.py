@@ -176,6 +176,9 @@ def serve(
     cfg.limits = Limits(max_connections=max_connections, frame_timeout=frame_timeout, backlog=backlog)
     cfg.trace_max_bytes = trace_max_bytes
     cfg.report_priority = report_priority
+    from .server.report_sender import tune_process
+
+    tune_process()  # a process that only serves arms: the report sender's interpreter settings
     try:
         profile = profile_for(firmware)
     except VersionError as exc:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import hmac
 import logging
+import threading
 from typing import Any, Protocol
 
 from ..controller.config import admin_token_path
@@ -27,6 +28,8 @@ class AdminHost(AdminTarget, Protocol):
     admin_clients: set[AdminProtocol]
     #: Every request must carry it (``"token"``); ``None``: none required.
     admin_token: str | None
+
+    lock: threading.RLock
 
     def catch_up(self) -> int: ...
 
@@ -76,9 +79,10 @@ class AdminProtocol(asyncio.Protocol):
                                f"{admin_token_path()} (readable by the emulator's user only)")
         else:
             request.pop("token", None)
-        self.server.catch_up()  # the fault lands after every control period that has elapsed
         try:
-            message = execute(self.server, request)
+            with self.server.lock:  # the arm's lock: no report frame is made half-way through
+                self.server.catch_up()  # the fault lands after every control period that has elapsed
+                message = execute(self.server, request)
         except AdminError as exc:
             return refused(str(exc))
         log.info("admin: %s", message)
