@@ -523,6 +523,16 @@ class EmulatorServer:
                             loop.call_soon_threadsafe(self.deliver_feedback)
             return n
 
+    def in_loop(self, fn: Callable[[], object]) -> None:
+        """Run ``fn`` now when called on the event loop's thread, else soon on the loop (an action
+        scheduled on the emulator that touches connections may run while the report sender steps)."""
+        loop = self._loop
+        if loop is None or threading.get_ident() == self._loop_thread:
+            fn()
+            return
+        with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
+            loop.call_soon_threadsafe(fn)
+
     def report_instant(self, deadline: float, interval: float) -> bool:
         """The report sender, under :attr:`lock`, before it encodes the frame due at ``deadline``
         (perf_counter seconds) of a stream of period ``interval``: run the control periods due by
