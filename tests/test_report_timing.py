@@ -410,3 +410,31 @@ def test_an_arm_at_rest_needs_no_loop_for_its_frames_and_a_change_still_shows(ma
         srv.call(lambda: emu.inject_error(22))
         got = frames.first_frame_from(frames.received())
     assert got[4] & 0x0F == 4
+
+
+def test_a_library_user_s_process_keeps_its_interpreter_settings() -> None:
+    """Importing the package, making an ``Emulator`` and serving it with a report reader (as a
+    user's test suite that embeds the emulator does) changes no interpreter-wide setting: the
+    switch interval, the garbage collector's frozen objects and the sender's scheduling stay as they
+    were; only ``tune_process`` (which ``serve`` calls) changes them."""
+    code = """
+import gc, os, socket, sys, time
+before = sys.getswitchinterval()
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.server.app import ServerConfig, ServerThread
+from xarm_emu.server import report_sender
+st = ServerThread(Emulator(6), ServerConfig(port=0, normal_port=0, rich_port=0, develop_port=0)).start()
+with socket.create_connection(("127.0.0.1", st.ports["develop"])) as s:
+    s.recv(87)
+    (t,) = [t for t in __import__("threading").enumerate() if t.name == "xarm-emu-reports"]
+    policy = os.sched_getscheduler(t.native_id) if hasattr(os, "sched_getscheduler") else 0
+    print(sys.getswitchinterval() == before, gc.get_freeze_count(), policy)
+st.stop()
+report_sender.tune_process()
+print(sys.getswitchinterval() < before, gc.get_freeze_count() > 0)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    first, second = out.stdout.split("\n")[:2]
+    assert first == f"True 0 {getattr(os, 'SCHED_OTHER', 0)}", first
+    assert second == "True True", second
