@@ -240,14 +240,15 @@ def report_frames_in(port: int, seconds: float) -> int:
     return got
 
 
-def read_frames(sock: socket.socket, seconds: float, poll: float = 0.05) -> list[tuple[float, bytes]]:
-    """Report frames (arrival time, bytes) read for ``seconds``, each cut at the length it starts
-    with (manual 2.1.6), waiting at most ``poll`` s per read."""
+def read_frames(sock: socket.socket, seconds: float, poll: float = 0.05,
+                stop: Callable[[], bool] = lambda: False) -> list[tuple[float, bytes]]:
+    """Report frames (arrival time, bytes) read for ``seconds`` or until ``stop()``, each cut at the
+    length it starts with (manual 2.1.6), waiting at most ``poll`` s per read."""
     out = []
     end = time.monotonic() + seconds
     buf = b""
     sock.settimeout(poll)
-    while time.monotonic() < end:
+    while time.monotonic() < end and not stop():
         try:
             chunk = sock.recv(65536)
         except TimeoutError:

@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import math
 import socket
-import struct
 import threading
 import time
 from typing import Any
 
 import pytest
-from helpers import sdk_ready
+from helpers import read_frames, sdk_ready
 
 from xarm_emu.protocol import reports
 
@@ -29,23 +28,7 @@ class _Reader(threading.Thread):
         self.stop = threading.Event()
 
     def run(self) -> None:
-        buf = b""
-        self.sock.settimeout(0.05)
-        while not self.stop.is_set():
-            try:
-                chunk = self.sock.recv(65536)
-            except TimeoutError:
-                continue
-            if not chunk:
-                return
-            now = time.monotonic()
-            buf += chunk
-            while len(buf) >= 4:
-                (size,) = struct.unpack(">I", buf[:4])
-                if len(buf) < size:
-                    break
-                self.frames.append((now, buf[:size]))
-                buf = buf[size:]
+        self.frames = read_frames(self.sock, math.inf, stop=self.stop.is_set)
 
     def close(self) -> None:
         self.stop.set()
