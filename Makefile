@@ -29,7 +29,7 @@ test: $(STAMP)
 	$(PY) -m pytest $(PYTEST_ARGS)
 
 bench: $(STAMP)
-	$(PY) -m bench
+	$(PY) -m bench --against $(or $(LANDED),main)
 
 # Random exploration beyond the deterministic examples of `make test` (FUZZ_SCALE times as many).
 FUZZ_SCALE ?= 25

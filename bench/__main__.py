@@ -1,6 +1,8 @@
 """Run every ``bench/bench_*.py`` module's ``run() -> list[str]`` and print its lines.
 
-``python -m bench`` runs them all; ``python -m bench roundtrip reports`` runs only those named.
+``python -m bench`` runs them all; ``python -m bench roundtrip reports`` runs only those named;
+``python -m bench --against main ...`` runs the same modules of the landed code (git revision
+``main``) first and prints each figure beside the landed one, with their ratio (:mod:`bench.against`).
 """
 
 from __future__ import annotations
@@ -20,6 +22,14 @@ def modules(selected: list[str]) -> list[str]:
 
 
 def main(argv: list[str]) -> int:
+    landed: list[str] | None = None
+    if argv[:1] == ["--against"] and len(argv) >= 2:
+        from bench.against import landed_lines, landed_tree
+
+        ref, argv = argv[1], argv[2:]
+        print(f"== the landed code ({ref}) first", flush=True)
+        with landed_tree(ref) as tree:
+            landed = landed_lines(tree, argv)
     failed = 0
     for name in modules(argv):
         print(f"== {name}", flush=True)
@@ -32,7 +42,13 @@ def main(argv: list[str]) -> int:
             failed += 1
             continue
         for line in lines:
-            print(f"  {line}", flush=True)
+            if landed is None:
+                print(f"  {line}", flush=True)
+                continue
+            from bench.against import compared
+
+            for out in compared(f"  {line}", landed):
+                print(out, flush=True)
         print(f"  ({time.perf_counter() - t0:.1f} s)", flush=True)
     return 1 if failed else 0
 

@@ -4,9 +4,9 @@ measured in the same run:
 - **arms per machine**: the largest fleet of xArm6 (searching upward through :data:`FLEET_SIZES`) for
   which every arm's develop-report reader (manual 2.1.6, 100 Hz) gets at least :data:`MIN_RATE`
   frames/s over :data:`SECONDS` s, the arms over the default workers (one per CPU), every reader in
-  this process. Target: >= 60 on a 2-CPU machine. The rate alone counts stale frames too (sent on
-  time with the state prepared for an earlier deadline, the worker too busy to prepare them), so
-  each line also gives the share of stale frames the workers counted, and the search ends with the
+  this process. Target: >= 60 on a 2-CPU machine. The rate alone counts late frames too (written
+  more than a control period after their deadline, the worker too busy to make them in time), so
+  each line also gives the share of late frames the workers counted, and the search ends with the
   largest fleet with at most ``STALE_WARN`` of them; and how long the fleet took to stop.
 - **CPU per idle arm**: process CPU time of one worker serving :data:`IDLE_ARMS` arms nobody is
   connected to, against one worker serving one arm, both running at once; (difference / extra
@@ -153,16 +153,16 @@ def arms_per_machine() -> tuple[int, list[str]]:
         fresh = stale <= STALE_WARN and len(counts) == workers
         ok = worst >= MIN_RATE
         lines.append(f"{n:3d} arms over {workers} workers: slowest reader {worst:6.1f} frames/s, mean "
-                     f"{sum(rates) / len(rates):6.1f}; {100 * stale:.1f} % of frames stale; workers at "
+                     f"{sum(rates) / len(rates):6.1f}; {100 * stale:.1f} % of frames late; workers at "
                      + ", ".join(f"{c:.0f}" for c in cpu) + f" % of a core; stopped in {t_stop:.2f} s"
                      + ("" if worst >= MIN_RATE else " (below 99)")
-                     + ("" if fresh else f" (over {100 * STALE_WARN:.0f} % stale)"))
+                     + ("" if fresh else f" (over {100 * STALE_WARN:.0f} % late)"))
         if not ok:
             break
         best = n
         if fresh:
             best_fresh = n
-    lines.append(f"largest fleet whose frames were also fresh (at most {100 * STALE_WARN:.0f} % stale): "
+    lines.append(f"largest fleet whose frames were also fresh (at most {100 * STALE_WARN:.0f} % late): "
                  f"{best_fresh}")
     return best, lines
 

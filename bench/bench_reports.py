@@ -110,6 +110,8 @@ _CHILD = PIN_SERVER + """
 import json, sys, time
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerConfig, ServerThread
+from xarm_emu.server.report_sender import tune_process
+tune_process()  # as xarm-emu serve does
 prio = None if sys.argv[2] == 'default' else int(sys.argv[2])
 cfg = ServerConfig(port=0, normal_port=0, rich_port=0, develop_port=0, report_priority=prio)
 st = ServerThread(Emulator(6), cfg, use_uvloop=sys.argv[1] == "1").start()
@@ -122,7 +124,7 @@ def arm():
 st.call(arm)
 sys.stdin.readline()
 print(json.dumps(st.call(lambda: (st.server.frame_times["develop"], list(stream.lateness),
-                                  st.server.reports.frames_stale["develop"]))), flush=True)
+                                  st.server.reports.frames_late["develop"]))), flush=True)
 st.stop()
 """
 
@@ -278,7 +280,7 @@ def run() -> list[str]:
                 floor_met += _ok(floor)
                 ratios.append(server[1] / max(floor[1], 1e-6))
                 lines.append(f"{name} run {k + 1}: sent {_ms(server)}, lateness p99 {late99 * 1e3:.3f} ms, "
-                             f"{stale} stale; received {_ms(client)}; idle process {_ms(floor)}; "
+                             f"{stale} late; received {_ms(client)}; idle process {_ms(floor)}; "
                              f"servoj {servo / (SECONDS + 0.5):.0f}/s")
             runs = RUNS if not use_uvloop else 2
             lines.append(f"{name}: {met}/{runs} runs on target (idle process: {floor_met}/{runs}); "

@@ -23,7 +23,6 @@ from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import STATE_ERROR, STATE_NOT_READY, STATE_WARNING
 from xarm_emu.protocol.registers import REGISTERS
 from xarm_emu.protocol.reports import encoders_for
-from xarm_emu.server.report_ports import firmware2_fields
 
 
 def call(emu: Emulator, code: int, **values: Any) -> tuple[int, dict[str, Any]]:
@@ -241,14 +240,15 @@ def report_frames_in(port: int, seconds: float) -> int:
     return got
 
 
-def read_frames(sock: socket.socket, seconds: float, poll: float = 0.05) -> list[tuple[float, bytes]]:
-    """Report frames (arrival time, bytes) read for ``seconds``, each cut at the length it starts
-    with (manual 2.1.6), waiting at most ``poll`` s per read."""
+def read_frames(sock: socket.socket, seconds: float, poll: float = 0.05,
+                stop: Callable[[], bool] = lambda: False) -> list[tuple[float, bytes]]:
+    """Report frames (arrival time, bytes) read for ``seconds`` or until ``stop()``, each cut at the
+    length it starts with (manual 2.1.6), waiting at most ``poll`` s per read."""
     out = []
     end = time.monotonic() + seconds
     buf = b""
     sock.settimeout(poll)
-    while time.monotonic() < end:
+    while time.monotonic() < end and not stop():
         try:
             chunk = sock.recv(65536)
         except TimeoutError:
@@ -297,6 +297,4 @@ def report_frames(emu: Emulator) -> tuple[bytes, ...]:
     as the report ports do (firmware 2.x fields included)."""
     profile = emu.firmware
     snap = emu.snapshot()
-    if profile.version.major >= 2:
-        snap = firmware2_fields(emu, snap)
     return tuple(enc(snap) for _, enc in sorted(encoders_for(profile).items()))

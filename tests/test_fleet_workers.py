@@ -243,7 +243,7 @@ def test_a_stopped_worker_reports_its_frames_and_warns_when_it_was_saturated(tmp
         assert got >= 87 * 30  # 100 Hz develop frames of 87 bytes (manual 2.1.6)
         assert fleet.stop() == 0
         m = fleet.wait_line(re.compile(r"fleet worker 1 \(arms 1\): (\d+) report frames sent, "
-                                       r"([\d.]+) % with an earlier deadline's state, (\d+) missed"))
+                                       r"([\d.]+) % late by over a control period, (\d+) missed"))
     assert int(m[1]) >= 30 and float(m[2]) <= 100 * STALE_WARN and int(m[3]) == 0, m[0]
     # the line's verdict follows the counts
     level, text = report_counts_message(2, "5, 6", ReportCounts(sent=1000, stale=80, missed=0))

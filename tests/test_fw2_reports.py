@@ -201,7 +201,6 @@ def test_rich_report_carries_the_reduced_mode_and_motion_flags_the_registers_set
     flags of registers 66 and 80, as registers 53 and the SDK's report parser read them."""
     from xarm_emu.controller.emulator import Emulator
     from xarm_emu.protocol import reports
-    from xarm_emu.server.report_ports import firmware2_fields
 
     emu = Emulator(6, firmware="2.7.103")
     table = emu.controller.registers
@@ -211,7 +210,7 @@ def test_rich_report_carries_the_reduced_mode_and_motion_flags_the_registers_set
         values = {f.name: values.get(f.name, 1) for f in layout.fields}
         state, _ = emu.handle(code, layout.encode(values))
         assert state & 0x60 == 0, code
-    frame = reports.encode_rich2(firmware2_fields(emu, emu.snapshot()))
+    frame = reports.encode_rich2(emu.snapshot())  # the 2.x fields included
     got = reports.decode_rich2(frame)
     assert got.reduced_mode is True
     assert got.reduced_max_tcp_speed == pytest.approx(250.0)

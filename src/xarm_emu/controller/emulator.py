@@ -35,6 +35,7 @@ from .box_state import EmulatorState, ModbusUserState, Schedule
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .feedback import FeedbackQueue, feedback_queue, find_feedback_queue
+from .firmware2_report import firmware2_fields
 from .gripper import GripperModule, ToolDevice
 from .io import IOModule
 from .linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
@@ -506,6 +507,8 @@ class Emulator:
             snap.ft_ext_force = tuple(float(x) for x in ft_sensor.reading(c))
             snap.ft_raw_force = tuple(float(x) for x in ft_sensor.raw_reading(c))
             snap.ft_enabled = True
+        if not self.firmware.is_v1:  # what the 2.x frames carry beyond the manual's
+            firmware2_fields(c, snap)
         return snap
 
     # -- checkpoint and restore (no real control box has these) ---------------------------------

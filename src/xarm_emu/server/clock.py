@@ -55,6 +55,16 @@ class ScaledClock:
         self.quiet_until = self.next_wall() - QUIET_MARGIN
         return n
 
+    @property
+    def steps(self) -> int:
+        """Steps run (or handed out by :meth:`due`) since :meth:`start`."""
+        return self._steps
+
+    def steps_at(self, wall: float) -> int:
+        """Steps due by ``wall`` since :meth:`start`: the control period of that instant."""
+        assert self._wall0 is not None
+        return int((wall - self._wall0) * self.speed / self.period)
+
     def next_wall(self) -> float:
         """Wall time at which the next step falls due."""
         return self.wall_after(0)

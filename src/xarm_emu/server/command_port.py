@@ -124,7 +124,6 @@ class CommandTarget(Protocol):
 
     def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
 
-    def settle_reports(self) -> None: ...
 
     def disk_job(self) -> concurrent.futures.Future[Any] | None: ...
 
@@ -375,9 +374,7 @@ class CommandProtocol(asyncio.Protocol):
             self.server.scheduler.wake(self)
 
     def _reply(self, transport: asyncio.Transport, payload: bytes) -> None:
-        """One write per read, now or after the injected reply delay; report frames prepared before
-        these requests were answered are prepared again first."""
-        self.server.settle_reports()
+        """One write per read, now or after the injected reply delay."""
         delay = self.server.reply_delay
         if delay > 0.0:
             asyncio.get_running_loop().call_later(delay, self._send, payload)

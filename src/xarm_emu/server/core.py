@@ -22,9 +22,9 @@ import contextlib
 import errno
 import io
 import logging
-import math
 import os
 import socket
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -45,7 +45,7 @@ from .command_port import PURE_READS, CommandProtocol, ReadCache
 from .disk import DiskWorker
 from .fairness import BurstLog, CommandScheduler, Limits
 from .logs import CodeWatch
-from .report_ports import ALL_KIND_PORTS, REALTIME_KIND, ReportStreams, firmware2_fields
+from .report_ports import ALL_KIND_PORTS, REALTIME_KIND, ReportStreams
 from .trace import CommandTrace
 
 log = logging.getLogger("xarm_emu.server")
@@ -92,9 +92,10 @@ class ServerConfig:
     #: Connection caps, the partial-frame timeout and the listen backlog (server/fairness.py).
     limits: Limits = field(default_factory=Limits)
     #: Real-time (SCHED_FIFO) priority of the process's report sender thread, 1-99 (Linux, needs the
-    #: privilege); 0: normal scheduling; None: ``report_sender.DEFAULT_PRIORITY`` where the system
-    #: allows it, else normal scheduling without a warning.
-    report_priority: int | None = None
+    #: privilege); 0 (the default of a server made in a library user's process): normal scheduling;
+    #: None (``serve``'s default): ``report_sender.DEFAULT_PRIORITY`` where the system allows it,
+    #: else normal scheduling without a warning.
+    report_priority: int | None = 0
 
 
 class Attachment(Protocol):
@@ -247,9 +248,11 @@ class EmulatorServer:
         defaults = reports.rates_for(profile)
         rates = {kind: defaults[port] for kind, port in ALL_KIND_PORTS.items() if port in defaults}
         rates.update(self.config.report_rates)
-        self.reports = ReportStreams(self._report_snapshot, self.reports_paused, rates, profile,
-                                     self._report_revision, current_revision=lambda: emulator.revision,
-                                     horizon=self._report_horizon)
+        #: The arm's lock: whoever advances, commands or reads the emulator holds it (the event
+        #: loop for commands, admin requests and its catch-ups; the report sender for each frame).
+        self.lock = threading.RLock()
+        self.reports = ReportStreams(lambda: emulator.snapshot(), self.reports_paused, rates, profile,
+                                     lambda: emulator.revision, instant=self.report_instant, lock=self.lock)
         #: The controller's feedback events (firmware >= 2.0.102), else ``None``.
         self.feedback: FeedbackQueue | None = (feedback_queue(emulator.controller) if profile.feedback
                                                else None)
@@ -262,11 +265,10 @@ class EmulatorServer:
         self.ports: dict[str, int] = {}
         #: Seconds each command reply waits (fault injection ``reply-delay``; 0: none).
         self.reply_delay = 0.0
-        self._report_pause_until = 0.0  # fault injection: loop time until which reports pause
+        self._report_pause_until = 0.0  # fault injection: monotonic time until which reports pause
+        self._loop_thread = 0  # the event loop's thread (start())
         self._stopped = asyncio.Event()
         self._read_cache = ReadCache()
-        #: A command may have changed the box since the report frames were last prepared.
-        self._touched = False
         self._loop: asyncio.AbstractEventLoop | None = None
         #: name -> factory of what the composer attached; started by start() (:meth:`attach`).
         self._attach: dict[str, Callable[[], Attachment]] = {}
@@ -347,11 +349,12 @@ class EmulatorServer:
         if fut.done():
             return
         if job.exception() is not None and len(frame) > 7:
-            self.catch_up()
-            ctl = self.emulator.controller
-            ctl.raise_warning(WARN_PARAMETER)
-            self.emulator.touch()
-            frame = frame[:7] + bytes([ctl.status_byte()]) + frame[8:]
+            with self.lock:
+                self.catch_up()
+                ctl = self.emulator.controller
+                ctl.raise_warning(WARN_PARAMETER)
+                self.emulator.touch()
+                frame = frame[:7] + bytes([ctl.status_byte()]) + frame[8:]
         fut.set_result(frame)
 
     def health(self) -> dict[str, Any]:
@@ -394,7 +397,7 @@ class EmulatorServer:
 
     @property
     def report_pause_until(self) -> float:
-        """Loop time until which no report frame goes out (fault injection ``report-pause``)."""
+        """Monotonic time until which no report frame goes out (fault injection ``report-pause``)."""
         return self._report_pause_until
 
     def clear_delays(self) -> None:
@@ -433,36 +436,6 @@ class EmulatorServer:
         """Have :meth:`start` build ``factory()`` after the ports are open, start it, and record its
         port under ``name`` in :attr:`ports`; :meth:`close` stops it."""
         self._attach[name] = factory
-
-    def _report_revision(self) -> int:
-        """The box's revision (``Emulator.revision``) after the due control periods."""
-        self.catch_up()
-        return self.emulator.revision
-
-    def _report_horizon(self) -> float:
-        """Until when (perf_counter) the report frames just prepared stay what fresh ones would show,
-        while the box's revision holds: lockstep time moves only through the emulator, which the
-        revision shows; in real or scaled time, until the first control period due that would not
-        be quiet (``Emulator.quiet_periods``), less one period."""
-        if self.config.stepped:
-            return math.inf
-        loop = self._loop
-        if loop is None:
-            return -math.inf
-        k = self.emulator.quiet_periods()
-        if k <= 0:
-            return -math.inf
-        due = self.clock.wall_after(k)
-        if due == math.inf:
-            return math.inf
-        return time.perf_counter() + (due - loop.time()) - self.clock.period / self.clock.speed
-
-    def _report_snapshot(self) -> reports.ReportSnapshot:
-        self.catch_up()
-        snap = self.emulator.snapshot()
-        if not self.emulator.firmware.is_v1:
-            firmware2_fields(self.emulator, snap)
-        return snap
 
     async def start(self) -> None:
         loop = asyncio.get_running_loop()
@@ -514,52 +487,85 @@ class EmulatorServer:
             extra.start()
             self.ports[name] = extra.port
         self._loop = loop
-        self.clock.start(loop.time())
+        self._loop_thread = threading.get_ident()
+        self.clock.start(time.monotonic())
         self._tasks.append(asyncio.create_task(self._control_loop()))
 
-    def catch_up(self) -> int:
-        """Run the control periods that are due by now (real or scaled time).
+    def catch_up(self, until: float | None = None) -> int:
+        """Run the control periods that are due by now (real or scaled time), or by monotonic time
+        ``until`` when that is earlier.
 
-        Returns the number of periods run. Called before every command, report frame and admin
-        action, so that whatever anyone observes is the state after every period that has elapsed:
-        stepping in batches this way is indistinguishable from stepping on every period, and the
-        control loop only has to wake up now and then (:data:`IDLE_WAKE`) when nobody is looking.
+        Returns the number of periods run. Called, under the arm's :attr:`lock`, before every
+        command, report frame and admin action, so that whatever anyone observes is the state after
+        every period that has elapsed: stepping in batches this way is indistinguishable from
+        stepping on every period, and the control loop only has to wake up now and then
+        (:data:`IDLE_WAKE`) when nobody is looking. The report sender calls it from its own thread
+        (:meth:`report_instant`): the feedback frames it causes are handed to the loop.
         """
         loop = self._loop
         if loop is None:
             return 0
-        now = loop.time()
-        if now < self.clock.quiet_until or self.config.stepped:  # the usual case: nothing due yet
-            return 0
-        n = self.clock.due(now, MAX_CATCH_UP)
-        if n:
-            self.emulator.step(n)
-            if self.feedback is not None and self.feedback.pending:
-                self.deliver_feedback()
-            self.code_watch.check(self.emulator.controller)
-        return n
+        with self.lock:
+            now = time.monotonic()  # the clock's time base, the same in the loop and the sender
+            if until is not None:
+                now = min(now, until)
+            if now < self.clock.quiet_until or self.config.stepped:  # the usual case: nothing due yet
+                return 0
+            n = self.clock.due(now, MAX_CATCH_UP)
+            if n:
+                self.emulator.step(n)
+                self.code_watch.check(self.emulator.controller)
+                if self.feedback is not None and self.feedback.pending:
+                    if threading.get_ident() == self._loop_thread:
+                        self.deliver_feedback()
+                    else:
+                        with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
+                            loop.call_soon_threadsafe(self.deliver_feedback)
+            return n
+
+    def in_loop(self, fn: Callable[[], object]) -> None:
+        """Run ``fn`` now when called on the event loop's thread, else soon on the loop (an action
+        scheduled on the emulator that touches connections may run while the report sender steps)."""
+        loop = self._loop
+        if loop is None or threading.get_ident() == self._loop_thread:
+            fn()
+            return
+        with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
+            loop.call_soon_threadsafe(fn)
+
+    def report_instant(self, deadline: float, interval: float) -> bool:
+        """The report sender, under :attr:`lock`, before it encodes the frame due at ``deadline``
+        (perf_counter seconds) of a stream of period ``interval``: run the control periods due by
+        the deadline, so the frame shows the state of the deadline's own control period. ``False``
+        when the controller already runs the period of the stream's next deadline (the sender was
+        that late, or the loop ran ahead): this frame would show the next one's state, so it is not
+        sent; a report never repeats a state for two deadlines."""
+        if self._loop is None or self.config.stepped:
+            return True
+        until = deadline + (time.monotonic() - time.perf_counter())
+        self.catch_up(until)
+        return self.clock.steps < self.clock.steps_at(until + interval)
 
     def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "",
                client: int = 0) -> bytes:
         """The reply frame to one private-protocol request (manual 2.1.2) from command connection
         ``client`` (its :attr:`CommandProtocol.client_id`; 0: none)."""
-        self.catch_up()
-        emu = self.emulator
-        cached: bytes | None = None
-        if not params and register in PURE_READS:
-            # a hit: nothing has changed since this reply was made and the codes were watched
-            cached = frame = self._read_cache.hit(emu, tid, protocol, register)
-            if frame is None:
-                frame = self._read_cache.reply(emu, tid, protocol, register)
-        elif self.feedback is not None:
-            self._touched = True
-            frame = self._answer_with_feedback(tid, protocol, register, params, client)
-        else:
-            self._touched = True
-            state, reply = emu.handle(register, params)
-            frame = encode_reply(tid, protocol, register, state, reply)
-        if cached is None:
-            self.code_watch.check(emu.controller)
+        with self.lock:
+            self.catch_up()
+            emu = self.emulator
+            cached: bytes | None = None
+            if not params and register in PURE_READS:
+                # a hit: nothing has changed since this reply was made and the codes were watched
+                cached = frame = self._read_cache.hit(emu, tid, protocol, register)
+                if frame is None:
+                    frame = self._read_cache.reply(emu, tid, protocol, register)
+            elif self.feedback is not None:
+                frame = self._answer_with_feedback(tid, protocol, register, params, client)
+            else:
+                state, reply = emu.handle(register, params)
+                frame = encode_reply(tid, protocol, register, state, reply)
+            if cached is None:
+                self.code_watch.check(emu.controller)
         if self.trace is not None:
             self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
         return frame
@@ -617,23 +623,16 @@ class EmulatorServer:
     def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes:
         """The reply frame to one standard Modbus-TCP request (protocol id 0): the map of
         :mod:`xarm_emu.protocol.modbus` over the live emulator, after the due control periods."""
-        self.catch_up()
-        self._touched = True
-        return modbus_map.answer(self.emulator, tid, unit, pdu)
-
-    def settle_reports(self) -> None:
-        """Before replies go out: if a command may have changed the box, the report frames already
-        prepared for their coming deadlines are prepared again, so that no frame sent after a reply
-        shows the state from before its command."""
-        if self._touched:
-            self._touched = False
-            self.reports.refresh()
+        with self.lock:
+            self.catch_up()
+            return modbus_map.answer(self.emulator, tid, unit, pdu)
 
     def advance(self, seconds: float) -> int:
         """Lockstep: run ``seconds`` of controller time now (whole control periods); returns the
         number of periods run."""
         n = max(0, round(seconds / PERIOD))
-        self.emulator.step(n)
+        with self.lock:
+            self.emulator.step(n)
         return n
 
     async def _control_loop(self) -> None:
@@ -727,12 +726,11 @@ class EmulatorServer:
 
     def pause_reports(self, seconds: float) -> None:
         """No report frame goes out for ``seconds`` of wall time (fault injection ``report-pause``)."""
-        self._report_pause_until = asyncio.get_running_loop().time() + seconds
-        self.reports.invalidate()
+        self._report_pause_until = time.monotonic() + seconds
 
     def reports_paused(self) -> bool:
         """Whether an injected report pause is on now."""
-        return asyncio.get_running_loop().time() < self._report_pause_until
+        return time.monotonic() < self._report_pause_until
 
     async def close(self) -> None:
         self.reports.quiesce()  # first, before any await: every arm of a worker stops encoding at once

@@ -53,6 +53,7 @@ calls :func:`schedule_file`; the server itself never reads the file.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import tomllib
@@ -116,7 +117,11 @@ def schedule(server: AdminTarget, entries: list[dict[str, Any]]) -> int:
         except AdminError as exc:
             raise FaultScheduleError(f"fault {i} ({e['do']} at {e['at']} s): {exc}") from None
         actions.append((float(e["at"]), str(e.get("after", "start")), i, action))
-    for at, after, i, action in actions:
+    for k, (at, after, i, action) in enumerate(actions):
+        if entries[k]["do"] == "drop-clients":  # transports: the event loop's, whoever steps the arm
+            in_loop = getattr(server, "in_loop", None)
+            if in_loop is not None:
+                action = functools.partial(in_loop, action)
         if after == "start":
             server.emulator.at(at, _logged(server, i, action))
         else:

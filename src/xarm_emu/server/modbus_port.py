@@ -34,7 +34,6 @@ class ModbusTarget(Protocol):
 
     def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
 
-    def settle_reports(self) -> None: ...
 
 
 def split_frames(buf: bytearray) -> tuple[list[tuple[int, int, bytes]], bool]:
@@ -81,7 +80,6 @@ class ModbusPortProtocol(asyncio.Protocol):
                 log.exception("modbus port: no answer to a request")
                 ok = False
                 break
-            self.target.settle_reports()
             self.transport.write(reply)
         if not ok:
             self.transport.close()

@@ -1,10 +1,10 @@
 """The report ports (30001 normal 5 Hz, 30002 rich 5 Hz, 30003 develop 100 Hz), manual section 2.1.6,
 and for firmware >= 2.1.0 the real-time report (30000, 250 Hz).
 
-Before each frame's deadline the server's loop encodes it with the encoder of the box's firmware
-(``reports.encoders_for``: the manual's 87/145/433-byte frames for 1.x, 135/145/587 bytes for 2.x);
-the process's report sender (:mod:`.report_sender`) writes it at the deadline to every client whose
-socket is keeping up; a slow reader skips frames instead of slowing anyone down. Clients never
+At each frame's deadline the process's report sender (:mod:`.report_sender`) encodes it from the
+arm's state at that deadline with the encoder of the box's firmware (``reports.encoders_for``: the
+manual's 87/145/433-byte frames for 1.x, 135/145/587 bytes for 2.x) and writes it to every client
+whose socket is keeping up; a slow reader skips frames instead of slowing anyone down. Clients never
 write on report ports; a connection is read here only until EOF.
 """
 
@@ -12,15 +12,11 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import math
 import socket
-import time
+import threading
 from collections.abc import Awaitable, Callable
 from typing import Any
 
-from ..controller.handlers.extras import extra_state
-from ..controller.reduced import reduced_of
-from ..model import rotations as rot
 from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from . import report_sender
@@ -50,65 +46,37 @@ def encoders_by_kind(profile: FirmwareProfile) -> dict[str, Callable[[reports.Re
     return {k: enc[p] for k, p in kinds_for(profile).items()}
 
 
-def firmware2_fields(emu: Any, snap: reports.ReportSnapshot) -> reports.ReportSnapshot:
-    """Fill what the firmware 2.x frames carry beyond the manual's (rich bytes 284-287 and 433-586,
-    the real-time report) from the controller, for a box of a 2.x profile.
-
-    Bytes 284-287 carry the counter of registers 74/75 (``user_counter``), which both SDKs read there.
-    The reduced-mode block and the motion flags are the values registers 53, 66 and 80 answer.
-    """
-    ctl = emu.controller
-    s = ctl.settings
-    snap.counter = int(ctl.user_counter) & 0xFFFFFFFF
-    roll, pitch, yaw = snap.pose[3:6]
-    if all(math.isfinite(x) for x in (roll, pitch, yaw)):
-        snap.pose_aa = tuple(float(x) for x in rot.rpy_to_axis_angle(roll, pitch, yaw))
-    snap.report_current = bool(s.report_current)
-    extra = extra_state(ctl)
-    snap.approx_motion = bool(extra.approx_motion)
-    snap.cart_continuous = bool(extra.cartesian_velocity_continuous)
-    reduced = reduced_of(ctl)  # registers 47-50, 58 and 60, as register 53 reports them
-    snap.reduced_mode = bool(reduced.on)
-    snap.reduced_tcp_boundary = tuple(int(x) for x in s.boundary)
-    snap.fence = bool(s.boundary_on)
-    snap.reduced_max_tcp_speed = float(reduced.tcp_speed)
-    snap.reduced_max_joint_speed = float(reduced.joint_speed)
-    if reduced.joint_ranges:
-        snap.reduced_joint_ranges = tuple(float(x) for x in reduced.joint_ranges)
-    snap.collision_rebound = bool(reduced.rebound)
-    snap.timestamp_us = int(round(ctl.time * 1e6))
-    snap.joint_accelerations = tuple(float(x) for x in ctl.qdd) + (0.0,) * (7 - ctl.dof)
-    return snap
-
-
 class ReportStreams:
-    """The report streams of one server: their clients and counters; the frames go out from the
-    process's report sender (:mod:`.report_sender`) on an absolute schedule.
+    """The report streams of one server: their clients and counters; the frames are made and sent
+    by the process's report sender (:mod:`.report_sender`) at their deadlines.
 
-    ``snapshot`` gives the state to report (after the server has caught up on due control periods);
-    ``paused`` says whether an injected report pause is on; ``revision``, when given, the box's
-    revision after catching up (``Emulator.revision``): a frame that carries no clock
-    (``reports.CLOCKED_PORTS``) is encoded once per revision and sent again while the box stays as
-    it was, as an arm at rest does.
+    ``frame`` is called by the sender thread at each deadline, under ``lock`` (the arm's lock):
+    ``instant(deadline, interval)`` runs the control periods due by the deadline and says whether
+    the frame is still due (``EmulatorServer.report_instant``), ``snapshot`` gives the state to report,
+    ``paused`` says whether an injected report pause is on. ``revision``, when given, is the box's
+    revision (``Emulator.revision``): a frame that carries no clock (``reports.CLOCKED_PORTS``) is
+    encoded again only when the revision moved since the last one, so an arm at rest costs one
+    comparison per frame.
     """
 
     def __init__(self, snapshot: Callable[[], reports.ReportSnapshot], paused: Callable[[], bool],
                  rates: dict[str, float], profile: FirmwareProfile = DEFAULT_PROFILE,
                  revision: Callable[[], int] | None = None, *,
-                 current_revision: Callable[[], int] | None = None,
-                 horizon: Callable[[], float] | None = None) -> None:
+                 instant: Callable[[float, float], bool] = lambda deadline, interval: True,
+                 lock: threading.RLock | None = None) -> None:
         self.snapshot = snapshot
         self.paused = paused
         self.revision = revision
+        self.instant = instant
         self.rates = rates
+        #: The arm's lock: held by the sender from catching up to the last write of each frame.
+        self.lock = lock if lock is not None else threading.RLock()
         #: Report kind -> standard port of the streams this box serves (its firmware's).
         self.kinds = kinds_for(profile)
         self.encoders = encoders_by_kind(profile)
         self.clients: dict[str, set[asyncio.StreamWriter]] = {k: set() for k in self.kinds}
         #: Report kind -> the stream the sender writes.
-        self.streams = {k: SendStream(k, 1.0 / rates[k], self._preparer(k), *(
-            (current_revision, horizon) if ALL_KIND_PORTS[k] not in reports.CLOCKED_PORTS else ()))
-            for k in self.kinds}
+        self.streams = {k: SendStream(k, 1.0 / rates[k], self._framer(k), self.lock) for k in self.kinds}
         self.client_tasks: set[asyncio.Task[None]] = set()
         #: Whether a new client of a kind may stay (the server's per-port cap); ``None``: always.
         self.admit: Callable[[str], bool] | None = None
@@ -116,50 +84,28 @@ class ReportStreams:
         self._frame_times: dict[str, list[float]] | None = None
         self._closing = False
 
-    def _preparer(self, kind: str) -> Callable[[], bytes | None]:
+    def _framer(self, kind: str) -> Callable[[float], bytes | None]:
+        """The frame of ``kind`` for ``deadline`` (sender thread, under the lock): ``None`` while
+        reports are paused or closing, ``b""`` when the deadline's state is gone (not sent)."""
         encode = self.encoders[kind]
-        revision = self.revision
-        if revision is None or ALL_KIND_PORTS[kind] in reports.CLOCKED_PORTS:
-            def prepare() -> bytes | None:
-                return None if self._closing or self.paused() else encode(self.snapshot())
-
-            return prepare
+        interval = 1.0 / self.rates[kind]
+        revision = None if ALL_KIND_PORTS[kind] in reports.CLOCKED_PORTS else self.revision
         last: list[Any] = [None, b""]  # the revision of the last frame encoded, the frame
 
-        def prepare_once() -> bytes | None:
+        def frame(deadline: float) -> bytes | None:
             if self._closing or self.paused():
                 return None
+            if not self.instant(deadline, interval):  # the controller at the deadline's period
+                return b""
+            if revision is None:
+                return encode(self.snapshot())
             now = revision()
             if now != last[0]:
                 last[1] = encode(self.snapshot())
                 last[0] = now
             return last[1]  # type: ignore[no-any-return]
 
-        return prepare_once
-
-    def refresh(self) -> None:
-        """Prepare again every frame already prepared for a deadline not yet reached: a command
-        answered since then changed the box, and no frame sent after its reply may show the state
-        from before it (a client that reads its reply and then the report must never see the
-        command undone)."""
-        now = time.perf_counter()
-        for stream in self.streams.values():
-            if not stream.readers:
-                continue
-            with stream.sending:  # the sender takes a frame as standing for a deadline under it
-                # prepared for the coming deadline, or asked for by now (a loop that is late)
-                pending = (stream.frame_deadline == stream.deadline
-                           or stream.deadline - now <= report_sender.LEAD)
-            if pending:
-                stream.publish(stream.deadline)
-                with stream.sending:  # a send that took the old frame has finished writing it
-                    pass
-
-    def invalidate(self) -> None:
-        """No published frame stands for a later deadline (reports paused: nothing the box's
-        revision shows)."""
-        for stream in self.streams.values():
-            stream.invalidate()
+        return frame
 
     # -- counters (written by the sender thread) -----------------------------------------------
     @property
@@ -178,9 +124,10 @@ class ReportStreams:
         return {k: s.frames_missed for k, s in self.streams.items()}
 
     @property
-    def frames_stale(self) -> dict[str, int]:
-        """Frames sent on time with the previous state because the loop had not published (blocked)."""
-        return {k: s.frames_stale for k, s in self.streams.items()}
+    def frames_late(self) -> dict[str, int]:
+        """Frames written more than ``report_sender.LATE_AFTER`` after their deadline (the process
+        was too busy to make them in time)."""
+        return {k: s.frames_late for k, s in self.streams.items()}
 
     @property
     def frame_times(self) -> dict[str, list[float]] | None:
@@ -208,7 +155,6 @@ class ReportStreams:
         frames of those still closing would otherwise keep the event loop busy and delay every
         close behind them."""
         self._closing = True
-        self.invalidate()
 
     def stop(self) -> None:
         """Stop using the sender (after every client is gone; the last user stops it)."""
@@ -241,7 +187,7 @@ class ReportStreams:
                 task.add_done_callback(self.client_tasks.discard)
             stream = self.streams[kind]
             self.clients[kind].add(writer)
-            sender.add(stream, out, asyncio.get_running_loop())
+            sender.add(stream, out)
             try:
                 while await reader.read(4096):
                     pass

@@ -1,25 +1,20 @@
-"""One report sender per process: a thread that writes every report frame (manual 2.1.6) of every
-server in the process on an absolute schedule, so no event loop's work delays a frame.
+"""One report sender per process: a thread that makes and writes every report frame (manual 2.1.6)
+of every server in the process on an absolute schedule, so no event loop's work delays a frame.
 
 Each report stream (:class:`SendStream`) is due at ``k * interval`` (perf_counter seconds;
 absolute deadlines on one grid per rate, nothing accumulates; the streams of one rate share their
-instants, so one wake-up and one call into each event loop serve all of them). A little before each
-deadline (:data:`LEAD`) the sender
-asks the stream's event loop to publish its frame (the loop catches the controller up and encodes
-it: the frame is the state no older than one control period at its deadline), unless the last
-frame still stands for it (the box has not changed and its next timer is later:
-:meth:`SendStream.stands_for`, so an arm at rest costs its loop nothing per frame); at the deadline the
-sender writes the freshest published frame to every reader itself, with non-blocking ``send`` calls
-on its own duplicates of the sockets, without waiting on the loop. A frame the loop could not
-publish in time (it was blocked) goes out on time with the previous state and is counted
-(``frames_stale``): timing first, as a real-time controller's report. A loop has at most one such
-request queued (:class:`LoopAsk`): one that has fallen behind publishes once for the coming
-deadline, and its queue never fills with requests for deadlines already past.
+instants, so one wake-up serves all of them). At each deadline the sender itself, holding the arm's
+lock (the one every command, admin request and control-loop catch-up of that arm also takes),
+advances the controller to the control period of the deadline, encodes the frame from that state
+and writes it to every reader with non-blocking ``send`` calls on its own duplicates of the
+sockets. So every frame is the box's state at its own deadline, whatever the event loop is doing,
+and a command either lands before a frame (the frame shows it) or after its write (its reply comes
+after the frame): no frame sent after a reply shows the state from before its command.
 
-The sends hold the interpreter lock for the whole burst (``send(2)`` through ``ctypes.PyDLL``, a
-few microseconds per reader) so the sender does not hand the lock back to the loop between
-readers; a shorter switch interval and frozen start-up objects (``gc.freeze``) bound how long the
-sender waits for the lock when it wakes.
+The sends use ``send(2)`` through ``ctypes.PyDLL``, which keeps the interpreter lock for the whole
+burst (a few microseconds per reader), so the sender is not preempted between readers. How long
+the sender waits for the interpreter lock when it wakes is the process's switch interval: the
+``serve`` command shortens it (:func:`tune_process`); a library user's process keeps its own.
 
 A reader whose socket is full skips whole frames (counted per reader and frame in
 ``frames_skipped``); a frame partly written is finished before the next one, so every reader reads
@@ -28,7 +23,6 @@ whole frames.
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import ctypes
 import errno
@@ -44,10 +38,9 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-#: Seconds before a frame's deadline at which its loop is asked to publish it (at most half the
-#: stream's interval): long enough for a busy loop to get to it, short enough (under one control
-#: period, 4 ms) that the frame shows the state at most one period older than its deadline.
-LEAD = 0.003
+#: A frame written more than this after its deadline (one control period, seconds) is counted late
+#: (``frames_late``): the process was too busy to make it in time.
+LATE_AFTER = 0.004
 #: A stream this many intervals behind its schedule or less sends the due frames at once; further
 #: behind (the process was suspended), it re-anchors and counts the frames it missed.
 LATE_FRAMES = 10
@@ -99,40 +92,6 @@ def on_grid(now: float, interval: float) -> float:
     on the ``perf_counter`` clock): streams of one rate share their instants, and one wake-up of
     the sender serves them all."""
     return (math.floor(now / interval) + 1) * interval
-
-
-class LoopAsk:
-    """The publish requests waiting on one event loop: at most one call is queued on the loop at a
-    time. A loop that has fallen behind (saturated, or blocked) finds every stream asked for since
-    its last turn in one call and publishes each for its current deadline, so requests never pile up
-    in its queue: the frames it publishes are the freshest it can, and anything else it has to do
-    (a stop, a closing connection) waits at most one such call."""
-
-    __slots__ = ("streams", "queued", "lock")
-
-    def __init__(self) -> None:
-        self.streams: dict[SendStream, None] = {}
-        self.queued = False
-        self.lock = threading.Lock()
-
-    def ask(self, streams: list[SendStream]) -> bool:
-        """Add ``streams`` (sender thread); ``True`` if the loop must be called (none is queued)."""
-        with self.lock:
-            for stream in streams:
-                self.streams[stream] = None
-            if self.queued:
-                return False
-            self.queued = True
-            return True
-
-    def run(self) -> None:
-        """In the loop: publish every stream asked for, each for its current deadline."""
-        with self.lock:
-            streams = tuple(self.streams)
-            self.streams.clear()
-            self.queued = False
-        for stream in streams:
-            stream.publish(stream.deadline)
 
 
 class Reader:
@@ -187,74 +146,38 @@ class Reader:
 class SendStream:
     """One report stream of one server (a port's readers at one rate), as the sender sees it.
 
-    ``prepare`` runs in the stream's event loop before each deadline and returns the frame to send
-    (``None``: none, e.g. reports paused). The counters are the sender's to write.
+    At each deadline the sender calls ``frame(deadline)`` holding ``lock`` (the arm's lock) and
+    writes what it returns to every reader before letting go of the lock (``None``: no frame, e.g.
+    reports paused; empty: the deadline's state is gone, the sender was too late, counted in
+    ``frames_missed``). The counters are the sender's to write."""
 
-    ``revision`` and ``horizon``, when given, let a frame stand for later deadlines without the loop:
-    ``revision()`` reads the box's revision (``Emulator.revision``; safe from the sender thread, it
-    runs nothing) and ``horizon()``, in the loop right after ``prepare``, says until when
-    (perf_counter) the frame stays what a fresh one would be while that revision holds (an arm at
-    rest: until its next timer, thermal step or scheduled action).
-    """
-
-    def __init__(self, kind: str, interval: float, prepare: Callable[[], bytes | None],
-                 revision: Callable[[], int] | None = None,
-                 horizon: Callable[[], float] | None = None) -> None:
+    def __init__(self, kind: str, interval: float, frame: Callable[[float], bytes | None],
+                 lock: threading.RLock | None = None) -> None:
         self.kind = kind
         self.interval = interval
-        self.prepare = prepare
-        self.revision = revision
-        self.horizon = horizon
-        #: The published frame stays valid for deadlines before this time at :attr:`valid_revision`.
-        self.valid_until = -math.inf
-        self.valid_revision = -1
+        self.frame = frame
+        self.lock = lock if lock is not None else threading.RLock()
         self.readers: tuple[Reader, ...] = ()
-        self.loop: asyncio.AbstractEventLoop | None = None
-        self.frame: bytes | None = None
-        #: The deadline the published frame was prepared for.
-        self.frame_deadline = -1.0
         self.deadline = 0.0
         self.scheduled = False
         self.frames_sent = 0
         self.frames_skipped = 0
         self.frames_missed = 0
-        self.frames_stale = 0
-        #: Held by the sender from taking the frame to its last write of it: whoever replaces the
-        #: frame and then takes this lock knows no write of the old one is still to come.
-        self.sending = threading.Lock()
-        #: Set to a list to record each frame's send time (perf_counter; benchmarks).
+        self.frames_late = 0
+        #: Set to a list to record each frame's send time (perf_counter; benchmarks, tests).
         self.frame_times: list[float] | None = None
         #: Set to a list to record each frame's lateness after its deadline (seconds; benchmarks).
         self.lateness: list[float] | None = None
 
-    def publish(self, deadline: float) -> None:
-        """In the loop: encode the frame for ``deadline`` (and say how long it stays valid)."""
-        if not self.readers:
-            return
-        self.frame = frame = self.prepare()
-        if frame is not None and self.horizon is not None and self.revision is not None:
-            self.valid_revision = self.revision()
-            self.valid_until = self.horizon()
-        else:
-            self.valid_until = -math.inf
-        self.frame_deadline = deadline
 
-    def invalidate(self) -> None:
-        """The published frame stands for no later deadline: the loop is asked again (reports
-        paused or closing: things the box's revision does not show)."""
-        self.valid_until = -math.inf
-
-    def stands_for(self, deadline: float) -> bool:
-        """Sender thread: whether the published frame is what the loop would publish for
-        ``deadline`` (the box unchanged, its horizon not reached); if so it is taken as published
-        for it. Under :attr:`sending`, so that a refresh sees either the old deadline or this one."""
-        if deadline >= self.valid_until or self.frame is None or self.revision is None:
-            return False
-        with self.sending:
-            if self.revision() != self.valid_revision or deadline >= self.valid_until:
-                return False
-            self.frame_deadline = deadline
-            return True
+def tune_process() -> None:
+    """Interpreter-wide settings for a process that serves arms and nothing else (the ``serve``
+    command calls this; a library user's process is never changed): a switch interval of
+    :data:`SWITCH_INTERVAL` bounds how long the woken sender waits for the interpreter lock (the
+    default 5 ms would be a 5 ms late frame), and the start-up objects are frozen out of the
+    garbage collector (``gc.freeze``), so a collection while serving walks only what serving made."""
+    sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL))
+    gc.freeze()
 
 
 class ReportSender:
@@ -262,34 +185,24 @@ class ReportSender:
 
     def __init__(self) -> None:
         self._cond = threading.Condition()
-        self._heap: list[tuple[float, int, SendStream, bool]] = []
+        self._heap: list[tuple[float, int, SendStream]] = []
         self._seq = 0
         self._stop = False
         self._retired: deque[Reader] = deque()
-        self._asks: dict[asyncio.AbstractEventLoop, LoopAsk] = {}
         #: The sender thread's real-time priority (0: normal scheduling), :meth:`set_priority`.
         self.priority = 0
-        self._switch = sys.getswitchinterval()
-        sys.setswitchinterval(min(self._switch, SWITCH_INTERVAL))
-        global _frozen
-        if not _frozen:  # once: start-up objects out of every collection, short ones while serving
-            gc.freeze()
-            _frozen = True
         self._thread = threading.Thread(target=self._run, name="xarm-emu-reports", daemon=True)
         self._thread.start()
 
     # -- called from event loops ---------------------------------------------------------------
-    def add(self, stream: SendStream, reader: Reader, loop: asyncio.AbstractEventLoop) -> None:
+    def add(self, stream: SendStream, reader: Reader) -> None:
         """A new reader of ``stream``; a stream that had none starts its schedule now."""
         with self._cond:
-            for gone in [lp for lp in self._asks if lp.is_closed()]:  # servers stopped since
-                del self._asks[gone]
-            stream.loop = loop
             stream.readers = (*stream.readers, reader)
             if not stream.scheduled:
                 stream.scheduled = True
                 stream.deadline = on_grid(time.perf_counter(), stream.interval)
-                self._push(stream.deadline - min(LEAD, stream.interval / 2), stream, True)
+                self._push(stream.deadline, stream)
 
     def remove(self, stream: SendStream, reader: Reader) -> None:
         """``reader`` is gone: the sender stops writing to it and closes its socket."""
@@ -303,9 +216,9 @@ class ReportSender:
             self._cond.notify()
 
     # -- the thread ----------------------------------------------------------------------------
-    def _push(self, when: float, stream: SendStream, prep: bool) -> None:
+    def _push(self, when: float, stream: SendStream) -> None:
         self._seq += 1
-        heapq.heappush(self._heap, (when, self._seq, stream, prep))
+        heapq.heappush(self._heap, (when, self._seq, stream))
         self._cond.notify()
 
     def _run(self) -> None:
@@ -324,58 +237,36 @@ class ReportSender:
                 delay = when - time.perf_counter()
                 if delay > 0:
                     # One timed wait to the deadline (a new, earlier event wakes it): each wake-up
-                    # costs a wait for the interpreter lock, so there is one per event.
+                    # costs a wait for the interpreter lock, so there is one per instant.
                     cond.wait(delay)
                     continue
-                due = [heapq.heappop(self._heap)]  # every event of this instant: one grid, one wake-up
+                due = [heapq.heappop(self._heap)[2]]  # every stream of this instant: one wake-up
                 while self._heap and self._heap[0][0] == when:
-                    due.append(heapq.heappop(self._heap))
-            self._request([d[2] for d in due if d[3]])
-            for d in due:
-                if not d[3]:
-                    self._send(d[2])
-
-    def _request(self, streams: list[SendStream]) -> None:
-        """Ask the streams' loops to publish their next frames (one call per loop), then wait for
-        their deadlines."""
-        if not streams:
-            return
-        by_loop: dict[asyncio.AbstractEventLoop, list[SendStream]] = {}
-        for stream in streams:
-            if stream.loop is not None and not stream.stands_for(stream.deadline):
-                by_loop.setdefault(stream.loop, []).append(stream)
-        for loop, group in by_loop.items():
-            with self._cond:
-                pending = self._asks.get(loop)
-                if pending is None:
-                    pending = self._asks[loop] = LoopAsk()
-            if not pending.ask(group):
-                continue  # the loop has not got to the last call yet: it publishes these with it
-            try:
-                loop.call_soon_threadsafe(pending.run)
-            except RuntimeError:  # the loop closed meanwhile
-                with self._cond:
-                    self._asks.pop(loop, None)
-        with self._cond:
-            for stream in streams:
-                self._push(stream.deadline, stream, False)
+                    due.append(heapq.heappop(self._heap)[2])
+            for stream in due:
+                self._send(stream)
 
     def _send(self, stream: SendStream) -> None:
+        """Make ``stream``'s frame for its deadline and write it, under the arm's lock."""
         deadline = stream.deadline
         readers = stream.readers
-        with stream.sending:  # from taking the frame to its last write (ReportStreams.refresh)
-            frame = stream.frame
-            skipped = 0
-            if readers and frame is not None:
-                for r in readers:
-                    if not r.dead and not r.offer(frame):
-                        skipped += 1
-        if readers and frame is not None:
+        frame = None
+        skipped = 0
+        if readers:
+            with stream.lock:
+                frame = stream.frame(deadline)
+                if frame:
+                    for r in readers:
+                        if not r.dead and not r.offer(frame):
+                            skipped += 1
+        if frame == b"":
+            stream.frames_missed += 1
+        elif frame is not None:
             now = time.perf_counter()
-            if stream.frame_deadline != deadline:
-                stream.frames_stale += 1
             stream.frames_skipped += skipped
             stream.frames_sent += 1
+            if now - deadline > LATE_AFTER:
+                stream.frames_late += 1
             if stream.frame_times is not None:
                 stream.frame_times.append(now)
             if stream.lateness is not None:
@@ -383,12 +274,11 @@ class ReportSender:
         with self._cond:
             if not stream.readers:  # nobody left: no wake-ups until the next reader
                 stream.scheduled = False
-                stream.frame = None
                 return
             nxt, missed = next_deadline(deadline, stream.interval, time.perf_counter())
             stream.frames_missed += missed
             stream.deadline = round(nxt / stream.interval) * stream.interval  # exactly on the grid
-            self._push(nxt - min(LEAD, stream.interval / 2), stream, True)
+            self._push(stream.deadline, stream)
 
     def set_priority(self, priority: int | None) -> str | None:
         """Run the sender thread at real-time priority ``priority`` (``SCHED_FIFO``, Linux; it only
@@ -417,11 +307,9 @@ class ReportSender:
         while self._retired:
             with contextlib.suppress(OSError):
                 self._retired.popleft().sock.close()
-        sys.setswitchinterval(self._switch)
 
 
 _lock = threading.Lock()
-_frozen = False
 _shared: ReportSender | None = None
 _users = 0
 

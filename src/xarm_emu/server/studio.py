@@ -192,9 +192,11 @@ class StudioServer:
     """The HTTP server, as a server attachment (:meth:`EmulatorServer.attach`)."""
 
     def __init__(self, emulator: Any, host: str = "127.0.0.1", port: int = STUDIO_PORT,
-                 before: Callable[[], object] | None = None) -> None:
+                 before: Callable[[], object] | None = None,
+                 lock: threading.RLock | None = None) -> None:
         self.state = StudioState(emulator)
         self._before = before
+        self._lock = lock if lock is not None else threading.RLock()
         self._loop: asyncio.AbstractEventLoop | None = None
         self.httpd = ThreadingHTTPServer((host, port), _handler(self))
         self.httpd.daemon_threads = True
@@ -216,9 +218,10 @@ class StudioServer:
     def on_loop(self, fn: Callable[[], Any]) -> Any:
         """Run ``fn`` where the emulator's state lives (the server's loop), after the due periods."""
         def run() -> Any:
-            if self._before is not None:
-                self._before()
-            return fn()
+            with self._lock:  # the arm's lock, as a command takes it
+                if self._before is not None:
+                    self._before()
+                return fn()
 
         loop = self._loop
         if loop is None or loop.is_closed():
@@ -287,4 +290,5 @@ def _handler(studio: StudioServer) -> type[BaseHTTPRequestHandler]:
 def attach_studio(server: Any, host: str = "127.0.0.1", port: int = STUDIO_PORT) -> None:
     """Have ``server`` (an EmulatorServer) serve the Studio HTTP calls on ``host``/``port``, under
     ``ports["studio"]`` once started."""
-    server.attach("studio", lambda: StudioServer(server.emulator, host, port, before=server.catch_up))
+    server.attach("studio", lambda: StudioServer(server.emulator, host, port, before=server.catch_up,
+                                                     lock=server.lock))

@@ -77,11 +77,12 @@ class ServerThread:
     def call(self, fn: Callable[[], object]) -> object:
         """Run ``fn`` in the server's loop thread and return its result."""
         async def wrapper() -> object:
-            self.server.catch_up()
-            try:
-                return fn()
-            finally:
-                self.server.emulator.touch()
+            with self.server.lock:  # as a command: between report frames, never during one
+                self.server.catch_up()
+                try:
+                    return fn()
+                finally:
+                    self.server.emulator.touch()
 
         return asyncio.run_coroutine_threadsafe(wrapper(), self.loop).result(10)
 

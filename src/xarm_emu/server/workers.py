@@ -16,7 +16,7 @@ The parent (:class:`Supervisor`) starts the workers, waits until every arm liste
 - :meth:`Supervisor.stop` (SIGTERM or Ctrl-C to the parent) asks every worker to stop on its pipe and
   sends it SIGTERM; each closes its servers (pending saves are written, manual 2.1.3 register 39),
   tells the parent its report counts (:class:`ReportCounts`; logged, a warning when its frames were
-  often stale: it had more arms than its core could serve) and exits 0; a worker still running
+  often late: it had more arms than its core could serve) and exits 0; a worker still running
   after the grace period is killed.
 - A worker whose parent is gone (its pipe to the parent ends) stops the same way.
 
@@ -57,16 +57,16 @@ START_TIMEOUT = 60.0
 STOP_GRACE = 10.0
 
 
-#: Share of a worker's report frames sent with an earlier deadline's state above which its stop
-#: logs a warning that it was saturated.
+#: Share of a worker's report frames sent more than a control period after their deadline above
+#: which its stop logs a warning that it was saturated.
 STALE_WARN = 0.05
 
 
 @dataclass(frozen=True)
 class ReportCounts:
     """A worker's report frames over its run, every arm and stream summed (``ReportStreams``):
-    sent, sent with the state prepared for an earlier deadline (``stale``: its loop was too busy
-    to prepare them in time), and never sent (``missed``: the process was starved)."""
+    sent, sent more than a control period after their deadline (``stale``: the process was too
+    busy to make them in time), and never sent (``missed``: the process was starved)."""
 
     sent: int = 0
     stale: int = 0
@@ -75,7 +75,7 @@ class ReportCounts:
     @classmethod
     def of(cls, servers: Sequence[EmulatorServer]) -> ReportCounts:
         return cls(sum(sum(s.reports.frames_sent.values()) for s in servers),
-                   sum(sum(s.reports.frames_stale.values()) for s in servers),
+                   sum(sum(s.reports.frames_late.values()) for s in servers),
                    sum(sum(s.reports.frames_missed.values()) for s in servers))
 
     @property
@@ -88,7 +88,7 @@ def report_counts_message(index: int, arms: str, counts: ReportCounts) -> tuple[
     :data:`STALE_WARN` of its frames were stale or any was missed (the worker had more arms than
     its core could serve)."""
     text = (f"fleet worker {index} (arms {arms}): {counts.sent} report frames sent, "
-            f"{100 * counts.stale_share:.1f} % with an earlier deadline's state, {counts.missed} missed")
+            f"{100 * counts.stale_share:.1f} % late by over a control period, {counts.missed} missed")
     if counts.stale_share > STALE_WARN or counts.missed:
         return logging.WARNING, text + "; it was saturated: run more workers or fewer arms each"
     return logging.INFO, text
@@ -183,6 +183,9 @@ def worker_main(plan: WorkerPlan, conn: multiprocessing.connection.Connection) -
     from .logs import configure
 
     configure(plan.logging.level, plan.logging.file, 0, json_lines=plan.logging.json_lines)
+    from .report_sender import tune_process
+
+    tune_process()  # a process that only serves arms (serve --fleet): the sender's interpreter settings
     runner: Callable[[Any], Any] = asyncio.run
     if plan.uvloop:
         with contextlib.suppress(ImportError):

@@ -93,8 +93,9 @@ class Pendant:
         loop = self.loop
 
         def now() -> str:
-            self.server.catch_up()  # the control periods due first, as before a command frame
-            return action()
+            with self.server.lock:  # the arm's lock, as a command takes it
+                self.server.catch_up()  # the control periods due first, as before a command frame
+                return action()
 
         async def inside() -> str:
             return now()

@@ -1,0 +1,165 @@
+"""Every report frame is sampled fresh at its own deadline (manual 2.1.6: the box sends its state
+every 10 ms on 30003, every 200 ms on 30001/30002): while the arm moves, no frame repeats the bytes
+of the frame before it, and a blended corner never looks like a stop."""
+
+from __future__ import annotations
+
+import math
+import socket
+import threading
+import time
+from typing import Any
+
+import pytest
+from helpers import read_frames, sdk_ready
+
+from xarm_emu.protocol import reports
+
+HEAD = 12  # length, state/mode, cmdnum, then the six-floats blocks start after the first 12 bytes
+
+
+class _Reader(threading.Thread):
+    """Every whole frame of one report port, with its arrival time, until stopped."""
+
+    def __init__(self, port: int) -> None:
+        super().__init__(daemon=True, name="test-report-reader")
+        self.sock = socket.create_connection(("127.0.0.1", port), timeout=2)
+        self.frames: list[tuple[float, bytes]] = []
+        self.stop = threading.Event()
+
+    def run(self) -> None:
+        self.frames = read_frames(self.sock, math.inf, stop=self.stop.is_set)
+
+    def close(self) -> None:
+        self.stop.set()
+        self.join(2)
+        self.sock.close()
+
+
+def _moving(frames: list[bytes]) -> list[tuple[bytes, bytes]]:
+    """Pairs of consecutive frames taken while the arm moves (state 1, develop byte 4)."""
+    return [(a, b) for a, b in zip(frames, frames[1:], strict=False)
+            if a[4] & 0x0F == 1 and b[4] & 0x0F == 1]
+
+
+@pytest.mark.parametrize("firmware", ["1.6.0", "2.7.103"])
+def test_no_report_frame_repeats_its_predecessor_while_the_arm_moves(  # type: ignore[no-untyped-def]
+        make_server, sdk_arm, firmware: str) -> None:
+    from xarm_emu.controller.emulator import Emulator
+
+    srv = make_server(emulator=Emulator(6, firmware=firmware))
+    readers = {kind: _Reader(srv.ports[kind]) for kind in ("develop", "normal", "rich")}
+    for r in readers.values():
+        r.start()
+    arm: Any = sdk_arm(srv, report_type="devlop")
+    try:
+        sdk_ready(arm)
+        x, y, z, roll, pitch, yaw = arm.position
+        assert arm.set_position(x + 80, y, z, roll, pitch, yaw, speed=100, radius=20, wait=False) == 0
+        assert arm.set_position(x + 80, y + 80, z, roll, pitch, yaw, speed=100, radius=-1, wait=True) == 0
+        time.sleep(0.3)
+    finally:
+        for r in readers.values():
+            r.close()
+    develop = [f for _, f in readers["develop"].frames]
+    pairs = _moving(develop)
+    assert len(pairs) >= 150, len(pairs)  # 1.6 s of motion at 100 Hz
+    repeats = [i for i, (a, b) in enumerate(pairs) if a[HEAD:] == b[HEAD:]]
+    assert not repeats, f"{len(repeats)} of {len(pairs)} develop frames repeat the one before"
+    for kind in ("normal", "rich"):
+        slow = _moving([f for _, f in readers[kind].frames])
+        assert len(slow) >= 5, (kind, len(slow))
+        assert all(a[HEAD:] != b[HEAD:] for a, b in slow), kind
+    # the TCP speed the develop frames show never drops below 20 mm/s inside the motion (the corner
+    # is blended at radius 20): the speed from the poses of consecutive frames, 10 ms apart
+    decode = reports.decode_develop if firmware.startswith("1.") else reports.decode_develop2
+    poses = [decode(f).pose for f in develop if f[4] & 0x0F == 1]
+    speeds = [math.dist(a[:3], b[:3]) / 0.01 for a, b in zip(poses, poses[1:], strict=False)]
+    inner = speeds[15:-15]  # the acceleration at the start and the stop at the end left out
+    assert min(inner) >= 20.0, min(inner)
+
+
+def test_each_develop_frame_shows_the_controller_at_its_deadlines_control_period(  # type: ignore[no-untyped-def]
+        make_server, sdk_arm) -> None:
+    """The controller's own log of its control periods beside the frames: every develop frame sent
+    while the arm moves carries the joints of a period that ends within one period of the frame's
+    deadline (the deadlines are the multiples of 10 ms, manual 2.1.6)."""
+    import numpy as np
+
+    from xarm_emu.controller.base import PERIOD
+
+    srv = make_server()
+    emu = srv.emulator
+    ctl = emu.controller
+    periods: dict[tuple[float, ...], list[int]] = {}  # joints (as the report's fp32) -> periods
+    inner = ctl.step
+
+    def logged() -> None:
+        inner()
+        key = tuple(float(x) for x in np.float32(ctl.data.q))
+        periods.setdefault(key, []).append(ctl.data.steps)
+
+    ctl.step = logged  # type: ignore[method-assign]
+    stream = srv.server.reports.streams["develop"]
+    sent: list[float] = []  # each frame's send time (perf_counter)
+    lateness: list[float] = []  # and how long after its deadline
+    srv.call(lambda: (setattr(stream, "frame_times", sent), setattr(stream, "lateness", lateness)))
+    reader = _Reader(srv.ports["develop"])
+    reader.start()
+    arm: Any = sdk_arm(srv, report_type="devlop")
+    try:
+        sdk_ready(arm)
+        x, y, z, roll, pitch, yaw = arm.position
+        assert arm.set_position(x + 60, y + 40, z - 30, roll, pitch, yaw, speed=120, wait=True) == 0
+        time.sleep(0.1)
+    finally:
+        reader.close()
+    clock = srv.server.clock
+    offset = srv.call(lambda: ctl.data.steps - clock.steps)  # controller periods before the clock's
+    to_mono = time.monotonic() - time.perf_counter()
+    assert srv.server.reports.frames_skipped["develop"] == 0  # one frame read per frame sent
+    frames = [f for _, f in reader.frames]
+    deadlines = [t - late + to_mono for t, late in zip(sent, lateness, strict=True)][:len(frames)]
+    checked = 0
+    for frame, deadline in zip(frames, deadlines, strict=True):
+        if frame[4] & 0x0F != 1:
+            continue
+        joints = tuple(float(x) for x in reports.decode_develop(frame).joints[:6])
+        steps = periods.get(joints, [])
+        ends = [clock.wall_after(k - offset - clock.steps - 1) for k in steps]  # wall time each ended
+        assert any(abs(e - deadline) <= PERIOD + 1e-4 for e in ends), (deadline, ends[:3])
+        checked += 1
+    assert checked >= 40, checked
+
+
+def test_a_250_hz_servo_stream_is_reported_within_a_degree_20_ms_later(  # type: ignore[no-untyped-def]
+        make_server, sdk_arm) -> None:
+    """Mode 1 (servo motion, manual register 19 / 29): ``set_servo_angle_j`` at 250 Hz moving joint 1
+    at 20 degrees per second; the first develop frame 20 ms or more after each command shows joint 1
+    no more than one degree behind that command (a frame that repeated an older state would show it
+    further behind)."""
+    srv = make_server()
+    reader = _Reader(srv.ports["develop"])
+    reader.start()
+    arm: Any = sdk_arm(srv, report_type="devlop")
+    commands: list[tuple[float, float]] = []
+    try:
+        sdk_ready(arm)
+        assert arm.set_mode(1) == 0 and arm.set_state(0) == 0
+        time.sleep(0.1)
+        start = list(arm.angles[:6])
+        t0 = time.monotonic()
+        for k in range(250):  # one second
+            target = start[0] + 20.0 * k * 0.004
+            assert arm.set_servo_angle_j([target, *start[1:]], is_radian=False) == 0
+            commands.append((time.monotonic(), target))
+            time.sleep(max(0.0, t0 + (k + 1) * 0.004 - time.monotonic()))
+        time.sleep(0.1)
+    finally:
+        reader.close()
+    frames = [(t, math.degrees(reports.decode_develop(f).joints[0])) for t, f in reader.frames]
+    worst = 0.0
+    for sent_at, target in commands[:-10]:
+        later = next(j for t, j in frames if t >= sent_at + 0.02)
+        worst = max(worst, target - later)  # behind the command (the arm moves on after it)
+    assert worst <= 1.0, worst
