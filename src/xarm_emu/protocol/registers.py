@@ -369,7 +369,8 @@ def per_joint_fields(table: Mapping[int, Register]) -> Mapping[int, tuple[str, .
     out: dict[int, tuple[str, ...]] = {}
     for code, r in table.items():
         options = getattr(r.request, "options", None) or (r.request,)
-        names = {f.name for opt in options for f in opt.fields if f.kind == "fp32" and f.count == JOINT_VECTOR}
+        names = {f.name for opt in options for f in opt.fields
+                 if f.kind == "fp32" and f.count == JOINT_VECTOR}
         if names:
             out[code] = tuple(sorted(names))
     return MappingProxyType(out)
