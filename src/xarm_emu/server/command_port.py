@@ -122,7 +122,7 @@ class CommandTarget(Protocol):
 
     def command_closed(self, client: int) -> None: ...
 
-    def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
+    def answer_modbus(self, tid: int, unit: int, pdu: bytes, peer: str = "") -> bytes: ...
 
     def settle_reports(self) -> None: ...
 
@@ -349,7 +349,7 @@ class CommandProtocol(asyncio.Protocol):
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
-                out.append(self.server.answer_modbus(tid, register, params))
+                out.append(self.server.answer_modbus(tid, register, params, self.peer))
             else:
                 log.info("closing command connection: unknown protocol id %d", prot)
                 pending.clear()

@@ -561,7 +561,8 @@ class EmulatorServer:
         if cached is None:
             self.code_watch.check(emu.controller)
         if self.trace is not None:
-            self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
+            self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame,
+                               emu.controller.registers)
         return frame
 
     # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
@@ -614,12 +615,15 @@ class EmulatorServer:
         if self.feedback is not None:
             self.feedback.forget(client)
 
-    def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes:
+    def answer_modbus(self, tid: int, unit: int, pdu: bytes, peer: str = "") -> bytes:
         """The reply frame to one standard Modbus-TCP request (protocol id 0): the map of
         :mod:`xarm_emu.protocol.modbus` over the live emulator, after the due control periods."""
         self.catch_up()
         self._touched = True
-        return modbus_map.answer(self.emulator, tid, unit, pdu)
+        frame = modbus_map.answer(self.emulator, tid, unit, pdu)
+        if self.trace is not None:
+            self.trace.modbus(self.emulator.time, peer, tid, unit, pdu, frame)
+        return frame
 
     def settle_reports(self) -> None:
         """Before replies go out: if a command may have changed the box, the report frames already
