@@ -31,6 +31,7 @@ from ..protocol.rtu import CONTROL_BOX_HOST
 from . import contact, ft_sensor, safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
 from .bio_gripper import BioGripper
+from .bio_gripper_g1 import BioGripperG1
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .gripper import GripperModule, ToolDevice
@@ -54,7 +55,7 @@ log = logging.getLogger("xarm_emu.emulator")
 #: The end grippers that can be attached on the tool RS-485 (``Emulator(gripper=...)``,
 #: ``serve --gripper``): the xArm gripper (controller/gripper.py), the Robotiq 2F-85 and 2F-140
 #: (controller/robotiq.py) and the BIO gripper (controller/bio_gripper.py).
-GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio")
+GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio", "bio-g1")
 
 
 def tool_device(gripper: str) -> ToolDevice | None:
@@ -64,6 +65,8 @@ def tool_device(gripper: str) -> ToolDevice | None:
         raise ValueError(f"gripper {gripper!r}: one of {', '.join(GRIPPERS)}")
     if gripper == "bio":
         return BioGripper()
+    if gripper == "bio-g1":
+        return BioGripperG1()
     if gripper in ROBOTIQ_MODELS:
         return RobotiqGripper(ROBOTIQ_MODELS[gripper])
     return None
@@ -717,8 +720,8 @@ class Emulator:
             if self.gripper.device is self.gripper.gripper:
                 raise ValueError("gripper-object needs a Robotiq or BIO gripper (serve --gripper "
                                  "robotiq-2f85, robotiq-2f140 or bio)")
-            if index not in (0, 1) or (index == 1 and self.gripper_kind == "bio"):
-                around = "" if self.gripper_kind == "bio" else " or 1 (around them)"
+            if index not in (0, 1) or (index == 1 and self.gripper_kind.startswith("bio")):
+                around = "" if self.gripper_kind.startswith("bio") else " or 1 (around them)"
                 raise ValueError(f"index 0 (an object between the fingers){around}, not {index}")
             if value is not None and not math.isfinite(value):
                 raise ValueError(f"object width must be finite, got {value!r}")
