@@ -28,7 +28,7 @@ from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
-from . import contact, ft_sensor, safety, trajectory
+from . import contact, ft_sensor, identification, safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
 from .bio_gripper import BioGripper
 from .bio_gripper_g1 import BioGripperG1
@@ -491,6 +491,7 @@ class Emulator:
         snap = report_snapshot(c.model, c.data, c.settings, self.io, self.thermal,
                                version=c.version_string(), tool_error=c.hooks.tool_error(),
                                torques=c.joint_torques(), pose=c.tcp_matrix())
+        snap.iden_progress = identification.progress(c)  # rich report byte 481
         if ft_sensor.enabled(c):  # the reports' F/T fields: what registers 200 and 200 [01] answer
             snap.ft_ext_force = tuple(float(x) for x in ft_sensor.reading(c))
             snap.ft_raw_force = tuple(float(x) for x in ft_sensor.raw_reading(c))

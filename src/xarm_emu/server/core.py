@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from ..controller import modbus_map
+from ..controller import identification, modbus_map
 from ..controller.base import PERIOD, WARN_PARAMETER
 from ..controller.config import ConfigStore, load_or_create_admin_token
 from ..controller.emulator import Emulator
@@ -267,6 +267,8 @@ class EmulatorServer:
         self._read_cache = ReadCache()
         #: A command may have changed the box since the report frames were last prepared.
         self._touched = False
+        #: Replies held until a motion is over (register 204): (future, tid, protocol, register).
+        self._later: list[tuple[asyncio.Future[bytes], int, int, int]] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         #: name -> factory of what the composer attached; started by start() (:meth:`attach`).
         self._attach: dict[str, Callable[[], Attachment]] = {}
@@ -353,6 +355,27 @@ class EmulatorServer:
             self.emulator.touch()
             frame = frame[:7] + bytes([ctl.status_byte()]) + frame[8:]
         fut.set_result(frame)
+
+    def answer_later(self, tid: int, protocol: int, register: int) -> asyncio.Future[bytes] | None:
+        """The reply to register 204 once the load identification it started is over (its result,
+        controller/identification.py); ``None`` when it is over already (the reply made stands)."""
+        ctl = self.emulator.controller
+        if register != identification.REGISTER or identification.finished(ctl):
+            return None
+        fut: asyncio.Future[bytes] = asyncio.get_running_loop().create_future()
+        self._later.append((fut, tid, protocol, register))
+        return fut
+
+    def _settle_later(self) -> None:
+        """Replies held for a motion (:meth:`answer_later`) go out once it is over."""
+        ctl = self.emulator.controller
+        if not self._later or not identification.finished(ctl):
+            return
+        later, self._later = self._later, []
+        for fut, tid, protocol, register in later:
+            if not fut.done():
+                reply = ctl.registers[register].reply.encode(identification.reply(ctl))
+                fut.set_result(encode_reply(tid, protocol, register, ctl.status_byte(), reply))
 
     def health(self) -> dict[str, Any]:
         """What the admin ``status`` adds: why the last save failed and why the trace stopped
@@ -536,6 +559,8 @@ class EmulatorServer:
             self.emulator.step(n)
             if self.feedback is not None and self.feedback.pending:
                 self.deliver_feedback()
+            if self._later:
+                self._settle_later()
             self.code_watch.check(self.emulator.controller)
         return n
 
@@ -638,6 +663,8 @@ class EmulatorServer:
         number of periods run."""
         n = max(0, round(seconds / PERIOD))
         self.emulator.step(n)
+        if self._later:
+            self._settle_later()
         return n
 
     async def _control_loop(self) -> None:
