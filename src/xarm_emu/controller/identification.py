@@ -7,7 +7,8 @@ emulator queues that sequence as ordinary joint moves (register 204 as their ori
 between them: from the present joints to each pose of :func:`~.ft_sensor.iden_poses` (J5 and J6
 turned, clipped to the joint limits), a reading there, and back to where the arm began. The moves
 run at :data:`IDEN_SPEED` and :data:`IDEN_ACC`, a wrist's pace in normal use, so the whole sequence
-takes about 17 s of controller time on an xArm 6 (``tests/test_identification.py`` measures it).
+takes about 19 s of controller time on an xArm 6 (15 s on an xArm 5, 17 s on an xArm 7;
+``tests/test_identification.py`` checks the range).
 The vendor's material gives no duration; the SDK waits up to 300 s for type 1 and 500 s for type 0,
 which this stays well inside.
 
