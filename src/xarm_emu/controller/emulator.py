@@ -35,6 +35,7 @@ from .bio_gripper_g1 import BioGripperG1
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .gripper import GripperModule, ToolDevice
+from .inspire_hand import InspireHand
 from .io import IOModule
 from .linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
 from .lite6_gripper import Lite6Gripper
@@ -55,7 +56,7 @@ log = logging.getLogger("xarm_emu.emulator")
 #: The end grippers that can be attached on the tool RS-485 (``Emulator(gripper=...)``,
 #: ``serve --gripper``): the xArm gripper (controller/gripper.py), the Robotiq 2F-85 and 2F-140
 #: (controller/robotiq.py) and the BIO gripper (controller/bio_gripper.py).
-GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio", "bio-g1")
+GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio", "bio-g1", "inspire-rh56")
 
 
 def tool_device(gripper: str) -> ToolDevice | None:
@@ -67,6 +68,8 @@ def tool_device(gripper: str) -> ToolDevice | None:
         return BioGripper()
     if gripper == "bio-g1":
         return BioGripperG1()
+    if gripper == "inspire-rh56":
+        return InspireHand()
     if gripper in ROBOTIQ_MODELS:
         return RobotiqGripper(ROBOTIQ_MODELS[gripper])
     return None
@@ -568,6 +571,8 @@ class Emulator:
         elif isinstance(dev, BioGripper):
             out.update(enabled=dev.enabled, mode=dev.mode, opening_mm=round(dev.opening_mm, 1),
                        object=dev.detected)
+        elif isinstance(dev, InspireHand):
+            out.update(angles=[int(round(a)) for a in dev.state.angle])
         else:
             g = self.gripper.gripper
             out.update(enabled=g.enabled, position=g.position_pulses)
