@@ -107,14 +107,17 @@ def test_a_stop_interrupts_it(tmp_path: Any) -> None:
     assert identification.progress(ctl) < 100
 
 
-def test_the_reply_waits_for_the_sequence_on_the_stepped_clock(make_server: Any) -> None:
+def test_the_reply_waits_for_the_sequence_on_the_stepped_clock(make_server: Any, tmp_path: Any) -> None:
+    import json
+
     from helpers import connect, recv_frame
 
     from xarm_emu.protocol.frame import encode_request
 
     emu = Emulator(6, load_config=False, firmware=FW2)
     emu.set_payload(MASS, COM)
-    st = make_server(emulator=emu, stepped=True, admin=True)
+    trace = tmp_path / "trace.jsonl"
+    st = make_server(emulator=emu, stepped=True, admin=True, trace=trace)
     with connect(st.ports["command"]) as s:
         for tid, (reg, params) in enumerate(((11, bytes([8, 1])), (12, bytes([0]))), start=1):
             s.sendall(encode_request(tid, reg, params))
@@ -129,3 +132,8 @@ def test_the_reply_waits_for_the_sequence_on_the_stepped_clock(make_server: Any)
     assert frame[:2] == struct.pack(">H", 9) and frame[6] == 204
     mass = struct.unpack_from("<f", frame, 8)[0]
     assert mass == pytest.approx(MASS, rel=0.03)
+    st.stop()
+    lines = [json.loads(x) for x in trace.read_text().splitlines()]
+    iden = [x for x in lines if x.get("register") == 204]
+    assert len(iden) == 1 and iden[0]["reply"] == frame[8:].hex() and iden[0]["t"] >= 10.0
+    assert iden[0]["values"]["load"][0] == pytest.approx(MASS, rel=0.03)

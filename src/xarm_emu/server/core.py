@@ -267,8 +267,10 @@ class EmulatorServer:
         self._read_cache = ReadCache()
         #: A command may have changed the box since the report frames were last prepared.
         self._touched = False
-        #: Replies held until a motion is over (register 204): (future, tid, protocol, register).
-        self._later: list[tuple[asyncio.Future[bytes], int, int, int]] = []
+        #: Replies held until a motion is over (register 204): (future, tid, protocol, register,
+        #: (peer, params) for the trace).
+        self._later: list[tuple[asyncio.Future[bytes], int, int, int, tuple[str, bytes] | None]] = []
+        self._held_trace: tuple[str, bytes] | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         #: name -> factory of what the composer attached; started by start() (:meth:`attach`).
         self._attach: dict[str, Callable[[], Attachment]] = {}
@@ -363,7 +365,8 @@ class EmulatorServer:
         if register != identification.REGISTER or identification.finished(ctl):
             return None
         fut: asyncio.Future[bytes] = asyncio.get_running_loop().create_future()
-        self._later.append((fut, tid, protocol, register))
+        self._later.append((fut, tid, protocol, register, self._held_trace))
+        self._held_trace = None
         return fut
 
     def _settle_later(self) -> None:
@@ -372,10 +375,14 @@ class EmulatorServer:
         if not self._later or not identification.finished(ctl):
             return
         later, self._later = self._later, []
-        for fut, tid, protocol, register in later:
+        for fut, tid, protocol, register, held in later:
+            reply = ctl.registers[register].reply.encode(identification.reply(ctl))
+            frame = encode_reply(tid, protocol, register, ctl.status_byte(), reply)
+            if self.trace is not None and held is not None:
+                self.trace.command(self.emulator.time, held[0], tid, protocol, register, held[1], frame,
+                                   ctl.registers)
             if not fut.done():
-                reply = ctl.registers[register].reply.encode(identification.reply(ctl))
-                fut.set_result(encode_reply(tid, protocol, register, ctl.status_byte(), reply))
+                fut.set_result(frame)
 
     def health(self) -> dict[str, Any]:
         """What the admin ``status`` adds: why the last save failed and why the trace stopped
@@ -586,8 +593,11 @@ class EmulatorServer:
         if cached is None:
             self.code_watch.check(emu.controller)
         if self.trace is not None:
-            self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame,
-                               emu.controller.registers)
+            if register == identification.REGISTER and not identification.finished(emu.controller):
+                self._held_trace = (peer, params)  # traced with the reply it gets (answer_later)
+            else:
+                self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame,
+                                   emu.controller.registers)
         return frame
 
     # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
