@@ -167,13 +167,16 @@ class BioGripper:
     def clear_error(self) -> None:
         self.code = 0
 
+    #: The widths an object between the fingers can have, and their unit.
+    object_range: tuple[float, float, str] = (CLOSED_MM, OPEN_MM, "mm")
+
     def check_object(self, width_mm: float, inner: bool = False) -> None:
         """Raise ValueError unless an object of ``width_mm`` fits between the fingers."""
         if inner:
             raise ValueError("the BIO gripper grips between its fingers only (index 0)")
-        if not CLOSED_MM <= width_mm <= OPEN_MM:
-            raise ValueError(f"object width {width_mm:g} mm: the BIO gripper opens "
-                             f"{CLOSED_MM:g}..{OPEN_MM:g} mm")
+        lo, hi, unit = self.object_range
+        if not lo <= width_mm <= hi:
+            raise ValueError(f"object width {width_mm:g} {unit}: the BIO gripper opens {lo:g}..{hi:g} {unit}")
 
     def set_object(self, width_mm: float | None, inner: bool = False) -> None:
         """Put an object of ``width_mm`` between the fingers; ``None`` takes it away (a gripped one

@@ -61,6 +61,8 @@ REGISTER_MAP: dict[int, tuple[str, str]] = {
 class BioGripperG1(BioGripper):
     """The first-generation BIO gripper: the G2's motion with the G1's register map and range."""
 
+    object_range = (float(CLOSED), float(OPEN), "(position units)")
+
     def __init__(self) -> None:
         super().__init__()
         self.position = float(OPEN)
@@ -71,13 +73,6 @@ class BioGripperG1(BioGripper):
     def opening_mm(self) -> float:
         """The position in the G1's own units (the public material gives no millimetre scale)."""
         return self.position
-
-    def check_object(self, width_mm: float, inner: bool = False) -> None:
-        if inner:
-            raise ValueError("the BIO gripper grips between its fingers only (index 0)")
-        if not CLOSED <= width_mm <= OPEN:
-            raise ValueError(f"object width {width_mm:g}: the first-generation BIO gripper spans "
-                             f"{CLOSED}..{OPEN} (its position units)")
 
     def _goal_pulses(self, raw: int) -> float:
         if not CLOSED <= raw <= OPEN:
