@@ -137,3 +137,26 @@ def test_the_reply_waits_for_the_sequence_on_the_stepped_clock(make_server: Any,
     iden = [x for x in lines if x.get("register") == 204]
     assert len(iden) == 1 and iden[0]["reply"] == frame[8:].hex() and iden[0]["t"] >= 10.0
     assert iden[0]["values"]["load"][0] == pytest.approx(MASS, rel=0.03)
+
+
+def test_the_sequence_sends_no_task_feedback(tmp_path: Any) -> None:
+    """The moves are the box's own: a connection whose register 254 mask asks for every task frame
+    gets none for them (its wait is for the reply)."""
+    from xarm_emu.controller.feedback import feedback_queue
+
+    emu = Emulator(6, config_dir=tmp_path, firmware=FW2)
+    ctl = emu.controller
+    fb = feedback_queue(ctl)
+    for tid, (reg, params) in enumerate(((11, bytes([8, 1])), (12, bytes([0])), (254, bytes([0xFF])),
+                                         (204, bytes([1]))), start=1):
+        fb.begin(ctl, 1, tid, 2, reg)
+        state, _ = emu.handle(reg, params)
+        fb.end(ctl, state)
+    while not identification.finished(ctl):
+        emu.advance(1.0)
+    assert fb.drain() == []
+    fb.begin(ctl, 1, 9, 2, 23)  # a move of the client's own still reports
+    emu.handle(23, struct.pack("<7f3f", 0.1, 0, 0, 0, 0, 0, 0, 1.0, 10.0, 0.0))
+    fb.end(ctl, 0)
+    emu.advance(1.0)
+    assert [e.feedback.register for e in fb.drain()] == [23, 23]

@@ -42,6 +42,9 @@ MOTION_TASKS = (JointMove, LineMove, CircleMove, Dwell)
 #: Registers whose (immediate) task is reported as TRIGGER when it is accepted: the SDK waits for
 #: the TRIGGER of register 36 in ``set_tcp_load(wait=True)``.
 TRIGGER_REGISTERS = frozenset({36})
+#: Registers whose queued tasks are the box's own sequence, not the client's moves (204, load
+#: identification: the client waits for its reply): no task frames.
+OWN_TASK_REGISTERS = frozenset({204})
 #: Register 253 (feedback check).
 FEEDBACK_CHECK = 253
 #: Mask bits a queued task can report (the rest are reported through :meth:`FeedbackQueue.emit`).
@@ -149,7 +152,7 @@ class FeedbackQueue:
             return
         origin = self.capture()
         self._origin = None
-        if origin is None or not origin.mask & _TASK_BITS:
+        if origin is None or not origin.mask & _TASK_BITS or self._register in OWN_TASK_REGISTERS:
             return
         ex = ctl.executor
         new: list[Any] = []
