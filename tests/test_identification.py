@@ -160,3 +160,28 @@ def test_the_sequence_sends_no_task_feedback(tmp_path: Any) -> None:
     fb.end(ctl, 0)
     emu.advance(1.0)
     assert [e.feedback.register for e in fb.drain()] == [23, 23]
+
+
+def test_replay_runs_a_traced_identification(make_server: Any, tmp_path: Any) -> None:
+    from helpers import connect, recv_frame
+
+    from xarm_emu.protocol.frame import encode_request
+    from xarm_emu.replay import replay
+
+    trace = tmp_path / "trace.jsonl"
+    st = make_server(emulator=Emulator(6, load_config=False, firmware=FW2), stepped=True, admin=True,
+                     trace=trace)
+    with connect(st.ports["command"]) as s:
+        for tid, (reg, params) in enumerate(((11, bytes([8, 1])), (12, bytes([0])), (204, bytes([1]))),
+                                            start=1):
+            s.sendall(encode_request(tid, reg, params))
+            if reg == 204:  # held until the sequence has run
+                s.settimeout(0.3)
+                with pytest.raises(TimeoutError):
+                    s.recv(64)
+                st.call(lambda: st.server.advance(60.0))
+                s.settimeout(2.0)
+            recv_frame(s)
+    st.stop()
+    result = replay(trace, firmware=FW2)
+    assert result.requests == 3 and result.differences == [], result.differences

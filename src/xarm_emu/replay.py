@@ -155,7 +155,7 @@ def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum
         emu = Emulator(model, config_dir=Path(cdir), vacuum=vacuum, firmware=firmware)
         server = EmulatorServer(emu, ServerConfig(stepped=True, admin=True, port=0))
         for n, rec in requests:
-            t = float(rec["t"])
+            t = float(rec.get("t_request", rec["t"]))  # a held reply: sent when it was asked
             if t > emu.time:
                 server.advance(t - emu.time)
             result.requests += 1
@@ -165,6 +165,8 @@ def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum
             else:
                 frame = server.answer(int(rec["tid"]), int(rec["protocol"]), int(rec["register"]),
                                       bytes.fromhex(rec["params"]))
+                held = server.finish_held(int(rec["tid"]), int(rec["protocol"]), int(rec["register"]))
+                frame = held if held is not None else frame
                 diff = _compare(n, rec, frame[7] if len(frame) >= 8 else -1, bytes(frame[8:]), tolerance,
                                 emu.controller.registers)
             if diff is not None:

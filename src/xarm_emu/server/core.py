@@ -268,9 +268,9 @@ class EmulatorServer:
         #: A command may have changed the box since the report frames were last prepared.
         self._touched = False
         #: Replies held until a motion is over (register 204): (future, tid, protocol, register,
-        #: (peer, params) for the trace).
-        self._later: list[tuple[asyncio.Future[bytes], int, int, int, tuple[str, bytes] | None]] = []
-        self._held_trace: tuple[str, bytes] | None = None
+        #: (peer, params, time asked) for the trace).
+        self._later: list[tuple[asyncio.Future[bytes], int, int, int, tuple[str, bytes, float] | None]] = []
+        self._held_trace: tuple[str, bytes, float] | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         #: name -> factory of what the composer attached; started by start() (:meth:`attach`).
         self._attach: dict[str, Callable[[], Attachment]] = {}
@@ -376,13 +376,33 @@ class EmulatorServer:
             return
         later, self._later = self._later, []
         for fut, tid, protocol, register, held in later:
-            reply = ctl.registers[register].reply.encode(identification.reply(ctl))
-            frame = encode_reply(tid, protocol, register, ctl.status_byte(), reply)
-            if self.trace is not None and held is not None:
-                self.trace.command(self.emulator.time, held[0], tid, protocol, register, held[1], frame,
-                                   ctl.registers)
+            frame = self._held_frame(tid, protocol, register, held)
             if not fut.done():
                 fut.set_result(frame)
+
+    def _held_frame(self, tid: int, protocol: int, register: int,
+                    held: tuple[str, bytes, float] | None) -> bytes:
+        """The reply frame of a held request whose motion is over, traced now."""
+        ctl = self.emulator.controller
+        reply = ctl.registers[register].reply.encode(identification.reply(ctl))
+        frame = encode_reply(tid, protocol, register, ctl.status_byte(), reply)
+        if self.trace is not None and held is not None:
+            self.trace.command(self.emulator.time, held[0], tid, protocol, register, held[1], frame,
+                               ctl.registers, asked=held[2])
+        return frame
+
+    def finish_held(self, tid: int, protocol: int, register: int, limit: float = 600.0) -> bytes | None:
+        """Lockstep (replay): when the request just answered is held (:meth:`answer_later`), run
+        the controller until its motion is over (at most ``limit`` s) and return its reply frame;
+        ``None`` when it is not held."""
+        ctl = self.emulator.controller
+        if register != identification.REGISTER or identification.finished(ctl):
+            return None
+        held, self._held_trace = self._held_trace, None
+        end = self.emulator.time + limit
+        while not identification.finished(ctl) and self.emulator.time < end:
+            self.emulator.step(25)
+        return self._held_frame(tid, protocol, register, held)
 
     def health(self) -> dict[str, Any]:
         """What the admin ``status`` adds: why the last save failed and why the trace stopped
@@ -594,7 +614,7 @@ class EmulatorServer:
             self.code_watch.check(emu.controller)
         if self.trace is not None:
             if register == identification.REGISTER and not identification.finished(emu.controller):
-                self._held_trace = (peer, params)  # traced with the reply it gets (answer_later)
+                self._held_trace = (peer, params, emu.time)  # traced with its reply (answer_later)
             else:
                 self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame,
                                    emu.controller.registers)

@@ -11,7 +11,8 @@ One JSON object per line, appended to ``FILE``:
   "-Infinity", so every line is strict JSON); the reply's state byte, its raw parameters and their
   values. Registers are named and decoded with the table of the firmware the box claims (every
   register and layout it answers); ``request_error`` appears only where the box could not decode
-  the request either, i.e. where it refused it;
+  the request either, i.e. where it refused it. A reply that waits for a motion (register 204, load
+  identification) is written when it goes out, with ``t_request`` the time it was asked;
 - ``{"t": ..., "wall": ..., "peer": ..., "tid": 3, "protocol": 0, "unit": 1, "function": 3,
   "address": 32, "count": 2, "pdu": "<hex>", "reply": "<hex>", "exception": null, "read": [0, 0]}``
   for each standard Modbus request (protocol id 0): the function code, address, count, the values
@@ -100,11 +101,15 @@ class CommandTrace:
         self._write({"event": what, "t": round(t, 6), "wall": time.time(), "peer": peer})
 
     def command(self, t: float, peer: str, tid: int, protocol: int, register: int, params: bytes,
-                frame: bytes, table: Mapping[int, regs.Register] | None = None) -> None:
+                frame: bytes, table: Mapping[int, regs.Register] | None = None,
+                asked: float | None = None) -> None:
         """One request and its reply ``frame`` (header, register, state, parameters), named and
-        decoded with ``table``, the registers the box answers (default: the manual's)."""
+        decoded with ``table``, the registers the box answers (default: the manual's). ``asked``:
+        the controller time of a request whose reply waited for a motion (``t_request``)."""
         record: dict[str, Any] = {"t": round(t, 6), "wall": time.time(), "peer": peer, "tid": tid,
                                   "protocol": protocol, "register": register}
+        if asked is not None:
+            record["t_request"] = round(asked, 6)
         reg = (regs.REGISTERS if table is None else table).get(register)
         state, reply = (frame[7], frame[8:]) if len(frame) >= 8 else (None, b"")
         record["name"] = reg.name if reg is not None else None
