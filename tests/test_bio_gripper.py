@@ -127,13 +127,18 @@ def test_out_of_range_speed_or_force_is_illegal_value_and_changes_nothing(addr: 
     assert read(mod, addr) == before
 
 
-@pytest.mark.parametrize("pos", [70, 151, -5])
-def test_out_of_range_target_is_illegal_value(pos: int) -> None:
+@pytest.mark.parametrize(("pos", "end"), [(70, 0), (50, 0), (-5, 0), (151, PULSE_MAX), (130, None)])
+def test_a_target_beyond_the_stroke_is_clamped_to_its_end(pos: int, end: int | None) -> None:
+    """A first-generation program's close (50) closes a G2 fully; its open (130) is inside the
+    G2's stroke and goes there."""
     mod, _ = enabled()
-    assert target(mod, pos) == bytes((8, 0x90, rtu.ILLEGAL_VALUE))
-    assert g2_move(mod, pos) == bytes((8, 0x90, rtu.ILLEGAL_VALUE))
-    run(mod, 1.0)
-    assert position(mod) == PULSE_MAX
+    assert target(mod, 100) == bytes.fromhex("08 10 07 00 00 02")
+    run(mod, 2.0)
+    assert target(mod, pos) == bytes.fromhex("08 10 07 00 00 02")
+    run(mod, 2.0)
+    want = end if end is not None else round(mm_to_pulses(pos))
+    assert position(mod) == want
+    assert g2_move(mod, pos) == bytes.fromhex("08 10 0C 00 00 05")
 
 
 def test_target_while_disabled_is_accepted_but_does_not_move() -> None:

@@ -75,4 +75,5 @@ def test_bad_trace_is_one_line(tmp_path: Path) -> None:
     bad.write_text('{"t": 0.1, "register": 13}\n')
     code, out = run_cli("replay", str(bad))
     assert code == 2
-    assert out.strip() == f"{bad} line 1: a request line needs t, tid, protocol, register, params and reply"
+    assert out.strip() == (f"{bad} line 1: a request line needs t, tid, protocol, register, params and "
+                           "reply (unit and pdu for protocol 0)")

@@ -102,7 +102,9 @@ def serve(
     scene: Annotated[Path | None, typer.Option(help="Contact scene: planes and boxes the TCP presses "
                                                     "into, a TOML file (controller/contact.py).")] = None,
     gripper: Annotated[str | None, typer.Option(help="The gripper on the tool RS-485: xarm (the default), "
-                                                     "robotiq-2f85, robotiq-2f140 or bio.")] = None,
+                                                     "robotiq-2f85, robotiq-2f140, bio, bio-g1 "
+                                                     "(the first-generation BIO) or inspire-rh56 (the "
+                                                     "Inspire RH56 hand).")] = None,
     trace: Annotated[Path | None, typer.Option(help="Append every command-port request and reply to "
                                                     "this JSON-lines file (see server/trace.py).")] = None,
     faults: Annotated[Path | None, typer.Option(help="Inject the faults and inputs this TOML schedule "

@@ -5,7 +5,8 @@ transaction id, protocol id and parameter bytes, to a fresh emulator in stepped 
 run up to the controller time at which the recorded request was answered. Its reply (state byte and
 parameters, manual 2.1.2) is compared with the recorded one: the same bytes, or the same decoded
 values within ``tolerance`` where the register table decodes them. An unchanged emulator and
-program give no difference; a change shows as the first reply that differs.
+program give no difference; a change shows as the first reply that differs. Standard Modbus lines
+(protocol id 0) are sent as their recorded PDU and their reply PDU is compared byte for byte.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import tempfile
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -76,11 +78,14 @@ def read_requests(path: Path) -> list[tuple[int, dict[str, Any]]]:
         if "event" in rec:
             continue
         try:
-            float(rec["t"]), int(rec["tid"]), int(rec["register"]), bytes.fromhex(rec["params"])
-            int(rec["protocol"]), bytes.fromhex(rec["reply"])
+            float(rec["t"]), int(rec["tid"]), bytes.fromhex(rec["reply"])
+            if int(rec["protocol"]) == 0:
+                int(rec["unit"]), bytes.fromhex(rec["pdu"])
+            else:
+                int(rec["register"]), bytes.fromhex(rec["params"])
         except (KeyError, TypeError, ValueError):
             raise ReplayError(f"{path} line {n}: a request line needs t, tid, protocol, register, "
-                              "params and reply") from None
+                              "params and reply (unit and pdu for protocol 0)") from None
         out.append((n, rec))
     return out
 
@@ -94,7 +99,17 @@ def _close(a: Any, b: Any, tolerance: float) -> bool:
     return bool(a == b)
 
 
-def _compare(n: int, rec: dict[str, Any], state: int, reply: bytes, tolerance: float) -> Difference | None:
+def _compare_modbus(n: int, rec: dict[str, Any], reply: bytes) -> Difference | None:
+    """A standard Modbus reply PDU against the recorded one: the same bytes."""
+    if bytes.fromhex(rec["reply"]) == reply:
+        return None
+    name = f"Modbus function {rec.get('function')} at {rec.get('address')}"
+    address = int(rec.get("address") or 0)
+    return Difference(n, float(rec["t"]), address, name, "reply", rec["reply"], reply.hex())
+
+
+def _compare(n: int, rec: dict[str, Any], state: int, reply: bytes, tolerance: float,
+             table: Mapping[int, regs.Register]) -> Difference | None:
     register = int(rec["register"])
     name = rec.get("name")
     t = float(rec["t"])
@@ -102,7 +117,7 @@ def _compare(n: int, rec: dict[str, Any], state: int, reply: bytes, tolerance: f
         return Difference(n, t, register, name, "state", rec.get("state"), state)
     if bytes.fromhex(rec["reply"]) == reply:
         return None
-    reg = regs.get(register)
+    reg = table.get(register)
     recorded = rec.get("values")
     if reg is not None and recorded is not None and reply:
         try:
@@ -140,13 +155,20 @@ def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum
         emu = Emulator(model, config_dir=Path(cdir), vacuum=vacuum, firmware=firmware)
         server = EmulatorServer(emu, ServerConfig(stepped=True, admin=True, port=0))
         for n, rec in requests:
-            t = float(rec["t"])
+            t = float(rec.get("t_request", rec["t"]))  # a held reply: sent when it was asked
             if t > emu.time:
                 server.advance(t - emu.time)
-            frame = server.answer(int(rec["tid"]), int(rec["protocol"]), int(rec["register"]),
-                                  bytes.fromhex(rec["params"]))
             result.requests += 1
-            diff = _compare(n, rec, frame[7] if len(frame) >= 8 else -1, bytes(frame[8:]), tolerance)
+            if int(rec["protocol"]) == 0:
+                frame = server.answer_modbus(int(rec["tid"]), int(rec["unit"]), bytes.fromhex(rec["pdu"]))
+                diff = _compare_modbus(n, rec, bytes(frame[7:]))
+            else:
+                frame = server.answer(int(rec["tid"]), int(rec["protocol"]), int(rec["register"]),
+                                      bytes.fromhex(rec["params"]))
+                held = server.finish_held(int(rec["tid"]), int(rec["protocol"]), int(rec["register"]))
+                frame = held if held is not None else frame
+                diff = _compare(n, rec, frame[7] if len(frame) >= 8 else -1, bytes(frame[8:]), tolerance,
+                                emu.controller.registers)
             if diff is not None:
                 result.differences.append(diff)
                 if stop_at_first:

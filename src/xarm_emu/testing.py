@@ -46,8 +46,8 @@ def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, va
     ``speed=5.0``, ``admin=True``), stopped at the end of the block. Saved configuration goes to a
     temporary directory unless ``config_dir`` is given; ``vacuum`` attaches the xArm Vacuum Gripper
     (as ``serve --vacuum``); ``gripper`` the gripper on the tool RS-485 (as ``serve --gripper``:
-    xarm, robotiq-2f85, robotiq-2f140 or bio); ``firmware`` is the version the box claims (as
-    ``serve --firmware``);
+    xarm, robotiq-2f85, robotiq-2f140, bio, bio-g1 or inspire-rh56); ``firmware`` is the version the
+    box claims (as ``serve --firmware``);
     ``linear_track`` attaches a linear track that many mm long (as ``serve --linear-track``; it needs
     ``firmware`` 1.8.0 or later, e.g. ``"2.7.103"``).
     ``ft_sensor`` mounts the six-axis F/T sensor (as ``serve --ft-sensor``; ``ft_noise=False`` for

@@ -29,8 +29,12 @@ mean in position-loop mode) that is ``mm * 3.7342 - 265.13``, 0..295, the SDK's 
 open/close mode (0) a target is the opening in mm, clamped to 71..150 by the SDK's callers (which
 is how the SDK's open and close functions send 150 and 71 unconverted).
 
-Refusals: a speed, force or target outside its range is answered with Modbus exception 3
-(illegal data value) and changes nothing; the SDK then reports a reply-length error (its code 23).
+Refusals: a speed or force outside its range is answered with Modbus exception 3 (illegal data
+value) and changes nothing; the SDK then reports a reply-length error (its code 23). A target
+beyond the stroke (in either mode) is taken and clamped to the stroke's end, as a position drive
+saturates at its soft limits: a program written for the first generation, whose close is 50 and
+open 130 (:mod:`.bio_gripper_g1`), closes and opens a G2 fully instead of failing. A target that
+is not a number the register can hold is still refused.
 A target while the motor is disabled is accepted but does not move the fingers, so the SDK's wait
 ends with "end effector not enabled" (its code 103), as a disabled gripper would.
 
@@ -187,13 +191,16 @@ class BioGripper:
     def clear_error(self) -> None:
         self.code = 0
 
+    #: The widths an object between the fingers can have, and their unit.
+    object_range: tuple[float, float, str] = (CLOSED_MM, OPEN_MM, "mm")
+
     def check_object(self, width_mm: float, inner: bool = False) -> None:
         """Raise ValueError unless an object of ``width_mm`` fits between the fingers."""
         if inner:
             raise ValueError("the BIO gripper grips between its fingers only (index 0)")
-        if not CLOSED_MM <= width_mm <= OPEN_MM:
-            raise ValueError(f"object width {width_mm:g} mm: the BIO gripper opens "
-                             f"{CLOSED_MM:g}..{OPEN_MM:g} mm")
+        lo, hi, unit = self.object_range
+        if not lo <= width_mm <= hi:
+            raise ValueError(f"object width {width_mm:g} {unit}: the BIO gripper opens {lo:g}..{hi:g} {unit}")
 
     def set_object(self, width_mm: float | None, inner: bool = False) -> None:
         """Put an object of ``width_mm`` between the fingers; ``None`` takes it away (a gripped one
@@ -227,13 +234,10 @@ class BioGripper:
         self.force = v
 
     def _goal_pulses(self, raw: int) -> float:
+        """The goal (pulses) of target ``raw``, clamped to the stroke (module docstring)."""
         if self.mode == 1:
-            if not PULSE_MIN <= raw <= PULSE_MAX:
-                raise _refuse()
-            return float(raw)
-        if not CLOSED_MM <= raw <= OPEN_MM:
-            raise _refuse()
-        return min(max(mm_to_pulses(raw), PULSE_MIN), PULSE_MAX)
+            return float(min(max(raw, PULSE_MIN), PULSE_MAX))
+        return min(max(mm_to_pulses(min(max(raw, CLOSED_MM), OPEN_MM)), PULSE_MIN), PULSE_MAX)
 
     def _move(self, raw: int) -> None:
         goal = self._goal_pulses(raw)
@@ -316,6 +320,14 @@ class BioGripper:
 
     # --- motion ------------------------------------------------------------------------------------
 
+    def _object_position(self, width_mm: float) -> float:
+        """Where the fingers touch an object of ``width_mm``, in position units (pulses)."""
+        return mm_to_pulses(width_mm)
+
+    def _rate(self) -> float:
+        """Finger speed in position units per second."""
+        return self.speed * SPEED_TO_PULSES
+
     def idle_until(self, ctl: ControllerView) -> float:
         """Idle (:func:`~.base.idle_until`) while the motor is not being enabled and the fingers do
         not move: then :meth:`step` changes nothing until a command, an object or an error comes."""
@@ -331,11 +343,11 @@ class BioGripper:
             return
         stop, contact = self.goal, False
         if self.object_mm is not None and self.goal < self.position:  # closing onto the object
-            at = mm_to_pulses(self.object_mm)
+            at = self._object_position(self.object_mm)
             if self.position >= at - 1e-9 and self.goal <= at:
                 stop, contact = at, True
         delta = stop - self.position
-        max_step = self.speed * SPEED_TO_PULSES * dt
+        max_step = self._rate() * dt
         if abs(delta) > max_step:
             self.position += max_step if delta > 0 else -max_step
             return

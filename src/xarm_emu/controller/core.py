@@ -120,6 +120,7 @@ class Controller:
         self.registers = regs.registers_for(firmware)
         self._float_checked = regs.float_checked(self.registers)
         self._inf_unchanged = regs.inf_unchanged(self.registers)
+        self._per_joint = regs.per_joint_fields(self.registers)
         self.dof = model.dof
         self.period = period
         self.robot_sn = robot_sn
@@ -258,6 +259,7 @@ class Controller:
         self.registers = MappingProxyType(table)
         self._float_checked = regs.float_checked(self.registers)
         self._inf_unchanged = regs.inf_unchanged(self.registers)
+        self._per_joint = regs.per_joint_fields(self.registers)
         fn = next(t[code] for t in TABLES if code in t)
         self._handlers[code] = functools.partial(fn, self)
 
@@ -358,6 +360,8 @@ class Controller:
                 values = reg.request.decode(params)
             except LayoutError as exc:
                 raise ParameterError(str(exc)) from exc
+            if code in self._per_joint:
+                values = _unread_axes_cleared(values, self._per_joint[code], self.dof)
             if code in self._float_checked and not all_within(
                     values, PARAMETER_LIMIT, inf_unchanged=code in self._inf_unchanged):
                 raise ParameterError(f"a float parameter is not finite or exceeds {PARAMETER_LIMIT:g}")
@@ -629,3 +633,16 @@ def _never_idle(ctl: Controller) -> bool:
     return False
 
 
+def _unread_axes_cleared(values: dict[str, Any], names: tuple[str, ...], dof: int) -> dict[str, Any]:
+    """``values`` with the per-joint entries the box does not read for a ``dof``-axis arm set to 0:
+    the joints beyond its axes, and the seventh of register 83's Cartesian deltas (x, y, z, roll,
+    pitch, yaw). Whatever a client leaves there (stack garbage from the C++ SDK) is never refused."""
+    used = dof
+    if "deltas" in names and not values.get("is_joint_motion", 0):
+        used = 6
+    out = dict(values)
+    for name in names:
+        v = out.get(name)
+        if isinstance(v, tuple) and len(v) > used and any(x != 0.0 for x in v[used:]):
+            out[name] = v[:used] + (0.0,) * (len(v) - used)
+    return out

@@ -28,15 +28,17 @@ from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
-from . import contact, ft_sensor, safety, trajectory
+from . import contact, ft_sensor, identification, safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
 from .bio_gripper import BioGripper
 from .box_state import EmulatorState, ModbusUserState, Schedule
+from .bio_gripper_g1 import BioGripperG1
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .feedback import FeedbackQueue, feedback_queue, find_feedback_queue
 from .firmware2_report import firmware2_fields
 from .gripper import GripperModule, ToolDevice
+from .inspire_hand import InspireHand
 from .io import IOModule
 from .linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
 from .lite6_gripper import Lite6Gripper
@@ -57,7 +59,7 @@ log = logging.getLogger("xarm_emu.emulator")
 #: The end grippers that can be attached on the tool RS-485 (``Emulator(gripper=...)``,
 #: ``serve --gripper``): the xArm gripper (controller/gripper.py), the Robotiq 2F-85 and 2F-140
 #: (controller/robotiq.py) and the BIO gripper (controller/bio_gripper.py).
-GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio")
+GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio", "bio-g1", "inspire-rh56")
 
 
 def tool_device(gripper: str) -> ToolDevice | None:
@@ -67,6 +69,10 @@ def tool_device(gripper: str) -> ToolDevice | None:
         raise ValueError(f"gripper {gripper!r}: one of {', '.join(GRIPPERS)}")
     if gripper == "bio":
         return BioGripper()
+    if gripper == "bio-g1":
+        return BioGripperG1()
+    if gripper == "inspire-rh56":
+        return InspireHand()
     if gripper in ROBOTIQ_MODELS:
         return RobotiqGripper(ROBOTIQ_MODELS[gripper])
     return None
@@ -503,6 +509,7 @@ class Emulator:
         snap = report_snapshot(c.model, c.data, c.settings, self.io, self.thermal,
                                version=c.version_string(), tool_error=c.hooks.tool_error(),
                                torques=c.joint_torques(), pose=c.tcp_matrix())
+        snap.iden_progress = identification.progress(c)  # rich report byte 481
         if ft_sensor.enabled(c):  # the reports' F/T fields: what registers 200 and 200 [01] answer
             snap.ft_ext_force = tuple(float(x) for x in ft_sensor.reading(c))
             snap.ft_raw_force = tuple(float(x) for x in ft_sensor.raw_reading(c))
@@ -589,6 +596,8 @@ class Emulator:
         elif isinstance(dev, BioGripper):
             out.update(enabled=dev.enabled, mode=dev.mode, opening_mm=round(dev.opening_mm, 1),
                        object=dev.detected)
+        elif isinstance(dev, InspireHand):
+            out.update(angles=[int(round(a)) for a in dev.state.angle])
         else:
             g = self.gripper.gripper
             out.update(enabled=g.enabled, position=g.position_pulses)
@@ -742,8 +751,8 @@ class Emulator:
             if self.gripper.device is self.gripper.gripper:
                 raise ValueError("gripper-object needs a Robotiq or BIO gripper (serve --gripper "
                                  "robotiq-2f85, robotiq-2f140 or bio)")
-            if index not in (0, 1) or (index == 1 and self.gripper_kind == "bio"):
-                around = "" if self.gripper_kind == "bio" else " or 1 (around them)"
+            if index not in (0, 1) or (index == 1 and self.gripper_kind.startswith("bio")):
+                around = "" if self.gripper_kind.startswith("bio") else " or 1 (around them)"
                 raise ValueError(f"index 0 (an object between the fingers){around}, not {index}")
             if value is not None and not math.isfinite(value):
                 raise ValueError(f"object width must be finite, got {value!r}")

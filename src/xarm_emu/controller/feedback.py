@@ -12,6 +12,8 @@ command and each batch of control periods and turns into 21-byte 0xFF frames
   MOTION_FINISH when it ends; a move that starts and ends within one control period (too short to
   plan) and a task discarded before it started (stop, error) finish with code 2, "discarded".
 - A queued non-motion task: TRIGGER when it runs. Register 36 (the payload) is triggered at once.
+- A request that would have queued a task but was refused (warning, error, not ready): MOTION_FINISH
+  with code 2 at once, so that no wait on it is left open.
 - Register 253: MOTION_FINISH with 253's own transaction id once every task queued before it has
   finished (at once when the buffer is empty).
 - Trajectory tasks (registers 61-65) report OTHER_START/OTHER_FINISH through :meth:`FeedbackQueue.emit`
@@ -29,7 +31,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..protocol.feedback import Feedback, FeedbackCode, FeedbackType
-from ..protocol.frame import PROTOCOL_PRIVATE_V3
+from ..protocol.frame import PROTOCOL_PRIVATE_V3, STATE_FAILED, STATE_NOT_READY
+from ..protocol.registers import Flag
 from .base import NOT_IDLE, ControllerView, Handler
 from .commands import CircleMove, Dwell, JointMove, LineMove
 from .state import holds
@@ -40,6 +43,9 @@ MOTION_TASKS = (JointMove, LineMove, CircleMove, Dwell)
 #: Registers whose (immediate) task is reported as TRIGGER when it is accepted: the SDK waits for
 #: the TRIGGER of register 36 in ``set_tcp_load(wait=True)``.
 TRIGGER_REGISTERS = frozenset({36})
+#: Registers whose queued tasks are the box's own sequence, not the client's moves (204, load
+#: identification: the client waits for its reply): no task frames.
+OWN_TASK_REGISTERS = frozenset({204})
 #: Register 253 (feedback check).
 FEEDBACK_CHECK = 253
 #: Mask bits a queued task can report (the rest are reported through :meth:`FeedbackQueue.emit`).
@@ -166,7 +172,7 @@ class FeedbackQueue:
             return
         origin = self.capture()
         self._origin = None
-        if origin is None or not origin.mask & _TASK_BITS:
+        if origin is None or not origin.mask & _TASK_BITS or self._register in OWN_TASK_REGISTERS:
             return
         ex = ctl.executor
         new: list[Any] = []
@@ -181,6 +187,18 @@ class FeedbackQueue:
             self._seen = (-1, 0, 0)  # look at the buffer after the next period
         elif self._register in TRIGGER_REGISTERS and self._accepted(ctl):
             self.emit(origin, FeedbackType.TRIGGER, self._register, ctl.time, state=status)
+        elif self._refused_task(ctl, status):
+            # nothing was queued: the task the SDK waits for is over before it began
+            self.emit(origin, FeedbackType.MOTION_FINISH, self._register, ctl.time,
+                      code=FeedbackCode.DISCARDED, state=status)
+
+    def _refused_task(self, ctl: Any, status: int) -> bool:
+        """Whether the request just handled would have queued a task but was refused (a new error
+        or warning, or the reply's not-ready or failed bit)."""
+        reg = ctl.registers.get(self._register)
+        if reg is None or not reg.flags & Flag.QUEUED:
+            return False
+        return bool(status & (STATE_NOT_READY | STATE_FAILED)) or not self._accepted(ctl)
 
     def _accepted(self, ctl: Any) -> bool:
         """Whether the request just handled was accepted: it raised no new error or warning (a

@@ -553,29 +553,43 @@ def set_zero(ctl: Any) -> None:
     cfg.offsets = tuple(float(x) for x in (np.asarray(cfg.offsets) + reading(ctl)))
 
 
-def identify(ctl: Any) -> tuple[float, ...]:
-    """Register 204 ``[00]``: mass (kg), centre of mass (m, sensor frame) and the six offsets from
-    the sensor's own readings at :data:`IDEN_POSES` around the present joints (least squares over
-    gravity's direction, as the real identification turns the wrist). The emulator reads those
-    poses without moving the arm; the external wrench present at the start stays as it is."""
-    st = state_of(ctl)
-    g = _gravity(ctl)
-    ext = external_wrench(ctl)
-    q0 = np.asarray(ctl.data.q, dtype=float)
-    rows_f, rhs_f, rows_t, rhs_t, forces = [], [], [], [], []
-    iden_noise = np.zeros((len(IDEN_POSES), IDEN_SAMPLES, 6))
-    if st.noise:  # the samples' noise, keyed by the period the identification runs in, and the drift
-        gen = _keyed(st.seed, _IDEN_KEY, int(ctl.data.steps))
-        iden_noise = gen.standard_normal(iden_noise.shape) * _SIGMA
-        iden_noise += drift(st.seed, float(ctl.data.time) - st.noise_since)
-    for i, (d5, d6) in enumerate(IDEN_POSES):
-        q = q0.copy()
+def iden_poses(ctl: Any, q0: np.ndarray) -> list[np.ndarray]:
+    """The joints the load identification reads at: :data:`IDEN_POSES` (J5, J6 offsets) around
+    ``q0`` (on a five-axis arm J4 turns for both)."""
+    out = []
+    for d5, d6 in IDEN_POSES:
+        q = np.array(q0, dtype=float)
         if ctl.model.dof >= 6:
             q[4] += d5
             q[5] += d6
         else:
             q[3] += d5 + d6 * 0.5
-        w = np.mean([_measure(ctl, q, external=ext) + noise for noise in iden_noise[i]], axis=0)
+        out.append(q)
+    return out
+
+
+def iden_reading(ctl: Any, index: int, q: np.ndarray | None = None) -> np.ndarray:
+    """Register 204 ``[00]``'s reading at joints ``q`` (the present ones by default; pose ``index``
+    of the sequence): the
+    mean of :data:`IDEN_SAMPLES` sensor samples, with the sensor's noise and drift."""
+    st = state_of(ctl)
+    noise = np.zeros((IDEN_SAMPLES, 6))
+    if st.noise:  # keyed by the period the reading is taken in and the pose
+        gen = _keyed(st.seed, _IDEN_KEY, int(ctl.data.steps), index)
+        noise = gen.standard_normal(noise.shape) * _SIGMA
+        noise += drift(st.seed, float(ctl.data.time) - st.noise_since)
+    q = np.asarray(ctl.data.q if q is None else q, dtype=float)
+    ext = external_wrench(ctl)
+    return np.asarray(np.mean([_measure(ctl, q, external=ext) + n for n in noise], axis=0))
+
+
+def solve_ft_load(ctl: Any, samples: list[tuple[np.ndarray, np.ndarray]]) -> tuple[float, ...]:
+    """Mass (kg), centre of mass (m, sensor frame) and the six offsets from sensor readings taken
+    at several wrist orientations, ``samples`` = [(joints, wrench)]: least squares over gravity's
+    direction in the sensor frame."""
+    g = _gravity(ctl)
+    rows_f, rhs_f, rows_t, rhs_t, forces = [], [], [], [], []
+    for q, w in samples:
         R, _ = _sensor_pose(ctl, q)
         gs = R.T @ g
         rows_f.append(np.hstack([gs[:, None], np.eye(3)]))
@@ -594,30 +608,43 @@ def identify(ctl: Any) -> tuple[float, ...]:
     return (m, *(float(x) for x in c), *(float(x) for x in bias_f), *(float(x) for x in sol_t[3:]))
 
 
-def identify_tcp_load(ctl: Any) -> tuple[float, float, float, float]:
-    """Register 204 ``[01]``: the flange load (kg, centre of mass mm in the flange frame) from the
-    joint torques of the emulator's dynamic model at several wrist poses, less the arm's own
-    torques (least squares on the static torques; no sensor needed)."""
+def identify(ctl: Any) -> tuple[float, ...]:
+    """Register 204 ``[00]`` at once, without moving (:func:`solve_ft_load` over readings computed
+    at the sequence's poses): the instant form, for tests and tools; the register runs the moving
+    sequence of :mod:`.identification`."""
+    q0 = np.asarray(ctl.data.q, dtype=float)
+    samples = []
+    for i, q in enumerate(iden_poses(ctl, q0)):
+        samples.append((q, iden_reading(ctl, i, q)))
+    return solve_ft_load(ctl, samples)
+
+
+def iden_torques(ctl: Any, q: np.ndarray | None = None) -> np.ndarray:
+    """Register 204 ``[01]``'s reading at joints ``q`` (the present ones by default): the static
+    joint torques the load adds (the emulator's dynamic model: with the load less without it)."""
     model = ctl.model
     g = _gravity(ctl)
     m_true, c_arr = physical_tcp_load(ctl)
-    c_true = tuple(float(x) for x in c_arr)
-    q0 = np.asarray(ctl.data.q, dtype=float)
+    q = np.asarray(ctl.data.q if q is None else q, dtype=float)
+    return np.asarray(dyn.gravity_torques(model, q, g, m_true, tuple(float(x) for x in c_arr))
+                      - dyn.gravity_torques(model, q, g))
+
+
+def solve_tcp_load(ctl: Any,
+                   samples: list[tuple[np.ndarray, np.ndarray]]) -> tuple[float, float, float, float]:
+    """The flange load (kg, centre of mass mm in the flange frame) from the load's joint torques
+    at several wrist poses, ``samples`` = [(joints, torques)]: least squares on the static torques."""
+    model = ctl.model
+    g = _gravity(ctl)
     rows, rhs = [], []
-    for d5, d6 in IDEN_POSES:
-        q = q0.copy()
-        if model.dof >= 6:
-            q[4] += d5
-            q[5] += d6
-        else:
-            q[3] += d5 + d6 * 0.5
-        tau = dyn.gravity_torques(model, q, g, m_true, c_true) - dyn.gravity_torques(model, q, g)
+    for q, tau in samples:
         # The load's torques are linear in (m, m*cx, m*cy, m*cz): one column per unit basis load.
-        cols = [dyn.gravity_torques(model, q, g, 1.0, (0.0, 0.0, 0.0)) - dyn.gravity_torques(model, q, g)]
+        base = dyn.gravity_torques(model, q, g)
+        cols = [dyn.gravity_torques(model, q, g, 1.0, (0.0, 0.0, 0.0)) - base]
         for axis in range(3):
             e = [0.0, 0.0, 0.0]
             e[axis] = 1000.0  # 1 kg at 1 m: the torque per unit of m*c (kg m)
-            cols.append(dyn.gravity_torques(model, q, g, 1.0, e) - dyn.gravity_torques(model, q, g) - cols[0])
+            cols.append(dyn.gravity_torques(model, q, g, 1.0, e) - base - cols[0])
         rows.append(np.column_stack(cols))
         rhs.append(tau)
     sol = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
@@ -626,4 +653,12 @@ def identify_tcp_load(ctl: Any) -> tuple[float, float, float, float]:
         return (max(m, 0.0), 0.0, 0.0, 0.0)
     c = sol[1:4] / m * 1000.0
     return (m, float(c[0]), float(c[1]), float(c[2]))
+
+
+def identify_tcp_load(ctl: Any) -> tuple[float, float, float, float]:
+    """Register 204 ``[01]`` at once, without moving (:func:`solve_tcp_load` over the torques at
+    the sequence's poses)."""
+    q0 = np.asarray(ctl.data.q, dtype=float)
+    samples = [(q, iden_torques(ctl, q)) for q in iden_poses(ctl, q0)]
+    return solve_tcp_load(ctl, samples)
 

@@ -15,12 +15,14 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
+from ..model import kinematics
 from ..model.rotations import rpy_to_axis_angle
 from ..protocol import modbus
 from ..protocol import registers as regs
 from ..protocol.modbus import ILLEGAL_DATA_VALUE, ModbusError, Point
 from ..protocol.reports import ReportSnapshot, volts_to_counts
 from .io import ADDR_TOOL_AI, ADDR_TOOL_DI, ADDR_TOOL_DO, ADDR_TOOL_DO_READ, TOOL_AI_FULL_SCALE, TOOL_HOST
+from .reduced import reduced_of
 
 if TYPE_CHECKING:
     from .emulator import Emulator
@@ -76,7 +78,7 @@ class EmulatorDatastore:
     # -- Datastore --------------------------------------------------------------------------------
     def read(self, point: Point) -> Sequence[float]:
         name = point.name
-        if name.endswith("_absent") or name in ("reduced_mode", "fence", "tool_analog_outputs",
+        if name.endswith("_absent") or name in ("tool_analog_outputs",
                                                 "cgpio_output_word_hi", "cgpio_input_word_hi"):
             return [0.0] * point.count
         if name == "user_coils":
@@ -108,6 +110,10 @@ class EmulatorDatastore:
             return _bits(s.brake_bits, 7)
         if name == "enabled":
             return _bits(s.enable_bits, 7)
+        if name == "reduced_mode":
+            return [float(reduced_of(self.emu.controller).on)]
+        if name == "fence":
+            return [float(self.emu.controller.settings.boundary_on)]
         if name == "paused":
             return [float(s.state == STATE_SUSPEND)]
         if name == "stopped":
@@ -147,7 +153,8 @@ class EmulatorDatastore:
         if name == "joint_speeds":
             return _deg(list(s.joint_speeds)[:7])
         if name == "tcp_speed":
-            return [float(s.tcp_speed)]
+            m = self.emu.model
+            return [kinematics.tcp_speed(m, s.joints[:m.dof], s.joint_speeds[:m.dof], s.tcp_offset)]
         raise ModbusError(modbus.DEVICE_FAILURE, f"no binding for {name}")
 
     def write(self, point: Point, offset: int, values: Sequence[int]) -> None:

@@ -105,6 +105,16 @@ def jacobian(model: RobotModel, q: Sequence[float] | np.ndarray) -> np.ndarray:
     return np.array(r[12:]).reshape(6, model.dof)
 
 
+def tcp_speed(model: RobotModel, q: Sequence[float] | np.ndarray, qd: Sequence[float] | np.ndarray,
+              tcp_offset: Sequence[float] = (0.0,) * 6) -> float:
+    """The TCP's linear speed (mm/s) at joints ``q`` (rad) moving at ``qd`` (rad/s): the flange's
+    velocity from the Jacobian plus the angular velocity crossed with the TCP offset (mm, rad)."""
+    J = jacobian(model, q)
+    w = J @ np.asarray(joint_values(model, qd), dtype=float)
+    r = fk(model, q)[:3, :3] @ np.asarray(tcp_offset[:3], dtype=float)
+    return float(np.linalg.norm(w[:3] + np.cross(w[3:], r)))
+
+
 def within_limits(model: RobotModel, q: Sequence[float] | np.ndarray) -> bool:
     """True when every joint is finite and inside its limits (manual 1.3; register 45)."""
     try:

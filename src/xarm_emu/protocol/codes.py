@@ -164,6 +164,7 @@ BIO_GRIPPER_ERRORS: dict[int, Code] = _table("G", [
 GRIPPER_TABLES: dict[str, dict[int, Code]] = {
     "xarm": GRIPPER_ERRORS, "robotiq-2f85": ROBOTIQ_FAULTS, "robotiq-2f140": ROBOTIQ_FAULTS,
     "bio": BIO_GRIPPER_ERRORS,
+    "bio-g1": BIO_GRIPPER_ERRORS,
 }
 
 _TABLES: dict[str, dict[int, Code]] = {

@@ -31,7 +31,8 @@ Decisions on what the published map leaves open:
 - Published but absent IO (coils 16-31 and 34-39, controller AO/AI 3-4, the tool analog outputs)
   reads 0; writes to it are accepted and change nothing.
 - Read-only points in a writable table (coils 128-159) refuse writes with exception 2.
-- Holding 32 (mode) writes act as register 19 and take the modes the emulator has (0, 1, 2); holding
+- Holding 32 (mode) writes act as register 19: 0-7 pass to it, and a mode register 19 refuses (3,
+  Cartesian teaching; 4-7 below the firmware that has them) gets exception 3, as any other; holding
   33 (state) writes act as register 12 and take 0 (motion), 3 (pause) and 4 (stop). Other values: 3.
 - Scaled values round half away from zero and saturate at the int16 (signed) or uint16 (unsigned)
   limits instead of wrapping.
@@ -190,8 +191,8 @@ MODBUS_MAP: tuple[Point, ...] = (
     Point(_C, 34, 6, "tgpio_outputs_absent", writable=True, doc=_ABSENT),
     Point(_C, 128, 7, "brakes", doc="J1-J7, 1 = brake released (report byte of brake states)"),
     Point(_C, 135, 7, "enabled", doc="J1-J7, 1 = enabled"),
-    Point(_C, 142, 1, "reduced_mode", doc="the emulator has no reduced mode: reads 0"),
-    Point(_C, 143, 1, "fence", doc="safety boundary switch (register 59); not reported: reads 0"),
+    Point(_C, 142, 1, "reduced_mode", doc="1 while reduced mode is on (register 50)"),
+    Point(_C, 143, 1, "fence", doc="1 while the safety boundary is on (register 59)"),
     Point(_C, 144, 1, "paused", doc="1 when the state is 3 (suspended)"),
     Point(_C, 145, 1, "stopped", doc="1 when the state is 4 (stopped)"),
     Point(_C, 146, 14, "mode_bits", doc="coil 146 + n is 1 in mode n (register 19 modes)"),
@@ -213,8 +214,9 @@ MODBUS_MAP: tuple[Point, ...] = (
     Point(_H, 5, 2, "analog_outputs_absent", unit="V", scale=1000.0, writable=True, doc=_ABSENT),
     Point(_H, 7, 4, "tool_analog_outputs", unit="V", scale=1000.0, writable=True,
           doc="published as not effective: " + _ABSENT),
-    Point(_H, 32, 1, "mode", writable=True, accepts=frozenset({0, 1, 2}), writes="19 SET_MODE",
-          doc="a write sets the mode as register 19 does (0 position, 1 servo, 2 joint teaching)"),
+    Point(_H, 32, 1, "mode", writable=True, accepts=range(0, 8), writes="19 SET_MODE",
+          doc="a write sets the mode as register 19 does (0 position, 1 servo, 2 joint teaching, 4 joint "
+              "velocity, 5 Cartesian velocity, 6 joint online, 7 Cartesian online); one it refuses: 3"),
     Point(_H, 33, 1, "state", writable=True, accepts=frozenset({0, 3, 4}), writes="12 SET_STATE",
           doc="reads the state (register 13); a write acts as register 12 (0 motion, 3 pause, 4 stop)"),
     Point(_H, 48, 16, "blockly_trigger", writable=True, functions=_FC10, start_only=True,
@@ -247,7 +249,8 @@ MODBUS_MAP: tuple[Point, ...] = (
     Point(_I, 89, 7, "joints", unit="deg", scale=10.0, signed=True, doc="J1-J7; absent joints read 0"),
     Point(_I, 96, 7, "temperatures", unit="degC", signed=True, doc="J1-J7"),
     Point(_I, 103, 7, "joint_speeds", unit="deg/s", scale=10.0, signed=True, doc="J1-J7, planned"),
-    Point(_I, 110, 1, "tcp_speed", unit="mm/s", scale=10.0, doc="planned TCP speed"),
+    Point(_I, 110, 1, "tcp_speed", unit="mm/s", scale=10.0,
+          doc="the TCP's actual linear speed in any motion (from the joint speeds and the TCP offset)"),
 )
 
 POINTS: dict[str, Point] = {p.name: p for p in MODBUS_MAP}

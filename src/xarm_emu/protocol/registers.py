@@ -359,6 +359,23 @@ def float_checked(table: Mapping[int, Register]) -> frozenset[int]:
     return frozenset(c for c, r in table.items() if _has_floats(r.request) and not r.flags & Flag.ANY_FLOAT)
 
 
+#: Per-joint vectors carry seven values whatever the arm; those beyond its axes are not read.
+JOINT_VECTOR = 7
+
+
+def per_joint_fields(table: Mapping[int, Register]) -> Mapping[int, tuple[str, ...]]:
+    """The request fields of ``table`` that hold one float per joint (J1..J7), by register: a value
+    beyond the arm's axes is not read, so it cannot be out of range (the finite-float rule skips it)."""
+    out: dict[int, tuple[str, ...]] = {}
+    for code, r in table.items():
+        options = getattr(r.request, "options", None) or (r.request,)
+        names = {f.name for opt in options for f in opt.fields
+                 if f.kind == "fp32" and f.count == JOINT_VECTOR}
+        if names:
+            out[code] = tuple(sorted(names))
+    return MappingProxyType(out)
+
+
 def inf_unchanged(table: Mapping[int, Register]) -> frozenset[int]:
     """Registers of ``table`` whose float fields take +inf as "unchanged"."""
     return frozenset(c for c, r in table.items() if r.flags & Flag.INF_UNCHANGED)

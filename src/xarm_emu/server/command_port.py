@@ -60,6 +60,9 @@ PURE_READS = frozenset({1, 2, 13, 14, 15, 41, 42})
 #: their reply goes out when the server's disk worker is done, and the connection's later requests
 #: wait behind it; other connections are not held.
 DISK_REGISTERS = frozenset({39, 40})
+#: Registers whose reply waits for a motion they start (204, load identification: its result):
+#: the connection's later requests wait behind it; other connections are not held.
+LATER_REGISTERS = frozenset({204})
 
 
 def set_nodelay(endpoint: Any) -> None:
@@ -122,10 +125,12 @@ class CommandTarget(Protocol):
 
     def command_closed(self, client: int) -> None: ...
 
-    def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes: ...
+    def answer_modbus(self, tid: int, unit: int, pdu: bytes, peer: str = "") -> bytes: ...
 
 
     def disk_job(self) -> concurrent.futures.Future[Any] | None: ...
+
+    def answer_later(self, tid: int, protocol: int, register: int) -> asyncio.Future[bytes] | None: ...
 
     def answer_after_disk(self, frame: bytes,
                           job: concurrent.futures.Future[Any]) -> asyncio.Future[bytes]: ...
@@ -289,7 +294,7 @@ class CommandProtocol(asyncio.Protocol):
                 and self._waiting is None:
             tid, prot, length = HEADER.unpack_from(data)
             if length + HEADER_SIZE == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS \
-                    and data[6] not in DISK_REGISTERS:
+                    and data[6] not in DISK_REGISTERS and data[6] not in LATER_REGISTERS:
                 self._partial_since = None
                 self._reply(transport, self.server.answer(tid, prot, data[6], data[7:], self.peer,
                                                           self.client_id))
@@ -344,11 +349,16 @@ class CommandProtocol(asyncio.Protocol):
                     self._waiting = self.server.answer_after_disk(frame, job)
                     self._waiting.add_done_callback(self._disk_done)
                     break
+                later = self.server.answer_later(tid, prot, register) if register in LATER_REGISTERS else None
+                if later is not None:  # this reply when its motion is over; the replies before it now
+                    self._waiting = later
+                    later.add_done_callback(self._disk_done)
+                    break
                 out.append(frame)
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
-                out.append(self.server.answer_modbus(tid, register, params))
+                out.append(self.server.answer_modbus(tid, register, params, self.peer))
             else:
                 log.info("closing command connection: unknown protocol id %d", prot)
                 pending.clear()

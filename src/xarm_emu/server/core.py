@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from ..controller import modbus_map
+from ..controller import identification, modbus_map
 from ..controller.base import PERIOD, WARN_PARAMETER
 from ..controller.config import ConfigStore, load_or_create_admin_token
 from ..controller.emulator import Emulator
@@ -269,6 +269,10 @@ class EmulatorServer:
         self._loop_thread = 0  # the event loop's thread (start())
         self._stopped = asyncio.Event()
         self._read_cache = ReadCache()
+        #: Replies held until a motion is over (register 204): (future, tid, protocol, register,
+        #: (peer, params, time asked) for the trace).
+        self._later: list[tuple[asyncio.Future[bytes], int, int, int, tuple[str, bytes, float] | None]] = []
+        self._held_trace: tuple[str, bytes, float] | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         #: name -> factory of what the composer attached; started by start() (:meth:`attach`).
         self._attach: dict[str, Callable[[], Attachment]] = {}
@@ -356,6 +360,52 @@ class EmulatorServer:
                 self.emulator.touch()
                 frame = frame[:7] + bytes([ctl.status_byte()]) + frame[8:]
         fut.set_result(frame)
+
+    def answer_later(self, tid: int, protocol: int, register: int) -> asyncio.Future[bytes] | None:
+        """The reply to register 204 once the load identification it started is over (its result,
+        controller/identification.py); ``None`` when it is over already (the reply made stands)."""
+        ctl = self.emulator.controller
+        if register != identification.REGISTER or identification.finished(ctl):
+            return None
+        fut: asyncio.Future[bytes] = asyncio.get_running_loop().create_future()
+        self._later.append((fut, tid, protocol, register, self._held_trace))
+        self._held_trace = None
+        return fut
+
+    def _settle_later(self) -> None:
+        """Replies held for a motion (:meth:`answer_later`) go out once it is over."""
+        ctl = self.emulator.controller
+        if not self._later or not identification.finished(ctl):
+            return
+        later, self._later = self._later, []
+        for fut, tid, protocol, register, held in later:
+            frame = self._held_frame(tid, protocol, register, held)
+            if not fut.done():
+                fut.set_result(frame)
+
+    def _held_frame(self, tid: int, protocol: int, register: int,
+                    held: tuple[str, bytes, float] | None) -> bytes:
+        """The reply frame of a held request whose motion is over, traced now."""
+        ctl = self.emulator.controller
+        reply = ctl.registers[register].reply.encode(identification.reply(ctl))
+        frame = encode_reply(tid, protocol, register, ctl.status_byte(), reply)
+        if self.trace is not None and held is not None:
+            self.trace.command(self.emulator.time, held[0], tid, protocol, register, held[1], frame,
+                               ctl.registers, asked=held[2])
+        return frame
+
+    def finish_held(self, tid: int, protocol: int, register: int, limit: float = 600.0) -> bytes | None:
+        """Lockstep (replay): when the request just answered is held (:meth:`answer_later`), run
+        the controller until its motion is over (at most ``limit`` s) and return its reply frame;
+        ``None`` when it is not held."""
+        ctl = self.emulator.controller
+        if register != identification.REGISTER or identification.finished(ctl):
+            return None
+        held, self._held_trace = self._held_trace, None
+        end = self.emulator.time + limit
+        while not identification.finished(ctl) and self.emulator.time < end:
+            self.emulator.step(25)
+        return self._held_frame(tid, protocol, register, held)
 
     def health(self) -> dict[str, Any]:
         """What the admin ``status`` adds: why the last save failed and why the trace stopped
@@ -521,6 +571,8 @@ class EmulatorServer:
                     else:
                         with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
                             loop.call_soon_threadsafe(self.deliver_feedback)
+                if self._later:  # replies held for a motion (register 204) resolve on the loop
+                    self.in_loop(self._settle_later)
             return n
 
     def in_loop(self, fn: Callable[[], object]) -> None:
@@ -567,7 +619,11 @@ class EmulatorServer:
             if cached is None:
                 self.code_watch.check(emu.controller)
         if self.trace is not None:
-            self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame)
+            if register == identification.REGISTER and not identification.finished(emu.controller):
+                self._held_trace = (peer, params, emu.time)  # traced with its reply (answer_later)
+            else:
+                self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame,
+                                   emu.controller.registers)
         return frame
 
     # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
@@ -620,12 +676,15 @@ class EmulatorServer:
         if self.feedback is not None:
             self.feedback.forget(client)
 
-    def answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes:
+    def answer_modbus(self, tid: int, unit: int, pdu: bytes, peer: str = "") -> bytes:
         """The reply frame to one standard Modbus-TCP request (protocol id 0): the map of
         :mod:`xarm_emu.protocol.modbus` over the live emulator, after the due control periods."""
         with self.lock:
             self.catch_up()
-            return modbus_map.answer(self.emulator, tid, unit, pdu)
+            frame = modbus_map.answer(self.emulator, tid, unit, pdu)
+        if self.trace is not None:
+            self.trace.modbus(self.emulator.time, peer, tid, unit, pdu, frame)
+        return frame
 
     def advance(self, seconds: float) -> int:
         """Lockstep: run ``seconds`` of controller time now (whole control periods); returns the
@@ -633,6 +692,8 @@ class EmulatorServer:
         n = max(0, round(seconds / PERIOD))
         with self.lock:
             self.emulator.step(n)
+        if self._later:
+            self._settle_later()
         return n
 
     async def _control_loop(self) -> None:

@@ -9,7 +9,15 @@ One JSON object per line, appended to ``FILE``:
   for each private-protocol request (manual 2.1.2): the raw parameter bytes and, where the register
   table can decode them, their values (NaN and infinities as the strings "NaN", "Infinity",
   "-Infinity", so every line is strict JSON); the reply's state byte, its raw parameters and their
-  values.
+  values. Registers are named and decoded with the table of the firmware the box claims (every
+  register and layout it answers); ``request_error`` appears only where the box could not decode
+  the request either, i.e. where it refused it. A reply that waits for a motion (register 204, load
+  identification) is written when it goes out, with ``t_request`` the time it was asked;
+- ``{"t": ..., "wall": ..., "peer": ..., "tid": 3, "protocol": 0, "unit": 1, "function": 3,
+  "address": 32, "count": 2, "pdu": "<hex>", "reply": "<hex>", "exception": null, "read": [0, 0]}``
+  for each standard Modbus request (protocol id 0): the function code, address, count, the values
+  a write carries (``values``), the values a read got (``read``), and the exception code (``null``
+  when none).
 
 ``t`` is controller time in seconds (the clock the motion runs on, scaled or stepped), ``wall`` the
 Unix time. Lines are buffered and written at least every control-loop wake-up (20 ms) and on close,
@@ -26,11 +34,13 @@ import logging
 import math
 import os
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import IO, Any
 
 from ..protocol import registers as regs
 from ..protocol.layouts import LayoutError
+from ..protocol.modbus_pdu import describe
 from .disk import DiskBusy, DiskWorker, describe_os_error
 
 log = logging.getLogger("xarm_emu.server")
@@ -91,11 +101,16 @@ class CommandTrace:
         self._write({"event": what, "t": round(t, 6), "wall": time.time(), "peer": peer})
 
     def command(self, t: float, peer: str, tid: int, protocol: int, register: int, params: bytes,
-                frame: bytes) -> None:
-        """One request and its reply ``frame`` (header, register, state, parameters)."""
+                frame: bytes, table: Mapping[int, regs.Register] | None = None,
+                asked: float | None = None) -> None:
+        """One request and its reply ``frame`` (header, register, state, parameters), named and
+        decoded with ``table``, the registers the box answers (default: the manual's). ``asked``:
+        the controller time of a request whose reply waited for a motion (``t_request``)."""
         record: dict[str, Any] = {"t": round(t, 6), "wall": time.time(), "peer": peer, "tid": tid,
                                   "protocol": protocol, "register": register}
-        reg = regs.get(register)
+        if asked is not None:
+            record["t_request"] = round(asked, 6)
+        reg = (regs.REGISTERS if table is None else table).get(register)
         state, reply = (frame[7], frame[8:]) if len(frame) >= 8 else (None, b"")
         record["name"] = reg.name if reg is not None else None
         record["params"] = params.hex()
@@ -111,6 +126,16 @@ class CommandTrace:
                 record["values"] = _plain(reg.reply.decode(bytes(reply)))
             except LayoutError:
                 pass
+        self._write(record)
+
+    def modbus(self, t: float, peer: str, tid: int, unit: int, pdu: bytes, frame: bytes) -> None:
+        """One standard Modbus request ``pdu`` and its reply ``frame`` (MBAP header and PDU)."""
+        record: dict[str, Any] = {"t": round(t, 6), "wall": time.time(), "peer": peer, "tid": tid,
+                                  "protocol": 0, "unit": unit}
+        reply = bytes(frame[7:])
+        record.update(describe(pdu, reply))
+        record["pdu"] = pdu.hex()
+        record["reply"] = reply.hex()
         self._write(record)
 
     def flush(self) -> None:

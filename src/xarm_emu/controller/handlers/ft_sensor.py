@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from .. import force_control
+from .. import force_control, identification
 from .. import ft_sensor as ft
 from ..base import ParameterError, Values
 
@@ -93,7 +93,9 @@ def enable(ctl: Any, v: Values) -> None:
 def identify_load(ctl: Any, v: Values) -> dict[str, Any]:
     """Register 204: type 1 identifies the flange load from the joint torques (4 fp32: kg, mm),
     on any arm; type 0 the load below the F/T sensor from its readings (10 fp32: kg, centre of
-    mass in m, six offsets), which needs the sensor switched on."""
+    mass in m, six offsets), which needs the sensor switched on. Either turns the wrist through
+    the identification sequence (:mod:`..identification`): the arm must be able to move, and the
+    reply (which the server holds until the sequence ends) carries the result."""
     kind = int(v["iden_type"])
     if kind not in (0, 1):
         raise ParameterError("identification type 0/1")
@@ -101,10 +103,11 @@ def identify_load(ctl: Any, v: Values) -> dict[str, Any]:
         mass = v.get("mass")
         if mass is not None and not float(mass) >= 0:
             raise ParameterError(f"estimated mass {mass}")
-        return {"load": ft.identify_tcp_load(ctl)}
-    _require_enabled(ctl)
-    r = ft.identify(ctl)
-    return {"load": r[:4], "offsets": r[4:10]}
+    else:
+        _require_enabled(ctl)
+    ctl.require_motion_allowed()
+    identification.start(ctl, kind)
+    return identification.reply(ctl)
 
 
 def set_load_offset(ctl: Any, v: Values) -> None:
