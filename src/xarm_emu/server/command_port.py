@@ -35,6 +35,7 @@ from ..protocol.frame import (
     FrameError,
     encode_reply,
 )
+from ..protocol.modbus import respond
 from .fairness import (
     COMMAND_SNDBUF,
     DECODE_SLICE,
@@ -349,7 +350,16 @@ class CommandProtocol(asyncio.Protocol):
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
-                out.append(self.server.answer_modbus(tid, register, params))
+                reply, close = respond(tid, register, params, self.server.answer_modbus)
+                if reply:
+                    out.append(reply)
+                if close:  # modbus.screen: the replies so far go out, then the connection closes
+                    pending.clear()
+                    self.inbox.clear()
+                    if out:
+                        self._reply(transport, b"".join(out))
+                    transport.close()
+                    return taken
             else:
                 log.info("closing command connection: unknown protocol id %d", prot)
                 pending.clear()
