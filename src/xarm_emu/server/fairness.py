@@ -23,15 +23,18 @@ log = logging.getLogger("xarm_emu.server")
 
 #: Request bytes one connection may have waiting; beyond it the server stops reading from it.
 MAX_INBOX = 64 * 1024
-#: Request bytes decoded at a time (a few hundred frames at most), so no read holds the loop long.
-DECODE_SLICE = 2048
+#: Request bytes decoded at a time (a few dozen frames at most), so no read holds the loop long.
+DECODE_SLICE = 256
 #: Kernel send buffer of a command socket: fixed (no autotuning to megabytes), so a peer that
 #: reads nothing holds at most this much of its replies in the kernel before reading stops.
 COMMAND_SNDBUF = 64 * 1024
-#: Requests of one connection answered per turn (one write carries their replies).
-BATCH = 16
-#: Longest round of command service (seconds) before the loop runs its other callbacks.
-ROUND_TIME = 0.002
+#: Requests of one connection answered per turn (one write carries their replies): a few, so a
+#: client that pipelines and reads its replies takes a short turn and another client's request,
+#: answered as soon as the loop reads it, waits behind little.
+BATCH = 4
+#: Longest round of command service (seconds) before the loop polls its sockets and runs its other
+#: callbacks (report ticks, control-loop wake-ups): about one turn of a pipelining client.
+ROUND_TIME = 0.00005
 #: Unsent reply bytes of a connection beyond which the server stops reading from it until the peer
 #: has read them (transport write-buffer high-water mark).
 WRITE_HIGH_WATER = 64 * 1024
