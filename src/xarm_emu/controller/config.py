@@ -15,7 +15,9 @@ detected at load. A file that cannot be read or checked is renamed aside to
 
 One box per file: ``xarm-emu serve`` locks each arm's file (:meth:`ConfigStore.lock`), so a second
 emulator with the same serial number and directory (e.g. two of the same model with default options)
-refuses to start instead of loading and overwriting the first one's settings.
+refuses to start instead of loading and overwriting the first one's settings. On a folder that
+cannot be written (a read-only mount) the box still starts and loads what is saved; saving is off
+(said once in the log) and the lock is taken on the saved file opened read-only.
 """
 
 from __future__ import annotations
