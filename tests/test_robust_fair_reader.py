@@ -8,11 +8,11 @@ import contextlib
 import multiprocessing
 import select
 import statistics
-import struct
 import time
 from pathlib import Path
 
-from helpers import accepts, connect, port_args, recv_exact, serve_ports, serve_subprocess, wait_for
+from helpers import accepts, connect, port_args, serve_ports, serve_subprocess, wait_for
+from test_robust_flood import get_state_times
 
 from xarm_emu.protocol.frame import encode_request
 
@@ -20,15 +20,7 @@ GET_STATE = 13
 
 
 def _p50(port: int, n: int) -> float:
-    out = []
-    with connect(port) as s:
-        for tid in range(n):
-            t0 = time.perf_counter()
-            s.sendall(encode_request(tid, GET_STATE))
-            head = recv_exact(s, 6)
-            recv_exact(s, struct.unpack(">H", head[4:6])[0])
-            out.append(time.perf_counter() - t0)
-    return statistics.median(out)
+    return statistics.median(get_state_times(port, n))
 
 
 def _pipelining_reader(port: int, stop: object, replies: object) -> None:

@@ -114,6 +114,18 @@ def _limit_files() -> None:
                                                 else min(hard, 8192)))
 
 
+def _serve_under_common_limits(tmp_path: Path) -> tuple[subprocess.Popen[str], list[int], int, Path]:
+    """``serve`` in a child process under soft 1024 / hard 8192: (process, ports, last port, log)."""
+    ports, last = serve_ports()
+    log_path = tmp_path / "serve.log"
+    with open(log_path, "w") as log_file:
+        proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
+                                 "--config-dir", str(tmp_path), "--log-level", "INFO"],
+                                stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files,
+                                env={**os.environ, "COLUMNS": "500"}, text=True)
+    return proc, ports, last, log_path
+
+
 @pytest.fixture
 def file_limit_restored() -> Iterator[None]:
     """This process's open-file limits as they were before the test, whatever it raised."""
@@ -131,13 +143,7 @@ def test_2000_connects_under_a_1024_file_limit_lock_nobody_out(tmp_path: Path) -
     if soft != resource.RLIM_INFINITY and soft < 2300:
         resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, 4096) if hard != resource.RLIM_INFINITY
                                                     else 4096, hard))
-    ports, last = serve_ports()
-    log_path = tmp_path / "serve.log"
-    with open(log_path, "w") as log_file:
-        proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
-                                 "--config-dir", str(tmp_path), "--log-level", "INFO"],
-                                stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files,
-                                env={**os.environ, "COLUMNS": "500"})
+    proc, ports, last, log_path = _serve_under_common_limits(tmp_path)
     try:
         assert wait_for(lambda: accepts(last), 15.0)
         with contextlib.ExitStack() as stack:
@@ -181,13 +187,7 @@ def test_1000_idle_connections_under_soft_1024_hard_8192_are_all_answered(tmp_pa
     if hard != resource.RLIM_INFINITY and hard < 8192:
         pytest.skip("needs a hard open-file limit of 8192")
     resource.setrlimit(resource.RLIMIT_NOFILE, (4096, hard))  # this test's own 1000 sockets
-    ports, last = serve_ports()
-    log_path = tmp_path / "serve.log"
-    with open(log_path, "w") as log_file:
-        proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
-                                 "--config-dir", str(tmp_path), "--log-level", "INFO"],
-                                stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files,
-                                env={**os.environ, "COLUMNS": "500"})
+    proc, ports, last, log_path = _serve_under_common_limits(tmp_path)
     try:
         assert wait_for(lambda: accepts(last), 15.0)
         with contextlib.ExitStack() as stack:
