@@ -12,6 +12,7 @@ import pytest
 from helpers import wait_for
 from pymodbus.client import ModbusTcpClient
 
+from xarm_emu.protocol.modbus import screen
 from xarm_emu.server.app import ServerThread
 from xarm_emu.server.modbus_port import attach_modbus_port, split_frames
 
@@ -112,4 +113,5 @@ def test_split_frames_keeps_a_partial_frame() -> None:
     frames, ok = split_frames(buf)
     assert ok and frames == [(1, 1, bytes.fromhex("0300200002"))]
     assert buf == bytearray(bytes.fromhex("00020000"))
-    assert split_frames(bytearray(bytes.fromhex("00010000000101")))[1] is False  # empty PDU
+    assert split_frames(bytearray(bytes.fromhex("00010000000101"))) == ([(1, 1, b"")], True)
+    assert screen(b"") == (False, b"", True)  # an empty PDU: no reply, the connection closes

@@ -16,6 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymodbus.client import AsyncModbusTcpClient, ModbusTcpClient
 
+from xarm_emu.protocol.modbus import screen
 from xarm_emu.server.app import ServerThread
 from xarm_emu.server.modbus_port import attach_modbus_port
 
@@ -97,19 +98,21 @@ def recv_frame(s: socket.socket) -> bytes:
 
 def test_random_frames_are_answered_and_never_stall_the_port(srv: ServerThread) -> None:
     port = srv.ports["modbus"]
-    with socket.create_connection(("127.0.0.1", port), timeout=2) as fuzz:
 
-        @settings(max_examples=100, deadline=None,
-                  suppress_health_check=[HealthCheck.function_scoped_fixture])
-        @given(f=st.sampled_from(FUNCTIONS), body=st.binary(max_size=24), tid=st.integers(0, 0xFFFF),
-               unit=st.integers(0, 255))
-        def run(f: int, body: bytes, tid: int, unit: int) -> None:
-            pdu = bytes((f,)) + body
+    @settings(max_examples=100, deadline=None,
+              suppress_health_check=[HealthCheck.function_scoped_fixture])
+    @given(f=st.sampled_from(FUNCTIONS), body=st.binary(max_size=24), tid=st.integers(0, 0xFFFF),
+           unit=st.integers(0, 255))
+    def run(f: int, body: bytes, tid: int, unit: int) -> None:
+        pdu = bytes((f,)) + body
+        with socket.create_connection(("127.0.0.1", port), timeout=2) as fuzz:
             fuzz.sendall(struct.pack(">HHHB", tid, 0, 1 + len(pdu), unit) + pdu)
             raw = recv_frame(fuzz)
             assert struct.unpack(">HHHB", raw[:7]) == (tid, 0, len(raw) - 6, unit)
             assert raw[7] in (f, (f | 0x80) & 0xFF)
+            if screen(pdu)[2]:  # a length its function's layout disagrees with: then a close
+                assert fuzz.recv(64) == b""
 
-        run()
+    run()
     with ModbusTcpClient("127.0.0.1", port=port, timeout=3) as c:  # still serving
         assert not c.read_input_registers(89, count=7, device_id=1).isError()

@@ -33,7 +33,7 @@ GET_STATE = 13
 FLOOD_SECONDS = 60.0 if os.environ.get("XARM_EMU_STRESS") == "1" else 3.0
 
 
-def _get_state_times(port: int, n: int) -> list[float]:
+def get_state_times(port: int, n: int) -> list[float]:
     """Round-trip times of ``n`` get_state requests, one at a time."""
     out = []
     with connect(port) as s:
@@ -79,7 +79,7 @@ def served(tmp_path: Path) -> Iterator[tuple[int, dict[str, int]]]:
 
 def test_a_flood_that_reads_nothing_costs_only_its_sender(served: tuple[int, dict[str, int]]) -> None:
     pid, ports = served
-    base = sorted(_get_state_times(ports["command"], 200))
+    base = sorted(get_state_times(ports["command"], 200))
     base_p99 = base[int(0.99 * len(base))]
     base_rate = report_frames_in(ports["develop"], 1.0)  # develop frames a second before the flood
     stop = threading.Event()
@@ -90,7 +90,7 @@ def test_a_flood_that_reads_nothing_costs_only_its_sender(served: tuple[int, dic
         time.sleep(0.5)  # the flood fills the socket buffers and the server stops reading
         rss0 = _rss_mb(pid)
         frames = report_frames_in(ports["develop"], FLOOD_SECONDS)
-        times = sorted(_get_state_times(ports["command"], 200))
+        times = sorted(get_state_times(ports["command"], 200))
         rss1 = _rss_mb(pid)
     finally:
         stop.set()

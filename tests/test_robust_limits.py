@@ -108,7 +108,22 @@ def _cpu_seconds(pid: int) -> float:
 
 
 def _limit_files() -> None:
-    resource.setrlimit(resource.RLIMIT_NOFILE, (1024, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+    """The common limits: soft 1024, hard 8192 (``serve`` raises the soft one to the hard one)."""
+    hard = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
+    resource.setrlimit(resource.RLIMIT_NOFILE, (1024, 8192 if hard == resource.RLIM_INFINITY
+                                                else min(hard, 8192)))
+
+
+def _serve_under_common_limits(tmp_path: Path) -> tuple[subprocess.Popen[str], list[int], int, Path]:
+    """``serve`` in a child process under soft 1024 / hard 8192: (process, ports, last port, log)."""
+    ports, last = serve_ports()
+    log_path = tmp_path / "serve.log"
+    with open(log_path, "w") as log_file:
+        proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
+                                 "--config-dir", str(tmp_path), "--log-level", "INFO"],
+                                stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files,
+                                env={**os.environ, "COLUMNS": "500"}, text=True)
+    return proc, ports, last, log_path
 
 
 @pytest.fixture
@@ -128,13 +143,7 @@ def test_2000_connects_under_a_1024_file_limit_lock_nobody_out(tmp_path: Path) -
     if soft != resource.RLIM_INFINITY and soft < 2300:
         resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, 4096) if hard != resource.RLIM_INFINITY
                                                     else 4096, hard))
-    ports, last = serve_ports()
-    log_path = tmp_path / "serve.log"
-    with open(log_path, "w") as log_file:
-        proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "serve", *port_args(*ports),
-                                 "--config-dir", str(tmp_path), "--log-level", "INFO"],
-                                stdout=log_file, stderr=subprocess.STDOUT, preexec_fn=_limit_files,
-                                env={**os.environ, "COLUMNS": "500"})
+    proc, ports, last, log_path = _serve_under_common_limits(tmp_path)
     try:
         assert wait_for(lambda: accepts(last), 15.0)
         with contextlib.ExitStack() as stack:
@@ -171,6 +180,40 @@ def test_2000_connects_under_a_1024_file_limit_lock_nobody_out(tmp_path: Path) -
     assert "Traceback" not in log
 
 
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="needs /proc (Linux)")
+@pytest.mark.usefixtures("file_limit_restored")
+def test_1000_idle_connections_under_soft_1024_hard_8192_are_all_answered(tmp_path: Path) -> None:
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if hard != resource.RLIM_INFINITY and hard < 8192:
+        pytest.skip("needs a hard open-file limit of 8192")
+    resource.setrlimit(resource.RLIMIT_NOFILE, (4096, hard))  # this test's own 1000 sockets
+    proc, ports, last, log_path = _serve_under_common_limits(tmp_path)
+    try:
+        assert wait_for(lambda: accepts(last), 15.0)
+        with contextlib.ExitStack() as stack:
+            conns = [stack.enter_context(socket.create_connection(("127.0.0.1", ports[0]), timeout=5))
+                     for _ in range(1000)]
+            time.sleep(0.5)  # idle
+            for i, s in enumerate(conns):
+                s.sendall(encode_request(i, GET_STATE))
+            answered = sum(_get_reply_tid(s) == i for i, s in enumerate(conns))
+    finally:
+        proc.terminate()
+        proc.wait(5)
+    log = log_path.read_text()
+    assert answered == 1000, log
+    assert "open-file limit raised from 1024 to 8192: 1000 connections per port" in log
+
+
+def _get_reply_tid(s: socket.socket) -> int:
+    try:
+        head = recv_exact(s, 6)
+        recv_exact(s, struct.unpack(">H", head[4:6])[0])
+    except (OSError, AssertionError, EOFError):
+        return -1
+    return int(struct.unpack(">H", head[:2])[0])
+
+
 def test_two_boxes_with_the_same_serial_number_never_share_a_saved_configuration(tmp_path: Path) -> None:
     first = ConfigStore(tmp_path, "XI1300000001")
     first.lock()
@@ -202,7 +245,7 @@ def test_a_second_serve_of_the_same_model_and_directory_refuses_to_start(tmp_pat
 
 
 def _limit_files_64() -> None:
-    resource.setrlimit(resource.RLIMIT_NOFILE, (64, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+    resource.setrlimit(resource.RLIMIT_NOFILE, (64, 64))  # nothing to raise
 
 
 @pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="needs /proc (Linux)")

@@ -125,7 +125,9 @@ def serve(
                                                               "level, logger, message).")] = False,
     max_connections: Annotated[int, typer.Option(help="Connections accepted per port (command and each "
                                                       "report port); beyond it new ones are closed at once. "
-                                                      "0: what the open-file limit allows, at most 1000.",
+                                                      "0: the open-file limit (raised to its hard limit "
+                                                      "at start) less 64, divided by 4 ports, at most "
+                                                      "1000 (1000 from a hard limit of 4064 up).",
                                                  min=0)] = 0,
     frame_timeout: Annotated[float, typer.Option(help="Close a command connection whose first or partial "
                                                       "frame is older than this (seconds; 0: never).",
@@ -166,6 +168,9 @@ def serve(
         "--develop-port": develop_port, "--admin-port": admin_port, "--view-port": view_port,
         "--modbus-port": modbus_port, "--studio-port": studio_port if studio else None})
     configure(log_level, log_file, log_max_bytes, json_lines=log_json)
+    from .server.fairness import raise_file_limit
+
+    raise_file_limit()
     if record is not None and fleet is not None:
         err_console.print("--record: with --fleet, record each arm with `xarm-emu record --port ...`")
         raise typer.Exit(2)

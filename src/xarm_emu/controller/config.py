@@ -15,7 +15,9 @@ detected at load. A file that cannot be read or checked is renamed aside to
 
 One box per file: ``xarm-emu serve`` locks each arm's file (:meth:`ConfigStore.lock`), so a second
 emulator with the same serial number and directory (e.g. two of the same model with default options)
-refuses to start instead of loading and overwriting the first one's settings.
+refuses to start instead of loading and overwriting the first one's settings. On a folder that
+cannot be written (a read-only mount) the box still starts and loads what is saved; saving is off
+(said once in the log) and the lock is taken on the saved file opened read-only.
 """
 
 from __future__ import annotations
@@ -169,6 +171,8 @@ class ConfigStore:
         #: Why the last save or delete failed (``None`` after one that succeeded).
         self.last_save_error: str | None = None
         self._lock_file: IO[str] | None = None
+        #: Why the folder cannot be written, when :meth:`lock` found it so (saving is off), else ``None``.
+        self.read_only: str | None = None
 
     # -- one box per file (serve) ---------------------------------------------------------------------
 
@@ -178,23 +182,52 @@ class ConfigStore:
         running emulator holds it, so two boxes never load and save each other's settings."""
         if fcntl is None or self._lock_file is not None:
             return
-        self.directory.mkdir(parents=True, exist_ok=True)
         lock_path = self.path.with_name(self.path.name + ".lock")
-        f = open(lock_path, "a+")  # noqa: SIM115 - held for the life of the process
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            f = open(lock_path, "a+")  # noqa: SIM115 - held for the life of the process
+        except OSError as exc:
+            if exc.errno not in _READ_ONLY:
+                raise
+            self._lock_read_only(exc)
+            return
         try:
             fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             f.seek(0)
             holder = f.read().strip() or "another process"
             f.close()
-            raise ConfigLocked(
-                f"the saved configuration {self.path} is in use by a running emulator (pid {holder}); "
-                f"two boxes with the same serial number must not share it: give this one its own "
-                f"--config-dir (or a fleet file with distinct robot_sn)") from None
+            raise self._locked(f"pid {holder}") from None
         f.seek(0)
         f.truncate()
         f.write(f"{os.getpid()}\n")
         f.flush()
+        self._lock_file = f
+
+    def _locked(self, holder: str) -> ConfigLocked:
+        return ConfigLocked(
+            f"the saved configuration {self.path} is in use by a running emulator ({holder}); "
+            f"two boxes with the same serial number must not share it: give this one its own "
+            f"--config-dir (or a fleet file with distinct robot_sn)")
+
+    def _lock_read_only(self, exc: OSError) -> None:
+        """The folder cannot be written (a read-only mount, a ConfigMap): saving is off, said once in
+        the log; the lock is ``flock`` on the saved file opened read-only (no write needed), or none
+        when there is no saved file to open."""
+        self.read_only = describe_os_error(exc)
+        log.warning("configuration folder %s cannot be written (%s): saving is off, save_conf and "
+                    "clean_conf answer as a box that cannot save", self.directory, self.read_only)
+        try:
+            f = open(self.path)  # noqa: SIM115 - held for the life of the process
+        except OSError:
+            log.info("no saved configuration %s to lock; two servers on this folder are not kept "
+                     "apart (neither can save)", self.path)
+            return
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.close()
+            raise self._locked("read-only folder") from None
         self._lock_file = f
 
     def unlock(self) -> None:
@@ -356,6 +389,9 @@ class ConfigStore:
         _fsync_dir(self.directory)
         return True
 
+
+#: Errors that mean the configuration folder cannot be written at all.
+_READ_ONLY = frozenset({errno.EROFS, errno.EACCES, errno.EPERM})
 
 _CAUSES = {
     errno.ENOSPC: "disk full",

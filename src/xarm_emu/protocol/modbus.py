@@ -51,7 +51,7 @@ import enum
 import logging
 import math
 import struct
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -446,6 +446,49 @@ def handle_pdu(request_pdu: bytes, datastore: Datastore) -> bytes:
     except Exception:  # a fault of the emulator must not take the connection down
         log.exception("Modbus request %s failed", request_pdu.hex())
         return exception_pdu(function, DEVICE_FAILURE)
+
+
+#: Longest request PDU: a Modbus-TCP ADU is at most 260 bytes, 7 of them the MBAP header.
+MAX_PDU = 253
+
+
+def _request_size(pdu: bytes) -> int | None:
+    """The PDU size a request of a supported function code has by its own layout (``None``: too
+    short to tell)."""
+    function = pdu[0]
+    counted = {WRITE_MULTIPLE_COILS: 5, WRITE_MULTIPLE_REGISTERS: 5, READ_WRITE_MULTIPLE_REGISTERS: 9}
+    if function in counted:
+        at = counted[function]
+        return at + 1 + pdu[at] if len(pdu) > at else None
+    return _MIN_SIZE[function]
+
+
+def screen(pdu: bytes) -> tuple[bool, bytes, bool]:
+    """How a port treats one protocol-0 request before the map sees it: (serve it, else the exception
+    PDU to answer, then close the connection). Both ports (command and ``--modbus-port``) ask this.
+
+    - no function code, or a PDU beyond :data:`MAX_PDU` (an ADU over 260 bytes): no Modbus frame;
+      the connection closes without a reply, as standard Modbus-TCP servers drop a connection whose
+      MBAP length is out of range;
+    - a supported function code whose MBAP length disagrees with the request's own layout: exception
+      3 (illegal data value) with the request's transaction id and unit, then the connection closes
+      (its framing can no longer be trusted, so no later bytes are read as another frame);
+    - anything else (unsupported codes included, exception 1) goes to :func:`handle_pdu`.
+    """
+    if not pdu or len(pdu) > MAX_PDU:
+        return False, b"", True
+    if pdu[0] in FUNCTION_CODES and _request_size(pdu) != len(pdu):
+        return False, exception_pdu(pdu[0], ILLEGAL_DATA_VALUE), True
+    return True, b"", False
+
+
+def respond(tid: int, unit: int, pdu: bytes, serve: Callable[[int, int, bytes], bytes]) -> tuple[bytes, bool]:
+    """The reply ADU to one protocol-0 request (empty: none) and whether to close the connection
+    after it; ``serve`` answers the requests :func:`screen` passes to the map."""
+    ok, exc, close = screen(pdu)
+    if ok:
+        return serve(tid, unit, pdu), False
+    return (encode_adu(tid, unit, exc) if exc else b""), close
 
 
 def encode_adu(tid: int, unit: int, pdu: bytes) -> bytes:

@@ -35,6 +35,7 @@ from ..protocol.frame import (
     FrameError,
     encode_reply,
 )
+from ..protocol.modbus import respond
 from .fairness import (
     COMMAND_SNDBUF,
     DECODE_SLICE,
@@ -358,7 +359,16 @@ class CommandProtocol(asyncio.Protocol):
             elif prot == PROTOCOL_HEARTBEAT:
                 continue
             elif prot == PROTOCOL_STANDARD:
-                out.append(self.server.answer_modbus(tid, register, params, self.peer))
+                reply, close = respond(tid, register, params, self._answer_modbus)
+                if reply:
+                    out.append(reply)
+                if close:  # modbus.screen: the replies so far go out, then the connection closes
+                    pending.clear()
+                    self.inbox.clear()
+                    if out:
+                        self._reply(transport, b"".join(out))
+                    transport.close()
+                    return taken
             else:
                 log.info("closing command connection: unknown protocol id %d", prot)
                 pending.clear()
@@ -382,6 +392,11 @@ class CommandProtocol(asyncio.Protocol):
         self._update_reading()
         if self.pending or self.inbox:
             self.server.scheduler.wake(self)
+
+    def _answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes:
+        """One standard Modbus request the screen passed (:func:`~xarm_emu.protocol.modbus.respond`),
+        answered by the server and traced with this connection's peer."""
+        return self.server.answer_modbus(tid, unit, pdu, self.peer)
 
     def _reply(self, transport: asyncio.Transport, payload: bytes) -> None:
         """One write per read, now or after the injected reply delay."""

@@ -23,15 +23,18 @@ log = logging.getLogger("xarm_emu.server")
 
 #: Request bytes one connection may have waiting; beyond it the server stops reading from it.
 MAX_INBOX = 64 * 1024
-#: Request bytes decoded at a time (a few hundred frames at most), so no read holds the loop long.
-DECODE_SLICE = 2048
+#: Request bytes decoded at a time (a few dozen frames at most), so no read holds the loop long.
+DECODE_SLICE = 256
 #: Kernel send buffer of a command socket: fixed (no autotuning to megabytes), so a peer that
 #: reads nothing holds at most this much of its replies in the kernel before reading stops.
 COMMAND_SNDBUF = 64 * 1024
-#: Requests of one connection answered per turn (one write carries their replies).
-BATCH = 16
-#: Longest round of command service (seconds) before the loop runs its other callbacks.
-ROUND_TIME = 0.002
+#: Requests of one connection answered per turn (one write carries their replies): a few, so a
+#: client that pipelines and reads its replies takes a short turn and another client's request,
+#: answered as soon as the loop reads it, waits behind little.
+BATCH = 4
+#: Longest round of command service (seconds) before the loop polls its sockets and runs its other
+#: callbacks (report ticks, control-loop wake-ups): about one turn of a pipelining client.
+ROUND_TIME = 0.00005
 #: Unsent reply bytes of a connection beyond which the server stops reading from it until the peer
 #: has read them (transport write-buffer high-water mark).
 WRITE_HIGH_WATER = 64 * 1024
@@ -41,16 +44,42 @@ RESERVED_FDS = 64
 CAPPED_PORTS = 4
 
 
+#: The largest per-port cap the default gives, whatever the open-file limit.
+MAX_DEFAULT_CONNECTIONS = 1000
+
+
+def raise_file_limit() -> tuple[int, int]:
+    """Raise the soft open-file limit (``RLIMIT_NOFILE``) to the hard one, as servers do at start,
+    with one log line; returns the (old, new) soft limit (equal when nothing could be raised)."""
+    try:
+        soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    except (OSError, ValueError):
+        return 0, 0
+    if hard == resource.RLIM_INFINITY:
+        hard = max(soft, 1 << 20) if soft != resource.RLIM_INFINITY else soft
+    if soft == resource.RLIM_INFINITY or soft >= hard:
+        return soft, soft
+    try:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (hard, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+    except (OSError, ValueError) as exc:
+        log.warning("open-file limit stays %d (cannot raise it to %d: %s)", soft, hard, exc)
+        return soft, soft
+    log.info("open-file limit raised from %d to %d: %d connections per port", soft, hard,
+             default_max_connections())
+    return soft, hard
+
+
 def default_max_connections() -> int:
     """Connections per port that fit the process's open-file limit (soft ``RLIMIT_NOFILE``) with
-    :data:`RESERVED_FDS` to spare, at most 1000."""
+    :data:`RESERVED_FDS` to spare, shared by the :data:`CAPPED_PORTS` ports, at most
+    :data:`MAX_DEFAULT_CONNECTIONS` (``serve`` first raises the soft limit, :func:`raise_file_limit`)."""
     try:
         soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
     except (OSError, ValueError):
         soft = 1024
     if soft == resource.RLIM_INFINITY or soft <= 0:
         soft = 1 << 16
-    return max(8, min(1000, (soft - RESERVED_FDS) // CAPPED_PORTS))
+    return max(8, min(MAX_DEFAULT_CONNECTIONS, (soft - RESERVED_FDS) // CAPPED_PORTS))
 
 
 @dataclass

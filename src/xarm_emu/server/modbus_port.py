@@ -4,8 +4,9 @@ The control box answers standard Modbus TCP (protocol id 0) on its command port 
 cannot share that port (a PLC or SCADA driver that wants a port of its own) get the same map here.
 Only MBAP frames of protocol id 0 are served, each through the server's
 :meth:`~xarm_emu.server.core.EmulatorServer.answer_modbus`, so both ports read and write one state,
-in order per connection. A frame of another protocol id, or with a length no Modbus ADU has (an
-empty PDU, more than 253 bytes), cannot be framed: that connection is closed, no other.
+in order per connection. A frame of another protocol id cannot be framed: that connection is closed,
+no other. What a malformed protocol-0 frame gets (an exception, a close) is decided for both ports by
+:func:`xarm_emu.protocol.modbus.screen`.
 """
 
 from __future__ import annotations
@@ -17,14 +18,13 @@ import socket
 import struct
 from typing import Protocol
 
+from ..protocol.modbus import MAX_PDU, respond
 from .core import listen_args
 
 log = logging.getLogger(__name__)
 
 #: MBAP header: transaction id, protocol id, length (unit id + PDU), unit id.
 MBAP = struct.Struct(">HHHB")
-#: Longest PDU of a Modbus-TCP ADU (260 bytes less the 7-byte MBAP header).
-MAX_PDU = 253
 #: The protocol id of standard Modbus.
 PROTOCOL_MODBUS = 0
 
@@ -42,8 +42,8 @@ def split_frames(buf: bytearray) -> tuple[list[tuple[int, int, bytes]], bool]:
     out: list[tuple[int, int, bytes]] = []
     while len(buf) >= MBAP.size:
         tid, prot, length, unit = MBAP.unpack_from(buf)
-        if prot != PROTOCOL_MODBUS or not 2 <= length <= MAX_PDU + 1:
-            return out, False
+        if prot != PROTOCOL_MODBUS or not 1 <= length <= MAX_PDU + 1:  # too long: modbus.screen's close,
+            return out, False                                        # told before the body is read
         end = MBAP.size - 1 + length
         if len(buf) < end:
             break
@@ -75,12 +75,16 @@ class ModbusPortProtocol(asyncio.Protocol):
         frames, ok = split_frames(self.buf)
         for tid, unit, pdu in frames:
             try:
-                reply = self.target.answer_modbus(tid, unit, pdu)
+                reply, close = respond(tid, unit, pdu, self.target.answer_modbus)
             except Exception:  # the map answers exceptions itself; anything else must not stall
                 log.exception("modbus port: no answer to a request")
                 ok = False
                 break
-            self.transport.write(reply)
+            if reply:
+                self.transport.write(reply)
+            if close:
+                ok = False
+                break
         if not ok:
             self.transport.close()
 

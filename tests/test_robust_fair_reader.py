@@ -1,0 +1,71 @@
+"""A client that pipelines get_state (manual 2.1.2, register 13) as fast as it can and reads its
+replies costs the other clients little: another client's get_state p50 stays within 3x of its own
+baseline, both measured in this run against ``serve`` in a child process."""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import select
+import statistics
+import time
+from pathlib import Path
+
+from helpers import accepts, connect, port_args, serve_ports, serve_subprocess, wait_for
+from test_robust_flood import get_state_times
+
+from xarm_emu.protocol.frame import encode_request
+
+GET_STATE = 13
+
+
+def _p50(port: int, n: int) -> float:
+    return statistics.median(get_state_times(port, n))
+
+
+def _pipelining_reader(port: int, stop: object, replies: object) -> None:
+    """Send get_state in bursts as fast as the socket takes them, reading every reply (in a process
+    of its own, so its busy loop does not hold the measuring client's interpreter)."""
+    burst = b"".join(encode_request(i, GET_STATE) for i in range(256))
+    with connect(port) as s:
+        s.setblocking(False)
+        out = bytearray()
+        got = 0
+        while not stop.is_set():  # type: ignore[attr-defined]
+            if len(out) < len(burst):
+                out += burst
+            readable, writable, _ = select.select([s], [s], [], 0.1)  # waits, never spins
+            if writable:
+                with contextlib.suppress(BlockingIOError):
+                    del out[:s.send(out)]
+            if not readable:
+                continue
+            try:
+                chunk = s.recv(1 << 16)
+            except BlockingIOError:
+                continue
+            if not chunk:
+                return
+            got += len(chunk)
+            replies.value = got // 9  # type: ignore[attr-defined]  # 6-byte header, register, state, state
+
+
+def test_a_pipelining_reader_raises_another_clients_p50_at_most_3x(tmp_path: Path) -> None:
+    (cmd, normal, rich, develop), last = serve_ports()
+    with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop)):
+        assert wait_for(lambda: accepts(last), 15.0)
+        _p50(cmd, 100)  # warm-up
+        base = _p50(cmd, 300)
+        ctx = multiprocessing.get_context("fork")
+        stop = ctx.Event()
+        replies = ctx.Value("q", 0)
+        reader = ctx.Process(target=_pipelining_reader, args=(cmd, stop, replies))
+        reader.start()
+        try:
+            time.sleep(0.3)
+            loaded = _p50(cmd, 300)
+        finally:
+            stop.set()
+            reader.join(5)
+    assert replies.value > 1000  # the pipelining client was served meanwhile
+    assert loaded <= 3 * base, (loaded * 1e3, base * 1e3, replies.value)
