@@ -8,6 +8,7 @@ import errno
 import inspect
 import json
 import math
+import re
 import signal
 import time
 from pathlib import Path
@@ -31,7 +32,11 @@ if TYPE_CHECKING:
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Emulator of the UFACTORY xArm control box (xArm 5/6/7, Lite 6, 850, 7T; "
-                       "Developer Manual V1.6.0 and firmware 2.x).")
+                       "Developer Manual V1.6.0 and firmware 2.x).\n\n"
+                       "Exit status: 0 done; 2 a usage or input mistake (an option or argument the "
+                       "command refuses); 1 a runtime failure (the box unreachable, a port in use, the "
+                       "admin channel refusing the token). Either way one line on stderr says what to "
+                       "do next.")
 # Markup off: messages show square brackets as written (``xarm-emu[view]``, ``[[arm]]``).
 console = Console(markup=False, highlight=False)
 err_console = Console(stderr=True, markup=False, highlight=False, soft_wrap=True)
@@ -522,8 +527,11 @@ def _start_error(exc: Exception, host: str, port: int, fleet: bool) -> tuple[str
         return (_PRIVILEGED.format(port=port, host=host) if not fleet else
                 f"cannot bind a port of the fleet file: {exc.strerror}"), 1
     if isinstance(exc, OSError) and exc.errno == errno.EADDRINUSE:
-        return (f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
-                "choose other ports with --port/--normal-port/--rich-port/--develop-port"
+        taken = re.search(r", (\d+)\)", str(exc))  # asyncio names the address it could not bind
+        where = f"{host}:{taken.group(1) if taken else port}"
+        return (f"cannot bind {where}: the port is already in use (another emulator?); serve beside it "
+                "on another loopback address with --host 127.0.0.N (N = 2, 3, ...) or choose other "
+                "ports with --port/--normal-port/--rich-port/--develop-port"
                 if not fleet else
                 f"a port of the fleet file is already in use ({exc.strerror}): {exc}"), 1
     return None, 0
@@ -813,10 +821,10 @@ AdminPortOpt = Annotated[int | None, typer.Option(help="Admin channel port, if t
                                                        "with --admin-port.")]
 
 
-def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_exit: int = 1,
+def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_exit: int = 2,
            **args: Any) -> str:
-    """Send one admin request, print the emulator's answer and return it; exit ``refused_exit`` on
-    refusal, 1 when there is no channel."""
+    """Send one admin request, print the emulator's answer and return it; exit ``refused_exit`` when
+    it refuses an argument, 1 when there is no channel or it refuses the token."""
     from .client import ClientError
     from .client.admin import AdminClient, AdminRefused
     from .client.admin import admin_port as derive
@@ -835,7 +843,7 @@ def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_ex
             message = a.request(cmd, **args)
     except AdminRefused as exc:
         err_console.print(f"refused: {exc}")
-        raise typer.Exit(refused_exit) from None
+        raise typer.Exit(1 if "admin token" in str(exc) else refused_exit) from None
     except (OSError, ClientError) as exc:
         err_console.print(f"cannot reach the admin channel at {host}:{aport} ({exc}); start the emulator "
                           "with `xarm-emu serve --admin` and run this on the same machine")
