@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 SERVE_STAMP := $(VENV)/.serve-installed
 STAMP := $(VENV)/.installed
 
-.PHONY: install serve test bench lint clean fuzz stress image image-test browser sdk-examples
+.PHONY: install serve sdk test bench lint clean fuzz stress image image-test browser sdk-examples
 
 $(SERVE_STAMP): pyproject.toml
 	@echo "== make serve: creating $(VENV) and installing what xarm-emu serve needs"
@@ -24,6 +24,12 @@ install: $(STAMP)
 
 serve: $(SERVE_STAMP)
 	$(VENV)/bin/xarm-emu serve $(ARGS)
+
+# The official SDK (UFACTORY's xarm-python-sdk, the version the tests pin) for the README's program.
+SDK_VERSION := 1.18.4
+sdk: $(SERVE_STAMP)
+	@$(PY) -c "import xarm" >/dev/null 2>&1 && echo "== xarm-python-sdk is installed in $(VENV)" || \
+		$(PY) -m pip install --disable-pip-version-check xarm-python-sdk==$(SDK_VERSION)
 
 test: $(STAMP)
 	$(PY) -m pytest $(PYTEST_ARGS)
