@@ -30,7 +30,7 @@ from .server.report_sender import DEFAULT_PRIORITY as DEFAULT_REPORT_PRIORITY
 if TYPE_CHECKING:
     from .server.app import EmulatorServer, ServerConfig
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                   help="Emulator of the UFACTORY xArm control box (xArm 5/6/7, Lite 6, 850, 7T; "
                        "Developer Manual V1.6.0 and firmware 2.x).\n\n"
                        "Exit status: 0 done; 2 a usage or input mistake (an option or argument the "
@@ -397,11 +397,14 @@ async def _serve_all(servers: list[EmulatorServer], cdir: Path) -> None:
     for srv in servers:
         await srv.start()
         emu, cfg = srv.emulator, srv.config
-        console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
-                      f"on {cfg.host}: command {srv.ports['command']}, normal {srv.ports['normal']}, "
-                      f"rich {srv.ports['rich']}, develop {srv.ports['develop']}; "
-                      + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
-                      + f"; config {cdir}")
+        # One clause a line, each short of 80 columns but for long paths, never wrapped mid-clause.
+        for line in (f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
+                     f"on {cfg.host}",
+                     f"  ports: command {srv.ports['command']}, normal {srv.ports['normal']}, "
+                     f"rich {srv.ports['rich']}, develop {srv.ports['develop']}",
+                     "  " + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
+                     + f"; config {cdir}"):
+            console.print(line, soft_wrap=True)
         if "admin" in srv.ports:
             where = f"{admin_host(cfg.host)}:{srv.ports['admin']}"
             console.print(f"admin channel (fault injection) on {where}")
@@ -756,15 +759,27 @@ def modbus_map(
                                       "writable": p.writable, "writes": p.writes, "doc": p.doc}),
                           soft_wrap=True)
         return
-    table = Table("table", "addresses", "name", "unit", "scale", "rw", "note")
-    for col in table.columns[1:3]:  # addresses and names stay whole on a narrow terminal
-        col.no_wrap = True
+    rows = []
     for p in MODBUS_MAP:
         span = str(p.address) if p.count == 1 else f"{p.address}-{p.end - 1}"
         note = "; ".join(x for x in (p.writes and f"as register {p.writes}", p.doc) if x)
-        table.add_row(p.kind.value, span, p.name, p.unit,
-                      "" if p.scale == 1 else f"x{p.scale:g}" + (" signed" if p.signed else ""),
-                      "rw" if p.writable else "r", note)
+        rows.append((p.kind.value, span, p.name, p.unit,
+                     "" if p.scale == 1 else f"x{p.scale:g}" + (" signed" if p.signed else ""),
+                     "rw" if p.writable else "r", note))
+    if console.width < 120:  # narrow or piped: a list, each point's note wrapped under it
+        import textwrap
+
+        for kind, span, name, unit, scale, rw, note in rows:
+            head = " ".join(x for x in (kind, span, name, rw, unit and f"[{unit}]", scale) if x)
+            console.print(head, soft_wrap=True)
+            for line in textwrap.wrap(note, width=max(40, console.width - 4)):
+                console.print("    " + line, soft_wrap=True)
+        return
+    table = Table("table", "addresses", "name", "unit", "scale", "rw", "note")
+    for col in table.columns[1:3]:  # addresses and names stay whole
+        col.no_wrap = True
+    for row in rows:
+        table.add_row(*row)
     console.print(table)
 
 

@@ -21,6 +21,7 @@ from ..protocol import registers as regs
 from ..protocol.modbus import ILLEGAL_DATA_VALUE, ModbusError, Point
 from ..protocol.reports import ReportSnapshot, volts_to_counts
 from .io import ADDR_TOOL_AI, ADDR_TOOL_DI, ADDR_TOOL_DO, ADDR_TOOL_DO_READ, TOOL_AI_FULL_SCALE, TOOL_HOST
+from .reduced import reduced_of
 
 if TYPE_CHECKING:
     from .emulator import Emulator
@@ -77,7 +78,9 @@ class EmulatorDatastore:
     # -- Datastore --------------------------------------------------------------------------------
     def read(self, point: Point) -> Sequence[float]:
         name = point.name
-        if name.endswith("_absent") or name in ("reduced_mode", "fence", "tool_analog_outputs",
+        if name == "reduced_mode":  # register 50's switch, as the rich report carries it
+            return [1.0 if reduced_of(self.emu.controller).on else 0.0]
+        if name.endswith("_absent") or name in ("fence", "tool_analog_outputs",
                                                 "cgpio_output_word_hi", "cgpio_input_word_hi"):
             return [0.0] * point.count
         if name == "user_coils":

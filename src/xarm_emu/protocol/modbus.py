@@ -190,7 +190,7 @@ MODBUS_MAP: tuple[Point, ...] = (
     Point(_C, 34, 6, "tgpio_outputs_absent", writable=True, doc=_ABSENT),
     Point(_C, 128, 7, "brakes", doc="J1-J7, 1 = brake released (report byte of brake states)"),
     Point(_C, 135, 7, "enabled", doc="J1-J7, 1 = enabled"),
-    Point(_C, 142, 1, "reduced_mode", doc="the emulator has no reduced mode: reads 0"),
+    Point(_C, 142, 1, "reduced_mode", doc="1 while reduced mode is on (register 50)"),
     Point(_C, 143, 1, "fence", doc="safety boundary switch (register 59); not reported: reads 0"),
     Point(_C, 144, 1, "paused", doc="1 when the state is 3 (suspended)"),
     Point(_C, 145, 1, "stopped", doc="1 when the state is 4 (stopped)"),
