@@ -300,3 +300,19 @@ def test_the_readme_quick_start_runs_verbatim(tmp_path: Path) -> None:
         moved = "\n".join(last[:at] + port_line.strip().splitlines() + last[at:]) + "\n"
         out = _run_quick_start(tmp_path, serve_unprivileged.strip(), _commands(setup), moved, 5020)
         assert out.strip().splitlines()[-1] == printed
+
+
+def test_replay_prints_the_box_lines_before_its_own_verdict(tmp_path: Path) -> None:
+    trace = tmp_path / "wire.jsonl"
+    with running_emulator(trace=trace) as st, Client("127.0.0.1", st.ports["command"]) as c:
+        c.motion_enable(True)
+        c.set_mode(0)
+        c.set_state(0)
+        c.call(23, joints=(9.0, 0, 0, 0, 0, 0, 0), speed=1.0, acc=10.0, mvtime=0.0)  # beyond J1's range
+        assert c.get_err_warn()[0] == 23
+    done = subprocess.run([sys.executable, "-m", "xarm_emu.cli", "replay", str(trace), "--firmware", "1.6.0"],
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60)
+    lines = done.stdout.strip().splitlines()
+    assert done.returncode == 0, done.stdout
+    assert lines[-1].endswith("requests replayed: every reply is the same")
+    assert any(line.startswith("error C23 ") for line in lines[:-1])  # the replayed box's, before it
