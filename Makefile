@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 SERVE_STAMP := $(VENV)/.serve-installed
 STAMP := $(VENV)/.installed
 
-.PHONY: install serve test bench lint clean fuzz stress image image-test
+.PHONY: install serve sdk test bench lint clean fuzz stress image image-test browser sdk-examples
 
 $(SERVE_STAMP): pyproject.toml
 	@echo "== make serve: creating $(VENV) and installing what xarm-emu serve needs"
@@ -25,8 +25,26 @@ install: $(STAMP)
 serve: $(SERVE_STAMP)
 	$(VENV)/bin/xarm-emu serve $(ARGS)
 
+# The official SDK (UFACTORY's xarm-python-sdk, the version the tests pin) for the README's program.
+SDK_VERSION := 1.18.4
+sdk: $(SERVE_STAMP)
+	@$(PY) -c "import xarm" >/dev/null 2>&1 && echo "== xarm-python-sdk is installed in $(VENV)" || \
+		$(PY) -m pip install --disable-pip-version-check xarm-python-sdk==$(SDK_VERSION)
+
 test: $(STAMP)
 	$(PY) -m pytest $(PYTEST_ARGS)
+
+# What some tests need from outside Python; without it they skip, naming the target.
+# The browser of the pendant tests: Debian's chromium (Playwright's driver comes with the test tools).
+CHROMIUM ?= /usr/bin/chromium
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+browser:
+	@if [ -x $(CHROMIUM) ]; then echo "== $(CHROMIUM) is installed"; else \
+		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium; fi
+
+# The official SDK's example programs (not in its wheel), from its source distribution, into .sdk/.
+sdk-examples:
+	$(PYTHON) scripts/sdk-examples
 
 bench: $(STAMP)
 	$(PY) -m bench --against $(or $(LANDED),main)
@@ -58,4 +76,4 @@ image-test: $(STAMP)
 	PYTHON=$(abspath $(PY)) scripts/image-test
 
 clean:
-	rm -rf $(VENV) build *.egg-info src/*.egg-info
+	rm -rf $(VENV) .sdk build *.egg-info src/*.egg-info

@@ -298,3 +298,28 @@ def report_frames(emu: Emulator) -> tuple[bytes, ...]:
     profile = emu.firmware
     snap = emu.snapshot()
     return tuple(enc(snap) for _, enc in sorted(encoders_for(profile).items()))
+
+
+#: Where ``make sdk-examples`` unpacks the official SDK's source distribution (its ``example/``).
+SDK_SOURCE = Path(__file__).resolve().parent.parent / ".sdk" / "xarm-python-sdk"
+#: What a test that needs the SDK's example programs says when they are absent.
+SDK_EXAMPLES_MISSING = ("the official SDK's example programs are absent: run `make sdk-examples` "
+                        "(or set XARM_SDK_EXAMPLES to a checkout of xArm-Python-SDK)")
+
+
+def sdk_examples() -> Path | None:
+    """The ``example`` directory of the official SDK's source (the wheel does not ship it): under
+    ``$XARM_SDK_EXAMPLES`` (a checkout of the SDK's repository, its unpacked source distribution or
+    that ``example`` directory itself), else where ``make sdk-examples`` put it; None if neither."""
+    env = os.environ.get("XARM_SDK_EXAMPLES")
+    for base in ([Path(env)] if env else []) + [SDK_SOURCE]:
+        for cand in (base / "example", base, base.parent.parent):
+            if (cand / "wrapper" / "common").is_dir():
+                return cand
+    return None
+
+
+def sdk_example(path: str) -> Path | None:
+    """One program of the SDK's ``example`` directory (``wrapper/common/8001-force_tech.py``), or None."""
+    root = sdk_examples()
+    return root / path if root is not None and (root / path).is_file() else None

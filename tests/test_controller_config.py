@@ -148,7 +148,7 @@ def test_unreadable_file_is_reported(tmp_path: Path):
 
 def test_file_without_read_permission_is_reported(tmp_path: Path):
     if os.name != "posix" or os.geteuid() == 0:
-        pytest.skip("needs a non-root POSIX user for permission bits")
+        pytest.skip("root reads any file: run `make test` as a normal user for this permission check")
     store = ConfigStore(tmp_path, SN)
     store.save(SAMPLE)
     store.path.chmod(0)

@@ -30,11 +30,14 @@ def render(arms: int) -> list[dict[str, Any]]:
     for name in kust["resources"]:
         docs.extend(d for d in yaml.safe_load_all((KDIR / name).read_text()) if d)
     labels = {k: v for entry in kust.get("labels", []) for k, v in entry["pairs"].items()}
+    images = {i["name"]: f"{i.get('newName', i['name'])}:{i.get('newTag', 'latest')}" for i in kust["images"]}
     counts = {r["name"]: arms for r in kust.get("replicas", [])}
     for doc in docs:
         doc["metadata"].setdefault("labels", {}).update(labels)
         if doc["kind"] == "StatefulSet":
             doc["spec"]["replicas"] = counts.get(doc["metadata"]["name"], doc["spec"]["replicas"])
+            for c in doc["spec"]["template"]["spec"]["containers"]:
+                c["image"] = images.get(c["image"], c["image"])
             doc["spec"]["selector"]["matchLabels"].update(labels)
             doc["spec"]["template"]["metadata"]["labels"].update(labels)
         if doc["kind"] == "Service":
@@ -158,13 +161,48 @@ def test_compose_file_gives_each_arm_its_own_loopback_address_and_volume() -> No
     assert len(set(vols)) == len(vols) and set(vols) <= set(spec["volumes"])
 
 
-def test_the_health_script_probes_loopback_for_a_wildcard_address(tmp_path: Path) -> None:
+def test_the_image_is_set_in_kustomize_to_a_registry_name() -> None:
+    (container,) = by_kind(render(3), "StatefulSet")["spec"]["template"]["spec"]["containers"]
+    name, tag = container["image"].rsplit(":", 1)
+    assert "/" in name and "." in name.split("/", 1)[0] and tag  # a registry host, a path, a tag
+    kust = yaml.safe_load((KDIR / "kustomization.yaml").read_text())
+    assert [i["name"] for i in kust["images"]] == ["xarm-emu"] and "newName" in kust["images"][0]
+
+
+def test_the_memory_request_covers_an_arm_and_its_probe() -> None:
+    doc = (ROOT / "docs" / "container.md").read_text()
+    at_rest = int(re.search(r"\| (\d+) MiB \|", doc).group(1))  # type: ignore[union-attr]
+    probe = int(re.search(r"while it runs \| \| about (\d+) MiB", doc).group(1))  # type: ignore[union-attr]
+    (container,) = by_kind(render(3), "StatefulSet")["spec"]["template"]["spec"]["containers"]
+    request = int(container["resources"]["requests"]["memory"].removesuffix("Mi"))
+    limit = int(container["resources"]["limits"]["memory"].removesuffix("Mi"))
+    assert at_rest + probe <= request <= limit
+    assert f"{request} MiB per arm" in " ".join(doc.split())
+
+
+def _health_args(tmp_path: Path, env: dict[str, str], cmdline: list[str] | None = None) -> list[str]:
+    """What the image's health script runs, with a stand-in xarm-emu and process 1's command line."""
     fake = tmp_path / "xarm-emu"
     fake.write_text('#!/bin/sh\necho "$@" > "$0.args"\n')
     fake.chmod(0o755)
-    env = {"PATH": f"{tmp_path}:/usr/bin:/bin", "XARM_EMU_SERVE_HOST": "0.0.0.0",
-           "XARM_EMU_SERVE_PORT": "5020"}
+    proc1 = tmp_path / "cmdline"
+    argv = cmdline or ["/opt/xarm-emu/bin/xarm-emu", "serve"]
+    proc1.write_bytes(b"".join(a.encode() + b"\0" for a in argv))
+    env = {"PATH": f"{tmp_path}:/usr/bin:/bin", "XARM_EMU_HEALTH_CMDLINE": str(proc1), **env}
     subprocess.run([str(ROOT / "scripts" / "container-health")], env=env, check=True)
-    args = (tmp_path / "xarm-emu.args").read_text().split()
+    return (tmp_path / "xarm-emu.args").read_text().split()
+
+
+def test_the_health_script_probes_what_serve_was_given_by_argument(tmp_path: Path) -> None:
+    args = _health_args(tmp_path, {"XARM_EMU_SERVE_HOST": "127.0.0.9"},
+                        ["/opt/xarm-emu/bin/xarm-emu", "serve", "--host", "127.0.0.5", "--port=5020",
+                         "--develop-port", "31003", "--config-dir", "a b"])
+    assert args[args.index("--host") + 1] == "127.0.0.5"  # the argument wins, as in serve itself
+    assert args[args.index("--port") + 1] == "5020" and args[args.index("--report-port") + 1] == "31003"
+
+
+def test_the_health_script_probes_loopback_for_a_wildcard_address(tmp_path: Path) -> None:
+    env = {"XARM_EMU_SERVE_HOST": "0.0.0.0", "XARM_EMU_SERVE_PORT": "5020"}
+    args = _health_args(tmp_path, env)
     assert args[:2] == ["status", "--json"]
     assert args[args.index("--host") + 1] == "127.0.0.1" and args[args.index("--port") + 1] == "5020"

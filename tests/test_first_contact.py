@@ -4,12 +4,18 @@ from the first connection or the first motion; the server log tells connections,
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 import math
 import os
+import re
+import signal
 import subprocess
 import sys
+import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -214,3 +220,99 @@ def test_client_commands_refuse_a_port_out_of_range(args: tuple[str, ...]) -> No
     code, out = run_cli(*args)
     assert code == 2
     assert len(out.strip().splitlines()) == 1 and ": a port is 0..65535 (0: any free port), got " in out
+
+
+# -- the README's quick start, verbatim -----------------------------------------------------------
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _quick_start() -> tuple[list[tuple[str, str]], str]:
+    """The quick start's code blocks as (language, text), and what it says the program prints."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    start = text.index("## Quick start")
+    section = text[start:text.index("\n## ", start + 1)]
+    printed = re.search(r"It prints `([^`]+)`", section)
+    assert printed is not None, "the quick start says what the program prints"
+    return re.findall(r"```(\w+)\n(.*?)```", section, re.S), printed.group(1)
+
+
+def _commands(block: str) -> list[str]:
+    return [line for line in block.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+
+
+@contextlib.contextmanager
+def _one_at_a_time() -> Iterator[None]:
+    """The quick start uses the fixed ports 502 and 30000-30003: runs of this test on one machine
+    (several checkouts) take turns."""
+    with open(Path(tempfile.gettempdir()) / "xarm-emu-quick-start.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def _run_quick_start(where: Path, serve: str, setup: list[str], program: str, port: int) -> str:
+    """``serve`` in the background, then ``setup`` in order, in a directory that holds the checkout's
+    Makefile and venv as a fresh clone after `make serve` does, and ``program`` as first_move.py;
+    returns what the program printed."""
+    for name in ("Makefile", "pyproject.toml", ".venv"):
+        if not (where / name).exists():
+            (where / name).symlink_to(ROOT / name)
+    (where / "first_move.py").write_text(program, encoding="utf-8")
+    env = {**os.environ, "XDG_CONFIG_HOME": str(where / "config")}  # the user's own configuration stays
+    server = subprocess.Popen(["bash", "-c", serve], cwd=where, env=env, start_new_session=True,
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        probe = subprocess.run([str(ROOT / ".venv" / "bin" / "xarm-emu"), "status", "--wait", "60",
+                                "--port", str(port)], capture_output=True, text=True, timeout=90)
+        assert probe.returncode == 0, probe.stdout + probe.stderr
+        out = ""
+        for line in setup:
+            done = subprocess.run(["bash", "-c", line], cwd=where, env=env, capture_output=True, text=True,
+                                  timeout=120)
+            assert done.returncode == 0, (line, done.stdout, done.stderr)
+            out = done.stdout
+        return out
+    finally:
+        os.killpg(server.pid, signal.SIGTERM)
+        try:
+            server.communicate(timeout=15)
+        except subprocess.TimeoutExpired:
+            os.killpg(server.pid, signal.SIGKILL)
+            server.communicate()
+
+
+def test_the_readme_quick_start_runs_verbatim(tmp_path: Path) -> None:
+    blocks, printed = _quick_start()
+    langs = [lang for lang, _ in blocks]
+    assert langs == ["sh", "sh", "python", "sh", "python"], langs
+    (_, serve), (_, setup), (_, program), (_, serve_unprivileged), (_, port_line) = blocks
+    assert _commands(serve) == ["make serve   # set-up (.venv with only what serve needs), then the emulator"]
+    last = program.strip().splitlines()
+    with _one_at_a_time():
+        if os.geteuid() == 0:  # the root path: port 502
+            out = _run_quick_start(tmp_path, serve.strip(), _commands(setup), program, 502)
+            assert out.strip().splitlines()[-1] == printed
+        # the unprivileged path: --port 5020 and the one line above XArmAPI(...)
+        at = next(i for i, line in enumerate(last) if line.startswith("arm = XArmAPI("))
+        moved = "\n".join(last[:at] + port_line.strip().splitlines() + last[at:]) + "\n"
+        out = _run_quick_start(tmp_path, serve_unprivileged.strip(), _commands(setup), moved, 5020)
+        assert out.strip().splitlines()[-1] == printed
+
+
+def test_replay_prints_the_box_lines_before_its_own_verdict(tmp_path: Path) -> None:
+    trace = tmp_path / "wire.jsonl"
+    with running_emulator(trace=trace) as st, Client("127.0.0.1", st.ports["command"]) as c:
+        c.motion_enable(True)
+        c.set_mode(0)
+        c.set_state(0)
+        c.call(23, joints=(9.0, 0, 0, 0, 0, 0, 0), speed=1.0, acc=10.0, mvtime=0.0)  # beyond J1's range
+        assert c.get_err_warn()[0] == 23
+    done = subprocess.run([sys.executable, "-m", "xarm_emu.cli", "replay", str(trace), "--firmware", "1.6.0"],
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60)
+    lines = done.stdout.strip().splitlines()
+    assert done.returncode == 0, done.stdout
+    assert lines[-1].endswith("requests replayed: every reply is the same")
+    assert any(line.startswith("error C23 ") for line in lines[:-1])  # the replayed box's, before it

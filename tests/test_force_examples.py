@@ -2,16 +2,16 @@
 control, 8003 force control, from its ``example/wrapper/common``) run unchanged against a box with
 the F/T sensor mounted, and the arm does what each one asks.
 
-The SDK's wheel does not ship its examples: point ``XARM_SDK_EXAMPLES`` at that directory of a
-checkout of xArm-Python-SDK (the test is skipped when it is absent). Each program sleeps for 5 or
-10 s; the box runs on lockstep time and the program's own ``time`` module turns each of its sleeps
-into that much controller time, so the pauses pass on controller time at once.
+The SDK's wheel does not ship its examples: ``make sdk-examples`` unpacks them from the SDK's source
+distribution (or ``XARM_SDK_EXAMPLES`` names a checkout; the test is skipped, saying so, when
+absent). Each program sleeps for 5 or 10 s; the box runs on lockstep time and the program's own
+``time`` module turns each of its sleeps into that much controller time, so the pauses pass on
+controller time at once.
 """
 
 from __future__ import annotations
 
 import contextlib
-import os
 import runpy
 import sys
 import time
@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import SDK_EXAMPLES_MISSING, sdk_examples
 
 from xarm_emu.controller import force_control as fc
 from xarm_emu.controller.contact import Plane, Scene
@@ -29,9 +30,9 @@ from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerThread
 from xarm_emu.testing import sdk_pointed_at
 
-EXAMPLES = Path(os.environ.get("XARM_SDK_EXAMPLES", "/tmp/sdkex/example/wrapper/common"))
-pytestmark = pytest.mark.skipif(not (EXAMPLES / "8001-force_tech.py").is_file(),
-                                reason="the SDK's example programs are not here (set XARM_SDK_EXAMPLES)")
+_ROOT = sdk_examples()
+EXAMPLES = _ROOT / "wrapper" / "common" if _ROOT is not None else Path("absent")
+pytestmark = pytest.mark.skipif(not (EXAMPLES / "8001-force_tech.py").is_file(), reason=SDK_EXAMPLES_MISSING)
 
 
 def _lockstep_time(st: ServerThread) -> types.ModuleType:

@@ -81,7 +81,7 @@ def test_ft_error_noise_payload_scene_and_status() -> None:
         assert code == 0, out
         assert st.call(lambda: (ft.error_register(ctl), ctl.error_code)) == (7, ft.C_FT_READ)
         code, out = run_cli("inject", "ft-error", "27", *admin_args(st))
-        assert code == 1 and "refused" in out and "27" in out  # refused by the emulator, as the others
+        assert code == 2 and "refused" in out and "27" in out  # an argument the emulator refuses
         with pytest.raises(AdminRefused, match="mass"):
             a.request("payload", mass=-1, com=[0, 0, 0])
         a.request("clear")

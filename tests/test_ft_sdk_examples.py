@@ -2,9 +2,9 @@
 subprocesses against an emulator with the sensor mounted: each gets the address on its command line
 as the examples read it, and the SDK's port constants pointed at the emulator's free ports.
 
-The examples are not part of the installed SDK package: point ``XARM_SDK_EXAMPLES`` at the folder of
-a checkout of the SDK's repository (default ``/tmp/sdkex/example/wrapper/common``); without it these
-tests are skipped."""
+The examples are not part of the installed SDK package: ``make sdk-examples`` unpacks them from the
+SDK's source distribution (or ``XARM_SDK_EXAMPLES`` names a checkout); without them these tests are
+skipped, saying so."""
 
 from __future__ import annotations
 
@@ -18,13 +18,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers import SDK_EXAMPLES_MISSING, sdk_examples
 
 from xarm_emu.controller import ft_sensor as ft
 from xarm_emu.testing import running_emulator
 
-EXAMPLES = Path(os.environ.get("XARM_SDK_EXAMPLES", "/tmp/sdkex/example/wrapper/common"))
+_ROOT = sdk_examples()
+EXAMPLES = _ROOT / "wrapper" / "common" if _ROOT is not None else Path("absent")
 pytestmark = pytest.mark.skipif(not (EXAMPLES / "8005-read_force_data.py").is_file(),
-                                reason=f"the SDK's example programs are not at {EXAMPLES}")
+                                reason=SDK_EXAMPLES_MISSING)
 
 #: Runs one example file with the SDK pointed at the ports given as JSON.
 BOOT = """

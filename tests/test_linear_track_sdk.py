@@ -4,15 +4,13 @@ control box RS-485, a box without one, and the SDK's example program 9000 run un
 from __future__ import annotations
 
 import builtins
-import os
 import runpy
-import subprocess
 from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers import SDK_EXAMPLES_MISSING, sdk_example, wait_for
 from helpers import sdk_ready as ready
-from helpers import wait_for
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.controller.linear_track import HOME_LATCH
@@ -132,28 +130,11 @@ def test_a_box_without_a_track(make_server, sdk_arm, tmp_path: Path) -> None:
     assert arm.error_code == 0
 
 
-def _example() -> Path | None:
-    """The SDK's example program 9000 (the SDK repository's example directory, not in the wheel)."""
-    name = "example/wrapper/common/9000-set_linear_motor.py"
-    candidates = [os.environ.get("XARM_SDK_EXAMPLES", ""), "/tmp/sdkex"]
-    for base in filter(None, candidates):
-        if (Path(base) / name).is_file():
-            return Path(base) / name
-    git = Path("/work/.mirror/xArm-Developer+xArm-Python-SDK/repo")
-    if git.is_dir():
-        out = subprocess.run(["git", "--git-dir", str(git), "show", f"HEAD:{name}"], capture_output=True)
-        if out.returncode == 0:
-            path = Path(os.environ.get("TMPDIR", "/tmp")) / f"xarm-emu-9000-{os.getpid()}.py"
-            path.write_bytes(out.stdout)
-            return path
-    return None
-
-
 def test_sdk_example_9000_runs_unchanged(make_server, sdk_arm, tmp_path: Path, monkeypatch,
                                          capsys) -> None:
-    example = _example()
+    example = sdk_example("wrapper/common/9000-set_linear_motor.py")
     if example is None:
-        pytest.skip("the SDK's example programs are not here (set XARM_SDK_EXAMPLES)")
+        pytest.skip(SDK_EXAMPLES_MISSING)
     import xarm.wrapper
 
     emu = Emulator(6, config_dir=tmp_path / "cfg", firmware=SERVE_VERSION, linear_track=700)

@@ -115,3 +115,11 @@ def test_split_frames_keeps_a_partial_frame() -> None:
     assert buf == bytearray(bytes.fromhex("00020000"))
     assert split_frames(bytearray(bytes.fromhex("00010000000101"))) == ([(1, 1, b"")], True)
     assert screen(b"") == (False, b"", True)  # an empty PDU: no reply, the connection closes
+
+
+def test_coil_142_reads_reduced_mode(srv: ServerThread, client: Any) -> None:
+    from xarm_emu.controller.reduced import reduced_of
+
+    assert client.read_coils(142, count=1, device_id=1).bits[0] is False
+    srv.call(lambda: setattr(reduced_of(srv.emulator.controller), "on", True))  # as register 50 sets it
+    assert client.read_coils(142, count=1, device_id=1).bits[0] is True

@@ -102,3 +102,63 @@ def test_plot_refuses_what_it_cannot_read(tmp_path: Path) -> None:
     assert code == 2 and out.strip() == f"{bad} line 1 is not a trace line (server/trace.py)"
     code, out = run_cli("plot", str(tmp_path / "missing.rrd"))
     assert code == 2 and out.startswith("no such file")
+
+
+def _panels(fig) -> list:  # type: ignore[no-untyped-def]
+    """The figure's panels top to bottom (a right-hand axis shares its panel)."""
+    rows = {}
+    for ax in fig.axes:
+        rows.setdefault(ax.get_subplotspec().rowspan.start, ax)
+    return [rows[k] for k in sorted(rows)]
+
+
+def test_a_six_axis_trace_has_no_j7_and_marks_its_targets(tmp_path: Path) -> None:
+    from xarm_emu.plot import figure
+
+    trace = tmp_path / "wire.jsonl"
+    with running_emulator(speed=5.0, trace=trace) as st:
+        with Client("127.0.0.1", st.ports["command"]) as c:
+            c.motion_enable(True)
+            c.set_mode(0)
+            c.set_state(0)
+            c.call(23, joints=(0.5, 0, 0, 0, 0, 0, 0), speed=1.0, acc=10.0, mvtime=0.0)
+            for _ in range(20):
+                c.get_joints()
+                time.sleep(0.01)
+            assert wait_for(lambda: c.get_state() == 2)
+    series = read_trace(trace)
+    assert len(series.joints()) == 7  # the register carries seven joints
+    fig = figure(series, "trace")
+    joints, tcp, torques, events = _panels(fig)
+    labels = [t.get_text() for t in joints.get_legend().get_texts()]
+    assert labels == [f"J{i}" for i in range(1, 7)] + ["J1 target", "J2 target", "J3 target", "J4 target",
+                                                       "J5 target", "J6 target"]
+    target = next(line for line in joints.lines if line.get_label() == "J1 target")
+    assert target.get_linestyle() == "None" and target.get_marker() == "x"  # a mark, not a path
+    assert not torques.lines and "no torques" in " ".join(t.get_text() for t in torques.texts)
+    fig.savefig(tmp_path / "trace.png", dpi=100)
+
+
+def test_the_events_strip_of_a_ten_minute_session_stays_legible(tmp_path: Path) -> None:
+    from xarm_emu.plot import figure
+
+    series = Series()
+    for k in range(601):
+        series.add("joints/j1", float(k), 30.0 * math.sin(k / 60.0))
+    for t in range(0, 600, 2):
+        series.events.append((float(t), "INFO", f"state {1 + t % 3}"))
+    for t in range(15, 600, 30):
+        series.events.append((float(t), "WARN", "warning W11 speed limit"))
+    for t in range(40, 600, 60):
+        series.events.append((float(t), "ERROR", "error C31 collision"))
+    series.events.sort()
+    fig = figure(series, "ten minutes")
+    assert len(_panels(fig)) == 4
+    events = _panels(fig)[3]
+    assert [t.get_text() for t in events.get_yticklabels()] == ["errors (10)", "warnings (20)",
+                                                               "state, IO, clients (300)"]
+    fig.savefig(tmp_path / "events.png", dpi=100)
+    renderer = fig.canvas.get_renderer()
+    boxes = [t.get_window_extent(renderer) for t in events.texts]
+    assert len(boxes) >= 8  # most errors and warnings carry their text
+    assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])  # none on another

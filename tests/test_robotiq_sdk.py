@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import os
 import runpy
-import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -16,14 +15,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from helpers import run_cli, sdk_ready
+from helpers import SDK_EXAMPLES_MISSING, run_cli, sdk_example, sdk_ready
 
 from xarm_emu.controller.robotiq import PO_CLOSED, PO_OPEN, ROBOTIQ_2F85, RobotiqGripper
 from xarm_emu.server.app import ServerThread
 from xarm_emu.testing import running_emulator, sdk_pointed_at
 
 SPEED = 5.0  # controller seconds per wall second
-SDK_MIRROR = Path("/work/.mirror/xArm-Developer+xArm-Python-SDK/repo")
 END_EFFECTOR_HAS_FAULT = 102  # the SDK's APIState codes
 MODBUS_ERR_LENG = 23
 
@@ -188,18 +186,9 @@ def test_robotiq_calls_with_the_xarm_gripper_attached_get_no_answer() -> None:
 # -- the SDK repository's example programs, run unchanged ---------------------------------------------
 
 def sdk_example_source(path: str) -> str | None:
-    """An example program of the SDK's repository (``example/<path>``): from the directory
-    ``XARM_SDK_EXAMPLES`` names, else a local checkout or mirror of the repository; None if none."""
-    root = os.environ.get("XARM_SDK_EXAMPLES")
-    for base in ([Path(root)] if root else []) + [Path("/tmp/sdkex/example")]:
-        if (base / path).is_file():
-            return (base / path).read_text(encoding="utf-8")
-    if SDK_MIRROR.is_dir():
-        proc = subprocess.run(["git", "--git-dir", str(SDK_MIRROR), "show", f"HEAD:example/{path}"],
-                              capture_output=True, text=True, check=False)
-        if proc.returncode == 0:
-            return proc.stdout
-    return None
+    """An example program of the SDK's ``example`` directory (``example/<path>``), or None."""
+    found = sdk_example(path)
+    return found.read_text(encoding="utf-8") if found is not None else None
 
 
 def run_sdk_example(path: str, st: ServerThread, tmp_path: Path, stop_after: float,
@@ -213,7 +202,7 @@ def run_sdk_example(path: str, st: ServerThread, tmp_path: Path, stop_after: flo
 
     source = sdk_example_source(path)
     if source is None:
-        pytest.skip("the SDK repository's examples are not here: set XARM_SDK_EXAMPLES to its example/")
+        pytest.skip(SDK_EXAMPLES_MISSING)
     workdir = tmp_path / "wrapper" / "common"
     workdir.mkdir(parents=True)
     (tmp_path / "wrapper" / "robot.conf").write_text("[xArm]\nip = 127.0.0.1\n", encoding="utf-8")

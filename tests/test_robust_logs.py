@@ -8,6 +8,8 @@ import json
 import logging
 import socket
 import struct
+import time
+import types
 from pathlib import Path
 
 import pytest
@@ -89,3 +91,48 @@ def test_an_error_raised_between_two_pure_reads_is_logged_at_the_second(
     assert after[7] & 0x40  # the status byte's error bit (manual 2.1.2)
     text = [r.getMessage() for r in caplog.records]
     assert any(t.startswith("error C22") for t in text), text
+
+
+def test_state_changes_are_never_folded_and_stay_in_order(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A move, a stop, a move again within the window: each change has its line, in order."""
+    from xarm_emu.server.logs import CodeWatch
+
+    monkeypatch.setattr("xarm_emu.server.logs.time.monotonic", lambda: 100.0)  # all within the window
+    passed: list[str] = []
+    logger = logging.getLogger("xarm_emu.test_fold")
+    handler = logging.Handler()
+    handler.addFilter(RepeatFilter(window=10.0))
+    handler.emit = lambda record: passed.append(record.getMessage())  # type: ignore[method-assign]
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    logger.propagate = False
+    try:
+        watch = CodeWatch(logger)
+        ctl = types.SimpleNamespace(state=2, mode=0, error_code=0, warning_code=0)
+        for state in (2, 1, 2, 1, 2, 1, 2):
+            ctl.state = state
+            watch.check(ctl)
+        logger.info("cannot accept: EMFILE")
+        logger.info("cannot accept: EMFILE")  # no change in it: held back
+    finally:
+        logger.removeHandler(handler)
+    states = [m for m in passed if m.startswith("state ")]
+    assert states == ["state 2 (sleep (ready))", "state 1 (in motion)"] * 3 + ["state 2 (sleep (ready))"]
+    assert passed.count("cannot accept: EMFILE") == 1
+
+
+def test_report_clients_and_shutdown_are_logged(caplog: pytest.LogCaptureFixture) -> None:
+    cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0)
+    with caplog.at_level(logging.INFO, logger="xarm_emu"), ServerThread(Emulator(6), cfg) as st:
+        with socket.create_connection(("127.0.0.1", st.ports["develop"]), timeout=3.0) as s:
+            s.recv(4)
+            st.call(lambda: None)
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline and not any(
+                r.getMessage() == "develop report client from 127.0.0.1 left" for r in caplog.records):
+            time.sleep(0.02)
+    text = [r.getMessage() for r in caplog.records]
+    assert "develop report client connected from 127.0.0.1" in text
+    assert "develop report client from 127.0.0.1 left" in text
+    assert text.index("develop report client connected from 127.0.0.1") < text.index(
+        "shutting down: closing the ports and every connection") < text.index("stopped")

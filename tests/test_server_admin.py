@@ -60,7 +60,7 @@ def test_admin_binds_the_arms_own_loopback_address(make_server) -> None:
         with socket.socket() as s:
             s.bind(("127.0.0.2", 0))
     except OSError:
-        pytest.skip("this system routes only 127.0.0.1")
+        pytest.skip("this system routes only 127.0.0.1: run on Linux, which routes all of 127.0.0.0/8")
     st = make_server(host="127.0.0.2", admin=True)
     bound = st.call(lambda: [s.sockets[0].getsockname() for s in st.server._servers])
     assert ("127.0.0.2", st.ports["admin"]) in [tuple(a[:2]) for a in bound]

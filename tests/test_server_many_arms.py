@@ -23,7 +23,7 @@ def test_two_arms_on_two_loopback_addresses_with_the_same_ports(tmp_path) -> Non
         with socket.socket() as s:
             s.bind(("127.0.0.2", 0))
     except OSError:
-        pytest.skip("this system routes only 127.0.0.1")
+        pytest.skip("this system routes only 127.0.0.1: run on Linux, which routes all of 127.0.0.0/8")
     ports = {"port": _free_port(), "normal_port": _free_port(), "rich_port": _free_port(),
              "develop_port": _free_port()}
     arms = []

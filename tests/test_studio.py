@@ -100,7 +100,7 @@ def _studio_port_free() -> bool:
 
 def test_the_sdk_studio_calls(tmp_path: Any, sdk_arm: Any) -> None:
     if not _studio_port_free():
-        pytest.skip("port 18333 is in use")
+        pytest.skip("port 18333 (Studio) is in use: stop what holds it to run this test")
     srv = start(tmp_path, STUDIO_PORT, firmware="1.11.100")  # trajectory recording
     try:
         arm = sdk_arm(srv)

@@ -8,6 +8,7 @@ import errno
 import inspect
 import json
 import math
+import re
 import signal
 import time
 from pathlib import Path
@@ -29,9 +30,13 @@ from .server.report_sender import DEFAULT_PRIORITY as DEFAULT_REPORT_PRIORITY
 if TYPE_CHECKING:
     from .server.app import EmulatorServer, ServerConfig
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                   help="Emulator of the UFACTORY xArm control box (xArm 5/6/7, Lite 6, 850, 7T; "
-                       "Developer Manual V1.6.0 and firmware 2.x).")
+                       "Developer Manual V1.6.0 and firmware 2.x).\n\n"
+                       "Exit status: 0 done; 2 a usage or input mistake (an option or argument the "
+                       "command refuses); 1 a runtime failure (the box unreachable, a port in use, the "
+                       "admin channel refusing the token). Either way one line on stderr says what to "
+                       "do next.")
 # Markup off: messages show square brackets as written (``xarm-emu[view]``, ``[[arm]]``).
 console = Console(markup=False, highlight=False)
 err_console = Console(stderr=True, markup=False, highlight=False, soft_wrap=True)
@@ -407,11 +412,14 @@ async def _serve_all(servers: list[EmulatorServer], cdir: Path) -> None:
     for srv in servers:
         await srv.start()
         emu, cfg = srv.emulator, srv.config
-        console.print(f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
-                      f"on {cfg.host}: command {srv.ports['command']}, normal {srv.ports['normal']}, "
-                      f"rich {srv.ports['rich']}, develop {srv.ports['develop']}; "
-                      + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
-                      + f"; config {cdir}")
+        # One clause a line, each short of 80 columns but for long paths, never wrapped mid-clause.
+        for line in (f"xarm-emu {__version__}: {emu.model.name} ({emu.controller.version_string()}) "
+                     f"on {cfg.host}",
+                     f"  ports: command {srv.ports['command']}, normal {srv.ports['normal']}, "
+                     f"rich {srv.ports['rich']}, develop {srv.ports['develop']}",
+                     "  " + ("lockstep time (xarm-emu step)" if cfg.stepped else f"speed x{cfg.speed:g}")
+                     + f"; config {cdir}"):
+            console.print(line, soft_wrap=True)
         if "admin" in srv.ports:
             where = f"{admin_host(cfg.host)}:{srv.ports['admin']}"
             console.print(f"admin channel (fault injection) on {where}")
@@ -537,8 +545,11 @@ def _start_error(exc: Exception, host: str, port: int, fleet: bool) -> tuple[str
         return (_PRIVILEGED.format(port=port, host=host) if not fleet else
                 f"cannot bind a port of the fleet file: {exc.strerror}"), 1
     if isinstance(exc, OSError) and exc.errno == errno.EADDRINUSE:
-        return (f"cannot bind on {host}: a port is already in use ({exc.strerror}); "
-                "choose other ports with --port/--normal-port/--rich-port/--develop-port"
+        taken = re.search(r", (\d+)\)", str(exc))  # asyncio names the address it could not bind
+        where = f"{host}:{taken.group(1) if taken else port}"
+        return (f"cannot bind {where}: the port is already in use (another emulator?); serve beside it "
+                "on another loopback address with --host 127.0.0.N (N = 2, 3, ...) or choose other "
+                "ports with --port/--normal-port/--rich-port/--develop-port"
                 if not fleet else
                 f"a port of the fleet file is already in use ({exc.strerror}): {exc}"), 1
     return None, 0
@@ -763,15 +774,27 @@ def modbus_map(
                                       "writable": p.writable, "writes": p.writes, "doc": p.doc}),
                           soft_wrap=True)
         return
-    table = Table("table", "addresses", "name", "unit", "scale", "rw", "note")
-    for col in table.columns[1:3]:  # addresses and names stay whole on a narrow terminal
-        col.no_wrap = True
+    rows = []
     for p in MODBUS_MAP:
         span = str(p.address) if p.count == 1 else f"{p.address}-{p.end - 1}"
         note = "; ".join(x for x in (p.writes and f"as register {p.writes}", p.doc) if x)
-        table.add_row(p.kind.value, span, p.name, p.unit,
-                      "" if p.scale == 1 else f"x{p.scale:g}" + (" signed" if p.signed else ""),
-                      "rw" if p.writable else "r", note)
+        rows.append((p.kind.value, span, p.name, p.unit,
+                     "" if p.scale == 1 else f"x{p.scale:g}" + (" signed" if p.signed else ""),
+                     "rw" if p.writable else "r", note))
+    if console.width < 120:  # narrow or piped: a list, each point's note wrapped under it
+        import textwrap
+
+        for kind, span, name, unit, scale, rw, note in rows:
+            head = " ".join(x for x in (kind, span, name, rw, unit and f"[{unit}]", scale) if x)
+            console.print(head, soft_wrap=True)
+            for line in textwrap.wrap(note, width=max(40, console.width - 4)):
+                console.print("    " + line, soft_wrap=True)
+        return
+    table = Table("table", "addresses", "name", "unit", "scale", "rw", "note")
+    for col in table.columns[1:3]:  # addresses and names stay whole
+        col.no_wrap = True
+    for row in rows:
+        table.add_row(*row)
     console.print(table)
 
 
@@ -828,10 +851,10 @@ AdminPortOpt = Annotated[int | None, typer.Option(help="Admin channel port, if t
                                                        "with --admin-port.")]
 
 
-def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_exit: int = 1,
+def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_exit: int = 2,
            **args: Any) -> str:
-    """Send one admin request, print the emulator's answer and return it; exit ``refused_exit`` on
-    refusal, 1 when there is no channel."""
+    """Send one admin request, print the emulator's answer and return it; exit ``refused_exit`` when
+    it refuses an argument, 1 when there is no channel or it refuses the token."""
     from .client import ClientError
     from .client.admin import AdminClient, AdminRefused
     from .client.admin import admin_port as derive
@@ -850,7 +873,7 @@ def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_ex
             message = a.request(cmd, **args)
     except AdminRefused as exc:
         err_console.print(f"refused: {exc}")
-        raise typer.Exit(refused_exit) from None
+        raise typer.Exit(1 if "admin token" in str(exc) else refused_exit) from None
     except (OSError, ClientError) as exc:
         err_console.print(f"cannot reach the admin channel at {host}:{aport} ({exc}); start the emulator "
                           "with `xarm-emu serve --admin` and run this on the same machine")

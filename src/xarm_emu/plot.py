@@ -31,6 +31,8 @@ class Series:
 
     curves: dict[str, tuple[list[float], list[float]]] = field(default_factory=dict)
     events: list[tuple[float, str, str]] = field(default_factory=list)  # (t, level, text)
+    #: The arm's joint count when the input says it (register 1's reply: '<axis>,<type>,...').
+    dof: int | None = None
 
     def add(self, name: str, t: float, value: float) -> None:
         ts, vs = self.curves.setdefault(name, ([], []))
@@ -42,6 +44,17 @@ class Series:
 
     def torques(self) -> list[str]:
         return sorted((k for k in self.curves if k.startswith("torques/")), key=lambda k: int(k[9:]))
+
+    def axes(self) -> int:
+        """The arm's joints: as the input says, else the joints read, less a seventh that only ever
+        read 0 (the registers carry seven joints; a six-axis arm fills the seventh with 0)."""
+        if self.dof is not None:
+            return self.dof
+        n = max((int(k.rsplit("j", 1)[1]) for k in self.curves if "/j" in k), default=0)
+        if n == 7 and all(v == 0.0 for k in ("joints/j7", "torques/j7", "targets/j7")
+                          for v in self.curves.get(k, ([], []))[1]):
+            return 6
+        return n
 
 
 def read_recording(path: Path) -> Series:
@@ -139,8 +152,40 @@ def read(path: Path) -> Series:
     return read_recording(path) if Path(path).suffix == ".rrd" else read_trace(path)
 
 
-def plot(series: Series, out: Path, title: str = "", dof: int | None = None) -> Path:
-    """Draw ``series`` to the PNG ``out`` (module docstring); returns ``out``."""
+#: The events strip: one lane per level, top to bottom.
+LANES = (("ERROR", "errors"), ("WARN", "warnings"), ("INFO", "state, IO, clients"))
+LABEL_GAP = 1 / 6  # labels of a lane closer than this share of the time span are left out (marks stay)
+LABEL_CHARS = 18  # a label's text is cut to this many characters, so it fits the gap
+
+
+def _events(ax: Any, shown: list[tuple[float, str, str]], marked: tuple[Any, ...]) -> None:
+    """The events strip: a mark per event in its level's lane, the text of errors and warnings
+    where it has room (a 10-minute session with hundreds of events stays legible), the counts in
+    the lane names; errors and warnings also as dashed lines across the other panels."""
+    lane = {level: len(LANES) - 1 - i for i, (level, _) in enumerate(LANES)}
+    last_label = dict.fromkeys(lane, -math.inf)
+    span = (max(t for t, _, _ in shown) - min(t for t, _, _ in shown)) if shown else 0.0
+    for t, level, text in shown:
+        colour = EVENT_COLOURS.get(level, "#7f7f7f")
+        y = lane.get(level, 0)
+        ax.plot([t], [y], marker="|", markersize=10, color=colour, linestyle="none")
+        if level in ("ERROR", "WARN"):
+            for other in marked:
+                other.axvline(t, color=colour, linewidth=0.8, linestyle="--", alpha=1.0 if level == "ERROR"
+                              else 0.5)
+            if t - last_label[level] >= LABEL_GAP * span:
+                cut = text if len(text) <= LABEL_CHARS else text[:LABEL_CHARS - 1] + "…"
+                ax.annotate(cut, (t, y), xytext=(3, 3), textcoords="offset points", fontsize=7,
+                            color=colour, clip_on=True)
+                last_label[level] = t
+    counts = {level: sum(1 for _, lv, _ in shown if lv == level) for level, _ in LANES}
+    ax.set_yticks([lane[level] for level, _ in LANES],
+                  [f"{name} ({counts[level]})" for level, name in LANES], fontsize="small")
+    ax.set_ylim(-0.6, len(LANES) - 0.3)
+
+
+def figure(series: Series, title: str = "", dof: int | None = None) -> Any:
+    """The matplotlib figure of ``series`` (module docstring): four panels on one time axis."""
     try:
         import matplotlib
 
@@ -151,16 +196,17 @@ def plot(series: Series, out: Path, title: str = "", dof: int | None = None) -> 
     if not series.curves and not series.events:
         raise PlotError("nothing to plot: no joints, poses, torques or events in the input")
     fig, (ax_j, ax_t, ax_tau, ax_e) = plt.subplots(4, 1, sharex=True, figsize=(10, 9),
-                                                   gridspec_kw={"height_ratios": [3, 2, 2, 1]},
+                                                   gridspec_kw={"height_ratios": [3, 2, 2, 1.3]},
                                                    layout="constrained")
-    joints = series.joints()[:dof] if dof else series.joints()
-    for i, name in enumerate(joints):
+    dof = dof or series.axes()
+    for i, name in enumerate(series.joints()[:dof]):
         ts, vs = series.curves[name]
         ax_j.plot(ts, vs, color=JOINT_COLOURS[i % 7], label=f"J{name[8:]}")
-    for i in range(1, 8):
-        if f"targets/j{i}" in series.curves and (dof is None or i <= dof):
+    for i in range(1, dof + 1):
+        if f"targets/j{i}" in series.curves:  # commanded targets: marks at the time sent, not a path
             ts, vs = series.curves[f"targets/j{i}"]
-            ax_j.plot(ts, vs, "x", color=JOINT_COLOURS[(i - 1) % 7], label=f"J{i} target")
+            ax_j.plot(ts, vs, linestyle="none", marker="x", color=JOINT_COLOURS[(i - 1) % 7],
+                      label=f"J{i} target")
     ax_j.set_ylabel("joints (deg)")
     if ax_j.lines:
         ax_j.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")  # off the curves
@@ -171,30 +217,33 @@ def plot(series: Series, out: Path, title: str = "", dof: int | None = None) -> 
     ax_t.set_ylabel("TCP (mm)")
     if ax_t.lines:
         ax_t.legend(loc="upper left", bbox_to_anchor=(1.08, 1.0), fontsize="small")
+    else:
+        ax_t.text(0.5, 0.5, "no TCP pose in this input (the program never read GET_TCP_POSE)",
+                  transform=ax_t.transAxes, ha="center", va="center", color="#7f7f7f")
     if "tcp/speed" in series.curves:
         ax_s = ax_t.twinx()
         ts, vs = series.curves["tcp/speed"]
         ax_s.plot(ts, vs, color="#000000", linewidth=0.8, label="speed")
         ax_s.set_ylabel("TCP speed (mm/s)")
-    torques = series.torques()[:dof] if dof else series.torques()
-    for i, name in enumerate(torques):
+    for i, name in enumerate(series.torques()[:dof]):
         ts, vs = series.curves[name]
-        ax_tau.plot(ts, vs, color=JOINT_COLOURS[i % 7])
+        ax_tau.plot(ts, vs, color=JOINT_COLOURS[i % 7], label=f"J{name[9:]}")
     ax_tau.set_ylabel("torques (N m)")
-    shown = [e for e in series.events if e[1] != "DEBUG"]
-    for t, level, text in shown[:60]:
-        colour = EVENT_COLOURS.get(level, "#7f7f7f")
-        ax_e.axvline(t, color=colour, linewidth=1.5)
-        ax_e.text(t, 0.5, text, rotation=90, fontsize=6, va="center", ha="right", color=colour,
-                  clip_on=True)
-        if level in ("ERROR", "WARN"):
-            for ax in (ax_j, ax_t, ax_tau):
-                ax.axvline(t, color=colour, linewidth=0.8, linestyle="--")
-    ax_e.set_yticks([])
-    ax_e.set_ylabel("events")
+    if not ax_tau.lines:
+        ax_tau.text(0.5, 0.5, "no torques in this input (the program never read GET_JOINT_TAU)",
+                    transform=ax_tau.transAxes, ha="center", va="center", color="#7f7f7f")
+    _events(ax_e, [e for e in series.events if e[1] != "DEBUG"], (ax_j, ax_t, ax_tau))
     ax_e.set_xlabel("time (s)")
     if title:
         fig.suptitle(title)
+    return fig
+
+
+def plot(series: Series, out: Path, title: str = "", dof: int | None = None) -> Path:
+    """Draw ``series`` to the PNG ``out`` (module docstring); returns ``out``."""
+    fig = figure(series, title, dof)  # checks that matplotlib is there
+    import matplotlib.pyplot as plt
+
     out = Path(out)
     fig.savefig(out, dpi=100)
     plt.close(fig)

@@ -795,6 +795,7 @@ class EmulatorServer:
 
     async def close(self) -> None:
         self.reports.quiesce()  # first, before any await: every arm of a worker stops encoding at once
+        log.info("shutting down: closing the ports and every connection")
         for extra in self.attachments.values():
             extra.stop()
         self.attachments.clear()
@@ -827,6 +828,7 @@ class EmulatorServer:
             self.trace.close()
             self.trace = None
         self._stop_disk()
+        log.info("stopped")
         self._stopped.set()
 
     async def serve_forever(self) -> None:

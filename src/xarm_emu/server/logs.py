@@ -1,7 +1,8 @@
 """The server's log, bounded: identical lines repeated within a window are held back and counted
 (:class:`RepeatFilter`), and ``serve --log-file`` writes a size-capped, rotated file
 (:func:`configure`). Errors and warnings the controller raises (manual chapter 3) and client
-connects and drops are logged at INFO by the server (:class:`CodeWatch`)."""
+connects and drops are logged at INFO by the server (:class:`CodeWatch`); a line that tells a
+change is never held back, so every state and mode change shows, in order."""
 
 from __future__ import annotations
 
@@ -21,9 +22,15 @@ REPEAT_WINDOW = 10.0
 MAX_KEYS = 1024
 
 
+#: ``extra`` of a record that tells a change (state, mode, error, warning): never held back, so the
+#: log shows every change in order.
+CHANGE = {"change": True}
+
+
 class RepeatFilter(logging.Filter):
     """Drops a record identical (logger, level, message) to one passed less than ``window`` s ago;
-    the next one that passes says how many were dropped meanwhile."""
+    the next one that passes says how many were dropped meanwhile. A record that tells a change
+    (``extra=CHANGE``) always passes."""
 
     def __init__(self, window: float = REPEAT_WINDOW) -> None:
         super().__init__()
@@ -31,6 +38,8 @@ class RepeatFilter(logging.Filter):
         self._seen: dict[tuple[str, int, str], tuple[float, int]] = {}
 
     def filter(self, record: logging.LogRecord) -> bool:
+        if getattr(record, "change", False):
+            return True
         try:
             text = record.getMessage()
         except Exception:  # noqa: BLE001 - a bad format string is the formatter's to report
@@ -98,12 +107,12 @@ class CodeWatch:
         self._last = now
         state, mode, error, warning = now
         if state != last[0]:
-            self.logger.info("state %d (%s)", state, STATE_NAMES.get(state, "?"))
+            self.logger.info("state %d (%s)", state, STATE_NAMES.get(state, "?"), extra=CHANGE)
         if mode != last[1]:
-            self.logger.info("mode %d (%s)", mode, MODE_NAMES.get(mode, "?"))
+            self.logger.info("mode %d (%s)", mode, MODE_NAMES.get(mode, "?"), extra=CHANGE)
         if error != last[2]:
             self.logger.log(logging.WARNING if error else logging.INFO, "error %s",
-                            codes.describe_error(error) if error else "cleared")
+                            codes.describe_error(error) if error else "cleared", extra=CHANGE)
         if warning != last[3]:
             self.logger.log(logging.WARNING if warning else logging.INFO, "warning %s",
-                            codes.describe_warning(warning) if warning else "cleared")
+                            codes.describe_warning(warning) if warning else "cleared", extra=CHANGE)

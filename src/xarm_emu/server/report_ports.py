@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 import socket
 import threading
 from collections.abc import Awaitable, Callable
@@ -22,6 +23,8 @@ from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from . import report_sender
 from .command_port import set_nodelay
 from .report_sender import SendStream
+
+log = logging.getLogger("xarm_emu.server")
 
 #: Kernel send buffer of a report socket. Small, so that a reader that stalls gets recent frames
 #: when it resumes instead of megabytes of old ones (about 4 s of develop frames).
@@ -188,12 +191,16 @@ class ReportStreams:
             stream = self.streams[kind]
             self.clients[kind].add(writer)
             sender.add(stream, out)
+            peer = writer.get_extra_info("peername")
+            host = peer[0] if isinstance(peer, tuple) else "?"
+            log.info("%s report client connected from %s", kind, host)
             try:
                 while await reader.read(4096):
                     pass
             except (ConnectionError, OSError):
                 pass
             finally:
+                log.info("%s report client from %s left", kind, host)
                 self.clients[kind].discard(writer)
                 with contextlib.suppress(OSError):
                     out.sock.shutdown(socket.SHUT_RDWR)  # the connection ends now, not when the sender closes

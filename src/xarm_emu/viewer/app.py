@@ -27,6 +27,7 @@ from .pendant import Pendant, describe_state
 RATE = 30.0  # Hz
 PANEL_EVERY = 3  # the status panel and the plot refresh every this many scene updates
 ARM_COLOR = (200, 205, 215)
+ERROR_COLOR = (230, 40, 40)  # the arm while a control box error stands (register 15 non-zero)
 GHOST_COLOR = (120, 170, 255)
 TOOL_COLOR = (255, 170, 60)
 TRACK_COLOR = (90, 95, 105)
@@ -50,6 +51,7 @@ class Viewer:
         self.port = int(self.server.get_port())
         self._handles: dict[str, Any] = {}
         self._sizes: dict[str, tuple[float, float, tuple[float, float, float]]] = {}
+        self._colors: dict[str, tuple[int, int, int]] = {}
         self._meshes: dict[tuple[str, float, float], tuple[np.ndarray, np.ndarray]] = {}
         self._task: asyncio.Task[None] | None = None
         self.updates = 0
@@ -80,7 +82,8 @@ class Viewer:
         """Redraw from the emulator's current state."""
         ctl = self.emulator.controller
         physical = ctl.physical_joints
-        self._draw("arm", scene.arm_parts(ctl.model, ctl.q, ctl.collision_tool), ARM_COLOR, 1.0, True)
+        arm_color = ERROR_COLOR if ctl.error_code else ARM_COLOR  # an error stands out in the scene too
+        self._draw("arm", scene.arm_parts(ctl.model, ctl.q, ctl.collision_tool), arm_color, 1.0, True)
         ghost = ctl.simulation_robot
         self._draw("physical", scene.arm_parts(ctl.model, physical, ctl.collision_tool) if ghost else [],
                    GHOST_COLOR, 0.35, ghost)
@@ -131,11 +134,16 @@ class Viewer:
                 handle = self._create(key, part, tint, opacity)
                 self._handles[key] = handle
                 self._sizes[key] = size
+                self._colors[key] = tint
+            elif self._colors.get(key) != tint:
+                handle.color = tint
+                self._colors[key] = tint
             handle.position, handle.wxyz, handle.visible = part.position, part.wxyz, visible
         prefix = f"{self._root}/{group}/"
         for key in [k for k in self._handles if k.startswith(prefix) and k not in seen]:
             self._handles.pop(key).remove()
             self._sizes.pop(key, None)
+            self._colors.pop(key, None)
 
     def _create(self, key: str, part: scene.Part, color: tuple[int, int, int], opacity: float) -> Any:
         sc = self.server.scene

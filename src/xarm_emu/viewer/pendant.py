@@ -35,6 +35,8 @@ log = logging.getLogger(__name__)
 
 PLOT_SECONDS = 10.0
 PLOT_RATE = 10.0  # samples per second
+#: The status panel's last line: a page that shows it has its panel drawn (what tests wait for).
+READY = "Pendant ready"
 #: Motion states of register 13 (manual 2.2, "Get the motion state").
 STATES = {1: "1 moving", 2: "2 sleeping (ready)", 3: "3 suspended", 4: "4 stopped", 5: "5 system reset"}
 #: Motion modes of register 19.
@@ -182,7 +184,7 @@ class Pendant:
             for a, name in enumerate(AXES):
                 group = gui.add_button_group(name, (f"{name} -", f"{name} +"))
                 group.on_click(lambda ev, a=a: self.jog_tcp(a, 1 if ev.target.value.endswith("+") else -1))
-        with gui.add_folder("Plot", order=4):
+        with gui.add_folder("Plot", order=4, expand_by_default=False):
             z = np.zeros(2)
             dof = emu.model.dof
             self._plot_joints = gui.add_uplot(
@@ -310,6 +312,7 @@ class Pendant:
                                  + (", holding an object" if info["object"] else "")
                                  + (f", error {info['error']}" if info["error"] else ""))
         text = "\n\n".join(f"**{k.capitalize()}:** {v}" for k, v in fields.items())
+        text += f"\n\n*{READY}: the status above is the box's own, refreshed as it changes.*"
         if text != self._status_text:
             self._status_text = text
             self._status.content = text
