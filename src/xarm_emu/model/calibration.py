@@ -13,8 +13,8 @@ overridden:
   first-order thermal model of the joints (``controller.thermal``).
 
 A field left ``None`` keeps the emulator's own value. A calibration is frozen and hashable; applying it
-(``robots.with_calibration``) gives a new :class:`RobotModel`, as models never change. ``uncertainties`` holds the
-standard deviation of each fitted value (same names), for the reader of a calibration file only.
+(``robots.with_calibration``) gives a new ``RobotModel``, as models never change. ``uncertainties``
+holds the standard deviation of each fitted value (same names), for the reader of a calibration file.
 
 Files are TOML (``xarm-emu calibrate -o cal.toml``, ``serve --calibration cal.toml``)::
 

@@ -1,0 +1,363 @@
+"""``xarm-emu compare session.xrec``: a recorded session replayed into the emulator, and how far apart they are.
+
+The recording (``xarm-emu proxy``, :mod:`xarm_emu.server.xrec`) says which arm and firmware the box is
+(its register 1 reply). A fresh emulator of that arm and firmware (with a calibration when given) runs
+on the stepped clock; every recorded request is answered by it, in order, at the controller time the
+box answered it, and its state is sampled at the controller time of every recorded real-time report
+frame (port 30000, whose timestamp is the box's clock; manual 2.1.6 and firmware 2.x). A request's
+controller time is read from the real-time frames around it: the first frame the box sent after the
+reply shows the state after the command, at the period it was answered in.
+
+Reported per command and in total: replies that differ (state byte or parameters); move durations
+(from the command to the first report at rest after it moved); the path deviation (the distance of each
+recorded TCP position from the replayed path, mm, and of the joints, degrees); joint torque and current
+differences (RMS and maximum); error and warning codes seen in one and not the other; report rates.
+The TCP offset, load and settings come from the recorded commands themselves, as they are replayed.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import tempfile
+import tomllib
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..controller.base import PERIOD
+from ..model.calibration import Calibration
+from ..model.robots import ROBOT_MODELS, RobotModel, with_calibration
+from ..protocol import registers as regs
+from ..protocol import reports
+from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
+from ..server import xrec
+
+#: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
+DEFAULT_TOLERANCES: dict[str, float] = {
+    "reply_differences": 0,  # replies that may differ
+    "duration_s": PERIOD + 1e-9,  # a move's duration, seconds (one control period)
+    "path_mm": 0.01,  # TCP distance from the replayed path, mm
+    "path_deg": 0.01,  # joint distance from the replayed path, degrees
+    "torque_rms": 0.02,  # N.m, per joint over the session
+    "torque_max": 0.05,  # N.m
+    "current_rms": 0.01,  # A
+    "current_max": 0.02,  # A
+    "code_differences": 0,  # error or warning codes seen in one only
+    "report_rate_rel": 0.2,  # relative difference of a report rate from the emulator's
+}
+
+
+class CompareError(ValueError):
+    """The recording cannot be compared; the message says why."""
+
+
+@dataclass
+class Sample:
+    """One recorded real-time report frame and the replayed state at its controller time."""
+
+    t: float
+    state: int
+    joints: np.ndarray
+    pos: np.ndarray
+    torques: np.ndarray
+    currents: np.ndarray
+    speeds: np.ndarray
+
+
+@dataclass
+class CommandResult:
+    index: int
+    t: float
+    register: int
+    name: str | None
+    reply_differs: bool = False
+    recorded_reply: str = ""
+    replayed_reply: str = ""
+    duration: tuple[float, float] | None = None  # recorded, replayed (s)
+    path_mm: float = 0.0
+    path_deg: float = 0.0
+    torque_rms: float = 0.0
+    torque_max: float = 0.0
+    current_rms: float = 0.0
+    current_max: float = 0.0
+    samples: tuple[int, int] = (0, 0)  # sample index range [start, end)
+
+
+@dataclass
+class Comparison:
+    """Everything ``compare`` measured (module docstring); ``failures`` against the tolerances."""
+
+    model: str
+    firmware: str
+    commands: list[CommandResult] = field(default_factory=list)
+    totals: dict[str, float] = field(default_factory=dict)
+    per_joint: dict[str, list[float]] = field(default_factory=dict)
+    codes: dict[str, list[list[float]]] = field(default_factory=dict)
+    rates: dict[str, list[float]] = field(default_factory=dict)  # port -> recorded, emulator's
+    failures: list[str] = field(default_factory=list)
+    recorded: list[Sample] = field(default_factory=list, repr=False)
+    replayed: list[Sample] = field(default_factory=list, repr=False)
+    replay_seconds: float = 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        return {"model": self.model, "firmware": self.firmware, "totals": self.totals,
+                "per_joint": self.per_joint, "codes": self.codes, "rates": self.rates,
+                "failures": self.failures, "commands": [asdict(c) for c in self.commands]}
+
+
+def load_tolerances(path: Path | None) -> dict[str, float]:
+    """The default tolerances, overridden by a TOML file's keys."""
+    tol = dict(DEFAULT_TOLERANCES)
+    if path is None:
+        return tol
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise CompareError(f"cannot read {path}: {exc.strerror or exc}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise CompareError(f"{path} is not TOML: {exc}") from None
+    for k, v in data.items():
+        if k not in tol:
+            raise CompareError(f"{path}: unknown tolerance {k!r} (known: {', '.join(tol)})")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+            raise CompareError(f"{path}: {k} must be a number >= 0")
+        tol[k] = float(v)
+    return tol
+
+
+def model_of(version: str) -> RobotModel:
+    """The arm of a register 1 version string (``axis,type,robot SN,...``)."""
+    try:
+        axis, rtype = (int(x) for x in version.split(",")[:2])
+    except ValueError:
+        raise CompareError(f"the box's version {version!r} does not name its arm") from None
+    for m in ROBOT_MODELS.values():
+        if m.axis == axis and m.robot_type == rtype:
+            return m
+    raise CompareError(f"no emulated arm has axis {axis} and type {rtype}")
+
+
+@dataclass
+class Session:
+    """A recording read for replay: the box, its requests and replies, its report frames."""
+
+    version: str
+    profile: FirmwareProfile
+    requests: list[tuple[xrec.Req, xrec.Rep | None]]
+    realtime: list[tuple[float, float, bytes]]  # (proxy time, controller time, frame)
+    frames: dict[int, list[float]]  # report port -> proxy times
+
+
+def read_session(path: Path) -> Session:
+    """Pair every request with its reply (by connection and tid) and collect the report frames."""
+    version, profile = "", DEFAULT_PROFILE
+    requests: list[tuple[xrec.Req, xrec.Rep | None]] = []
+    waiting: dict[tuple[int, int], int] = {}
+    realtime: list[tuple[float, float, bytes]] = []
+    frames: dict[int, list[float]] = {}
+    try:
+        for rec in xrec.read(path):
+            if isinstance(rec, xrec.Req) and rec.protocol != 1:
+                waiting[(rec.conn, rec.tid)] = len(requests)
+                requests.append((rec, None))
+            elif isinstance(rec, xrec.Rep) and rec.register != 0xFF:
+                i = waiting.pop((rec.conn, rec.tid), None)
+                if i is not None:
+                    requests[i] = (requests[i][0], rec)
+                if rec.register == 1 and rec.values and not version:
+                    version = str(rec.values.get("version", "")).strip("\0 ")
+                    profile = xrec.firmware_of(version) or profile
+            elif isinstance(rec, xrec.Rpt):
+                frames.setdefault(rec.port, []).append(rec.t)
+                if rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
+                    ts = reports.decode_realtime(rec.frame).timestamp_us / 1e6
+                    realtime.append((rec.t, ts, rec.frame))
+    except xrec.RecordingError as exc:
+        raise CompareError(str(exc)) from None
+    if not version:
+        raise CompareError(f"{path} has no register 1 reply: the box's arm and firmware are unknown "
+                           "(the SDK asks for it on connecting; record from the program's start)")
+    if not realtime:
+        raise CompareError(f"{path} has no real-time report frames (port 30000): open the real-time "
+                           "report through the proxy while recording (docs/real-arms.md)")
+    return Session(version, profile, requests, realtime, frames)
+
+
+def _controller_times(session: Session) -> list[float]:
+    """The controller time each request was answered at (module docstring)."""
+    recv = [r[0] for r in session.realtime]
+    ts = [r[1] for r in session.realtime]
+    out = []
+    for req, rep in session.requests:
+        after = rep.t if rep is not None else req.t
+        i = bisect.bisect_right(recv, after)
+        lo = ts[max(0, bisect.bisect_left(recv, req.t) - 1)] if recv and recv[0] < req.t else 0.0
+        t = ts[i] if i < len(ts) else ts[-1]
+        out.append(max(lo, t))
+    return out
+
+
+def _rt_sample(t: float, frame: bytes, dof: int) -> Sample:
+    s = reports.decode_realtime(frame)
+    return Sample(t, s.state, np.array(s.joints[:dof]), np.array(s.pose[:3]), np.array(s.torques[:dof]),
+                  np.array(s.joint_currents[:dof]), np.array(s.joint_speeds[:dof]))
+
+
+def _seg_dist(points: np.ndarray, path: np.ndarray, window: int = 4) -> np.ndarray:
+    """Distance of each of ``points`` from the polyline ``path`` (same length, aligned in time),
+    looking at the segments within ``window`` samples."""
+    n = len(points)
+    best = np.full(n, np.inf)
+    for k in range(-window, window):
+        i0 = np.clip(np.arange(n) + k, 0, n - 1)
+        i1 = np.clip(i0 + 1, 0, n - 1)
+        a, b = path[i0], path[i1]
+        ab = b - a
+        denom = np.einsum("ij,ij->i", ab, ab)
+        u = np.where(denom > 0, np.einsum("ij,ij->i", points - a, ab) / np.where(denom > 0, denom, 1), 0)
+        u = np.clip(u, 0.0, 1.0)
+        d = np.linalg.norm(points - (a + u[:, None] * ab), axis=1)
+        best = np.minimum(best, d)
+    return best
+
+
+def _is_queued(register: int) -> bool:
+    reg = regs.get(register)
+    return reg is not None and reg.queued
+
+
+def _duration(samples: list[Sample], start: int, end: int, t0: float) -> float | None:
+    """From ``t0`` to the first sample at rest (state not 1) after one in motion, within the range."""
+    moved = False
+    for s in samples[start:end]:
+        if s.state == 1:
+            moved = True
+        elif moved:
+            return s.t - t0
+    return None
+
+
+def compare(path: Path, calibration: Calibration | None = None,
+            tolerances: dict[str, float] | None = None) -> Comparison:
+    """Replay the recording at ``path`` and measure the differences (module docstring)."""
+    import time as _time
+
+    from ..controller.emulator import Emulator
+    from ..server.core import EmulatorServer, ServerConfig
+
+    tol = tolerances or dict(DEFAULT_TOLERANCES)
+    session = read_session(Path(path))
+    base = model_of(session.version)
+    model = with_calibration(base, calibration)
+    dof = model.dof
+    firmware = str(session.profile.version)
+    result = Comparison(base.key, firmware)
+    times = _controller_times(session)
+    order = sorted(range(len(times)), key=lambda i: (times[i], i))
+    rec_samples = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
+    rep_samples: list[Sample] = []
+    started = _time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="xarm-emu-compare-") as cdir:
+        emu = Emulator(model, config_dir=Path(cdir), firmware=firmware)
+        server = EmulatorServer(emu, ServerConfig(stepped=True, port=0))
+        cmd_at: list[tuple[float, int]] = []
+        k = 0
+        for j, s in enumerate(rec_samples):
+            while k < len(order) and times[order[k]] <= s.t + 1e-9:
+                i = order[k]
+                t = times[i]
+                if t > emu.time + 1e-9:
+                    server.advance(t - emu.time)
+                req, rep = session.requests[i]
+                frame = server.answer(req.tid, req.protocol, req.register, req.params)
+                c = CommandResult(i, t, req.register, req.name)
+                if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
+                    c.reply_differs = True
+                    c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
+                result.commands.append(c)
+                cmd_at.append((t, j))
+                k += 1
+            if s.t > emu.time + 1e-9:
+                server.advance(s.t - emu.time)
+            snap = emu.snapshot()
+            ctl = emu.controller
+            rep_samples.append(Sample(s.t, snap.state, np.array(snap.joints[:dof]), np.array(snap.pose[:3]),
+                                      np.array(ctl.joint_torques()[:dof]),
+                                      np.array(ctl.joint_currents()[:dof]), ctl.data.qd[:dof].copy()))
+        result.replay_seconds = _time.perf_counter() - started
+    result.recorded, result.replayed = rec_samples, rep_samples
+    _measure(result, cmd_at, tol, session)
+    return result
+
+
+def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str, float],
+             session: Session) -> None:
+    rec, rep = result.recorded, result.replayed
+    pos_r, pos_p = np.array([s.pos for s in rec]), np.array([s.pos for s in rep])
+    q_r = np.degrees(np.array([s.joints for s in rec]))
+    q_p = np.degrees(np.array([s.joints for s in rep]))
+    d_mm = _seg_dist(pos_r, pos_p)
+    d_deg = _seg_dist(q_r, q_p)
+    dtau = np.array([a.torques - b.torques for a, b in zip(rec, rep, strict=True)])
+    dcur = np.array([a.currents - b.currents for a, b in zip(rec, rep, strict=True)])
+    bounds = [j for _, j in cmd_at] + [len(rec)]
+    for n, c in enumerate(result.commands):
+        a, b = bounds[n], bounds[n + 1]
+        c.samples = (a, b)
+        if b > a:
+            c.path_mm, c.path_deg = float(d_mm[a:b].max()), float(d_deg[a:b].max())
+            c.torque_rms = float(np.sqrt(np.mean(dtau[a:b] ** 2)))
+            c.torque_max = float(np.abs(dtau[a:b]).max())
+            c.current_rms = float(np.sqrt(np.mean(dcur[a:b] ** 2)))
+            c.current_max = float(np.abs(dcur[a:b]).max())
+    queued = [n for n, c in enumerate(result.commands) if _is_queued(c.register)] + [len(result.commands)]
+    for m, n in enumerate(queued[:-1]):  # a move lasts at most until the next queued command
+        c = result.commands[n]
+        end = bounds[queued[m + 1]]
+        d_rec, d_rep = _duration(rec, bounds[n], end, c.t), _duration(rep, bounds[n], end, c.t)
+        if d_rec is not None or d_rep is not None:
+            c.duration = (d_rec if d_rec is not None else math.nan, d_rep if d_rep is not None else math.nan)
+    durations = [abs(c.duration[0] - c.duration[1]) for c in result.commands if c.duration]
+    t = result.totals
+    t["requests"] = len(result.commands)
+    t["samples"] = len(rec)
+    t["reply_differences"] = sum(c.reply_differs for c in result.commands)
+    t["duration_s"] = max((d if math.isfinite(d) else math.inf for d in durations), default=0.0)
+    t["path_mm"], t["path_deg"] = float(d_mm.max(initial=0.0)), float(d_deg.max(initial=0.0))
+    t["torque_rms"] = float(np.sqrt(np.mean(dtau ** 2, axis=0)).max(initial=0.0)) if len(rec) else 0.0
+    t["torque_max"] = float(np.abs(dtau).max(initial=0.0))
+    t["current_rms"] = float(np.sqrt(np.mean(dcur ** 2, axis=0)).max(initial=0.0)) if len(rec) else 0.0
+    t["current_max"] = float(np.abs(dcur).max(initial=0.0))
+    if len(rec):
+        result.per_joint = {"torque_rms": np.sqrt(np.mean(dtau ** 2, axis=0)).tolist(),
+                            "current_rms": np.sqrt(np.mean(dcur ** 2, axis=0)).tolist(),
+                            "torque_mean": dtau.mean(axis=0).tolist(),
+                            "current_mean": dcur.mean(axis=0).tolist()}
+    _codes(result, session)
+    t["code_differences"] = float(sum(len(v) for v in result.codes.values()))
+    nominal = reports.rates_for(session.profile)
+    worst_rate = 0.0
+    for port, stamps in sorted(session.frames.items()):
+        if len(stamps) > 10 and port in nominal:
+            rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
+            result.rates[str(port)] = [rate, nominal[port]]
+            worst_rate = max(worst_rate, abs(rate - nominal[port]) / nominal[port])
+    t["report_rate_rel"] = worst_rate
+    for key, limit in tol.items():
+        if t.get(key, 0.0) > limit:
+            result.failures.append(f"{key} {t[key]:.6g} > {limit:.6g}")
+
+
+def _codes(result: Comparison, session: Session) -> None:
+    """Error and warning codes of the replies' state bits, per command: which side had them."""
+    only: list[list[float]] = []
+    for c in result.commands:
+        if c.reply_differs and c.recorded_reply and c.replayed_reply:
+            rs, ps = int(c.recorded_reply[2:4], 16), int(c.replayed_reply[2:4], 16)
+            if (rs ^ ps) & 0x60:
+                only.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])
+    if only:
+        result.codes["state_bits"] = only
