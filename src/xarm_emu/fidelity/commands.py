@@ -90,6 +90,80 @@ def proxy(
         raise typer.Exit(1)
 
 
+def compare(
+    recording: Annotated[Path, typer.Argument(help="A recording of xarm-emu proxy (.xrec).")],
+    calibration: Annotated[Path | None, typer.Option(help="Replay with this calibration file.")] = None,
+    tolerances: Annotated[Path | None, typer.Option(help="TOML file of tolerances (defaults in "
+                                                         "docs/real-arms.md).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the comparison as JSON.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write an HTML report with plots "
+                                                                       "of the worst commands.")] = None,
+) -> None:
+    """Replay a recording into the emulator and report the differences; exit 1 outside the tolerances."""
+    import json
+
+    from ..model.calibration import Calibration
+    from .compare import CompareError, html_report, load_tolerances
+    from .compare import compare as run_compare
+
+    cal: Calibration | None = None
+    try:
+        tol = load_tolerances(tolerances)
+        if calibration is not None:
+            cal = load_calibration(calibration)
+    except (CompareError, CalibrationError) as exc:
+        err_console.print(str(exc))
+        raise typer.Exit(2) from None
+    try:
+        result = run_compare(recording, cal, tol)
+        if output is not None:
+            html_report(result, output)
+    except (CompareError, CalibrationError) as exc:
+        err_console.print(str(exc))
+        raise typer.Exit(1) from None
+    except OSError as exc:
+        err_console.print(f"cannot write {output}: {exc.strerror or exc}")
+        raise typer.Exit(1) from None
+    if as_json:
+        console.print(json.dumps(result.to_json(), default=float), soft_wrap=True)
+    else:
+        t = result.totals
+        console.print(f"{int(t['requests'])} requests and {int(t['samples'])} real-time frames replayed "
+                      f"(xArm {result.model}, firmware {result.firmware}) in {result.replay_seconds:.2f} s",
+                      soft_wrap=True)
+        for key in ("reply_differences", "duration_s", "path_mm", "path_deg", "torque_rms", "torque_max",
+                    "current_rms", "current_max", "code_differences", "report_rate_rel"):
+            console.print(f"  {key:18} {t[key]:.6g}")
+        console.print("within every tolerance" if not result.failures else
+                      "outside the tolerances: " + "; ".join(result.failures), soft_wrap=True)
+    if result.failures:
+        raise typer.Exit(1)
+
+
+def calibrate(
+    recording: Annotated[Path, typer.Argument(help="A recording of xarm-emu proxy (.xrec).")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="The calibration file to write (TOML).")],
+) -> None:
+    """Fit the emulator's estimated constants to a recording, with their uncertainties."""
+    from ..model.calibration import dumps, save
+    from .calibrate import calibrate as run_calibrate
+    from .compare import CompareError
+
+    try:
+        result = run_calibrate(recording)
+        save(result.calibration, output, comment=f"fitted by xarm-emu calibrate to {recording.name} "
+                                                 f"({result.samples} real-time frames)\n"
+                                                 + "\n".join(result.notes))
+    except (CompareError, CalibrationError, ValueError) as exc:
+        err_console.print(str(exc))
+        raise typer.Exit(1) from None
+    console.print(dumps(result.calibration), end="")
+    for note in result.notes:
+        console.print(f"note: {note}", soft_wrap=True)
+
+
 def register(app: typer.Typer) -> None:
     """Add the fidelity commands to ``app``."""
     app.command("proxy")(proxy)
+    app.command("compare")(compare)
+    app.command("calibrate")(calibrate)

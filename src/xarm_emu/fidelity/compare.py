@@ -1,4 +1,4 @@
-"""``xarm-emu compare session.xrec``: a recorded session replayed into the emulator, and how far apart they are.
+"""``xarm-emu compare session.xrec``: a recorded session replayed into the emulator, and how far apart.
 
 The recording (``xarm-emu proxy``, :mod:`xarm_emu.server.xrec`) says which arm and firmware the box is
 (its register 1 reply). A fresh emulator of that arm and firmware (with a calibration when given) runs
@@ -361,3 +361,61 @@ def _codes(result: Comparison, session: Session) -> None:
                 only.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])
     if only:
         result.codes["state_bits"] = only
+
+
+def worst_commands(result: Comparison, n: int = 3) -> list[CommandResult]:
+    """The ``n`` commands with the largest differences (torque, then path), for the plots."""
+    with_samples = [c for c in result.commands if c.samples[1] > c.samples[0]]
+    return sorted(with_samples, key=lambda c: (c.torque_max + c.current_max, c.path_mm), reverse=True)[:n]
+
+
+def html_report(result: Comparison, path: Path) -> None:
+    """A page with the totals, the failures and matplotlib plots of the worst commands."""
+    import base64
+    import html
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    parts = [f"<html><head><meta charset='utf-8'><title>xarm-emu compare</title></head><body>"
+             f"<h1>Recording against the emulator: xArm {html.escape(result.model)}, firmware "
+             f"{html.escape(result.firmware)}</h1>",
+             "<p>" + ("within every tolerance" if not result.failures else
+                      "outside the tolerances: " + html.escape("; ".join(result.failures))) + "</p>",
+             "<table border='1'><tr><th>measure</th><th>value</th></tr>"]
+    parts += [f"<tr><td>{html.escape(k)}</td><td>{v:.6g}</td></tr>" for k, v in result.totals.items()]
+    parts.append("</table>")
+    rec, rep = result.recorded, result.replayed
+    for c in worst_commands(result):
+        a, b = c.samples
+        t = [s.t for s in rec[a:b]]
+        fig, axes = plt.subplots(1, 3, figsize=(14, 3.5))
+        for j in range(len(rec[a].torques)):
+            axes[0].plot(t, [s.torques[j] for s in rec[a:b]], label=f"J{j + 1} recorded")
+            axes[0].plot(t, [s.torques[j] for s in rep[a:b]], "--", label=f"J{j + 1} emulator")
+            axes[1].plot(t, [s.currents[j] - p.currents[j] for s, p in zip(rec[a:b], rep[a:b], strict=True)],
+                         label=f"J{j + 1}")
+        axes[0].set_title("joint torque (N.m)")
+        axes[1].set_title("current, recorded - emulator (A)")
+        axes[2].plot([s.pos[0] for s in rec[a:b]], [s.pos[1] for s in rec[a:b]], label="recorded")
+        axes[2].plot([s.pos[0] for s in rep[a:b]], [s.pos[1] for s in rep[a:b]], "--", label="emulator")
+        axes[2].set_title("TCP x-y (mm)")
+        axes[2].legend(fontsize=7)
+        axes[1].legend(fontsize=7)
+        for ax in axes[:2]:
+            ax.set_xlabel("controller time (s)")
+        fig.tight_layout()
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=80)
+        plt.close(fig)
+        png = base64.b64encode(buf.getvalue()).decode()
+        parts.append(f"<h2>request {c.index} at t = {c.t:.3f} s: {html.escape(str(c.name))}</h2>"
+                     f"<p>torque max {c.torque_max:.4g} N.m, current max {c.current_max:.4g} A, "
+                     f"path {c.path_mm:.4g} mm</p><img src='data:image/png;base64,{png}'>")
+    parts.append("</body></html>")
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text("\n".join(parts), encoding="utf-8")
+    tmp.replace(path)
