@@ -28,7 +28,7 @@ from ..model.calibration import Calibration
 from .compare import Comparison, compare
 
 #: Samples a joint needs in each direction of motion before friction is fitted for it.
-MIN_MOVING = 20
+MIN_MOVING = 10
 #: Joint speed (rad/s) above which a sample counts as moving for the friction fit.
 MOVING = 1e-3
 
@@ -62,10 +62,11 @@ def fit(comparison: Comparison) -> Fit:
     rec, rep = comparison.recorded, comparison.replayed
     if len(rec) < 10:
         raise ValueError("the recording has too few real-time report frames to fit anything")
-    tau = np.array([s.torques for s in rec])
-    cur = np.array([s.currents for s in rec])
-    model_tau = np.array([s.torques for s in rep])
-    qd = np.array([s.speeds for s in rep])
+    use = [i for i, s in enumerate(rep) if not np.isnan(s.torques[0])]  # compare.TORQUE_EVERY
+    tau = np.array([rec[i].torques for i in use])
+    cur = np.array([rec[i].currents for i in use])
+    model_tau = np.array([rep[i].torques for i in use])
+    qd = np.array([rep[i].speeds for i in use])
     dof = tau.shape[1]
     kt, kt_sd = np.zeros(dof), np.zeros(dof)
     off, off_sd = np.zeros(dof), np.zeros(dof)

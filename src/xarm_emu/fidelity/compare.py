@@ -34,6 +34,7 @@ from ..protocol import registers as regs
 from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..server import xrec
+from ..server.command_port import PURE_READS
 
 #: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
 DEFAULT_TOLERANCES: dict[str, float] = {
@@ -48,6 +49,11 @@ DEFAULT_TOLERANCES: dict[str, float] = {
     "code_differences": 0,  # error or warning codes seen in one only
     "report_rate_rel": 0.2,  # relative difference of a report rate from the emulator's
 }
+
+
+#: Joint torques and currents are compared on every this many real-time frames (50 Hz of the 250 Hz
+#: report): the dynamic model is the replay's costliest part, and torques change slowly against it.
+TORQUE_EVERY = 5
 
 
 class CompareError(ValueError):
@@ -186,18 +192,44 @@ def read_session(path: Path) -> Session:
     return Session(version, profile, requests, realtime, frames)
 
 
-def _controller_times(session: Session) -> list[float]:
-    """The controller time each request was answered at (module docstring)."""
+def _controller_times(session: Session) -> list[tuple[float, float]]:
+    """The controller time each request was answered at (module docstring).
+
+    Bounds: a frame the box sent before the request shows a time no later, the first frame it sent
+    after the reply one no earlier. A queued command changes what the next frame shows, so the box
+    prepares that frame again after answering it: its time is the command's. Those give the offset of
+    the box's clock from the proxy's (the median); every request's time is then its arrival on the
+    box's control-period grid, within its bounds. A pure read (its answer changes nothing) gets its
+    earliest time: ``compare`` tries it again at each later period up to its upper bound, the time
+    a round trip through a busy network or computer leaves open. Returns (time, upper bound)."""
     recv = [r[0] for r in session.realtime]
     ts = [r[1] for r in session.realtime]
-    out = []
+    bounds = []
     for req, rep in session.requests:
-        after = rep.t if rep is not None else req.t
-        i = bisect.bisect_right(recv, after)
-        lo = ts[max(0, bisect.bisect_left(recv, req.t) - 1)] if recv and recv[0] < req.t else 0.0
-        t = ts[i] if i < len(ts) else ts[-1]
-        out.append(max(lo, t))
+        i = bisect.bisect_right(recv, rep.t if rep is not None else req.t)
+        k = bisect.bisect_left(recv, req.t) - 1
+        bounds.append((ts[k] if k >= 0 else 0.0, ts[i] if i < len(ts) else math.inf))
+    exact = [hi - req.t for (req, rep), (_, hi) in zip(session.requests, bounds, strict=True)
+             if rep is not None and _is_queued(req.register) and math.isfinite(hi)]
+    if not exact:
+        exact = [hi - req.t for (req, _), (_, hi) in zip(session.requests, bounds, strict=True)
+                 if math.isfinite(hi)]
+    offset = float(np.median(exact)) if exact else 0.0
+    out: list[tuple[float, float]] = []
+    last = 0.0
+    for (req, _), (lo, hi) in zip(session.requests, bounds, strict=True):
+        if _pure_read(req):  # the earliest period it can have been answered in (see compare())
+            t = lo
+            hi += PERIOD  # a frame shows the state up to one period before it is sent (manual 2.1.6)
+        else:
+            t = min(max(lo, lo + round((req.t + offset - lo) / PERIOD) * PERIOD), hi)
+        last = max(last, t)  # in the order the box received them
+        out.append((last, max(last, hi)))
     return out
+
+
+def _pure_read(req: xrec.Req) -> bool:
+    return req.protocol in (2, 3) and req.register in PURE_READS and not req.params
 
 
 def _rt_sample(t: float, frame: bytes, dof: int) -> Sample:
@@ -222,6 +254,11 @@ def _seg_dist(points: np.ndarray, path: np.ndarray, window: int = 4) -> np.ndarr
         d = np.linalg.norm(points - (a + u[:, None] * ab), axis=1)
         best = np.minimum(best, d)
     return best
+
+
+def _rms_where(d: np.ndarray, use: np.ndarray) -> float:
+    """The largest per-joint RMS of the rows of ``d`` where ``use``."""
+    return float(np.sqrt(np.mean(d[use] ** 2, axis=0)).max()) if use.any() else 0.0
 
 
 def _is_queued(register: int) -> bool:
@@ -255,38 +292,66 @@ def compare(path: Path, calibration: Calibration | None = None,
     dof = model.dof
     firmware = str(session.profile.version)
     result = Comparison(base.key, firmware)
-    times = _controller_times(session)
-    order = sorted(range(len(times)), key=lambda i: (times[i], i))
+    spans = _controller_times(session)
+    times = [t for t, _ in spans]
+    order = list(range(len(times)))
     rec_samples = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
     rep_samples: list[Sample] = []
+    nan = np.full(dof, np.nan)
     started = _time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="xarm-emu-compare-") as cdir:
         emu = Emulator(model, config_dir=Path(cdir), firmware=firmware)
         server = EmulatorServer(emu, ServerConfig(stepped=True, port=0))
         cmd_at: list[tuple[float, int]] = []
+        pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float]] = []  # reads to try again
+
+        def advance(to: float) -> None:
+            while pending and to > emu.time + 1e-9:  # a period at a time while reads wait
+                server.advance(min(PERIOD, to - emu.time))
+                retry()
+            if to > emu.time + 1e-9:
+                server.advance(to - emu.time)
+            retry()
+
+        def retry() -> None:
+            for item in list(pending):
+                c, req, rep, hi = item
+                if emu.time > hi + 1e-9:
+                    pending.remove(item)
+                    continue
+                frame = server.answer(req.tid, req.protocol, req.register, req.params)
+                if bytes(frame[6:]) == rep.frame[6:]:
+                    c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
+                    pending.remove(item)
+
         k = 0
         for j, s in enumerate(rec_samples):
             while k < len(order) and times[order[k]] <= s.t + 1e-9:
                 i = order[k]
                 t = times[i]
-                if t > emu.time + 1e-9:
-                    server.advance(t - emu.time)
+                advance(t)
                 req, rep = session.requests[i]
+                read = _pure_read(req)
+                if not read:
+                    pending.clear()  # a command may change what a read shows
                 frame = server.answer(req.tid, req.protocol, req.register, req.params)
                 c = CommandResult(i, t, req.register, req.name)
                 if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
                     c.reply_differs = True
                     c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
+                    if read:
+                        pending.append((c, req, rep, spans[i][1]))
                 result.commands.append(c)
                 cmd_at.append((t, j))
                 k += 1
-            if s.t > emu.time + 1e-9:
-                server.advance(s.t - emu.time)
-            snap = emu.snapshot()
+            advance(s.t)
             ctl = emu.controller
-            rep_samples.append(Sample(s.t, snap.state, np.array(snap.joints[:dof]), np.array(snap.pose[:3]),
-                                      np.array(ctl.joint_torques()[:dof]),
-                                      np.array(ctl.joint_currents()[:dof]), ctl.data.qd[:dof].copy()))
+            if j % TORQUE_EVERY == 0:
+                tau, cur = ctl.joint_torques()[:dof].copy(), ctl.joint_currents()[:dof].copy()
+            else:
+                tau = cur = nan
+            rep_samples.append(Sample(s.t, ctl.data.motion_state, ctl.data.q[:dof].copy(),
+                                      ctl.tcp_matrix()[:3, 3].copy(), tau, cur, ctl.data.qd[:dof].copy()))
         result.replay_seconds = _time.perf_counter() - started
     result.recorded, result.replayed = rec_samples, rep_samples
     _measure(result, cmd_at, tol, session)
@@ -303,15 +368,18 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     d_deg = _seg_dist(q_r, q_p)
     dtau = np.array([a.torques - b.torques for a, b in zip(rec, rep, strict=True)])
     dcur = np.array([a.currents - b.currents for a, b in zip(rec, rep, strict=True)])
+    has = ~np.isnan(dtau[:, 0]) if len(rec) else np.zeros(0, dtype=bool)
+    dtau, dcur = np.where(np.isnan(dtau), 0.0, dtau), np.where(np.isnan(dcur), 0.0, dcur)
+    rms = _rms_where
     bounds = [j for _, j in cmd_at] + [len(rec)]
     for n, c in enumerate(result.commands):
         a, b = bounds[n], bounds[n + 1]
         c.samples = (a, b)
         if b > a:
             c.path_mm, c.path_deg = float(d_mm[a:b].max()), float(d_deg[a:b].max())
-            c.torque_rms = float(np.sqrt(np.mean(dtau[a:b] ** 2)))
+            h = has[a:b]
+            c.torque_rms, c.current_rms = rms(dtau[a:b], h), rms(dcur[a:b], h)
             c.torque_max = float(np.abs(dtau[a:b]).max())
-            c.current_rms = float(np.sqrt(np.mean(dcur[a:b] ** 2)))
             c.current_max = float(np.abs(dcur[a:b]).max())
     queued = [n for n, c in enumerate(result.commands) if _is_queued(c.register)] + [len(result.commands)]
     for m, n in enumerate(queued[:-1]):  # a move lasts at most until the next queued command
@@ -327,15 +395,16 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     t["reply_differences"] = sum(c.reply_differs for c in result.commands)
     t["duration_s"] = max((d if math.isfinite(d) else math.inf for d in durations), default=0.0)
     t["path_mm"], t["path_deg"] = float(d_mm.max(initial=0.0)), float(d_deg.max(initial=0.0))
-    t["torque_rms"] = float(np.sqrt(np.mean(dtau ** 2, axis=0)).max(initial=0.0)) if len(rec) else 0.0
     t["torque_max"] = float(np.abs(dtau).max(initial=0.0))
-    t["current_rms"] = float(np.sqrt(np.mean(dcur ** 2, axis=0)).max(initial=0.0)) if len(rec) else 0.0
     t["current_max"] = float(np.abs(dcur).max(initial=0.0))
-    if len(rec):
-        result.per_joint = {"torque_rms": np.sqrt(np.mean(dtau ** 2, axis=0)).tolist(),
-                            "current_rms": np.sqrt(np.mean(dcur ** 2, axis=0)).tolist(),
-                            "torque_mean": dtau.mean(axis=0).tolist(),
-                            "current_mean": dcur.mean(axis=0).tolist()}
+    t["torque_rms"] = t["current_rms"] = 0.0
+    if has.any():
+        jt = np.sqrt(np.mean(dtau[has] ** 2, axis=0))
+        jc = np.sqrt(np.mean(dcur[has] ** 2, axis=0))
+        t["torque_rms"], t["current_rms"] = float(jt.max()), float(jc.max())
+        result.per_joint = {"torque_rms": jt.tolist(), "current_rms": jc.tolist(),
+                            "torque_mean": dtau[has].mean(axis=0).tolist(),
+                            "current_mean": dcur[has].mean(axis=0).tolist()}
     _codes(result, session)
     t["code_differences"] = float(sum(len(v) for v in result.codes.values()))
     nominal = reports.rates_for(session.profile)
@@ -391,13 +460,13 @@ def html_report(result: Comparison, path: Path) -> None:
     rec, rep = result.recorded, result.replayed
     for c in worst_commands(result):
         a, b = c.samples
-        t = [s.t for s in rec[a:b]]
+        idx = [i for i in range(a, b) if not np.isnan(rep[i].torques[0])]  # TORQUE_EVERY
+        t = [rec[i].t for i in idx]
         fig, axes = plt.subplots(1, 3, figsize=(14, 3.5))
         for j in range(len(rec[a].torques)):
-            axes[0].plot(t, [s.torques[j] for s in rec[a:b]], label=f"J{j + 1} recorded")
-            axes[0].plot(t, [s.torques[j] for s in rep[a:b]], "--", label=f"J{j + 1} emulator")
-            axes[1].plot(t, [s.currents[j] - p.currents[j] for s, p in zip(rec[a:b], rep[a:b], strict=True)],
-                         label=f"J{j + 1}")
+            axes[0].plot(t, [rec[i].torques[j] for i in idx], label=f"J{j + 1} recorded")
+            axes[0].plot(t, [rep[i].torques[j] for i in idx], "--", label=f"J{j + 1} emulator")
+            axes[1].plot(t, [rec[i].currents[j] - rep[i].currents[j] for i in idx], label=f"J{j + 1}")
         axes[0].set_title("joint torque (N.m)")
         axes[1].set_title("current, recorded - emulator (A)")
         axes[2].plot([s.pos[0] for s in rec[a:b]], [s.pos[1] for s in rec[a:b]], label="recorded")
