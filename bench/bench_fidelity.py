@@ -71,7 +71,8 @@ def run(seconds: float = SECONDS) -> list[str]:
         result = compare(path)
         replay = time.perf_counter() - t0
     scale = TEN_MINUTES / elapsed
-    return [f"{elapsed:.1f} s recorded: {size / 1e6:.2f} MB, {int(result.totals['samples'])} real-time frames, "
+    frames = int(result.totals["samples"])
+    return [f"{elapsed:.1f} s recorded: {size / 1e6:.2f} MB, {frames} real-time frames, "
             f"compare {replay:.2f} s (replay {result.replay_seconds:.2f} s)",
             f"10 minutes extrapolated: {size * scale / 1e6:.1f} MB (target < 50), "
             f"compare {replay * scale:.1f} s (target < 30)"]

@@ -14,7 +14,6 @@ import pytest
 from helpers import run_cli
 
 from xarm_emu.controller.base import PERIOD
-from xarm_emu.fidelity.calibrate import calibrate
 from xarm_emu.fidelity.compare import compare
 from xarm_emu.model.calibration import Calibration, CalibrationError, load, save
 from xarm_emu.model.inertials import torque_constants
