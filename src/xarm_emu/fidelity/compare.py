@@ -51,9 +51,9 @@ DEFAULT_TOLERANCES: dict[str, float] = {
 }
 
 
-#: Joint torques and currents are compared on every this many real-time frames (50 Hz of the 250 Hz
+#: Joint torques and currents are compared on every this many real-time frames (25 Hz of the 250 Hz
 #: report): the dynamic model is the replay's costliest part, and torques change slowly against it.
-TORQUE_EVERY = 5
+TORQUE_EVERY = 10
 
 
 class CompareError(ValueError):
@@ -153,7 +153,7 @@ class Session:
     version: str
     profile: FirmwareProfile
     requests: list[tuple[xrec.Req, xrec.Rep | None]]
-    realtime: list[tuple[float, float, bytes]]  # (proxy time, controller time, frame)
+    realtime: list[tuple[float, float, reports.ReportSnapshot]]  # (proxy time, controller time, frame)
     frames: dict[int, list[float]]  # report port -> proxy times
 
 
@@ -162,7 +162,7 @@ def read_session(path: Path) -> Session:
     version, profile = "", DEFAULT_PROFILE
     requests: list[tuple[xrec.Req, xrec.Rep | None]] = []
     waiting: dict[tuple[int, int], int] = {}
-    realtime: list[tuple[float, float, bytes]] = []
+    realtime: list[tuple[float, float, reports.ReportSnapshot]] = []
     frames: dict[int, list[float]] = {}
     try:
         for rec in xrec.read(path):
@@ -179,8 +179,8 @@ def read_session(path: Path) -> Session:
             elif isinstance(rec, xrec.Rpt):
                 frames.setdefault(rec.port, []).append(rec.t)
                 if rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
-                    ts = reports.decode_realtime(rec.frame).timestamp_us / 1e6
-                    realtime.append((rec.t, ts, rec.frame))
+                    snap = reports.decode_realtime(rec.frame)
+                    realtime.append((rec.t, snap.timestamp_us / 1e6, snap))
     except xrec.RecordingError as exc:
         raise CompareError(str(exc)) from None
     if not version:
@@ -232,8 +232,7 @@ def _pure_read(req: xrec.Req) -> bool:
     return req.protocol in (2, 3) and req.register in PURE_READS and not req.params
 
 
-def _rt_sample(t: float, frame: bytes, dof: int) -> Sample:
-    s = reports.decode_realtime(frame)
+def _rt_sample(t: float, s: reports.ReportSnapshot, dof: int) -> Sample:
     return Sample(t, s.state, np.array(s.joints[:dof]), np.array(s.pose[:3]), np.array(s.torques[:dof]),
                   np.array(s.joint_currents[:dof]), np.array(s.joint_speeds[:dof]))
 
@@ -325,13 +324,22 @@ def compare(path: Path, calibration: Calibration | None = None,
                     pending.remove(item)
 
         k = 0
+        searched: set[int] = set()
         for j, s in enumerate(rec_samples):
             while k < len(order) and times[order[k]] <= s.t + 1e-9:
                 i = order[k]
-                t = times[i]
-                advance(t)
                 req, rep = session.requests[i]
                 read = _pure_read(req)
+                if _is_queued(req.register) and i not in searched:
+                    searched.add(i)
+                    best = _best_time(server, emu, session, times, spans, rec_samples, i, j)
+                    if best != times[i]:
+                        times[i] = best
+                        for m in range(i + 1, len(times)):
+                            times[m] = max(times[m], best)
+                        continue
+                t = times[i]
+                advance(t)
                 if not read:
                     pending.clear()  # a command may change what a read shows
                 frame = server.answer(req.tid, req.protocol, req.register, req.params)
@@ -430,6 +438,47 @@ def _codes(result: Comparison, session: Session) -> None:
                 only.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])
     if only:
         result.codes["state_bits"] = only
+
+
+#: Real-time frames after a queued command over which its candidate periods are told apart.
+SEARCH_FRAMES = 25
+#: The most candidate periods tried for one queued command.
+SEARCH_PERIODS = 8
+
+
+def _best_time(server: Any, emu: Any, session: Session, times: list[float], spans: list[tuple[float, float]],
+               samples: list[Sample], i: int, j: int) -> float:
+    """The period a queued command was answered in: of the periods its bounds leave open (on a busy
+    computer a frame sent after the reply may be one the box prepared before it), the one after
+    which the replayed joints follow the recorded frames most closely, the command alone replayed
+    over the next :data:`SEARCH_FRAMES` frames from a checkpoint restored after each try."""
+    req = session.requests[i][0]
+    first = max(emu.time, times[i] - 2 * PERIOD)
+    last = spans[i][1] + 2 * PERIOD if math.isfinite(spans[i][1]) else times[i]
+    cands = [first + n * PERIOD for n in range(int(round((last - first) / PERIOD)) + 1)][:SEARCH_PERIODS]
+    if len(cands) < 2:
+        return times[i]
+    dof = len(samples[0].joints)
+    cp = emu.checkpoint()
+    scores = []
+    for c in cands:
+        emu.restore(cp)
+        if c > emu.time + 1e-9:
+            server.advance(c - emu.time)
+        server.answer(req.tid, req.protocol, req.register, req.params)
+        err, n = 0.0, 0
+        for sm in samples[j:j + SEARCH_FRAMES + SEARCH_PERIODS * 2]:
+            if sm.t <= cands[-1] + 1e-9:
+                continue  # the same frames for every candidate
+            if n == SEARCH_FRAMES:
+                break
+            server.advance(sm.t - emu.time)
+            err += float(np.abs(emu.controller.data.q[:dof] - sm.joints).sum())
+            n += 1
+        scores.append(err if n else math.inf)
+    emu.restore(cp)
+    best = min(range(len(cands)), key=lambda n: scores[n])
+    return cands[best] if math.isfinite(scores[best]) else times[i]
 
 
 def worst_commands(result: Comparison, n: int = 3) -> list[CommandResult]:
