@@ -9,38 +9,22 @@ in under 30 s. Run: ``python -m bench fidelity`` (``SECONDS`` of recording, 20 b
 
 from __future__ import annotations
 
-import socket
 import tempfile
-import threading
 import time
 from pathlib import Path
 
 from xarm_emu.client import Client
 from xarm_emu.fidelity.compare import compare
 from xarm_emu.protocol.firmware import SERVE_VERSION
-from xarm_emu.testing import running_emulator, running_proxy
+from xarm_emu.testing import reading_reports, running_emulator, running_proxy
 
 SECONDS = 20.0
 TEN_MINUTES = 600.0
 
 
-def _read(port: int, stop: threading.Event) -> None:
-    with socket.create_connection(("127.0.0.1", port)) as s:
-        s.settimeout(0.2)
-        while not stop.is_set():
-            try:
-                s.recv(1 << 16)
-            except OSError:
-                pass
-
-
 def _session(path: Path, seconds: float) -> float:
-    with running_emulator(firmware=SERVE_VERSION) as st, running_proxy(st, path) as px:
-        stop = threading.Event()
-        readers = [threading.Thread(target=_read, args=(px.ports[k], stop))
-                   for k in ("realtime", "develop", "normal", "rich")]
-        for r in readers:
-            r.start()
+    with running_emulator(firmware=SERVE_VERSION) as st, running_proxy(st, path) as px, \
+            reading_reports(px, ("realtime", "develop", "normal", "rich")):
         t0 = time.perf_counter()
         with Client("127.0.0.1", px.ports["command"]) as c:
             c.get_version()
@@ -56,9 +40,6 @@ def _session(path: Path, seconds: float) -> float:
                 c.get_joints()
                 time.sleep(0.02)
         elapsed = time.perf_counter() - t0
-        stop.set()
-        for r in readers:
-            r.join()
     return elapsed
 
 

@@ -5,8 +5,6 @@ program through the proxy."""
 from __future__ import annotations
 
 import json
-import socket
-import threading
 import time
 from pathlib import Path
 
@@ -19,24 +17,14 @@ from xarm_emu.model.calibration import Calibration, CalibrationError, load, save
 from xarm_emu.model.inertials import torque_constants
 from xarm_emu.model.robots import get_model, with_calibration
 from xarm_emu.protocol.firmware import SERVE_VERSION
-from xarm_emu.testing import running_emulator, running_proxy, sdk_pointed_at
+from xarm_emu.testing import reading_reports, running_emulator, running_proxy, sdk_pointed_at
 
 KT = tuple(float(x) for x in torque_constants(get_model(6)))
 #: The "real arm": torque constants 10 % above the emulator's, torque offsets and friction on J1.
-MOVED = Calibration(torque_constants=tuple(k * 1.1 for k in KT),
+MOVED = Calibration(model="6", torque_constants=tuple(k * 1.1 for k in KT),
                     torque_offsets=(0.0, 0.3, -0.2, 0.0, 0.1, 0.0),
                     viscous_friction=(0.4, 0.0, 0.0, 0.0, 0.0, 0.0),
                     coulomb_friction=(0.25, 0.0, 0.0, 0.0, 0.0, 0.0))
-
-
-def _read(port: int, stop: threading.Event) -> None:
-    with socket.create_connection(("127.0.0.1", port)) as s:
-        s.settimeout(0.2)
-        while not stop.is_set():
-            try:
-                s.recv(1 << 16)
-            except OSError:
-                pass
 
 
 def record(path: Path, calibration: Calibration | None) -> None:
@@ -44,10 +32,7 @@ def record(path: Path, calibration: Calibration | None) -> None:
     from xarm.wrapper import XArmAPI
 
     with running_emulator(firmware=SERVE_VERSION, calibration=calibration) as st, \
-            running_proxy(st, path) as px, sdk_pointed_at(px):  # type: ignore[arg-type]
-        stop = threading.Event()
-        reader = threading.Thread(target=_read, args=(px.ports["realtime"], stop))
-        reader.start()
+            running_proxy(st, path) as px, sdk_pointed_at(px), reading_reports(px):  # type: ignore[arg-type]
         time.sleep(0.05)
         arm = XArmAPI("127.0.0.1", is_radian=False)
         try:
@@ -61,8 +46,6 @@ def record(path: Path, calibration: Calibration | None) -> None:
         finally:
             arm.disconnect()
             time.sleep(0.05)
-            stop.set()
-            reader.join()
 
 
 @pytest.fixture(scope="module")
@@ -126,9 +109,24 @@ def test_calibration_never_changes_what_the_manual_fixes(tmp_path: Path) -> None
     path = tmp_path / "cal.toml"
     save(MOVED, path)
     assert load(path) == MOVED
-    with pytest.raises(CalibrationError, match="7 joints"):
+    with pytest.raises(CalibrationError, match="measured on model 6, not 7"):
         with_calibration(get_model(7), MOVED)
+    with pytest.raises(CalibrationError, match="the arm has 7 joints"):
+        with_calibration(get_model(7), Calibration(torque_offsets=(0.0,) * 6))
     bad = tmp_path / "bad.toml"
     bad.write_text("torque_constants = [1, -2, 3, 4, 5, 6]\n")
     code, out = run_cli("serve", "--calibration", str(bad), "--port", "0")
     assert code == 2 and out.strip() == "--calibration: torque_constants: -2.0 is not a usable value"
+
+
+def test_fleet_arm_takes_a_calibration_file(tmp_path: Path) -> None:
+    from xarm_emu.server.fleet import FleetError, parse_fleet
+
+    save(MOVED, tmp_path / "cal.toml")
+    fleet = parse_fleet({"arm": [{"model": 6, "calibration": "cal.toml"}, {"model": 6, "host": "127.0.0.2"}]},
+                        base=tmp_path)
+    calibrated, plain = (a.emulator(None) for a in fleet.arms)
+    assert calibrated.model.calibration == MOVED and plain.model.calibration is None
+    assert calibrated.controller.joint_currents().tolist() != plain.controller.joint_currents().tolist()
+    with pytest.raises(FleetError, match="arm 1: the calibration was measured on model 6, not 7"):
+        parse_fleet({"arm": [{"model": 7, "calibration": "cal.toml"}]}, base=tmp_path)

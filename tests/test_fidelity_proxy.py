@@ -99,3 +99,47 @@ def test_added_round_trip_is_small() -> None:
     print(f"round trip direct {direct * 1e3:.3f} ms, through the proxy {proxied * 1e3:.3f} ms, "
           f"added {added * 1e3:.3f} ms; time in the proxy median {lat['p50'] * 1e3:.4f} ms")
     assert added < 0.2e-3
+
+
+def test_proxy_command_relays_records_and_prints_its_latency(tmp_path: Path) -> None:
+    """`xarm-emu proxy` as a user runs it: shifted ports on both sides, Ctrl-C to stop."""
+    import random
+    import signal
+    import subprocess
+    import sys
+
+    rec = tmp_path / "cli.xrec"
+    listen, to = random.randrange(20000, 25000), random.randrange(25000, 30000)
+    ports = {"port": 502 + to, "realtime_port": 30000 + to, "normal_port": 30001 + to,
+             "rich_port": 30002 + to, "develop_port": 30003 + to}
+    with running_emulator(firmware=SERVE_VERSION, **ports) as st:
+        proc = subprocess.Popen([sys.executable, "-m", "xarm_emu.cli", "proxy", "--to", "127.0.0.1",
+                                 "--record", str(rec), "--port-offset", str(listen),
+                                 "--to-port-offset", str(to)],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            deadline = time.monotonic() + 20
+            while True:
+                try:
+                    with Client("127.0.0.1", 502 + listen) as c:
+                        version = c.get_version()
+                    break
+                except OSError:
+                    assert time.monotonic() < deadline and proc.poll() is None
+                    time.sleep(0.1)
+            assert st.ports["command"] == 502 + to
+        finally:
+            proc.send_signal(signal.SIGINT)
+            out, err = proc.communicate(timeout=20)
+    assert proc.returncode == 0, err
+    assert "command chunks relayed; time in the proxy: median" in out
+    reps = [r for r in xrec.read(rec) if isinstance(r, xrec.Rep) and r.register == 1]
+    assert reps and reps[0].values is not None and reps[0].values["version"].strip("\0") == version
+
+
+def test_proxy_refuses_bad_offsets_in_one_line(tmp_path: Path) -> None:
+    from helpers import run_cli
+
+    code, out = run_cli("proxy", "--to", "127.0.0.1", "--record", str(tmp_path / "x.xrec"),
+                        "--port-offset", "40000")
+    assert code == 2 and out.strip() == "--port-offset: the ports 40502..70003 are not all valid"

@@ -161,3 +161,31 @@ def running_proxy(server: ServerThread, record: Path | None = None) -> Iterator[
         if writer is not None:
             writer.stats(px.latency(), {"to_box": px.bytes[0], "to_program": px.bytes[1]})
             writer.close()
+
+
+@contextlib.contextmanager
+def reading_reports(server: ServerThread | RunningProxy,
+                    kinds: tuple[str, ...] = ("realtime",)) -> Iterator[None]:
+    """Readers of ``server``'s report ports of ``kinds`` for the block, each on a thread that reads
+    and drops the frames (through a proxy, so that they are recorded: ``compare`` needs the real-time
+    report, which the SDK does not open)."""
+    import threading
+
+    stop = threading.Event()
+
+    def read(port: int) -> None:
+        with socket.create_connection(("127.0.0.1", port)) as s:
+            s.settimeout(0.2)
+            while not stop.is_set():
+                with contextlib.suppress(OSError):
+                    s.recv(1 << 16)
+
+    threads = [threading.Thread(target=read, args=(server.ports[k],), daemon=True) for k in kinds]
+    for t in threads:
+        t.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        for t in threads:
+            t.join(5.0)

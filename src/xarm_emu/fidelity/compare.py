@@ -180,7 +180,9 @@ def read_session(path: Path) -> Session:
                 frames.setdefault(rec.port, []).append(rec.t)
                 if rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
                     snap = reports.decode_realtime(rec.frame)
-                    realtime.append((rec.t, snap.timestamp_us / 1e6, snap))
+                    ts = snap.timestamp_us / 1e6
+                    if not realtime or ts > realtime[-1][1]:  # a frame sent again shows nothing new
+                        realtime.append((rec.t, ts, snap))
     except xrec.RecordingError as exc:
         raise CompareError(str(exc)) from None
     if not version:
@@ -237,7 +239,7 @@ def _rt_sample(t: float, s: reports.ReportSnapshot, dof: int) -> Sample:
                   np.array(s.joint_currents[:dof]), np.array(s.joint_speeds[:dof]))
 
 
-def _seg_dist(points: np.ndarray, path: np.ndarray, window: int = 4) -> np.ndarray:
+def _seg_dist(points: np.ndarray, path: np.ndarray, window: int = 8) -> np.ndarray:
     """Distance of each of ``points`` from the polyline ``path`` (same length, aligned in time),
     looking at the segments within ``window`` samples."""
     n = len(points)
