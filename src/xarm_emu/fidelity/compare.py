@@ -194,7 +194,7 @@ def read_session(path: Path) -> Session:
     return Session(version, profile, requests, realtime, frames)
 
 
-def _controller_times(session: Session) -> list[tuple[float, float]]:
+def _controller_times(session: Session) -> list[tuple[float, float, float]]:
     """The controller time each request was answered at (module docstring).
 
     Bounds: a frame the box sent before the request shows a time no later, the first frame it sent
@@ -203,7 +203,9 @@ def _controller_times(session: Session) -> list[tuple[float, float]]:
     the box's clock from the proxy's (the median); every request's time is then its arrival on the
     box's control-period grid, within its bounds. A pure read (its answer changes nothing) gets its
     earliest time: ``compare`` tries it again at each later period up to its upper bound, the time
-    a round trip through a busy network or computer leaves open. Returns (time, upper bound)."""
+    a round trip through a busy network or computer leaves open. Returns (time, upper bound, lower
+    bound); a frame's timestamp may lead the box's clock by up to :data:`LEAD_PERIODS` periods, which
+    ``compare`` allows below the lower bound."""
     recv = [r[0] for r in session.realtime]
     ts = [r[1] for r in session.realtime]
     bounds = []
@@ -217,16 +219,16 @@ def _controller_times(session: Session) -> list[tuple[float, float]]:
         exact = [hi - req.t for (req, _), (_, hi) in zip(session.requests, bounds, strict=True)
                  if math.isfinite(hi)]
     offset = float(np.median(exact)) if exact else 0.0
-    out: list[tuple[float, float]] = []
+    out: list[tuple[float, float, float]] = []
     last = 0.0
     for (req, _), (lo, hi) in zip(session.requests, bounds, strict=True):
         if _pure_read(req):  # the earliest period it can have been answered in (see compare())
             t = lo
-            hi += PERIOD  # a frame shows the state up to one period before it is sent (manual 2.1.6)
+            hi += LEAD_PERIODS * PERIOD  # a frame may show the state before it was sent by that much
         else:
             t = min(max(lo, lo + round((req.t + offset - lo) / PERIOD) * PERIOD), hi)
         last = max(last, t)  # in the order the box received them
-        out.append((last, max(last, hi)))
+        out.append((last, max(last, hi), lo))
     return out
 
 
@@ -294,8 +296,7 @@ def compare(path: Path, calibration: Calibration | None = None,
     firmware = str(session.profile.version)
     result = Comparison(base.key, firmware)
     spans = _controller_times(session)
-    times = [t for t, _ in spans]
-    order = list(range(len(times)))
+    times = [t for t, _, _ in spans]
     rec_samples = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
     rep_samples: list[Sample] = []
     nan = np.full(dof, np.nan)
@@ -325,43 +326,51 @@ def compare(path: Path, calibration: Calibration | None = None,
                     c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
                     pending.remove(item)
 
-        k = 0
-        searched: set[int] = set()
-        for j, s in enumerate(rec_samples):
-            while k < len(order) and times[order[k]] <= s.t + 1e-9:
-                i = order[k]
-                req, rep = session.requests[i]
-                read = _pure_read(req)
-                if _is_queued(req.register) and i not in searched:
-                    searched.add(i)
-                    best = _best_time(server, emu, session, times, spans, rec_samples, i, j)
-                    if best != times[i]:
-                        times[i] = best
-                        for m in range(i + 1, len(times)):
-                            times[m] = max(times[m], best)
-                        continue
-                t = times[i]
-                advance(t)
-                if not read:
-                    pending.clear()  # a command may change what a read shows
-                frame = server.answer(req.tid, req.protocol, req.register, req.params)
-                c = CommandResult(i, t, req.register, req.name)
-                if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
-                    c.reply_differs = True
-                    c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
-                    if read:
-                        pending.append((c, req, rep, spans[i][1]))
-                result.commands.append(c)
-                cmd_at.append((t, j))
-                k += 1
-            advance(s.t)
-            ctl = emu.controller
-            if j % TORQUE_EVERY == 0:
-                tau, cur = ctl.joint_torques()[:dof].copy(), ctl.joint_currents()[:dof].copy()
-            else:
-                tau = cur = nan
-            rep_samples.append(Sample(s.t, ctl.data.motion_state, ctl.data.q[:dof].copy(),
-                                      ctl.tcp_matrix()[:3, 3].copy(), tau, cur, ctl.data.qd[:dof].copy()))
+        j = 0
+
+        def sample_until(limit: float) -> None:
+            """Take the replayed state at every recorded frame before ``limit``."""
+            nonlocal j
+            while j < len(rec_samples) and rec_samples[j].t < limit - 1e-9:
+                st = rec_samples[j]
+                advance(st.t)
+                ctl = emu.controller
+                if j % TORQUE_EVERY == 0:
+                    tau, cur = ctl.joint_torques()[:dof].copy(), ctl.joint_currents()[:dof].copy()
+                else:
+                    tau = cur = nan
+                rep_samples.append(Sample(st.t, ctl.data.motion_state, ctl.data.q[:dof].copy(),
+                                          ctl.tcp_matrix()[:3, 3].copy(), tau, cur,
+                                          ctl.data.qd[:dof].copy()))
+                j += 1
+
+        previous = 0.0
+        for i, (req, rep) in enumerate(session.requests):
+            t_est, hi, lo = spans[i]
+            lower = max(previous, lo - LEAD_PERIODS * PERIOD)
+            sample_until(lower)  # no command can come before its lower bound
+            read = _pure_read(req)
+            if read:
+                t = max(lower, emu.time)
+            elif _is_queued(req.register):
+                t = _best_time(server, emu, session, [max(x, lower) for x in times], spans, rec_samples, i, j)
+            else:  # the earliest its bounds allow, so that a queued command after it can be placed
+                t = max(lo, lower)
+            previous = t
+            sample_until(t)
+            advance(t)
+            if not read:
+                pending.clear()  # a command may change what a read shows
+            frame = server.answer(req.tid, req.protocol, req.register, req.params)
+            c = CommandResult(i, t, req.register, req.name)
+            if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
+                c.reply_differs = True
+                c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
+                if read:
+                    pending.append((c, req, rep, hi))
+            result.commands.append(c)
+            cmd_at.append((t, j))
+        sample_until(math.inf)
         result.replay_seconds = _time.perf_counter() - started
     result.recorded, result.replayed = rec_samples, rep_samples
     _measure(result, cmd_at, tol, session)
@@ -442,20 +451,23 @@ def _codes(result: Comparison, session: Session) -> None:
         result.codes["state_bits"] = only
 
 
+#: Periods by which a real-time frame's timestamp may lead the controller time of the commands
+#: answered after it was received (a frame is prepared for its deadline ahead of sending it).
+LEAD_PERIODS = 2
 #: Real-time frames after a queued command over which its candidate periods are told apart.
 SEARCH_FRAMES = 25
 #: The most candidate periods tried for one queued command.
 SEARCH_PERIODS = 8
 
 
-def _best_time(server: Any, emu: Any, session: Session, times: list[float], spans: list[tuple[float, float]],
-               samples: list[Sample], i: int, j: int) -> float:
+def _best_time(server: Any, emu: Any, session: Session, times: list[float],
+               spans: list[tuple[float, float, float]], samples: list[Sample], i: int, j: int) -> float:
     """The period a queued command was answered in: of the periods its bounds leave open (on a busy
     computer a frame sent after the reply may be one the box prepared before it), the one after
     which the replayed joints follow the recorded frames most closely, the command alone replayed
     over the next :data:`SEARCH_FRAMES` frames from a checkpoint restored after each try."""
     req = session.requests[i][0]
-    first = max(emu.time, times[i] - 2 * PERIOD)
+    first = max(emu.time, times[i] - LEAD_PERIODS * PERIOD)
     last = spans[i][1] + 2 * PERIOD if math.isfinite(spans[i][1]) else times[i]
     cands = [first + n * PERIOD for n in range(int(round((last - first) / PERIOD)) + 1)][:SEARCH_PERIODS]
     if len(cands) < 2:
