@@ -359,8 +359,11 @@ def compare(path: Path, calibration: Calibration | None = None,
             previous = t
             sample_until(t)
             advance(t)
-            if not read:
-                pending.clear()  # a command may change what a read shows
+            if not read and pending:  # a command may change what a read shows: look ahead first
+                cp = emu.checkpoint()
+                advance(max(hi_read for *_, hi_read in pending))
+                emu.restore(cp)
+                pending.clear()
             frame = server.answer(req.tid, req.protocol, req.register, req.params)
             c = CommandResult(i, t, req.register, req.name)
             if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
