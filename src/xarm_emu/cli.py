@@ -20,6 +20,8 @@ from rich.table import Table
 from typer.core import TyperCommand
 
 from . import __version__
+from .fidelity.commands import calibrated_model as _calibrated
+from .fidelity.commands import register as _register_fidelity
 from .model.robots import MODEL_NAMES, RobotModel, get_model
 from .protocol import codes
 from .protocol.firmware import SERVE_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, VersionError, profile_for
@@ -152,6 +154,9 @@ def serve(
     studio: Annotated[bool, typer.Option("--studio", help="Answer the SDK's xArm Studio HTTP calls "
                                                            "(initial point, mount, trajectories).")] = False,
     studio_port: Annotated[int, typer.Option(help="Port of --studio (the SDK uses 18333).")] = 18333,
+    calibration: Annotated[Path | None, typer.Option(help="Replace the emulator's estimated constants "
+                                                          "with this calibration file (xarm-emu calibrate).")
+                           ] = None,
     report_priority: Annotated[int | None, typer.Option(
         help="Real-time (SCHED_FIFO) priority 1-99 of the thread that sends the report frames (Linux, "
              "needs the privilege; a refusal is a warning); 0: normal scheduling. Default: priority "
@@ -206,6 +211,7 @@ def serve(
     try:
         robot = get_model(model)
         check_firmware(robot, profile)
+        robot = _calibrated(robot, calibration)
     except ValueError as exc:
         err_console.print(f"--model: {exc}")
         raise typer.Exit(2) from None
@@ -1157,6 +1163,9 @@ def replay_trace(
     for diff in result.differences[1:]:
         console.print(f"  {diff.describe()}", soft_wrap=True)
     raise typer.Exit(1)
+
+
+_register_fidelity(app)  # proxy, compare, calibrate (fidelity/commands.py)
 
 
 @app.command()

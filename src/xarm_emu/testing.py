@@ -28,6 +28,9 @@ from typing import Any
 
 from .controller import contact
 from .controller.emulator import Emulator
+from .model.calibration import Calibration
+from .model.calibration import load as load_calibration
+from .model.robots import RobotModel, get_model, with_calibration
 from .protocol.firmware import DEFAULT_VERSION
 from .server.app import ServerConfig, ServerThread
 from .viewer.app import attach_viewer
@@ -38,9 +41,10 @@ _SDK_REPORT_PORTS = {"normal": ("TCP_REPORT_NORM_PORT", 30001), "rich": ("TCP_RE
 
 
 @contextlib.contextmanager
-def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, vacuum: bool = False,
-                     firmware: str = DEFAULT_VERSION, linear_track: int | None = None,
+def running_emulator(model: int | str | RobotModel = 6, *, config_dir: Path | None = None,
+                     vacuum: bool = False, firmware: str = DEFAULT_VERSION, linear_track: int | None = None,
                      ft_sensor: bool = False, ft_noise: bool = True, scene: Any = None, gripper: str = "xarm",
+                     calibration: Calibration | str | Path | None = None,
                      **config: Any) -> Iterator[ServerThread]:
     """An emulator server on free loopback ports (``ServerConfig`` fields as keywords, e.g.
     ``speed=5.0``, ``admin=True``), stopped at the end of the block. Saved configuration goes to a
@@ -53,6 +57,8 @@ def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, va
     ``ft_sensor`` mounts the six-axis F/T sensor (as ``serve --ft-sensor``; ``ft_noise=False`` for
     deterministic readings) and ``scene`` sets a contact scene (a TOML file path, a
     :class:`~xarm_emu.controller.contact.Scene` or its tables, as ``serve --scene``).
+    ``calibration`` replaces the emulator's estimated constants (a TOML file path or a
+    :class:`~xarm_emu.model.calibration.Calibration`, as ``serve --calibration``).
     A ``faults`` schedule is checked and scheduled, ``view=True`` attaches
     the 3D view, as ``xarm-emu serve`` does."""
     with contextlib.ExitStack() as stack:
@@ -64,6 +70,9 @@ def running_emulator(model: int | str = 6, *, config_dir: Path | None = None, va
             scene = contact.load_scene(scene)
         elif isinstance(scene, dict):
             scene = contact.parse_scene(scene)
+        if calibration is not None:
+            cal = calibration if isinstance(calibration, Calibration) else load_calibration(calibration)
+            model = with_calibration(model if isinstance(model, RobotModel) else get_model(model), cal)
         emu = Emulator(model, config_dir=config_dir, vacuum=vacuum, firmware=firmware,
                        linear_track=linear_track, ft_sensor=ft_sensor,
                        ft_noise=ft_noise, scene=scene, gripper=gripper)
@@ -105,3 +114,78 @@ def sdk_pointed_at(server: ServerThread) -> Iterator[None]:
         for attr, value in saved.items():
             setattr(conf, attr, value)
         socket.setdefaulttimeout(previous_timeout)
+
+
+class RunningProxy:
+    """A proxy (``xarm-emu proxy``) on a thread of its own; ``ports`` by kind, as a server's."""
+
+    def __init__(self, proxy: Any, loop: Any, thread: Any) -> None:
+        self.proxy, self._loop, self._thread = proxy, loop, thread
+        kinds = {502: "command", 30000: "realtime", 30001: "normal", 30002: "rich", 30003: "develop"}
+        self.ports = {kinds[std]: port for std, port in proxy.ports.items()}
+
+
+@contextlib.contextmanager
+def running_proxy(server: ServerThread, record: Path | None = None) -> Iterator[RunningProxy]:
+    """The recording proxy in front of ``server`` on free loopback ports, recording to ``record``
+    (a ``.xrec`` file) when given; point the SDK at it with :func:`sdk_pointed_at`."""
+    import asyncio
+    import threading
+
+    from .server.proxy import Proxy, ProxyConfig
+    from .server.xrec import RecordWriter
+
+    kinds = {"command": 502, "realtime": 30000, "normal": 30001, "rich": 30002, "develop": 30003}
+    to = {kinds[k]: p for k, p in server.ports.items() if k in kinds}
+    writer = RecordWriter(record, "127.0.0.1", to) if record is not None else None
+    px = Proxy(ProxyConfig("127.0.0.1", "127.0.0.1", {std: 0 for std in to}, to), writer)
+    loop = asyncio.new_event_loop()
+    started = threading.Event()
+
+    def run() -> None:
+        asyncio.set_event_loop(loop)
+        loop.run_until_complete(px.start())
+        started.set()
+        loop.run_forever()
+
+    thread = threading.Thread(target=run, name="xarm-emu-proxy", daemon=True)
+    thread.start()
+    started.wait(10.0)
+    try:
+        yield RunningProxy(px, loop, thread)
+    finally:
+        asyncio.run_coroutine_threadsafe(px.close(), loop).result(10.0)
+        loop.call_soon_threadsafe(loop.stop)
+        thread.join(10.0)
+        loop.close()
+        if writer is not None:
+            writer.stats(px.latency(), {"to_box": px.bytes[0], "to_program": px.bytes[1]})
+            writer.close()
+
+
+@contextlib.contextmanager
+def reading_reports(server: ServerThread | RunningProxy,
+                    kinds: tuple[str, ...] = ("realtime",)) -> Iterator[None]:
+    """Readers of ``server``'s report ports of ``kinds`` for the block, each on a thread that reads
+    and drops the frames (through a proxy, so that they are recorded: ``compare`` needs the real-time
+    report, which the SDK does not open)."""
+    import threading
+
+    stop = threading.Event()
+
+    def read(port: int) -> None:
+        with socket.create_connection(("127.0.0.1", port)) as s:
+            s.settimeout(0.2)
+            while not stop.is_set():
+                with contextlib.suppress(OSError):
+                    s.recv(1 << 16)
+
+    threads = [threading.Thread(target=read, args=(server.ports[k],), daemon=True) for k in kinds]
+    for t in threads:
+        t.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        for t in threads:
+            t.join(5.0)

@@ -94,13 +94,16 @@ def version_string(model: RobotModel, robot_sn: str, box_sn: str,
 def joint_torques(model: RobotModel, data: ControllerState, settings: Settings) -> np.ndarray:
     """Theoretical joint torques (N m) of state ``data``: gravity of the links and the payload of
     register 36 with the gravity direction of register 51, plus the inertial terms of the planned
-    motion (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`)."""
+    motion (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`), plus a calibrated model's offsets
+    and friction (``dynamics.joint_friction``)."""
     s = settings
     try:
         g: Any = dyn.gravity_from_direction(s.gravity_direction)
     except ValueError:
         g = dyn.DEFAULT_GRAVITY
-    return dyn.inverse_dynamics(model, data.q, data.qd, data.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
+    tau = dyn.inverse_dynamics(model, data.q, data.qd, data.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
+    friction = dyn.joint_friction(model, data.qd) if model.calibration is not None else None
+    return tau if friction is None else tau + friction
 
 
 def tcp_matrix(model: RobotModel, q: np.ndarray, settings: Settings) -> np.ndarray:

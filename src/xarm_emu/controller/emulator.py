@@ -23,7 +23,7 @@ from ruckig import Trajectory
 
 from ..model import dynamics as dyn
 from ..model import rotations as rot
-from ..model.inertials import NOMINAL_JOINT_VOLTAGE, joint_sizes
+from ..model.inertials import NOMINAL_JOINT_VOLTAGE
 from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
@@ -257,7 +257,7 @@ class Emulator:
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
             contact.set_scene(self.controller, scene)
-        self.thermal = ThermalModel(self.model.dof, sizes=joint_sizes(self.model))
+        self.thermal = ThermalModel.for_model(self.model)
         #: Run every control period one by one, never jumping over idle ones (:meth:`step`); the
         #: results are the same either way, this switch is there to show it.
         self.exact_steps = exact_steps

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.inertials import joint_sizes
+from ..model.robots import RobotModel
 from .state import holds
 
 #: Ambient temperature (C); the manual's operating range is 0-50 C.
@@ -53,8 +54,9 @@ class ThermalModel:
     """Temperatures of ``dof`` joints, advanced by :meth:`step`. Starts at ambient (cold start)."""
 
     def __init__(self, dof: int, ambient: float = AMBIENT_C, initial: Sequence[float] | None = None,
-                 sizes: Sequence[str] | None = None) -> None:
-        params = [THERMAL_BY_SIZE[s] for s in (joint_sizes(dof) if sizes is None else sizes)]
+                 sizes: Sequence[str] | None = None, params: Sequence[JointThermal] | None = None) -> None:
+        if params is None:
+            params = [THERMAL_BY_SIZE[s] for s in (joint_sizes(dof) if sizes is None else sizes)]
         self.data = ThermalState()
         self.dof = dof
         self.ambient = float(ambient)
@@ -63,6 +65,12 @@ class ThermalModel:
         self._idle = np.array([p.idle_rise for p in params])
         self._temps = (np.full(dof, self.ambient) if initial is None
                        else np.asarray(initial, dtype=float).reshape(dof).copy())
+
+    @classmethod
+    def for_model(cls, model: RobotModel) -> ThermalModel:
+        """The thermal model of ``model``'s joints: the parameters of their sizes, or a calibrated
+        model's measured ones (``RobotModel.calibration``)."""
+        return cls(model.dof, params=thermal_params(model))
 
     @property
     def temperatures(self) -> np.ndarray:
@@ -86,3 +94,16 @@ class ThermalModel:
     def celsius_u8(self) -> list[int]:
         """Temperatures as the report's whole degrees, clamped to 0..255."""
         return [int(min(255, max(0, round(t)))) for t in self._temps]
+
+
+def thermal_params(model: RobotModel) -> list[JointThermal]:
+    """Thermal parameters per joint of ``model``: by joint size, each replaced where the model's
+    calibration sets it."""
+    params = [THERMAL_BY_SIZE[s] for s in joint_sizes(model)]
+    cal = model.calibration
+    if cal is None:
+        return params
+    tau, rise, idle = cal.thermal_time_constants, cal.thermal_rise_per_amp2, cal.thermal_idle_rise
+    return [JointThermal(time_constant=p.time_constant if tau is None else tau[i],
+                         rise_per_amp2=p.rise_per_amp2 if rise is None else rise[i],
+                         idle_rise=p.idle_rise if idle is None else idle[i]) for i, p in enumerate(params)]

@@ -222,3 +222,22 @@ def torques_to_currents(model: RobotModel, torques: Sequence[float] | np.ndarray
     """Motor currents (A) for joint torques, through the assumed torque constants of ``model.inertials``."""
     tau = np.asarray(torques, dtype=float).reshape(-1)[: model.dof]
     return tau / torque_constants(model)
+
+
+def joint_friction(model: RobotModel, qd: Sequence[float] | np.ndarray) -> np.ndarray | None:
+    """Torques (N.m) a calibrated model adds to the dynamic model's at joint speeds ``qd`` (rad/s):
+    ``offset + viscous * qd + coulomb * sign(qd)`` (``model.calibration``); ``None`` when it adds none
+    (the emulator's own constants have no friction)."""
+    cal = model.calibration
+    if cal is None or (cal.torque_offsets is None and cal.viscous_friction is None
+                       and cal.coulomb_friction is None):
+        return None
+    v = np.asarray(qd, dtype=float).reshape(-1)[: model.dof]
+    out = np.zeros(model.dof)
+    if cal.torque_offsets is not None:
+        out += np.asarray(cal.torque_offsets)
+    if cal.viscous_friction is not None:
+        out += np.asarray(cal.viscous_friction) * v
+    if cal.coulomb_friction is not None:
+        out += np.asarray(cal.coulomb_friction) * np.sign(v)
+    return out

@@ -223,7 +223,11 @@ def joint_sizes(model: RobotModel | int) -> tuple[str, ...]:
 
 
 def torque_constants(model: RobotModel | int) -> np.ndarray:
-    """Assumed torque constant per joint (N.m/A), length ``dof``; current = torque / constant."""
+    """Assumed torque constant per joint (N.m/A), length ``dof``; current = torque / constant. A
+    calibrated model (``RobotModel.calibration``) gives its measured constants instead."""
+    cal = None if isinstance(model, int) else model.calibration
+    if cal is not None and cal.torque_constants is not None:
+        return np.array(cal.torque_constants, dtype=float)
     if not isinstance(model, int) and model.key in _MODEL_KT:
         return np.array(_MODEL_KT[model.key], dtype=float)
     return np.array([_KT[s] for s in joint_sizes(model)], dtype=float)

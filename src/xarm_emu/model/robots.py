@@ -21,9 +21,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+
+from .calibration import Calibration, CalibrationError
 
 HALF_PI = math.pi / 2.0
 TWO_PI = 2.0 * math.pi
@@ -146,6 +148,8 @@ class RobotModel:
     default_box_sn: str = "AC1300"
     min_firmware: tuple[int, int, int] = (0, 0, 0)
     tool_io: ToolIO = XARM_TOOL_IO
+    # Measured replacements of the emulator's estimated constants (:func:`with_calibration`).
+    calibration: Calibration | None = None
 
     @property
     def lower(self) -> np.ndarray:
@@ -161,6 +165,17 @@ class RobotModel:
     def zero_joints(self) -> np.ndarray:
         """All-zero joint vector of length ``dof``."""
         return np.zeros(self.dof)
+
+
+def with_calibration(model: RobotModel, calibration: Calibration | None) -> RobotModel:
+    """``model`` with ``calibration``'s constants (a new model; ``None`` or an empty one gives ``model``);
+    ``CalibrationError`` when it was measured on another model or does not fit the joints."""
+    if calibration is None or calibration.empty:
+        return model
+    if calibration.model and calibration.model != model.key:
+        raise CalibrationError(f"the calibration was measured on model {calibration.model}, not {model.key}")
+    calibration.check(model.dof)
+    return replace(model, calibration=calibration)
 
 
 def joint_values(model: RobotModel, q: Sequence[float] | np.ndarray) -> list[float]:

@@ -25,7 +25,8 @@ Arm keys: ``model`` (5, 6, 7, or a name: lite6, 850, 7t), ``host``, ``port``, ``
 (the gripper on the tool RS-485, as ``serve --gripper``: xarm, robotiq-2f85, robotiq-2f140, bio),
 (the version the box claims, as ``serve --firmware``), ``linear_track`` (true or a stroke in mm, as
 ``serve --linear-track``), ``ft_sensor`` (the six-axis F/T sensor, as
-``serve --ft-sensor``), ``scene`` (a contact scene file, as ``serve --scene``), ``trace``
+``serve --ft-sensor``), ``scene`` (a contact scene file, as ``serve --scene``), ``calibration`` (a
+calibration file, as ``serve --calibration``), ``trace``
 and ``faults`` (a command trace file and a fault schedule, as ``serve --trace`` and ``--faults``;
 relative to the fleet file; ``faults`` may be a top-level default). Arms
 without ``robot_sn`` get their model's default serial number, counted up when an earlier arm has
@@ -46,7 +47,8 @@ from typing import Any
 from ..controller import contact
 from ..controller.emulator import GRIPPERS, Emulator, check_firmware
 from ..controller.linear_track import DEFAULT_LENGTH, MODELS
-from ..model.robots import MODEL_NAMES, get_model
+from ..model.calibration import Calibration, load
+from ..model.robots import MODEL_NAMES, get_model, with_calibration
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.firmware import SERVE_VERSION, FirmwareProfile, VersionError, profile_for
 from .core import ServerConfig
@@ -54,7 +56,7 @@ from .core import ServerConfig
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
 _PORT_KEYS = ("port", "normal_port", "rich_port", "develop_port", "admin_port")
 ARM_KEYS = ("model", "host", *_PORT_KEYS, "robot_sn", "admin", "vacuum", "gripper", "firmware", "trace",
-            "faults", "linear_track", "ft_sensor", "scene")
+            "faults", "linear_track", "ft_sensor", "scene", "calibration")
 TOP_KEYS = ("speed", "config_dir", "arm", *(k for k in ARM_KEYS if k not in ("robot_sn", "trace")))
 
 
@@ -75,11 +77,14 @@ class ArmSpec:
     gripper: str = "xarm"  # the gripper on the tool RS-485 (controller/emulator.py GRIPPERS)
     ft_sensor: bool = False  # the six-axis F/T sensor (controller/ft_sensor.py), serve --ft-sensor
     scene: contact.Scene | None = None  # the contact scene (controller/contact.py), serve --scene
+    calibration: Calibration | None = None  # measured constants (model/calibration.py), serve --calibration
 
     def emulator(self, config_dir: Path | None) -> Emulator:
         """The box this arm describes, with its devices, saving to ``config_dir``: the one place a
         fleet arm becomes an :class:`Emulator`, in this process or in a worker."""
-        return Emulator(self.model, robot_sn=self.robot_sn, config_dir=config_dir, vacuum=self.vacuum,
+        model = self.model if self.calibration is None else with_calibration(get_model(self.model),
+                                                                              self.calibration)
+        return Emulator(model, robot_sn=self.robot_sn, config_dir=config_dir, vacuum=self.vacuum,
                         firmware=self.firmware, linear_track=self.linear_track, ft_sensor=self.ft_sensor,
                         scene=self.scene, gripper=self.gripper)
 
@@ -189,7 +194,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         raise FleetError(f"{where}: robot_sn {sn} is already another arm's (they would share a "
                          "saved configuration)")
     paths: dict[str, Path | None] = {}
-    for key in ("trace", "faults", "scene"):
+    for key in ("trace", "faults", "scene", "calibration"):
         value = values.get(key)
         if value is not None and not isinstance(value, str):
             raise FleetError(f"{where}: {key} must be a path string, got {value!r}")
@@ -206,8 +211,15 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
             scene = contact.load_scene(paths["scene"])
         except ValueError as exc:
             raise FleetError(f"{where}: {exc}") from None
+    calibration = None
+    if paths["calibration"] is not None:
+        try:
+            calibration = load(paths["calibration"])
+            with_calibration(robot, calibration)
+        except ValueError as exc:
+            raise FleetError(f"{where}: {exc}") from None
     return ArmSpec(model, sn, cfg, vacuum, profile, linear_track=track, gripper=gripper, ft_sensor=ft_sensor,
-                   scene=scene)
+                   scene=scene, calibration=calibration)
 
 
 _WILDCARD = frozenset({"", "0.0.0.0", "::"})

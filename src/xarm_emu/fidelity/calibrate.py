@@ -1,0 +1,113 @@
+"""``xarm-emu calibrate session.xrec -o cal.toml``: the emulator's estimated constants fitted to a recording.
+
+The recording is replayed into the emulator with its own constants (:mod:`.compare`), which gives, at
+the controller time of every recorded real-time frame, the joint torques of the dynamic model on the
+same path. Then, per joint, by linear least squares:
+
+- the torque constant (N.m/A): the recorded torques against the recorded motor currents,
+  ``torque = constant * current``;
+- the torque offset, viscous and Coulomb friction: the recorded torques less the model's,
+  ``offset + viscous * speed + coulomb * sign(speed)``; the friction terms only for a joint that moved
+  both ways over enough samples (else they cannot be told from the offset and are left out);
+- the thermal constants are fitted only where the rich report's temperatures changed during the
+  recording; a session of minutes at room temperature leaves them as they are.
+
+Each value comes with its standard deviation, ``sqrt(s^2 (A^T A)^-1)`` of the fit, ``s^2`` the residual
+variance. Collision thresholds are not fitted: the SDK sets the collision sensitivity, a setting.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..model.calibration import Calibration
+from .compare import Comparison, compare
+
+#: Samples a joint needs in each direction of motion before friction is fitted for it.
+MIN_MOVING = 10
+#: Joint speed (rad/s) above which a sample counts as moving for the friction fit.
+MOVING = 1e-3
+
+
+@dataclass
+class Fit:
+    """A fitted calibration and what could not be fitted, and why."""
+
+    calibration: Calibration
+    notes: list[str] = field(default_factory=list)
+    samples: int = 0
+
+
+def _lstsq(a: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares solution of ``a x = y`` and the standard deviation of each value."""
+    x, _, rank, _ = np.linalg.lstsq(a, y, rcond=None)
+    dof = max(1, len(y) - a.shape[1])
+    resid = y - a @ x
+    s2 = float(resid @ resid) / dof
+    try:
+        cov = s2 * np.linalg.inv(a.T @ a)
+        sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    except np.linalg.LinAlgError:
+        sd = np.full(a.shape[1], math.inf)
+    return x, sd
+
+
+def fit(comparison: Comparison) -> Fit:
+    """The constants of :mod:`xarm_emu.model.calibration` fitted to a comparison run with the
+    emulator's own constants (module docstring)."""
+    rec, rep = comparison.recorded, comparison.replayed
+    if len(rec) < 10:
+        raise ValueError("the recording has too few real-time report frames to fit anything")
+    use = [i for i, s in enumerate(rep) if not np.isnan(s.torques[0])]  # compare.TORQUE_EVERY
+    tau = np.array([rec[i].torques for i in use])
+    cur = np.array([rec[i].currents for i in use])
+    model_tau = np.array([rep[i].torques for i in use])
+    qd = np.array([rep[i].speeds for i in use])
+    dof = tau.shape[1]
+    kt, kt_sd = np.zeros(dof), np.zeros(dof)
+    off, off_sd = np.zeros(dof), np.zeros(dof)
+    visc, visc_sd = np.zeros(dof), np.zeros(dof)
+    coul, coul_sd = np.zeros(dof), np.zeros(dof)
+    notes = []
+    friction_any = False
+    for j in range(dof):
+        use = np.abs(cur[:, j]) > 1e-6
+        if use.sum() < 3:
+            raise ValueError(f"joint {j + 1} carried no current in the recording: its torque constant "
+                             "cannot be fitted")
+        x, sd = _lstsq(cur[use, j:j + 1], tau[use, j])
+        kt[j], kt_sd[j] = x[0], sd[0]
+        y = tau[:, j] - model_tau[:, j]
+        v = qd[:, j]
+        both = (v > MOVING).sum() >= MIN_MOVING and (v < -MOVING).sum() >= MIN_MOVING
+        if both:
+            friction_any = True
+            a = np.column_stack([np.ones_like(v), v, np.sign(v)])
+            x, sd = _lstsq(a, y)
+            off[j], visc[j], coul[j] = x
+            off_sd[j], visc_sd[j], coul_sd[j] = sd
+        else:
+            x, sd = _lstsq(np.ones((len(y), 1)), y)
+            off[j], off_sd[j] = x[0], sd[0]
+            notes.append(f"joint {j + 1}: friction not fitted (it did not move both ways over "
+                         f"{MIN_MOVING} frames each)")
+    notes.append("thermal constants not fitted: fitting them needs temperatures that change over the "
+                 "recording (a long session from a cold start)")
+    values: dict[str, tuple[float, ...]] = {"torque_constants": tuple(kt.tolist()),
+                                            "torque_offsets": tuple(off.tolist())}
+    unc = [("torque_constants", tuple(kt_sd.tolist())), ("torque_offsets", tuple(off_sd.tolist()))]
+    if friction_any:
+        values["viscous_friction"] = tuple(max(0.0, x) for x in visc.tolist())
+        values["coulomb_friction"] = tuple(max(0.0, x) for x in coul.tolist())
+        unc += [("viscous_friction", tuple(visc_sd.tolist())), ("coulomb_friction", tuple(coul_sd.tolist()))]
+    cal = Calibration(model=comparison.model, uncertainties=tuple(unc), **values)  # type: ignore[arg-type]
+    return Fit(cal, notes, len(rec))
+
+
+def calibrate(path: Path) -> Fit:
+    """Fit a calibration to the recording at ``path`` (module docstring)."""
+    return fit(compare(path))

@@ -1,0 +1,556 @@
+"""``xarm-emu compare session.xrec``: a recorded session replayed into the emulator, and how far apart.
+
+The recording (``xarm-emu proxy``, :mod:`xarm_emu.server.xrec`) says which arm and firmware the box is
+(its register 1 reply). A fresh emulator of that arm and firmware (with a calibration when given) runs
+on the stepped clock; every recorded request is answered by it, in order, at the controller time the
+box answered it, and its state is sampled at the controller time of every recorded real-time report
+frame (port 30000, whose timestamp is the box's clock; manual 2.1.6 and firmware 2.x). A request's
+controller time is read from the real-time frames around it: the first frame the box sent after the
+reply shows the state after the command, at the period it was answered in.
+
+Reported per command and in total: replies that differ (state byte or parameters); move durations
+(from the command to the first report at rest after it moved); the path deviation (the distance of each
+recorded TCP position from the replayed path, mm, and of the joints, degrees); joint torque and current
+differences (RMS and maximum); error and warning codes seen in one and not the other; report rates.
+The TCP offset, load and settings come from the recorded commands themselves, as they are replayed.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import tempfile
+import tomllib
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..controller.base import PERIOD
+from ..model.calibration import Calibration
+from ..model.robots import ROBOT_MODELS, RobotModel, with_calibration
+from ..protocol import registers as regs
+from ..protocol import reports
+from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
+from ..server import xrec
+from ..server.command_port import PURE_READS
+
+#: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
+DEFAULT_TOLERANCES: dict[str, float] = {
+    "reply_differences": 0,  # replies that may differ
+    "duration_s": PERIOD + 1e-9,  # a move's duration, seconds (one control period)
+    "path_mm": 0.01,  # TCP distance from the replayed path, mm
+    "path_deg": 0.01,  # joint distance from the replayed path, degrees
+    "torque_rms": 0.02,  # N.m, per joint over the session
+    "torque_max": 0.05,  # N.m
+    "current_rms": 0.01,  # A
+    "current_max": 0.02,  # A
+    "code_differences": 0,  # error or warning codes seen in one only
+    "report_rate_rel": 0.2,  # relative difference of a report rate from the emulator's
+}
+
+
+#: Joint torques and currents are compared on every this many real-time frames (25 Hz of the 250 Hz
+#: report): the dynamic model is the replay's costliest part, and torques change slowly against it.
+TORQUE_EVERY = 10
+
+
+class CompareError(ValueError):
+    """The recording cannot be compared; the message says why."""
+
+
+@dataclass
+class Sample:
+    """One recorded real-time report frame and the replayed state at its controller time."""
+
+    t: float
+    state: int
+    joints: np.ndarray
+    pos: np.ndarray
+    torques: np.ndarray
+    currents: np.ndarray
+    speeds: np.ndarray
+
+
+@dataclass
+class CommandResult:
+    index: int
+    t: float
+    register: int
+    name: str | None
+    reply_differs: bool = False
+    recorded_reply: str = ""
+    replayed_reply: str = ""
+    duration: tuple[float, float] | None = None  # recorded, replayed (s)
+    path_mm: float = 0.0
+    path_deg: float = 0.0
+    torque_rms: float = 0.0
+    torque_max: float = 0.0
+    current_rms: float = 0.0
+    current_max: float = 0.0
+    samples: tuple[int, int] = (0, 0)  # sample index range [start, end)
+
+
+@dataclass
+class Comparison:
+    """Everything ``compare`` measured (module docstring); ``failures`` against the tolerances."""
+
+    model: str
+    firmware: str
+    commands: list[CommandResult] = field(default_factory=list)
+    totals: dict[str, float] = field(default_factory=dict)
+    per_joint: dict[str, list[float]] = field(default_factory=dict)
+    codes: dict[str, list[list[float]]] = field(default_factory=dict)
+    rates: dict[str, list[float]] = field(default_factory=dict)  # port -> recorded, emulator's
+    failures: list[str] = field(default_factory=list)
+    recorded: list[Sample] = field(default_factory=list, repr=False)
+    replayed: list[Sample] = field(default_factory=list, repr=False)
+    replay_seconds: float = 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        return {"model": self.model, "firmware": self.firmware, "totals": self.totals,
+                "per_joint": self.per_joint, "codes": self.codes, "rates": self.rates,
+                "failures": self.failures, "commands": [asdict(c) for c in self.commands]}
+
+
+def load_tolerances(path: Path | None) -> dict[str, float]:
+    """The default tolerances, overridden by a TOML file's keys."""
+    tol = dict(DEFAULT_TOLERANCES)
+    if path is None:
+        return tol
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise CompareError(f"cannot read {path}: {exc.strerror or exc}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise CompareError(f"{path} is not TOML: {exc}") from None
+    for k, v in data.items():
+        if k not in tol:
+            raise CompareError(f"{path}: unknown tolerance {k!r} (known: {', '.join(tol)})")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+            raise CompareError(f"{path}: {k} must be a number >= 0")
+        tol[k] = float(v)
+    return tol
+
+
+def model_of(version: str) -> RobotModel:
+    """The arm of a register 1 version string (``axis,type,robot SN,...``)."""
+    try:
+        axis, rtype = (int(x) for x in version.split(",")[:2])
+    except ValueError:
+        raise CompareError(f"the box's version {version!r} does not name its arm") from None
+    for m in ROBOT_MODELS.values():
+        if m.axis == axis and m.robot_type == rtype:
+            return m
+    raise CompareError(f"no emulated arm has axis {axis} and type {rtype}")
+
+
+@dataclass
+class Session:
+    """A recording read for replay: the box, its requests and replies, its report frames."""
+
+    version: str
+    profile: FirmwareProfile
+    requests: list[tuple[xrec.Req, xrec.Rep | None]]
+    realtime: list[tuple[float, float, reports.ReportSnapshot]]  # (proxy time, controller time, frame)
+    frames: dict[int, list[float]]  # report port -> proxy times
+
+
+def read_session(path: Path) -> Session:
+    """Pair every request with its reply (by connection and tid) and collect the report frames."""
+    version, profile = "", DEFAULT_PROFILE
+    requests: list[tuple[xrec.Req, xrec.Rep | None]] = []
+    waiting: dict[tuple[int, int], int] = {}
+    realtime: list[tuple[float, float, reports.ReportSnapshot]] = []
+    frames: dict[int, list[float]] = {}
+    try:
+        for rec in xrec.read(path):
+            if isinstance(rec, xrec.Req) and rec.protocol != 1:
+                waiting[(rec.conn, rec.tid)] = len(requests)
+                requests.append((rec, None))
+            elif isinstance(rec, xrec.Rep) and rec.register != 0xFF:
+                i = waiting.pop((rec.conn, rec.tid), None)
+                if i is not None:
+                    requests[i] = (requests[i][0], rec)
+                if rec.register == 1 and rec.values and not version:
+                    version = str(rec.values.get("version", "")).strip("\0 ")
+                    profile = xrec.firmware_of(version) or profile
+            elif isinstance(rec, xrec.Rpt):
+                frames.setdefault(rec.port, []).append(rec.t)
+                if rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
+                    snap = reports.decode_realtime(rec.frame)
+                    ts = snap.timestamp_us / 1e6
+                    if not realtime or ts > realtime[-1][1]:  # a frame sent again shows nothing new
+                        realtime.append((rec.t, ts, snap))
+    except xrec.RecordingError as exc:
+        raise CompareError(str(exc)) from None
+    if not version:
+        raise CompareError(f"{path} has no register 1 reply: the box's arm and firmware are unknown "
+                           "(the SDK asks for it on connecting; record from the program's start)")
+    if not realtime:
+        raise CompareError(f"{path} has no real-time report frames (port 30000): open the real-time "
+                           "report through the proxy while recording (docs/real-arms.md)")
+    return Session(version, profile, requests, realtime, frames)
+
+
+def _controller_times(session: Session) -> list[tuple[float, float, float]]:
+    """The controller time each request was answered at (module docstring).
+
+    Bounds: a frame the box sent before the request shows a time no later, the first frame it sent
+    after the reply one no earlier. A queued command changes what the next frame shows, so the box
+    prepares that frame again after answering it: its time is the command's. Those give the offset of
+    the box's clock from the proxy's (the median); every request's time is then its arrival on the
+    box's control-period grid, within its bounds. A pure read (its answer changes nothing) gets its
+    earliest time: ``compare`` tries it again at each later period up to its upper bound, the time
+    a round trip through a busy network or computer leaves open. Returns (time, upper bound, lower
+    bound); a frame's timestamp may lead the box's clock by up to :data:`LEAD_PERIODS` periods, which
+    ``compare`` allows below the lower bound."""
+    recv = [r[0] for r in session.realtime]
+    ts = [r[1] for r in session.realtime]
+    bounds = []
+    for req, rep in session.requests:
+        i = bisect.bisect_right(recv, rep.t if rep is not None else req.t)
+        k = bisect.bisect_left(recv, req.t) - 1
+        bounds.append((ts[k] if k >= 0 else 0.0, ts[i] if i < len(ts) else math.inf))
+    exact = [hi - req.t for (req, rep), (_, hi) in zip(session.requests, bounds, strict=True)
+             if rep is not None and _is_queued(req.register) and math.isfinite(hi)]
+    if not exact:
+        exact = [hi - req.t for (req, _), (_, hi) in zip(session.requests, bounds, strict=True)
+                 if math.isfinite(hi)]
+    offset = float(np.median(exact)) if exact else 0.0
+    out: list[tuple[float, float, float]] = []
+    last = 0.0
+    for (req, _), (lo, hi) in zip(session.requests, bounds, strict=True):
+        if _pure_read(req):  # the earliest period it can have been answered in (see compare())
+            t = lo
+            hi += LEAD_PERIODS * PERIOD  # a frame may show the state before it was sent by that much
+        else:
+            t = min(max(lo, lo + round((req.t + offset - lo) / PERIOD) * PERIOD), hi)
+        last = max(last, t)  # in the order the box received them
+        out.append((last, max(last, hi), lo))
+    return out
+
+
+def _pure_read(req: xrec.Req) -> bool:
+    return req.protocol in (2, 3) and req.register in PURE_READS and not req.params
+
+
+def _rt_sample(t: float, s: reports.ReportSnapshot, dof: int) -> Sample:
+    return Sample(t, s.state, np.array(s.joints[:dof]), np.array(s.pose[:3]), np.array(s.torques[:dof]),
+                  np.array(s.joint_currents[:dof]), np.array(s.joint_speeds[:dof]))
+
+
+def _seg_dist(points: np.ndarray, path: np.ndarray, window: int = 8) -> np.ndarray:
+    """Distance of each of ``points`` from the polyline ``path`` (same length, aligned in time),
+    looking at the segments within ``window`` samples."""
+    n = len(points)
+    best = np.full(n, np.inf)
+    for k in range(-window, window):
+        i0 = np.clip(np.arange(n) + k, 0, n - 1)
+        i1 = np.clip(i0 + 1, 0, n - 1)
+        a, b = path[i0], path[i1]
+        ab = b - a
+        denom = np.einsum("ij,ij->i", ab, ab)
+        u = np.where(denom > 0, np.einsum("ij,ij->i", points - a, ab) / np.where(denom > 0, denom, 1), 0)
+        u = np.clip(u, 0.0, 1.0)
+        d = np.linalg.norm(points - (a + u[:, None] * ab), axis=1)
+        best = np.minimum(best, d)
+    return best
+
+
+def _rms_where(d: np.ndarray, use: np.ndarray) -> float:
+    """The largest per-joint RMS of the rows of ``d`` where ``use``."""
+    return float(np.sqrt(np.mean(d[use] ** 2, axis=0)).max()) if use.any() else 0.0
+
+
+def _is_queued(register: int) -> bool:
+    reg = regs.get(register)
+    return reg is not None and reg.queued
+
+
+def _duration(samples: list[Sample], start: int, end: int, t0: float) -> float | None:
+    """From ``t0`` to the first sample at rest (state not 1) after one in motion, within the range."""
+    moved = False
+    for s in samples[start:end]:
+        if s.state == 1:
+            moved = True
+        elif moved:
+            return s.t - t0
+    return None
+
+
+def compare(path: Path, calibration: Calibration | None = None,
+            tolerances: dict[str, float] | None = None) -> Comparison:
+    """Replay the recording at ``path`` and measure the differences (module docstring)."""
+    import time as _time
+
+    from ..controller.emulator import Emulator
+    from ..server.core import EmulatorServer, ServerConfig
+
+    tol = tolerances or dict(DEFAULT_TOLERANCES)
+    session = read_session(Path(path))
+    base = model_of(session.version)
+    model = with_calibration(base, calibration)
+    dof = model.dof
+    firmware = str(session.profile.version)
+    result = Comparison(base.key, firmware)
+    spans = _controller_times(session)
+    times = [t for t, _, _ in spans]
+    rec_samples = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
+    rep_samples: list[Sample] = []
+    nan = np.full(dof, np.nan)
+    started = _time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="xarm-emu-compare-") as cdir:
+        emu = Emulator(model, config_dir=Path(cdir), firmware=firmware)
+        server = EmulatorServer(emu, ServerConfig(stepped=True, port=0))
+        cmd_at: list[tuple[float, int]] = []
+        pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float]] = []  # reads to try again
+
+        def advance(to: float) -> None:
+            while pending and to > emu.time + 1e-9:  # a period at a time while reads wait
+                server.advance(min(PERIOD, to - emu.time))
+                retry()
+            if to > emu.time + 1e-9:
+                server.advance(to - emu.time)
+            retry()
+
+        def retry() -> None:
+            for item in list(pending):
+                c, req, rep, hi = item
+                if emu.time > hi + 1e-9:
+                    pending.remove(item)
+                    continue
+                frame = server.answer(req.tid, req.protocol, req.register, req.params)
+                if bytes(frame[6:]) == rep.frame[6:]:
+                    c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
+                    pending.remove(item)
+
+        j = 0
+
+        def sample_until(limit: float) -> None:
+            """Take the replayed state at every recorded frame before ``limit``."""
+            nonlocal j
+            while j < len(rec_samples) and rec_samples[j].t < limit - 1e-9:
+                st = rec_samples[j]
+                advance(st.t)
+                ctl = emu.controller
+                if j % TORQUE_EVERY == 0:
+                    tau, cur = ctl.joint_torques()[:dof].copy(), ctl.joint_currents()[:dof].copy()
+                else:
+                    tau = cur = nan
+                rep_samples.append(Sample(st.t, ctl.data.motion_state, ctl.data.q[:dof].copy(),
+                                          ctl.tcp_matrix()[:3, 3].copy(), tau, cur,
+                                          ctl.data.qd[:dof].copy()))
+                j += 1
+
+        previous = 0.0
+        for i, (req, rep) in enumerate(session.requests):
+            t_est, hi, lo = spans[i]
+            lower = max(previous, lo - LEAD_PERIODS * PERIOD)
+            sample_until(lower)  # no command can come before its lower bound
+            read = _pure_read(req)
+            if read:
+                t = max(lower, emu.time)
+            elif _is_queued(req.register):
+                t = _best_time(server, emu, session, [max(x, lower) for x in times], spans, rec_samples, i, j)
+            else:  # the earliest its bounds allow, so that a queued command after it can be placed
+                t = max(lo, lower)
+            previous = t
+            sample_until(t)
+            advance(t)
+            if not read and pending:  # a command may change what a read shows: look ahead first
+                cp = emu.checkpoint()
+                advance(max(hi_read for *_, hi_read in pending))
+                emu.restore(cp)
+                pending.clear()
+            frame = server.answer(req.tid, req.protocol, req.register, req.params)
+            c = CommandResult(i, t, req.register, req.name)
+            if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
+                c.reply_differs = True
+                c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
+                if read:
+                    pending.append((c, req, rep, hi))
+            result.commands.append(c)
+            cmd_at.append((t, j))
+        sample_until(math.inf)
+        result.replay_seconds = _time.perf_counter() - started
+    result.recorded, result.replayed = rec_samples, rep_samples
+    _measure(result, cmd_at, tol, session)
+    return result
+
+
+def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str, float],
+             session: Session) -> None:
+    rec, rep = result.recorded, result.replayed
+    pos_r, pos_p = np.array([s.pos for s in rec]), np.array([s.pos for s in rep])
+    q_r = np.degrees(np.array([s.joints for s in rec]))
+    q_p = np.degrees(np.array([s.joints for s in rep]))
+    d_mm = _seg_dist(pos_r, pos_p)
+    d_deg = _seg_dist(q_r, q_p)
+    dtau = np.array([a.torques - b.torques for a, b in zip(rec, rep, strict=True)])
+    dcur = np.array([a.currents - b.currents for a, b in zip(rec, rep, strict=True)])
+    has = ~np.isnan(dtau[:, 0]) if len(rec) else np.zeros(0, dtype=bool)
+    dtau, dcur = np.where(np.isnan(dtau), 0.0, dtau), np.where(np.isnan(dcur), 0.0, dcur)
+    rms = _rms_where
+    bounds = [j for _, j in cmd_at] + [len(rec)]
+    for n, c in enumerate(result.commands):
+        a, b = bounds[n], bounds[n + 1]
+        c.samples = (a, b)
+        if b > a:
+            c.path_mm, c.path_deg = float(d_mm[a:b].max()), float(d_deg[a:b].max())
+            h = has[a:b]
+            c.torque_rms, c.current_rms = rms(dtau[a:b], h), rms(dcur[a:b], h)
+            c.torque_max = float(np.abs(dtau[a:b]).max())
+            c.current_max = float(np.abs(dcur[a:b]).max())
+    queued = [n for n, c in enumerate(result.commands) if _is_queued(c.register)] + [len(result.commands)]
+    for m, n in enumerate(queued[:-1]):  # a move lasts at most until the next queued command
+        c = result.commands[n]
+        end = bounds[queued[m + 1]]
+        d_rec, d_rep = _duration(rec, bounds[n], end, c.t), _duration(rep, bounds[n], end, c.t)
+        if d_rec is not None or d_rep is not None:
+            c.duration = (d_rec if d_rec is not None else math.nan, d_rep if d_rep is not None else math.nan)
+    durations = [abs(c.duration[0] - c.duration[1]) for c in result.commands if c.duration]
+    t = result.totals
+    t["requests"] = len(result.commands)
+    t["samples"] = len(rec)
+    t["reply_differences"] = sum(c.reply_differs for c in result.commands)
+    t["duration_s"] = max((d if math.isfinite(d) else math.inf for d in durations), default=0.0)
+    t["path_mm"], t["path_deg"] = float(d_mm.max(initial=0.0)), float(d_deg.max(initial=0.0))
+    t["torque_max"] = float(np.abs(dtau).max(initial=0.0))
+    t["current_max"] = float(np.abs(dcur).max(initial=0.0))
+    t["torque_rms"] = t["current_rms"] = 0.0
+    if has.any():
+        jt = np.sqrt(np.mean(dtau[has] ** 2, axis=0))
+        jc = np.sqrt(np.mean(dcur[has] ** 2, axis=0))
+        t["torque_rms"], t["current_rms"] = float(jt.max()), float(jc.max())
+        result.per_joint = {"torque_rms": jt.tolist(), "current_rms": jc.tolist(),
+                            "torque_mean": dtau[has].mean(axis=0).tolist(),
+                            "current_mean": dcur[has].mean(axis=0).tolist()}
+    _codes(result, session)
+    t["code_differences"] = float(sum(len(v) for v in result.codes.values()))
+    nominal = reports.rates_for(session.profile)
+    worst_rate = 0.0
+    for port, stamps in sorted(session.frames.items()):
+        if len(stamps) > 10 and port in nominal:
+            rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
+            result.rates[str(port)] = [rate, nominal[port]]
+            worst_rate = max(worst_rate, abs(rate - nominal[port]) / nominal[port])
+    t["report_rate_rel"] = worst_rate
+    for key, limit in tol.items():
+        if t.get(key, 0.0) > limit:
+            result.failures.append(f"{key} {t[key]:.6g} > {limit:.6g}")
+
+
+def _codes(result: Comparison, session: Session) -> None:
+    """Error and warning codes of the replies' state bits, per command: which side had them."""
+    only: list[list[float]] = []
+    for c in result.commands:
+        if c.reply_differs and c.recorded_reply and c.replayed_reply:
+            rs, ps = int(c.recorded_reply[2:4], 16), int(c.replayed_reply[2:4], 16)
+            if (rs ^ ps) & 0x60:
+                only.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])
+    if only:
+        result.codes["state_bits"] = only
+
+
+#: Periods by which a real-time frame's timestamp may lead the controller time of the commands
+#: answered after it was received (a frame is prepared for its deadline ahead of sending it).
+LEAD_PERIODS = 2
+#: Real-time frames after a queued command over which its candidate periods are told apart.
+SEARCH_FRAMES = 25
+#: The most candidate periods tried for one queued command.
+SEARCH_PERIODS = 8
+
+
+def _best_time(server: Any, emu: Any, session: Session, times: list[float],
+               spans: list[tuple[float, float, float]], samples: list[Sample], i: int, j: int) -> float:
+    """The period a queued command was answered in: of the periods its bounds leave open (on a busy
+    computer a frame sent after the reply may be one the box prepared before it), the one after
+    which the replayed joints follow the recorded frames most closely, the command alone replayed
+    over the next :data:`SEARCH_FRAMES` frames from a checkpoint restored after each try."""
+    req = session.requests[i][0]
+    first = max(emu.time, times[i] - LEAD_PERIODS * PERIOD)
+    last = spans[i][1] + 2 * PERIOD if math.isfinite(spans[i][1]) else times[i]
+    cands = [first + n * PERIOD for n in range(int(round((last - first) / PERIOD)) + 1)][:SEARCH_PERIODS]
+    if len(cands) < 2:
+        return times[i]
+    dof = len(samples[0].joints)
+    cp = emu.checkpoint()
+    scores = []
+    for c in cands:
+        emu.restore(cp)
+        if c > emu.time + 1e-9:
+            server.advance(c - emu.time)
+        server.answer(req.tid, req.protocol, req.register, req.params)
+        err, n = 0.0, 0
+        for sm in samples[j:j + SEARCH_FRAMES + SEARCH_PERIODS * 2]:
+            if sm.t <= cands[-1] + 1e-9:
+                continue  # the same frames for every candidate
+            if n == SEARCH_FRAMES:
+                break
+            server.advance(sm.t - emu.time)
+            err += float(np.abs(emu.controller.data.q[:dof] - sm.joints).sum())
+            n += 1
+        scores.append(err if n else math.inf)
+    emu.restore(cp)
+    best = min(range(len(cands)), key=lambda n: scores[n])
+    return cands[best] if math.isfinite(scores[best]) else times[i]
+
+
+def worst_commands(result: Comparison, n: int = 3) -> list[CommandResult]:
+    """The ``n`` commands with the largest differences (torque, then path), for the plots."""
+    with_samples = [c for c in result.commands if c.samples[1] > c.samples[0]]
+    return sorted(with_samples, key=lambda c: (c.torque_max + c.current_max, c.path_mm), reverse=True)[:n]
+
+
+def html_report(result: Comparison, path: Path) -> None:
+    """A page with the totals, the failures and matplotlib plots of the worst commands."""
+    import base64
+    import html
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    parts = [f"<html><head><meta charset='utf-8'><title>xarm-emu compare</title></head><body>"
+             f"<h1>Recording against the emulator: xArm {html.escape(result.model)}, firmware "
+             f"{html.escape(result.firmware)}</h1>",
+             "<p>" + ("within every tolerance" if not result.failures else
+                      "outside the tolerances: " + html.escape("; ".join(result.failures))) + "</p>",
+             "<table border='1'><tr><th>measure</th><th>value</th></tr>"]
+    parts += [f"<tr><td>{html.escape(k)}</td><td>{v:.6g}</td></tr>" for k, v in result.totals.items()]
+    parts.append("</table>")
+    rec, rep = result.recorded, result.replayed
+    for c in worst_commands(result):
+        a, b = c.samples
+        idx = [i for i in range(a, b) if not np.isnan(rep[i].torques[0])]  # TORQUE_EVERY
+        t = [rec[i].t for i in idx]
+        fig, axes = plt.subplots(1, 3, figsize=(14, 3.5))
+        for j in range(len(rec[a].torques)):
+            axes[0].plot(t, [rec[i].torques[j] for i in idx], label=f"J{j + 1} recorded")
+            axes[0].plot(t, [rep[i].torques[j] for i in idx], "--", label=f"J{j + 1} emulator")
+            axes[1].plot(t, [rec[i].currents[j] - rep[i].currents[j] for i in idx], label=f"J{j + 1}")
+        axes[0].set_title("joint torque (N.m)")
+        axes[1].set_title("current, recorded - emulator (A)")
+        axes[2].plot([s.pos[0] for s in rec[a:b]], [s.pos[1] for s in rec[a:b]], label="recorded")
+        axes[2].plot([s.pos[0] for s in rep[a:b]], [s.pos[1] for s in rep[a:b]], "--", label="emulator")
+        axes[2].set_title("TCP x-y (mm)")
+        axes[2].legend(fontsize=7)
+        axes[1].legend(fontsize=7)
+        for ax in axes[:2]:
+            ax.set_xlabel("controller time (s)")
+        fig.tight_layout()
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=80)
+        plt.close(fig)
+        png = base64.b64encode(buf.getvalue()).decode()
+        parts.append(f"<h2>request {c.index} at t = {c.t:.3f} s: {html.escape(str(c.name))}</h2>"
+                     f"<p>torque max {c.torque_max:.4g} N.m, current max {c.current_max:.4g} A, "
+                     f"path {c.path_mm:.4g} mm</p><img src='data:image/png;base64,{png}'>")
+    parts.append("</body></html>")
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text("\n".join(parts), encoding="utf-8")
+    tmp.replace(path)

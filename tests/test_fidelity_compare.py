@@ -1,0 +1,132 @@
+"""`xarm-emu compare` and `xarm-emu calibrate` without an arm: the "real arm" is an emulator whose estimated
+constants a calibration moved, the recording proxy sits in front of it and the unchanged SDK runs a
+program through the proxy."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import pytest
+from helpers import run_cli
+
+from xarm_emu.controller.base import PERIOD
+from xarm_emu.fidelity.compare import compare
+from xarm_emu.model.calibration import Calibration, CalibrationError, load, save
+from xarm_emu.model.inertials import torque_constants
+from xarm_emu.model.robots import get_model, with_calibration
+from xarm_emu.protocol.firmware import SERVE_VERSION
+from xarm_emu.testing import reading_reports, running_emulator, running_proxy, sdk_pointed_at
+
+KT = tuple(float(x) for x in torque_constants(get_model(6)))
+#: The "real arm": torque constants 10 % above the emulator's, torque offsets and friction on J1.
+MOVED = Calibration(model="6", torque_constants=tuple(k * 1.1 for k in KT),
+                    torque_offsets=(0.0, 0.3, -0.2, 0.0, 0.1, 0.0),
+                    viscous_friction=(0.4, 0.0, 0.0, 0.0, 0.0, 0.0),
+                    coulomb_friction=(0.25, 0.0, 0.0, 0.0, 0.0, 0.0))
+
+
+def record(path: Path, calibration: Calibration | None) -> None:
+    """An SDK program through the proxy, with the real-time report read through it too."""
+    from xarm.wrapper import XArmAPI
+
+    with running_emulator(firmware=SERVE_VERSION, calibration=calibration) as st, \
+            running_proxy(st, path) as px, sdk_pointed_at(px), reading_reports(px):  # type: ignore[arg-type]
+        time.sleep(0.05)
+        arm = XArmAPI("127.0.0.1", is_radian=False)
+        try:
+            arm.motion_enable(True)
+            arm.set_mode(0)
+            arm.set_state(0)
+            assert arm.set_servo_angle(angle=[40, -10, -5, 0, 15, 0], speed=80, wait=True) == 0
+            assert arm.set_position(x=300, y=50, z=200, roll=180, pitch=0, yaw=0, speed=200, wait=True) == 0
+            assert arm.set_servo_angle(angle=[-40, 10, -20, 10, 30, 20], speed=80, wait=True) == 0
+            arm.set_cgpio_digital(1, 1)
+        finally:
+            arm.disconnect()
+            time.sleep(0.05)
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("fidelity")
+    out = {"default": d / "default.xrec", "moved": d / "moved.xrec"}
+    record(out["default"], None)
+    record(out["moved"], MOVED)
+    return out
+
+
+def test_default_emulator_compares_identical(recordings: dict[str, Path]) -> None:
+    r = compare(recordings["default"])
+    t = r.totals
+    assert t["requests"] > 20 and t["samples"] > 200
+    assert t["reply_differences"] == 0 and t["code_differences"] == 0
+    moves = [c for c in r.commands if c.duration is not None]
+    assert len(moves) == 3
+    assert all(abs(c.duration[0] - c.duration[1]) <= PERIOD for c in moves)  # type: ignore[index]
+    assert t["path_mm"] < 0.01 and t["path_deg"] < 0.01
+    assert r.failures == []
+    code, out = run_cli("compare", str(recordings["default"]))
+    assert code == 0 and out.strip().endswith("within every tolerance")
+
+
+def test_moved_constants_flag_torques_and_currents_only(recordings: dict[str, Path], tmp_path: Path) -> None:
+    r = compare(recordings["moved"])
+    flagged = {f.split()[0] for f in r.failures}
+    assert flagged and flagged <= {"torque_rms", "torque_max", "current_rms", "current_max"}
+    assert "current_max" in flagged and "torque_max" in flagged
+    assert r.totals["reply_differences"] == 0 and r.totals["path_mm"] < 0.01
+    code, out = run_cli("compare", str(recordings["moved"]), "--json")
+    assert code == 1 and json.loads(out)["failures"] == r.failures
+
+
+def test_calibrate_recovers_the_moved_constants(recordings: dict[str, Path], tmp_path: Path) -> None:
+    cal_file = tmp_path / "cal.toml"
+    code, _ = run_cli("calibrate", str(recordings["moved"]), "-o", str(cal_file))
+    assert code == 0
+    cal = load(cal_file)
+    assert cal.model == "6" and cal.torque_constants is not None and cal.torque_offsets is not None
+    for got, want in zip(cal.torque_constants, MOVED.torque_constants or (), strict=True):
+        assert abs(got / want - 1.0) < 0.01
+    for got, want in zip(cal.torque_offsets, MOVED.torque_offsets or (), strict=True):
+        assert abs(got - want) < 0.01
+    assert cal.viscous_friction is not None and abs(cal.viscous_friction[0] - 0.4) < 0.01 * 0.4 + 1e-3
+    assert cal.coulomb_friction is not None and abs(cal.coulomb_friction[0] - 0.25) < 0.01 * 0.25 + 1e-3
+    assert dict(cal.uncertainties)["torque_constants"][0] < 0.01
+    code, out = run_cli("compare", str(recordings["moved"]), "--calibration", str(cal_file),
+                        "-o", str(tmp_path / "report.html"))
+    assert code == 0, out
+    assert "<img src='data:image/png;base64," in (tmp_path / "report.html").read_text()
+
+
+def test_calibration_never_changes_what_the_manual_fixes(tmp_path: Path) -> None:
+    m = with_calibration(get_model(6), MOVED)
+    base = get_model(6)
+    assert (m.joints, m.lower.tolist(), m.upper.tolist(), m.max_joint_speed) == \
+        (base.joints, base.lower.tolist(), base.upper.tolist(), base.max_joint_speed)
+    assert torque_constants(m).tolist() == list(MOVED.torque_constants or ())
+    path = tmp_path / "cal.toml"
+    save(MOVED, path)
+    assert load(path) == MOVED
+    with pytest.raises(CalibrationError, match="measured on model 6, not 7"):
+        with_calibration(get_model(7), MOVED)
+    with pytest.raises(CalibrationError, match="the arm has 7 joints"):
+        with_calibration(get_model(7), Calibration(torque_offsets=(0.0,) * 6))
+    bad = tmp_path / "bad.toml"
+    bad.write_text("torque_constants = [1, -2, 3, 4, 5, 6]\n")
+    code, out = run_cli("serve", "--calibration", str(bad), "--port", "0")
+    assert code == 2 and out.strip() == "--calibration: torque_constants: -2.0 is not a usable value"
+
+
+def test_fleet_arm_takes_a_calibration_file(tmp_path: Path) -> None:
+    from xarm_emu.server.fleet import FleetError, parse_fleet
+
+    save(MOVED, tmp_path / "cal.toml")
+    fleet = parse_fleet({"arm": [{"model": 6, "calibration": "cal.toml"}, {"model": 6, "host": "127.0.0.2"}]},
+                        base=tmp_path)
+    calibrated, plain = (a.emulator(None) for a in fleet.arms)
+    assert calibrated.model.calibration == MOVED and plain.model.calibration is None
+    assert calibrated.controller.joint_currents().tolist() != plain.controller.joint_currents().tolist()
+    with pytest.raises(FleetError, match="arm 1: the calibration was measured on model 6, not 7"):
+        parse_fleet({"arm": [{"model": 7, "calibration": "cal.toml"}]}, base=tmp_path)
