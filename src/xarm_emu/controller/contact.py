@@ -24,6 +24,9 @@ at most ``mu`` times that force. The scene is declared in a TOML file (``serve -
 
 or through the admin channel as the same tables (:func:`parse_scene`). A file with errors raises
 ``ValueError`` with one line naming the shape and the key.
+
+``[[object]]`` tables add loose objects (:mod:`.physics.objects`): a scene with objects runs the
+physics engine (:mod:`.physics`), in which the planes and boxes are fixed bodies too.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from ..model import kinematics as kin
+from .physics.objects import ObjectSpec, parse_objects
 
 
 @dataclass(frozen=True)
@@ -83,9 +87,10 @@ Shape = Plane | Box
 
 @dataclass(frozen=True)
 class Scene:
-    """The shapes of one contact scene."""
+    """The shapes of one contact scene and its loose objects (as declared: where they start)."""
 
     shapes: tuple[Shape, ...] = ()
+    objects: tuple[ObjectSpec, ...] = ()
 
     def to_dict(self) -> dict[str, list[dict[str, Any]]]:
         """The scene as the tables :func:`parse_scene` reads (the admin channel shows it so)."""
@@ -93,6 +98,8 @@ class Scene:
         for s in self.shapes:
             d = dict(vars(s))
             out["plane" if isinstance(s, Plane) else "box"].append(d)
+        if self.objects:
+            out["object"] = [o.to_dict() for o in self.objects]
         return out
 
 
@@ -150,20 +157,20 @@ def _shape(kind: str, i: int, t: Any) -> Shape:
 
 
 def parse_scene(tables: Mapping[str, Any]) -> Scene:
-    """A :class:`Scene` from TOML-like tables ``{"plane": [...], "box": [...]}``; ValueError on
-    anything else (one line naming the shape and the key)."""
+    """A :class:`Scene` from TOML-like tables ``{"plane": [...], "box": [...], "object": [...]}``;
+    ValueError on anything else (one line naming the shape and the key)."""
     if not isinstance(tables, Mapping):
-        raise ValueError("a scene is a table with 'plane' and 'box' lists")
-    unknown = sorted(set(tables) - {"plane", "box"})
+        raise ValueError("a scene is a table with 'plane', 'box' and 'object' lists")
+    unknown = sorted(set(tables) - {"plane", "box", "object"})
     if unknown:
-        raise ValueError(f"unknown scene entry {unknown[0]!r} (known: plane, box)")
+        raise ValueError(f"unknown scene entry {unknown[0]!r} (known: plane, box, object)")
     shapes: list[Shape] = []
     for kind in ("plane", "box"):
         items = tables.get(kind, [])
         if not isinstance(items, list):
             raise ValueError(f"{kind} must be a list of tables ([[{kind}]])")
         shapes.extend(_shape(kind, i, t) for i, t in enumerate(items))
-    return Scene(tuple(shapes))
+    return Scene(tuple(shapes), parse_objects(tables.get("object", [])))
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -28,7 +28,7 @@ from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
-from . import contact, ft_sensor, safety, trajectory
+from . import contact, ft_sensor, physics, safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
 from .bio_gripper import BioGripper
 from .core import Controller, joint_torques, tcp_matrix
@@ -239,6 +239,11 @@ class Emulator:
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
             contact.set_scene(self.controller, scene)
+        #: The physics world of a scene with objects (controller/physics/), else None.
+        self.physics = physics.attach(self.model, scene, gripper, self.gripper.device) if (
+            scene is not None and scene.objects) else None
+        if self.physics is not None:
+            self.controller.add_component(self.physics)
         self.thermal = ThermalModel(self.model.dof, sizes=joint_sizes(self.model))
         #: Run every control period one by one, never jumping over idle ones (:meth:`step`); the
         #: results are the same either way, this switch is there to show it.
@@ -511,6 +516,8 @@ class Emulator:
             parts["lite6_gripper"] = {k: v for k, v in vars(self.lite6_gripper).items() if k != "tool"}
         if self.linear_track is not None:
             parts["linear_track"] = dict(vars(self.linear_track))
+        if self.physics is not None:
+            parts["physics"] = {"state": self.physics.world.capture()}
         return parts
 
     def _memo(self, parts: object) -> dict[int, object]:
@@ -546,6 +553,8 @@ class Emulator:
             self.lite6_gripper.tool = self.io.tool
         if self.linear_track is not None:
             vars(self.linear_track).update(parts["linear_track"])
+        if self.physics is not None:
+            self.physics.world.restore(parts["physics"]["state"])
 
     # -- in-process API ------------------------------------------------------------------------
     @property

@@ -1,0 +1,80 @@
+"""The physics world as a controller component: stepped once a control period after the gripper
+(so it sees this period's joints and finger command), it tells the gripper where its fingers stopped.
+
+The finger drive: the gripper's own model (controller/gripper.py) says where the fingers are told to
+go and how fast; here that command (:attr:`PhysicsState.ramp`, mm of opening) runs toward the target
+at the gripper's speed and the engine's force-limited finger drives follow it. Where a pad meets an
+object the fingers stop and the drive presses with the hand's force; the gripper's reported position
+is then the fingers' own (:attr:`XArmGripper.position`), and its status says the fingers stopped on an
+object (motion bits 2, what the SDK's wait for a grip reads as done). Free fingers report the command
+itself, so a gripper that closes on nothing moves exactly as without the engine.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from ..base import NOT_IDLE, Handler
+from ..gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
+from .hands import XARM_MM_PER_PULSE
+from .mjcf import FINGER_KP
+from .world import World
+
+#: A command this far (mm) from where the free fingers are is where they are (the drive's lag).
+FOLLOW_MM = 0.05
+
+
+class PhysicsComponent:
+    """Steps :attr:`world` every control period and couples the xArm gripper's fingers to it."""
+
+    def __init__(self, world: World, device: Any) -> None:
+        self.world = world
+        self.device = device if isinstance(device, XArmGripper) else None
+        if self.device is not None:
+            self.world.state.ramp = self.device.position * XARM_MM_PER_PULSE
+        hand = world.hand
+        #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
+        self.squeeze = (hand.force / FINGER_KP / 0.001 + 1.0) if hand is not None else 0.0
+
+    def handlers(self) -> dict[int, Handler]:
+        return {}
+
+    def _ramp(self, dt: float) -> float:
+        """This period's finger command (mm of opening)."""
+        ramp = self.world.state.ramp
+        g = self.device
+        if g is None or not self.world.fingers:
+            return ramp
+        if not (g.enabled and not g.error and g.mode == 0):
+            return ramp
+        target = g.target * XARM_MM_PER_PULSE
+        measured = self.world.opening()
+        if target > ramp:  # opening: the command never lags behind the fingers
+            ramp = max(ramp, measured)
+        elif target < ramp:  # closing on something: press, no further
+            ramp = max(ramp, measured - self.squeeze)
+        step = min(g.speed, SPEED_TOP) * SPEED_TO_PULSES * XARM_MM_PER_PULSE * dt
+        if abs(target - ramp) <= step:
+            return target
+        return ramp + math.copysign(step, target - ramp)
+
+    def step(self, dt: float, ctl: Any) -> None:
+        w = self.world
+        ramp = self._ramp(dt)
+        w.state.ramp = ramp
+        w.step(ctl.data.q, dt, ramp)
+        g = self.device
+        if g is None or not w.fingers:
+            return
+        measured = w.opening()
+        pressing = bool(w.pad_contacts()) and g.target * XARM_MM_PER_PULSE < measured - FOLLOW_MM
+        g.gripped = pressing and not g.error and g.enabled
+        if abs(measured - ramp) <= FOLLOW_MM or not (pressing or g.moving):
+            g.position = ramp / XARM_MM_PER_PULSE
+        else:
+            g.position = measured / XARM_MM_PER_PULSE
+
+    def idle_until(self, ctl: Any) -> float:
+        """Idle while the world is settled and neither the arm nor the finger command would move."""
+        return math.inf if self.world.idle(ctl.data.q, self._ramp(ctl.period)) else NOT_IDLE

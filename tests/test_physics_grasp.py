@@ -1,0 +1,158 @@
+"""Objects and grasps on the stepped clock, in process: a pick-and-place with the xArm gripper through
+the registers (21 lines, 124 the gripper's Modbus registers) ends with the cube where it was put;
+the same program twice, and a checkpoint restored before the grasp, give identical object poses."""
+
+from __future__ import annotations
+
+import math
+import struct
+import time
+from typing import Any
+
+import pytest
+
+pytest.importorskip("mujoco")
+
+from xarm_emu.controller import contact  # noqa: E402
+from xarm_emu.controller.emulator import Emulator  # noqa: E402
+from xarm_emu.protocol import rtu  # noqa: E402
+from xarm_emu.protocol.registers import REGISTERS  # noqa: E402
+
+TABLE = {"name": "table", "point": [0, 0, 0], "normal": [0, 0, 1], "stiffness": 10.0}
+CUBE = {"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1, "position": [300, -100, 20]}
+SCENE = {"plane": [TABLE], "object": [CUBE]}
+TCP_Z = 172.0  # the xArm gripper's TCP offset: the fingertips
+
+
+def call(emu: Emulator, code: int, **values: Any) -> dict[str, Any]:
+    reg = REGISTERS[code]
+    state, reply = emu.handle(code, reg.request.encode(values))
+    assert not state & 0x60, (code, hex(state))
+    return reg.reply.decode(reply) if reg.reply.fields else {}
+
+
+def gripper(emu: Emulator, pdu: bytes) -> tuple[int, ...]:
+    out = call(emu, 124, host=9, rtu=pdu)
+    slave, func, values = rtu.parse_reply(bytes(out["rtu"]))
+    assert slave == 8, (func, values)
+    return values
+
+
+def gripper_position(emu: Emulator) -> int:
+    hi, lo = gripper(emu, rtu.read_request(8, 0x0702, 2))
+    return int(struct.unpack(">i", struct.pack(">HH", hi, lo))[0])
+
+
+def grip(emu: Emulator, pulses: int) -> int:
+    """Move the fingers toward ``pulses`` and wait as the SDK does: until the status says stopped (0)
+    or stopped on an object (2); returns the position then."""
+    gripper(emu, rtu.write_multiple_request(8, 0x0700, struct.unpack(">HH", struct.pack(">i", pulses))))
+    for _ in range(100):
+        emu.advance(0.1)
+        (status,) = gripper(emu, rtu.read_request(8, 0x0000, 1))
+        if status & 3 in (0, 2):
+            break
+    return gripper_position(emu)
+
+
+def line(emu: Emulator, x: float, y: float, z: float) -> None:
+    call(emu, 21, pose=(x, y, z, math.pi, 0.0, 0.0), speed=150.0, acc=2000.0, mvtime=0.0)
+    while call(emu, 13)["state"] == 1 or call(emu, 14)["cmdnum"]:
+        emu.advance(0.1)
+
+
+def cube(emu: Emulator) -> Any:
+    assert emu.physics is not None
+    return emu.physics.world.poses()[0]
+
+
+def ready() -> Emulator:
+    return prepare(Emulator(6, scene=contact.parse_scene(SCENE)))
+
+
+def prepare(emu: Emulator) -> Emulator:
+    call(emu, 35, pose=(0.0, 0.0, TCP_Z, 0.0, 0.0, 0.0))
+    call(emu, 11, joint=8, enable=1)
+    call(emu, 19, mode=0)
+    call(emu, 12, state=0)
+    gripper(emu, rtu.write_multiple_request(8, 0x0100, [1]))  # enable
+    gripper(emu, rtu.write_multiple_request(8, 0x0303, [3000]))  # speed
+    return emu
+
+
+def pick(emu: Emulator) -> int:
+    """Open, above, down, close; returns the position the close reported."""
+    grip(emu, 850)
+    line(emu, 300, -100, 150)
+    line(emu, 300, -100, 15)
+    return grip(emu, 0)
+
+
+def place(emu: Emulator) -> None:
+    line(emu, 300, 100, 115)
+    line(emu, 300, 100, 16)
+    grip(emu, 850)
+    line(emu, 300, 100, 150)
+    emu.advance(0.5)
+
+
+def test_pick_and_place_with_the_xarm_gripper_ends_where_the_cube_was_put() -> None:
+    emu = ready()
+    closed = pick(emu)
+    z0 = cube(emu).position[2]
+    assert closed * 0.1 == pytest.approx(40.0, abs=2.0)  # the opening is the cube's width
+    assert cube(emu).held
+    line(emu, 300, -100, 115)
+    assert cube(emu).position[2] - z0 == pytest.approx(100.0, abs=2.0)
+    place(emu)
+    end = cube(emu)
+    assert not end.held
+    assert end.position[0] == pytest.approx(300.0, abs=3.0)
+    assert end.position[1] == pytest.approx(100.0, abs=3.0)
+    assert end.position[2] == pytest.approx(20.0, abs=1.0)
+    assert abs(end.rpy[0]) < 2.0 and abs(end.rpy[1]) < 2.0
+
+
+def test_same_program_twice_and_a_restored_checkpoint_give_identical_poses() -> None:
+    first = ready()
+    line(first, 300, -100, 150)
+    cp = first.checkpoint()
+    pick(first)
+    place(first)
+    a = first.physics.world.poses()  # type: ignore[union-attr]
+    second = ready()
+    line(second, 300, -100, 150)
+    pick(second)
+    place(second)
+    assert second.physics.world.poses() == a  # type: ignore[union-attr]
+    first.restore(cp)
+    pick(first)
+    place(first)
+    assert first.physics.world.poses() == a  # type: ignore[union-attr]
+
+
+def test_an_arm_moving_without_objects_does_not_step_an_engine() -> None:
+    emu = Emulator(6, scene=contact.parse_scene({"plane": [TABLE]}))
+    assert emu.physics is None
+
+
+def test_speed_against_the_same_moves_without_objects() -> None:
+    """The pick-and-place on the stepped clock, timed against the same arm moves without objects
+    (measured here): the physics costs at most a few times the controller alone."""
+    def program(emu: Emulator) -> float:
+        t0 = time.perf_counter()
+        pick(emu)
+        line(emu, 300, -100, 115)
+        place(emu)
+        return time.perf_counter() - t0
+
+    ready()  # warm the kinematics code
+    with_objects = ready()
+    wall = program(with_objects)
+    rate = with_objects.time / wall
+    bare = prepare(Emulator(6))
+    bare_wall = program(bare)
+    bare_rate = bare.time / bare_wall
+    print(f"pick-and-place: {with_objects.time:.1f} s of arm time at {rate:.0f}x real time "
+          f"(without objects {bare_rate:.0f}x)")
+    assert rate > 10.0
