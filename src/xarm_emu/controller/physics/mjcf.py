@@ -40,6 +40,8 @@ FINGER_KP = 3000.0
 FINGER_KV = 40.0
 
 FIXTURE, OBJECT, ARM = 1, 2, 4
+#: An arm or hand this near an object (m) makes the world step (:meth:`.world.World.step`).
+NEAR = 0.01
 #: Contacts: stiff (time constant two engine steps) and hard (impedance near 1 from the first 0.5 mm),
 #: so a squeezed object is pressed into by a fraction of a millimetre.
 SOLREF = "0.004 1"
@@ -61,7 +63,7 @@ def _rpy_quat(rpy: Sequence[float] | np.ndarray) -> str:
 def _capsule(a: Sequence[float], b: Sequence[float], radius: float, name: str) -> str:
     ends = _f(*(np.asarray(a) * MM), *(np.asarray(b) * MM))
     return (f'<geom name={quoteattr(name)} type="capsule" fromto="{ends}"'
-            f' size="{_f(radius * MM)}" contype="{ARM}" conaffinity="0" group="1"/>')
+            f' size="{_f(radius * MM)}" contype="{ARM}" conaffinity="0"/>')
 
 
 def _arm(model: RobotModel, hand: Hand | None) -> tuple[list[str], str]:
@@ -153,7 +155,8 @@ def world_xml(model: RobotModel, scene: Scene, hand: Hand | None) -> str:
     fixtures = "".join(_fixture(s) for s in scene.shapes)
     objects = "".join(_object(o) for o in scene.objects)
     return (f'<mujoco model="xarm-emu">'
-            f'<option timestep="{TIMESTEP!r}" integrator="implicitfast" cone="elliptic" impratio="10" noslip_iterations="3"/>'
+            f'<option timestep="{TIMESTEP!r}" integrator="implicitfast" cone="elliptic" impratio="10"'
+            f' noslip_iterations="3"/>'
             f'<default><geom solref="{SOLREF}" solimp="{SOLIMP}"/></default>'
             f'<worldbody>{"".join(base)}{arm}{fixtures}{objects}</worldbody>'
             + ('<actuator>'
