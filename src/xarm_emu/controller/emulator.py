@@ -698,6 +698,27 @@ class Emulator:
         self.generation += 1
         contact.set_scene(self.controller, scene)
 
+    # -- objects of the physics world (controller/physics/) -------------------------------------
+    def scene_objects(self) -> list[dict[str, Any]]:
+        """Every object's pose (mm, base frame; roll/pitch/yaw deg) and whether the hand holds it;
+        empty without objects."""
+        return [] if self.physics is None else [vars(p) for p in self.physics.world.poses()]
+
+    def place_object(self, name: str, position: Any, rpy: Any = (0.0, 0.0, 0.0)) -> None:
+        """Put object ``name`` at ``position`` (mm) turned by ``rpy`` (deg), at rest; ValueError if
+        there is no such object."""
+        self.generation += 1
+        if self.physics is None:
+            raise ValueError("the scene has no objects (serve --scene with [[object]] tables)")
+        self.physics.world.place(name, tuple(position), tuple(rpy))
+
+    def reset_objects(self) -> None:
+        """Every object back where the scene file puts it, at rest."""
+        self.generation += 1
+        if self.physics is None:
+            raise ValueError("the scene has no objects (serve --scene with [[object]] tables)")
+        self.physics.world.reset(self.controller.q)
+
     def inject_ft_error(self, code: int) -> None:
         """The F/T sensor reports error ``code`` (as get_ft_sensor_error reads it)."""
         self.generation += 1
