@@ -23,7 +23,8 @@
   live box; :mod:`.physics` (objects, grasps and contacts of a scene with ``[[object]]`` tables).
 """
 
-__all__ = ["base", "bio_gripper", "commands", "config", "contact", "core", "emulator", "executor", "faults",
-           "feedback", "force_control", "ft_sensor", "gripper", "handlers", "io", "linear_track",
-           "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "physics", "poses", "reduced", "robotiq",
-           "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum", "velocity"]
+__all__ = ["base", "bio_gripper", "commands", "config", "contact", "core", "emulator", "executor",
+           "faults", "feedback", "force_control", "ft_sensor", "gripper", "handlers", "io", "linear_track",
+           "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "physics", "poses", "reduced",
+           "robotiq", "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum",
+           "velocity"]
