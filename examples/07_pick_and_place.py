@@ -25,8 +25,9 @@ from xarm_emu.testing import running_emulator, sdk_pointed_at  # noqa: E402
 SCENE = Path(__file__).parent / "pick_and_place.toml"
 PICK = (300.0, -100.0)
 PLACE = (300.0, 100.0)
-GRASP_Z = 15.0  # mm: the fingertips (the TCP) 15 mm above the table
-TRAVEL_Z = 115.0
+TABLE_Z = -100.0  # mm: the table top of the scene, 100 mm below the arm's mounting face
+GRASP_Z = TABLE_Z + 15.0  # the fingertips (the TCP) 15 mm above the table
+TRAVEL_Z = TABLE_Z + 115.0
 
 
 def pick_and_place(arm: Any) -> int:
@@ -65,7 +66,7 @@ def test_the_cube_ends_where_the_program_put_it() -> None:
             arm.disconnect()
         (cube,) = st.call(st.emulator.scene_objects)
     assert cube["position"][:2] == pytest.approx(PLACE, abs=3.0)  # where the program set it down
-    assert cube["position"][2] == pytest.approx(20.0, abs=1.0)  # resting on the table
+    assert cube["position"][2] == pytest.approx(TABLE_Z + 20.0, abs=1.0)  # resting on the table
     assert abs(cube["rpy"][0]) < 2.0 and abs(cube["rpy"][1]) < 2.0  # upright
     assert not cube["held"]
 
@@ -73,7 +74,7 @@ def test_the_cube_ends_where_the_program_put_it() -> None:
 def test_a_grip_on_nothing_leaves_the_cube_on_the_table() -> None:
     """The program's grasp height is wrong (the fingers close 100 mm above the cube)."""
     global GRASP_Z
-    saved, GRASP_Z = GRASP_Z, 100.0
+    saved, GRASP_Z = GRASP_Z, TABLE_Z + 100.0
     try:
         with running_emulator(6, scene=SCENE, speed=4.0) as st, sdk_pointed_at(st):
             arm = XArmAPI("127.0.0.1")

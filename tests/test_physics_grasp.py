@@ -18,8 +18,11 @@ from xarm_emu.controller.emulator import Emulator  # noqa: E402
 from xarm_emu.protocol import rtu  # noqa: E402
 from xarm_emu.protocol.registers import REGISTERS  # noqa: E402
 
-TABLE = {"name": "table", "point": [0, 0, 0], "normal": [0, 0, 1], "stiffness": 10.0}
-CUBE = {"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1, "position": [300, -100, 20]}
+#: The table top (mm): 100 mm below the arm's mounting face (the arm on a pedestal), so the gripper
+#: hanging down at the zero pose (TCP at z = -60) is above it.
+TZ = -100.0
+TABLE = {"name": "table", "point": [0, 0, TZ], "normal": [0, 0, 1], "stiffness": 10.0}
+CUBE = {"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1, "position": [300, -100, TZ + 20]}
 SCENE = {"plane": [TABLE], "object": [CUBE]}
 TCP_Z = 172.0  # the xArm gripper's TCP offset: the fingertips
 
@@ -83,16 +86,16 @@ def prepare(emu: Emulator) -> Emulator:
 def pick(emu: Emulator) -> int:
     """Open, above, down, close; returns the position the close reported."""
     grip(emu, 850)
-    line(emu, 300, -100, 150)
-    line(emu, 300, -100, 15)
+    line(emu, 300, -100, TZ + 150)
+    line(emu, 300, -100, TZ + 15)
     return grip(emu, 0)
 
 
 def place(emu: Emulator) -> None:
-    line(emu, 300, 100, 115)
-    line(emu, 300, 100, 16)
+    line(emu, 300, 100, TZ + 115)
+    line(emu, 300, 100, TZ + 16)
     grip(emu, 850)
-    line(emu, 300, 100, 150)
+    line(emu, 300, 100, TZ + 150)
     emu.advance(0.5)
 
 
@@ -102,26 +105,26 @@ def test_pick_and_place_with_the_xarm_gripper_ends_where_the_cube_was_put() -> N
     z0 = cube(emu).position[2]
     assert closed * 0.1 == pytest.approx(40.0, abs=2.0)  # the opening is the cube's width
     assert cube(emu).held
-    line(emu, 300, -100, 115)
+    line(emu, 300, -100, TZ + 115)
     assert cube(emu).position[2] - z0 == pytest.approx(100.0, abs=2.0)
     place(emu)
     end = cube(emu)
     assert not end.held
     assert end.position[0] == pytest.approx(300.0, abs=3.0)
     assert end.position[1] == pytest.approx(100.0, abs=3.0)
-    assert end.position[2] == pytest.approx(20.0, abs=1.0)
+    assert end.position[2] == pytest.approx(TZ + 20.0, abs=1.0)
     assert abs(end.rpy[0]) < 2.0 and abs(end.rpy[1]) < 2.0
 
 
 def test_same_program_twice_and_a_restored_checkpoint_give_identical_poses() -> None:
     first = ready()
-    line(first, 300, -100, 150)
+    line(first, 300, -100, TZ + 150)
     cp = first.checkpoint()
     pick(first)
     place(first)
     a = first.physics.world.poses()  # type: ignore[union-attr]
     second = ready()
-    line(second, 300, -100, 150)
+    line(second, 300, -100, TZ + 150)
     pick(second)
     place(second)
     assert second.physics.world.poses() == a  # type: ignore[union-attr]
@@ -142,7 +145,7 @@ def test_speed_against_the_same_moves_without_objects() -> None:
     def program(emu: Emulator) -> float:
         t0 = time.perf_counter()
         pick(emu)
-        line(emu, 300, -100, 115)
+        line(emu, 300, -100, TZ + 115)
         place(emu)
         return time.perf_counter() - t0
 
@@ -156,3 +159,23 @@ def test_speed_against_the_same_moves_without_objects() -> None:
     print(f"pick-and-place: {with_objects.time:.1f} s of arm time at {rate:.0f}x real time "
           f"(without objects {bare_rate:.0f}x)")
     assert rate > 10.0
+
+
+@pytest.mark.parametrize("sensitivity", [3, 0])
+def test_pushing_the_tool_into_the_table_raises_c31_at_sensitivity_3_not_0(sensitivity: int) -> None:
+    """The TCP driven into the table at 50 mm/s: the table's reaction enters the joint torques."""
+    emu = ready()
+    call(emu, 37, sensitivity=sensitivity)
+    call(emu, 12, state=0)
+    line(emu, 200, 0, TZ + 50)
+    call(emu, 21, pose=(200.0, 0.0, TZ - 40.0, math.pi, 0.0, 0.0), speed=50.0, acc=2000.0, mvtime=0.0)
+    emu.advance(2.5)
+    (_, reply) = emu.handle(15, b"")
+    error = REGISTERS[15].reply.decode(reply)["error"]
+    z = emu.controller.tcp_matrix()[2, 3]
+    if sensitivity:
+        assert error == 31
+        assert TZ - 30.0 < z < TZ  # stopped in the table, short of the target
+    else:
+        assert error == 0
+        assert z == pytest.approx(TZ - 40.0, abs=0.1)

@@ -67,5 +67,5 @@ def test_no_objects_no_engine(tmp_path: Path) -> None:
 
 def test_the_documented_scene_file_reads() -> None:
     scene = contact.load_scene(Path(__file__).parent.parent / "examples" / "pick_and_place.toml")
-    assert [o.name for o in scene.objects] == ["cube"]
+    assert [o.name for o in scene.objects] == ["cube"] and scene.objects[0].position[2] == -80.0
     assert scene.objects[0].size == (40.0, 40.0, 40.0)

@@ -15,9 +15,9 @@ pytest.importorskip("mujoco")
 from xarm_emu.client.admin import AdminClient, AdminRefused  # noqa: E402
 from xarm_emu.testing import running_emulator, sdk_pointed_at  # noqa: E402
 
-SCENE = {"plane": [{"name": "table", "point": [0, 0, 0], "normal": [0, 0, 1], "stiffness": 10.0}],
+SCENE = {"plane": [{"name": "table", "point": [0, 0, -100], "normal": [0, 0, 1], "stiffness": 10.0}],
          "object": [{"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1,
-                     "position": [300, -100, 20]}]}
+                     "position": [300, -100, -80]}]}
 DOWN = dict(roll=180, pitch=0, yaw=0, speed=150, mvacc=2000, wait=True)
 
 
@@ -38,26 +38,26 @@ def test_sdk_pick_and_place_with_the_xarm_gripper() -> None:
             assert arm.set_gripper_enable(True) == 0
             assert arm.set_gripper_speed(3000) == 0
             assert arm.set_gripper_position(850, wait=True) == 0
-            assert arm.set_position(300, -100, 150, **DOWN) == 0
-            assert arm.set_position(300, -100, 15, **DOWN) == 0
+            assert arm.set_position(300, -100, 50, **DOWN) == 0
+            assert arm.set_position(300, -100, -85, **DOWN) == 0
             assert arm.set_gripper_position(0, wait=True) == 0
             code, pos = arm.get_gripper_position()
             assert code == 0 and pos * 0.1 == pytest.approx(40.0, abs=2.0)
             z0 = cube(st)["position"][2]
             assert cube(st)["held"]
-            assert arm.set_position(300, -100, 115, **DOWN) == 0
+            assert arm.set_position(300, -100, 15, **DOWN) == 0
             assert cube(st)["position"][2] - z0 == pytest.approx(100.0, abs=2.0)
-            assert arm.set_position(300, 100, 115, **DOWN) == 0
-            assert arm.set_position(300, 100, 16, **DOWN) == 0
+            assert arm.set_position(300, 100, 15, **DOWN) == 0
+            assert arm.set_position(300, 100, -84, **DOWN) == 0
             assert arm.set_gripper_position(850, wait=True) == 0
-            assert arm.set_position(300, 100, 150, **DOWN) == 0
+            assert arm.set_position(300, 100, 50, **DOWN) == 0
         finally:
             arm.disconnect()
         end = cube(st)
         assert not end["held"]
         assert end["position"][0] == pytest.approx(300.0, abs=3.0)
         assert end["position"][1] == pytest.approx(100.0, abs=3.0)
-        assert end["position"][2] == pytest.approx(20.0, abs=1.0)
+        assert end["position"][2] == pytest.approx(-80.0, abs=1.0)
         assert abs(end["rpy"][0]) < 2.0 and abs(end["rpy"][1]) < 2.0
 
 
@@ -81,7 +81,7 @@ def test_admin_scene_commands_and_the_cli() -> None:
                              capture_output=True, text=True, timeout=60)
         assert out.returncode == 0, out.stderr
         back = json.loads(out.stdout)["objects"][0]
-        assert back["position"] == pytest.approx([300, -100, 20], abs=0.5)
+        assert back["position"] == pytest.approx([300, -100, -80], abs=0.5)
 
 
 def test_admin_scene_commands_without_objects_are_refused() -> None:

@@ -8,6 +8,12 @@ object the fingers stop and the drive presses with the hand's force; the gripper
 is then the fingers' own (:attr:`XArmGripper.position`), and its status says the fingers stopped on an
 object (motion bits 2, what the SDK's wait for a grip reads as done). Free fingers report the command
 itself, so a gripper that closes on nothing moves exactly as without the engine.
+
+Collision detection (C31, manual 3.2.1, at the sensitivity of register 37): the force of the scene's
+planes and boxes on the TCP (their spring-damper, :func:`.contact.scene_wrench`) enters the joint
+torques as ``J^T f``; the largest external joint torque is checked against the sensitivity's
+threshold every period (:func:`.safety.collision_detected`), so pushing the tool into the table
+raises C31 as a real push would; sensitivity 0 never does.
 """
 
 from __future__ import annotations
@@ -15,7 +21,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ..base import NOT_IDLE, Handler
+import numpy as np
+
+from ...model import kinematics as kin
+from .. import contact, safety
+from ..base import C_COLLISION, NOT_IDLE, Handler
 from ..gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
@@ -59,7 +69,29 @@ class PhysicsComponent:
             return target
         return ramp + math.copysign(step, target - ramp)
 
+    def external_torques(self, ctl: Any) -> np.ndarray:
+        """The joint torques (N m) of the scene's fixtures pressing on the TCP: ``J^T f``."""
+        q = ctl.data.q
+        T = kin.fk(ctl.model, q)
+        off = T[:3, :3] @ np.asarray(ctl.settings.tcp_offset[:3], dtype=float)
+        p = T[:3, 3] + off
+        if not any(shape.penetration(p)[0] > 0 for shape in contact.scene_of(ctl).shapes):
+            return np.zeros(ctl.dof)  # the TCP touches nothing
+        f = contact.scene_wrench(ctl)[:3]
+        r = off * 0.001  # m
+        J = kin.jacobian(ctl.model, q)  # flange: linear (mm/rad) over angular rows
+        return np.asarray(J[:3].T @ f * 0.001 + J[3:].T @ np.cross(r, f))
+
+    def _collision(self, ctl: Any) -> None:
+        sens = ctl.settings.collision_sensitivity
+        if not sens or ctl.error_code or not all(ctl.enabled):
+            return
+        tau = self.external_torques(ctl)
+        if tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
+            ctl.raise_error(C_COLLISION)
+
     def step(self, dt: float, ctl: Any) -> None:
+        self._collision(ctl)
         w = self.world
         ramp = self._ramp(dt)
         w.state.ramp = ramp
