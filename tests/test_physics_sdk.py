@@ -67,9 +67,9 @@ def test_admin_scene_commands_and_the_cli() -> None:
         with AdminClient("127.0.0.1", port) as a:
             first = json.loads(a.request("scene-objects"))["objects"][0]
             assert first["name"] == "cube" and first["position"][:2] == pytest.approx([300, -100], abs=0.01)
-            a.request("scene-place", name="cube", position=[250, 50, 100], rpy=[0, 0, 30])
+            a.request("scene-place", name="cube", position=[250, 150, -80], rpy=[0, 0, 30])
             placed = json.loads(a.request("scene-objects"))["objects"][0]
-            assert placed["position"] == pytest.approx([250, 50, 100], abs=0.5)
+            assert placed["position"] == pytest.approx([250, 150, -80], abs=0.5)
             assert placed["rpy"][2] == pytest.approx(30.0, abs=0.1)
             with pytest.raises(AdminRefused, match="no object 'ball'"):
                 a.request("scene-place", name="ball", position=[0, 0, 0])
