@@ -141,7 +141,8 @@ def test_an_arm_moving_without_objects_does_not_step_an_engine() -> None:
 
 def test_speed_against_the_same_moves_without_objects() -> None:
     """The pick-and-place on the stepped clock, timed against the same arm moves without objects
-    (measured here): the physics costs at most a few times the controller alone."""
+    (measured here): the engine stepping every period near the cube costs several times the
+    controller alone (on a quiet 2-core machine some 15-20x real time against 90-130x)."""
     def program(emu: Emulator) -> float:
         t0 = time.perf_counter()
         pick(emu)
@@ -158,7 +159,7 @@ def test_speed_against_the_same_moves_without_objects() -> None:
     bare_rate = bare.time / bare_wall
     print(f"pick-and-place: {with_objects.time:.1f} s of arm time at {rate:.0f}x real time "
           f"(without objects {bare_rate:.0f}x)")
-    assert rate > 10.0
+    assert rate > bare_rate / 15
 
 
 @pytest.mark.parametrize("sensitivity", [3, 0])

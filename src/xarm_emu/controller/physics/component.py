@@ -45,7 +45,7 @@ class PhysicsComponent:
             self.world.state.ramp = self.device.position * XARM_MM_PER_PULSE
         hand = world.hand
         #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
-        self.squeeze = (hand.force / FINGER_KP / 0.001 + 1.0) if hand is not None else 0.0
+        self.squeeze = (2 * hand.force / FINGER_KP / 0.001 + 1.0) if hand is not None else 0.0
 
     def handlers(self) -> dict[int, Handler]:
         return {}
@@ -100,7 +100,10 @@ class PhysicsComponent:
         if g is None or not w.fingers:
             return
         measured = w.opening()
-        pressing = bool(w.pad_contacts()) and g.target * XARM_MM_PER_PULSE < measured - FOLLOW_MM
+        gripping = any(len(pads) == 2 for pads in w.pad_contacts().values())  # both pads on one object
+        # the grip is made when the drive presses with the hand's full force (or its target is reached)
+        full = ramp <= measured - (self.squeeze - 1.0) or ramp == g.target * XARM_MM_PER_PULSE
+        pressing = gripping and full and g.target * XARM_MM_PER_PULSE < measured - FOLLOW_MM
         g.gripped = pressing and not g.error and g.enabled
         if abs(measured - ramp) <= FOLLOW_MM or not (pressing or g.moving):
             g.position = ramp / XARM_MM_PER_PULSE

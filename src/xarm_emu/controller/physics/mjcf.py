@@ -34,9 +34,9 @@ TIMESTEP = 0.002
 ARM_ARMATURE = 1.0e4
 #: Mass of one finger (kg).
 FINGER_MASS = 0.05
-#: Position gain of the finger drives (N/m): a pad pressed this far short of where its motor is
-#: told presses with this force per metre, up to the hand's force.
-FINGER_KP = 3000.0
+#: Position gain of the finger drive (N/m): fingers held this far short of where the motor is told
+#: press with this force per metre (shared by the two pads), up to the hand's force on each.
+FINGER_KP = 6000.0
 FINGER_KV = 40.0
 
 FIXTURE, OBJECT, ARM = 1, 2, 4
@@ -149,6 +149,15 @@ def _object(o: ObjectSpec) -> str:
             f' friction="{_f(o.friction)} 0.01 0.0001"/></body>')
 
 
+def _finger_drive(h: Hand) -> str:
+    """One force-limited position drive on finger a; finger b follows it through a joint coupling, as
+    the fingers of a parallel gripper are geared together (each pad presses with the hand's force)."""
+    return (f'<equality><joint joint1="finger_b" joint2="finger_a" polycoef="0 1 0 0 0"'
+            f' solref="{SOLREF}" solimp="{SOLIMP}"/></equality>'
+            f'<actuator><position name="finger" joint="finger_a" kp="{FINGER_KP!r}" kv="{FINGER_KV!r}"'
+            f' forcelimited="true" forcerange="{_f(-2 * h.force, 2 * h.force)}"/></actuator>')
+
+
 def world_xml(model: RobotModel, scene: Scene, hand: Hand | None) -> str:
     """The MJCF document of the arm ``model`` with ``hand`` on its flange in ``scene``."""
     base, arm = _arm(model, hand)
@@ -159,9 +168,5 @@ def world_xml(model: RobotModel, scene: Scene, hand: Hand | None) -> str:
             f' noslip_iterations="3"/>'
             f'<default><geom solref="{SOLREF}" solimp="{SOLIMP}"/></default>'
             f'<worldbody>{"".join(base)}{arm}{fixtures}{objects}</worldbody>'
-            + ('<actuator>'
-               + "".join(f'<position name="{n}" joint="{n}" kp="{FINGER_KP!r}" kv="{FINGER_KV!r}"'
-                         f' forcelimited="true" forcerange="{_f(-hand.force, hand.force)}"/>'
-                         for n in ("finger_a", "finger_b"))
-               + '</actuator>' if hand is not None and hand.stroke > 0 else "")
+            + (_finger_drive(hand) if hand is not None and hand.stroke > 0 else "")
             + '</mujoco>')
