@@ -180,3 +180,23 @@ def test_pushing_the_tool_into_the_table_raises_c31_at_sensitivity_3_not_0(sensi
     else:
         assert error == 0
         assert z == pytest.approx(TZ - 40.0, abs=0.1)
+
+
+def test_jumping_over_idle_periods_gives_the_same_poses_as_stepping_each() -> None:
+    """A cube dropped from 30 mm falls, settles; the arm then waits and the fingers close on nothing:
+    the stepped clock's jump over idle periods (controller/emulator.py) leaves every pose as stepping
+    each period does."""
+    def program(exact: bool) -> tuple[Any, int, int]:
+        emu = ready()
+        emu.exact_steps = exact
+        emu.place_object("cube", (300.0, -100.0, TZ + 50.0), (10.0, 0.0, 0.0))
+        emu.advance(1.5)
+        line(emu, 200, 0, TZ + 150)
+        grip(emu, 300)
+        emu.advance(3.0)
+        return emu.scene_objects(), gripper_position(emu), emu.periods_jumped
+
+    stepped, jumped = program(True), program(False)
+    assert stepped[:2] == jumped[:2]
+    assert stepped[2] == 0 and jumped[2] > 500  # the settled world let the clock jump
+    assert stepped[0][0]["position"][2] == pytest.approx(TZ + 20.0, abs=0.5)  # it fell onto the table
