@@ -200,3 +200,16 @@ def test_jumping_over_idle_periods_gives_the_same_poses_as_stepping_each() -> No
     assert stepped[:2] == jumped[:2]
     assert stepped[2] == 0 and jumped[2] > 500  # the settled world let the clock jump
     assert stepped[0][0]["position"][2] == pytest.approx(TZ + 20.0, abs=0.5)  # it fell onto the table
+
+
+def test_a_cube_too_heavy_for_the_grip_slips_out_and_is_not_held() -> None:
+    """3 kg with friction 0.3: the pads' 2 x 30 N grip holds at most 18 N of its 29.4 N weight."""
+    heavy = {**CUBE, "mass": 3.0, "friction": 0.3}
+    emu = prepare(Emulator(6, scene=contact.parse_scene({"plane": [TABLE], "object": [heavy]})))
+    closed = pick(emu)
+    assert closed * 0.1 == pytest.approx(40.0, abs=2.0)
+    line(emu, 300, -100, TZ + 115)
+    emu.advance(0.5)
+    end = cube(emu)
+    assert end.position[2] < TZ + 25.0  # it stayed down (or fell back)
+    assert not end.held

@@ -45,7 +45,8 @@ class PhysicsComponent:
             self.world.state.ramp = self.device.position * XARM_MM_PER_PULSE
         hand = world.hand
         #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
-        self.squeeze = (2 * hand.force / FINGER_KP / 0.001 + 1.0) if hand is not None else 0.0
+        #: (The drive holds finger a, half the opening, and presses with the force of both pads.)
+        self.squeeze = (2 * (2 * hand.force / FINGER_KP) / 0.001 + 1.0) if hand is not None else 0.0
 
     def handlers(self) -> dict[int, Handler]:
         return {}

@@ -6,7 +6,9 @@ byte (and so the same engine model).
 
 Units: the engine works in metres, kilograms and seconds; the tables are in mm.
 
-Collision groups (MuJoCo's contype/conaffinity bits): fixtures (planes, boxes) touch objects only;
+An object's friction is that of its every contact (its geoms have the higher priority), so a
+scene's ``friction`` says how the object grips and slides. Collision groups (MuJoCo's
+contype/conaffinity bits): fixtures (planes, boxes) touch objects only;
 objects touch everything; the arm and the hand touch objects only. What the arm presses into a fixture
 is measured apart (:mod:`.world`), as the arm follows the controller and is no body the engine moves.
 """
@@ -145,7 +147,7 @@ def _object(o: ObjectSpec) -> str:
     return (f'<body name={quoteattr("object:" + o.name)} pos="{_f(*(np.asarray(o.position) * MM))}"'
             f' quat="{_rpy_quat(rpy)}"><freejoint name={quoteattr("object:" + o.name)}/>'
             f'<geom type="{o.shape}" size="{gsize}" mass="{_f(o.mass)}" rgba="{_f(*o.color)}"'
-            f' contype="{OBJECT}" conaffinity="{FIXTURE | OBJECT | ARM}" condim="4"'
+            f' contype="{OBJECT}" conaffinity="{FIXTURE | OBJECT | ARM}" condim="4" priority="1"'
             f' friction="{_f(o.friction)} 0.01 0.0001"/></body>')
 
 
