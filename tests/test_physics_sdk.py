@@ -89,3 +89,44 @@ def test_admin_scene_commands_without_objects_are_refused() -> None:
         with AdminClient("127.0.0.1", st.ports["admin"]) as a:
             with pytest.raises(AdminRefused, match="no objects"):
                 a.request("scene-objects")
+
+
+def _robotiq_pick(mass: float, friction: float, force: int) -> tuple[dict, dict, int]:
+    """The same task with the Robotiq 2F-85 through the SDK's robotiq_* calls; returns the cube after
+    the close, after the lift, and gOBJ after the close."""
+    from xarm.wrapper import XArmAPI
+
+    scene = {**SCENE, "object": [{**SCENE["object"][0], "mass": mass, "friction": friction}]}
+    with running_emulator(6, scene=scene, speed=4.0, gripper="robotiq-2f85") as st, sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1")
+        try:
+            assert arm.set_tcp_offset([0, 0, 174, 0, 0, 0]) == 0
+            arm.motion_enable(True)
+            arm.set_mode(0)
+            arm.set_state(0)
+            assert arm.robotiq_reset()[0] == 0
+            assert arm.robotiq_set_activate()[0] == 0
+            assert arm.robotiq_open(speed=0xFF, force=force)[0] == 0
+            assert arm.set_position(300, -100, 50, **DOWN) == 0
+            assert arm.set_position(300, -100, -85, **DOWN) == 0
+            assert arm.robotiq_close(speed=0xFF, force=force)[0] == 0
+            assert arm.robotiq_get_status()[0] == 0
+            gobj = arm.robotiq_status["gOBJ"]
+            closed = cube(st)
+            assert arm.set_position(300, -100, 15, **DOWN) == 0
+            lifted = cube(st)
+        finally:
+            arm.disconnect()
+    return closed, lifted, gobj
+
+
+def test_sdk_robotiq_2f85_grips_the_cube_by_contact() -> None:
+    closed, lifted, gobj = _robotiq_pick(0.1, 1.0, 0xFF)
+    assert gobj == 2 and closed["held"]
+    assert lifted["held"] and lifted["position"][2] - closed["position"][2] == pytest.approx(100.0, abs=2.0)
+
+
+def test_sdk_3kg_cube_slips_out_of_the_robotiq_2f85_at_its_lowest_force() -> None:
+    closed, lifted, gobj = _robotiq_pick(3.0, 0.5, 0)
+    assert gobj == 2
+    assert not lifted["held"] and lifted["position"][2] < -75.0

@@ -27,6 +27,7 @@ from ...model import kinematics as kin
 from .. import contact, safety
 from ..base import C_COLLISION, NOT_IDLE, Handler
 from ..gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
+from ..robotiq import OBJ_MOVING, RobotiqGripper
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
 from .world import World
@@ -43,6 +44,8 @@ class PhysicsComponent:
         self.device = device if isinstance(device, XArmGripper) else None
         if self.device is not None:
             self.world.state.ramp = self.device.position * XARM_MM_PER_PULSE
+        #: The Robotiq 2F-85 on the tool bus, when it is the hand.
+        self.robotiq = device if isinstance(device, RobotiqGripper) and world.fingers else None
         hand = world.hand
         #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
         #: (The drive holds finger a, half the opening, and presses with the force of both pads.)
@@ -51,8 +54,36 @@ class PhysicsComponent:
     def handlers(self) -> dict[int, Handler]:
         return {}
 
+    def _robotiq_ramp(self) -> float:
+        """The Robotiq's command: its own fingers' opening (its model moves them and stops them at the
+        object the engine found), pressing past it while it grips; its force setting limits the drive."""
+        r = self.robotiq
+        assert r is not None
+        force = r.model.force_min + (r.model.force_max - r.model.force_min) * r.rFR / 255.0
+        self.world.set_force(force)
+        if r.gripping:
+            return r.opening_mm - 2 * (2 * force / FINGER_KP) / 0.001 - 1.0
+        return r.opening_mm
+
+    def _robotiq_contact(self) -> None:
+        """Tell the Robotiq where both pads met one object (its gOBJ then says so), and that it is
+        gone when the fingers open."""
+        r = self.robotiq
+        assert r is not None
+        w = self.world
+        gripping = any(len(pads) == 2 for pads in w.pad_contacts().values())
+        closing = r.moving and r.goal > r.position
+        if gripping and closing and r.object_mm is None:
+            width = min(w.opening(), r.model.stroke_mm)
+            r.set_object(width)
+            r.position = min(r.position, r._counts_at(width))  # the fingers stopped where they met it
+        elif r.object_mm is not None and not gripping and not r.gripping and r.gOBJ == OBJ_MOVING:
+            r.object_mm = None  # opening away from it: nothing between the fingers any more
+
     def _ramp(self, dt: float) -> float:
         """This period's finger command (mm of opening)."""
+        if self.robotiq is not None:
+            return self._robotiq_ramp()
         ramp = self.world.state.ramp
         g = self.device
         if g is None or not self.world.fingers:
@@ -97,6 +128,8 @@ class PhysicsComponent:
         ramp = self._ramp(dt)
         w.state.ramp = ramp
         w.step(ctl.data.q, dt, ramp)
+        if self.robotiq is not None:
+            self._robotiq_contact()
         g = self.device
         if g is None or not w.fingers:
             return

@@ -131,6 +131,11 @@ class World:
         self.state = PhysicsState(b"", 0.0, 0, False, b"")
 
     # -- stepping ------------------------------------------------------------------------------
+    def set_force(self, per_pad: float) -> None:
+        """The most each pad presses with (N): the finger drive's force limit (both pads' worth)."""
+        if self.fingers:
+            self.m.actuator_forcerange[0] = (-2.0 * per_pad, 2.0 * per_pad)
+
     def inputs(self, q: np.ndarray, ramp: float) -> bytes:
         return np.asarray(q[: self.robot.dof], dtype=float).tobytes() + struct.pack("<d", ramp)
 
