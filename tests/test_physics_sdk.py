@@ -130,3 +130,37 @@ def test_sdk_3kg_cube_slips_out_of_the_robotiq_2f85_at_its_lowest_force() -> Non
     closed, lifted, gobj = _robotiq_pick(3.0, 0.5, 0)
     assert gobj == 2
     assert not lifted["held"] and lifted["position"][2] < -75.0
+
+
+def test_sdk_vacuum_gripper_seals_on_the_cube_top_and_carries_it() -> None:
+    """The pressure input rises only while the cup lies on the cube's top face; the cube rides with
+    the cup while the vacuum is on and rests where it is let go."""
+    from xarm.wrapper import XArmAPI
+
+    with running_emulator(6, scene=SCENE, speed=4.0, vacuum=True) as st, sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1")
+        try:
+            assert arm.set_tcp_offset([0, 0, 126, 0, 0, 0]) == 0
+            arm.motion_enable(True)
+            arm.set_mode(0)
+            arm.set_state(0)
+            assert arm.set_position(300, -100, 50, **DOWN) == 0
+            # in the air: the pump runs, the pressure never becomes normal (the SDK's wait times out)
+            assert arm.set_vacuum_gripper(True, wait=True, timeout=1) != 0
+            assert arm.get_vacuum_gripper()[1] == 0
+            assert arm.set_vacuum_gripper(False) == 0
+            assert arm.set_position(300, -100, -61, **DOWN) == 0  # the cup pressed on the top face (z -60)
+            assert arm.set_vacuum_gripper(True, wait=True, timeout=3) == 0
+            assert arm.get_vacuum_gripper()[1] == 1
+            assert arm.set_position(300, -100, 40, **DOWN) == 0
+            lifted = cube(st)
+            assert lifted["position"][2] == pytest.approx(20.0, abs=2.0)
+            assert arm.set_position(300, 100, 40, **DOWN) == 0
+            assert arm.set_position(300, 100, -59, **DOWN) == 0
+            assert arm.set_vacuum_gripper(False, wait=True, timeout=3) == 0
+            assert arm.set_position(300, 100, 50, **DOWN) == 0
+        finally:
+            arm.disconnect()
+        end = cube(st)
+        assert end["position"][:2] == pytest.approx([300, 100], abs=3.0)
+        assert end["position"][2] == pytest.approx(-80.0, abs=1.0)

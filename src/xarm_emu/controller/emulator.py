@@ -240,7 +240,7 @@ class Emulator:
         if scene is not None:
             contact.set_scene(self.controller, scene)
         #: The physics world of a scene with objects (controller/physics/), else None.
-        self.physics = physics.attach(self.model, scene, gripper, self.gripper.device) if (
+        self.physics = physics.attach(self.model, scene, gripper, self.gripper.device, self.vacuum) if (
             scene is not None and scene.objects) else None
         if self.physics is not None:
             self.controller.add_component(self.physics)

@@ -24,15 +24,18 @@ if TYPE_CHECKING:
 INSTALL_HINT = "objects in a scene need the physics engine: pip install 'xarm-emu[physics]'"
 
 
-def attach(model: RobotModel, scene: Scene, gripper: str, device: Any) -> PhysicsComponent:
-    """The physics component of ``model`` with ``gripper`` (its tool-bus ``device``) in ``scene``;
-    RuntimeError with :data:`INSTALL_HINT` when the engine is not installed."""
+def attach(model: RobotModel, scene: Scene, gripper: str, device: Any,
+           vacuum: Any = None) -> PhysicsComponent:
+    """The physics component of ``model`` with ``gripper`` (its tool-bus ``device``), or the vacuum
+    gripper ``vacuum`` when attached, in ``scene``; RuntimeError with :data:`INSTALL_HINT` when the
+    engine is not installed."""
     try:
         import mujoco  # noqa: F401
     except ImportError:
         raise RuntimeError(INSTALL_HINT) from None
     from .component import PhysicsComponent
-    from .hands import HANDS
+    from .hands import HANDS, VACUUM_HAND
     from .world import World
 
-    return PhysicsComponent(World(model, scene, HANDS.get(gripper)), device)
+    hand = VACUUM_HAND if vacuum is not None else HANDS.get(gripper)
+    return PhysicsComponent(World(model, scene, hand), device, vacuum)

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from ...model import kinematics as kin
+from ...model.robots import VACUUM_WIRING
 from .. import contact, safety
 from ..base import C_COLLISION, NOT_IDLE, Handler
 from ..gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
@@ -39,8 +40,10 @@ FOLLOW_MM = 0.05
 class PhysicsComponent:
     """Steps :attr:`world` every control period and couples the xArm gripper's fingers to it."""
 
-    def __init__(self, world: World, device: Any) -> None:
+    def __init__(self, world: World, device: Any, vacuum: Any = None) -> None:
         self.world = world
+        #: The vacuum gripper (controller/vacuum.py), when it is the hand.
+        self.vacuum = vacuum
         self.device = device if isinstance(device, XArmGripper) else None
         if self.device is not None:
             self.world.state.ramp = self.device.position * XARM_MM_PER_PULSE
@@ -79,6 +82,18 @@ class PhysicsComponent:
             r.position = min(r.position, r._counts_at(width))  # the fingers stopped where they met it
         elif r.object_mm is not None and not gripping and not r.gripping and r.gOBJ == OBJ_MOVING:
             r.object_mm = None  # opening away from it: nothing between the fingers any more
+
+    def _vacuum(self, ctl: Any) -> None:
+        """The cup seals on a flat face under it (the pressure input then rises as the pump runs) and
+        holds that object while the pump runs; the pump stopped, it lets go."""
+        v, w = self.vacuum, self.world
+        pumping = any(v.pumping_on(k) for k in VACUUM_WIRING)
+        sealed = w.cup_object()
+        if w.state.held >= 0 and not pumping:
+            w.release()
+        elif w.state.held < 0 and pumping and sealed >= 0 and any(v.pressure_on(k) for k in VACUUM_WIRING):
+            w.hold(sealed, ctl.data.q)
+        v.object_present = w.state.held >= 0 or sealed >= 0
 
     def _ramp(self, dt: float) -> float:
         """This period's finger command (mm of opening)."""
@@ -130,6 +145,8 @@ class PhysicsComponent:
         w.step(ctl.data.q, dt, ramp)
         if self.robotiq is not None:
             self._robotiq_contact()
+        if self.vacuum is not None:
+            self._vacuum(ctl)
         g = self.device
         if g is None or not w.fingers:
             return

@@ -50,5 +50,9 @@ XARM_MM_PER_PULSE = XARM_HAND.stroke / 850.0
 ROBOTIQ_2F85_HAND = Hand("Robotiq 2F-85", stroke=85.0, pad_half=(11.0, 4.0, 19.0), tip=BUILTIN_TOOLS[4][2],
                          housing=(55.0, (35.0, 60.0, 55.0)), force=235.0)
 
+#: The xArm Vacuum Gripper: a 20 mm cup whose face is at its 126 mm tool length.
+VACUUM_HAND = Hand("xArm Vacuum Gripper", stroke=0.0, pad_half=(0.0, 0.0, 0.0), tip=BUILTIN_TOOLS[2][2],
+                   housing=(50.0, (30.0, 30.0, 50.0)), force=0.0, cup_radius=20.0)
+
 #: The hands by the emulator's gripper names (``Emulator(gripper=...)``).
 HANDS = {"xarm": XARM_HAND, "robotiq-2f85": ROBOTIQ_2F85_HAND}

@@ -101,6 +101,9 @@ def _hand(h: Hand) -> str:
     hz, hh = h.housing
     out = (f'<geom name="housing" type="box" pos="0 0 {_f(hz * MM)}" size="{_f(*(np.asarray(hh) * MM))}"'
            f' contype="{ARM}" conaffinity="0" friction="{_f(h.friction)} 0.005 0.0001"/>')
+    if h.cup_radius > 0:  # the cup: a short cylinder whose face is at the tip
+        out += (f'<geom name="cup" type="cylinder" pos="0 0 {_f((h.tip - 5.0) * MM)}"'
+                f' size="{_f(h.cup_radius * MM, 5.0 * MM)}" contype="{ARM}" conaffinity="0"/>')
     if h.stroke <= 0:
         return out
     px, py, pz = h.pad_half

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from ...model import kinematics as kin
 from ...model.robots import RobotModel
 from ...model.rotations import matrix_to_rpy, quat_from_matrix, rpy_to_matrix
 from ..contact import Scene
@@ -47,6 +48,10 @@ class PhysicsState:
     still: int
     settled: bool
     inputs: bytes
+    #: The object a vacuum cup holds (its index in the scene, -1: none) and its pose in the flange
+    #: frame then (x, y, z mm, then the rotation's nine entries row by row).
+    held: int = -1
+    relative: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -89,6 +94,8 @@ class World:
         #: Per geom: 1 arm or hand, 2 finger pad, 0 anything else.
         self._kind = np.zeros(m.ngeom, dtype=np.int8)
         self._kind[list(self._arm_geoms)] = 1
+        self._names = {m.geom(g).name: g for g in range(m.ngeom) if m.geom(g).name}
+        self._flange_body = m.body(f"link{dof}").id
         self._arm_idx = np.array(sorted(self._arm_geoms), dtype=int)
         self._kind[list(self._pads)] = 2
         self.objects: list[tuple[str, int, int, int]] = []  # name, qpos adr, dof adr, geom id
@@ -110,7 +117,7 @@ class World:
         buf = np.empty(self._size)
         mujoco.mj_getState(self.m, self.d, buf, _STATE)
         s = self.state
-        return PhysicsState(buf.tobytes(), s.ramp, s.still, s.settled, s.inputs)
+        return PhysicsState(buf.tobytes(), s.ramp, s.still, s.settled, s.inputs, s.held, s.relative)
 
     def restore(self, state: PhysicsState) -> None:
         """Put ``state`` back exactly (a later step gives what it gave the first time)."""
@@ -119,7 +126,8 @@ class World:
             raise ValueError("physics state of another world (other objects or arm)")
         mujoco.mj_setState(self.m, self.d, buf.copy(), _STATE)
         mujoco.mj_forward(self.m, self.d)
-        self.state = PhysicsState(state.integration, state.ramp, state.still, state.settled, state.inputs)
+        self.state = PhysicsState(state.integration, state.ramp, state.still, state.settled, state.inputs,
+                                  state.held, state.relative)
 
     def reset(self, q: np.ndarray | None = None) -> None:
         """Objects back where the scene puts them, at rest; the arm at ``q`` (zero if None)."""
@@ -162,6 +170,8 @@ class World:
         mujoco.mj_step(m, d, nstep=max(1, round(dt / TIMESTEP)))
         d.qpos[self._q] = qa
         d.qvel[self._v] = 0.0
+        if s.held >= 0:
+            self._carry(qa)
         s.inputs = inputs
         s.settled = False
         still = not moving_arm and not self.touching_arm()
@@ -174,6 +184,58 @@ class World:
             d.qvel[:] = 0.0
             d.qacc_warmstart[:] = 0.0
             s.settled = True
+
+    # -- the vacuum cup ------------------------------------------------------------------------
+    def cup_object(self) -> int:
+        """The object whose flat face the cup lies on (its index, -1: none): a contact of the cup
+        whose normal is within 10 degrees of the cup's axis."""
+        if "cup" not in self._names:
+            return -1
+        cup = self._names["cup"]
+        d = self.d
+        hand_z = np.asarray(d.xmat[self._flange_body]).reshape(3, 3)[:, 2]
+        for k in range(d.ncon):
+            c = d.contact[k]
+            a, b = int(c.geom[0]), int(c.geom[1])
+            other = b if a == cup else a if b == cup else -1
+            flat = abs(float(np.dot(c.frame[:3], hand_z))) > 0.985
+            if other in self._object_geoms and c.dist <= 0.0 and flat:
+                return self._object_geoms[other]
+        return -1
+
+    def _flange(self, qa: np.ndarray) -> np.ndarray:
+        return kin.fk(self.robot, qa)
+
+    def hold(self, index: int, q: np.ndarray) -> None:
+        """The cup holds object ``index`` where it is now relative to the flange."""
+        _, a, _, _ = self.objects[index]
+        T = self._flange(np.asarray(q[: self.robot.dof], dtype=float))
+        R = np.empty(9)
+        mujoco.mju_quat2Mat(R, self.d.qpos[a + 3: a + 7])
+        P = np.eye(4)
+        P[:3, :3] = R.reshape(3, 3)
+        P[:3, 3] = self.d.qpos[a: a + 3] / MM
+        rel = np.linalg.inv(T) @ P
+        self.state.held = index
+        self.state.relative = tuple(float(x) for x in (*rel[:3, 3], *rel[:3, :3].ravel()))
+
+    def release(self) -> None:
+        """The cup lets go: the object falls from where it is."""
+        self.state.held = -1
+        self.state.relative = ()
+        self.state.settled = False
+
+    def _carry(self, qa: np.ndarray) -> None:
+        """Put the held object where the flange carries it, at rest in the engine."""
+        _, a, v, _ = self.objects[self.state.held]
+        r = self.state.relative
+        rel = np.eye(4)
+        rel[:3, 3] = r[:3]
+        rel[:3, :3] = np.asarray(r[3:]).reshape(3, 3)
+        P = self._flange(qa) @ rel
+        self.d.qpos[a: a + 3] = P[:3, 3] * MM
+        self.d.qpos[a + 3: a + 7] = quat_from_matrix(P[:3, :3])
+        self.d.qvel[v: v + 6] = 0.0
 
     def _far(self, qa: np.ndarray) -> bool:
         """The arm put at ``qa``: whether no part of it is near an object (within ``mjcf.NEAR``)."""
