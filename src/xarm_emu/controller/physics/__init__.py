@@ -27,12 +27,12 @@ INSTALL_HINT = "objects in a scene need the physics engine: pip install 'xarm-em
 def attach(model: RobotModel, scene: Scene, gripper: str, device: Any,
            vacuum: Any = None) -> PhysicsComponent:
     """The physics component of ``model`` with ``gripper`` (its tool-bus ``device``), or the vacuum
-    gripper ``vacuum`` when attached, in ``scene``; RuntimeError with :data:`INSTALL_HINT` when the
-    engine is not installed."""
+    gripper ``vacuum`` when attached, in ``scene``; ValueError with :data:`INSTALL_HINT` when the
+    engine is not installed (ValueError: one line, as a bad scene file)."""
     try:
         import mujoco  # noqa: F401
     except ImportError:
-        raise RuntimeError(INSTALL_HINT) from None
+        raise ValueError(INSTALL_HINT) from None
     from .component import PhysicsComponent
     from .hands import HANDS, VACUUM_HAND
     from .world import World
