@@ -9,6 +9,7 @@ import struct
 import time
 from typing import Any
 
+import numpy as np
 import pytest
 
 pytest.importorskip("mujoco")
@@ -213,3 +214,16 @@ def test_a_cube_too_heavy_for_the_grip_slips_out_and_is_not_held() -> None:
     end = cube(emu)
     assert end.position[2] < TZ + 25.0  # it stayed down (or fell back)
     assert not end.held
+
+
+def test_the_ft_sensor_reads_the_tables_reaction_in_a_scene_with_objects() -> None:
+    from xarm_emu.controller import ft_sensor
+
+    emu = prepare(Emulator(6, scene=contact.parse_scene(SCENE), ft_sensor=True, ft_noise=False))
+    call(emu, 37, sensitivity=0)
+    call(emu, 12, state=0)
+    line(emu, 200, 0, TZ + 10)
+    assert np.linalg.norm(ft_sensor.reading(emu.controller)[:3]) < 1.0  # above the table: nothing
+    line(emu, 200, 0, TZ - 5)
+    force = ft_sensor.reading(emu.controller)[:3]
+    assert np.linalg.norm(force) == pytest.approx(50.0, rel=0.02)  # 5 mm into 10 N/mm
