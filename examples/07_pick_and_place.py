@@ -57,7 +57,8 @@ def pick_and_place(arm: Any) -> int:
     return 0
 
 
-def test_the_cube_ends_where_the_program_put_it() -> None:
+def run_program() -> dict[str, Any]:
+    """Run the user program against an emulator of the scene; the cube's pose at the end."""
     with running_emulator(6, scene=SCENE, speed=4.0) as st, sdk_pointed_at(st):
         arm = XArmAPI("127.0.0.1")
         try:
@@ -65,6 +66,11 @@ def test_the_cube_ends_where_the_program_put_it() -> None:
         finally:
             arm.disconnect()
         (cube,) = st.call(st.emulator.scene_objects)
+    return dict(cube)
+
+
+def test_the_cube_ends_where_the_program_put_it() -> None:
+    cube = run_program()
     assert cube["position"][:2] == pytest.approx(PLACE, abs=3.0)  # where the program set it down
     assert cube["position"][2] == pytest.approx(TABLE_Z + 20.0, abs=1.0)  # resting on the table
     assert abs(cube["rpy"][0]) < 2.0 and abs(cube["rpy"][1]) < 2.0  # upright
@@ -76,13 +82,7 @@ def test_a_grip_on_nothing_leaves_the_cube_on_the_table() -> None:
     global GRASP_Z
     saved, GRASP_Z = GRASP_Z, TABLE_Z + 100.0
     try:
-        with running_emulator(6, scene=SCENE, speed=4.0) as st, sdk_pointed_at(st):
-            arm = XArmAPI("127.0.0.1")
-            try:
-                assert pick_and_place(arm) == 0
-            finally:
-                arm.disconnect()
-            (cube,) = st.call(st.emulator.scene_objects)
+        cube = run_program()
     finally:
         GRASP_Z = saved
     assert cube["position"][:2] == pytest.approx(PICK, abs=0.5)  # never moved

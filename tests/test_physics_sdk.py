@@ -21,6 +21,14 @@ SCENE = {"plane": [{"name": "table", "point": [0, 0, -100], "normal": [0, 0, 1],
 DOWN = dict(roll=180, pitch=0, yaw=0, speed=150, mvacc=2000, wait=True)
 
 
+def start(arm, tcp_z: float) -> None:
+    """The TCP offset of the tool, then enable, position mode, ready."""
+    assert arm.set_tcp_offset([0, 0, tcp_z, 0, 0, 0]) == 0
+    arm.motion_enable(True)
+    arm.set_mode(0)
+    arm.set_state(0)
+
+
 def cube(st) -> dict:
     return st.call(lambda: st.emulator.scene_objects())[0]
 
@@ -31,10 +39,7 @@ def test_sdk_pick_and_place_with_the_xarm_gripper() -> None:
     with running_emulator(6, scene=SCENE, speed=4.0) as st, sdk_pointed_at(st):
         arm = XArmAPI("127.0.0.1")
         try:
-            assert arm.set_tcp_offset([0, 0, 172, 0, 0, 0]) == 0
-            arm.motion_enable(True)
-            arm.set_mode(0)
-            arm.set_state(0)
+            start(arm, 172)
             assert arm.set_gripper_enable(True) == 0
             assert arm.set_gripper_speed(3000) == 0
             assert arm.set_gripper_position(850, wait=True) == 0
@@ -100,10 +105,7 @@ def _robotiq_pick(mass: float, friction: float, force: int) -> tuple[dict, dict,
     with running_emulator(6, scene=scene, speed=4.0, gripper="robotiq-2f85") as st, sdk_pointed_at(st):
         arm = XArmAPI("127.0.0.1")
         try:
-            assert arm.set_tcp_offset([0, 0, 174, 0, 0, 0]) == 0
-            arm.motion_enable(True)
-            arm.set_mode(0)
-            arm.set_state(0)
+            start(arm, 174)
             assert arm.robotiq_reset()[0] == 0
             assert arm.robotiq_set_activate()[0] == 0
             assert arm.robotiq_open(speed=0xFF, force=force)[0] == 0
@@ -140,10 +142,7 @@ def test_sdk_vacuum_gripper_seals_on_the_cube_top_and_carries_it() -> None:
     with running_emulator(6, scene=SCENE, speed=4.0, vacuum=True) as st, sdk_pointed_at(st):
         arm = XArmAPI("127.0.0.1")
         try:
-            assert arm.set_tcp_offset([0, 0, 126, 0, 0, 0]) == 0
-            arm.motion_enable(True)
-            arm.set_mode(0)
-            arm.set_state(0)
+            start(arm, 126)
             assert arm.set_position(300, -100, 50, **DOWN) == 0
             # in the air: the pump runs, the pressure never becomes normal (the SDK's wait times out)
             assert arm.set_vacuum_gripper(True, wait=True, timeout=1) != 0

@@ -103,7 +103,7 @@ class Scene:
         return out
 
 
-def _vec3(shape: str, key: str, v: Any) -> tuple[float, float, float]:
+def vec3(shape: str, key: str, v: Any) -> tuple[float, float, float]:
     if not isinstance(v, Sequence) or isinstance(v, str) or len(v) != 3:
         raise ValueError(f"{shape}: {key} must be a list of three numbers (mm)")
     try:
@@ -143,14 +143,14 @@ def _shape(kind: str, i: int, t: Any) -> Shape:
     c = _number(label, "damping", t.get("damping", 0.0))
     mu = _number(label, "friction", t.get("friction", 0.0))
     if kind == "plane":
-        n = np.asarray(_vec3(label, "normal", t["normal"]))
+        n = np.asarray(vec3(label, "normal", t["normal"]))
         norm = float(np.linalg.norm(n))
         if norm < 1e-9:
             raise ValueError(f"{label}: normal must not be zero")
         u = n / norm
         unit = (float(u[0]), float(u[1]), float(u[2]))
-        return Plane(name, _vec3(label, "point", t["point"]), unit, k, c, mu)
-    lo, hi = _vec3(label, "min", t["min"]), _vec3(label, "max", t["max"])
+        return Plane(name, vec3(label, "point", t["point"]), unit, k, c, mu)
+    lo, hi = vec3(label, "min", t["min"]), vec3(label, "max", t["max"])
     if any(a >= b for a, b in zip(lo, hi, strict=True)):
         raise ValueError(f"{label}: min must be below max on every axis")
     return Box(name, lo, hi, k, c, mu)

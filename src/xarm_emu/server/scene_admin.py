@@ -6,26 +6,17 @@ scene file puts it). Each request is checked before anything changes; ValueError
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Callable
 from typing import Any
 
+from ..controller import contact
 from ..controller.emulator import Emulator
 
 COMMANDS = ("scene-objects", "scene-place", "scene-reset")
 
 
 def _vector(request: dict[str, Any], key: str, default: Any = None) -> tuple[float, float, float]:
-    v = request.get(key, default)
-    if not isinstance(v, list | tuple) or len(v) != 3:
-        raise ValueError(f"{key} must be a list of three numbers")
-    try:
-        out = tuple(float(x) for x in v)
-    except (TypeError, ValueError):
-        raise ValueError(f"{key} must be a list of three numbers") from None
-    if not all(math.isfinite(x) for x in out):
-        raise ValueError(f"{key} must be finite")
-    return (out[0], out[1], out[2])
+    return contact.vec3("scene-place", key, request.get(key, default))
 
 
 def prepare(emu: Emulator, cmd: str, request: dict[str, Any]) -> Callable[[], str]:
