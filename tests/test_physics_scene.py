@@ -69,3 +69,25 @@ def test_the_documented_scene_file_reads() -> None:
     scene = contact.load_scene(Path(__file__).parent.parent / "examples" / "pick_and_place.toml")
     assert [o.name for o in scene.objects] == ["cube"] and scene.objects[0].position[2] == -80.0
     assert scene.objects[0].size == (40.0, 40.0, 40.0)
+
+
+def test_the_3d_view_draws_the_objects_where_they_are(make_server) -> None:  # type: ignore[no-untyped-def]
+    pytest.importorskip("viser")
+    pytest.importorskip("mujoco")
+    from helpers import wait_for
+
+    from xarm_emu.controller.emulator import Emulator
+
+    table = {"point": [0, 0, 0], "normal": [0, 0, 1], "stiffness": 10.0}
+    ball = {"name": "ball", "shape": "sphere", "size": [30], "mass": 0.05, "position": [200, 200, 15]}
+    scene = contact.parse_scene({"plane": [table], "object": [CUBE, ball]})
+    st = make_server(emulator=Emulator(6, scene=scene), view=True, view_port=0)
+    viewer = st.server.viewer
+    st.call(lambda: st.emulator.place_object("cube", (250, -50, 20), (0, 0, 30)))
+    assert wait_for(lambda: st.call(lambda: st.emulator.physics.world.state.settled))
+    n = viewer.updates
+    assert wait_for(lambda: viewer.updates > n + 2)
+    handle = st.call(lambda: viewer._handles["/objects/object_cube"])
+    pose = st.call(lambda: st.emulator.scene_objects()[0])
+    assert tuple(handle.position) == pytest.approx([v / 1000 for v in pose["position"]], abs=1e-3)
+    assert "/objects/object_ball" in viewer._handles
