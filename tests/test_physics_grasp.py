@@ -227,3 +227,24 @@ def test_the_ft_sensor_reads_the_tables_reaction_in_a_scene_with_objects() -> No
     line(emu, 200, 0, TZ - 5)
     force = ft_sensor.reading(emu.controller)[:3]
     assert np.linalg.norm(force) == pytest.approx(50.0, rel=0.02)  # 5 mm into 10 N/mm
+
+
+@pytest.mark.parametrize("sensitivity", [3, 0])
+def test_pushing_a_cube_against_a_wall_raises_c31_from_the_contact(sensitivity: int) -> None:
+    """The closed fingers push a cube along the table into a fixed block at 50 mm/s: the cube's push
+    on the hand, from the engine's contacts, enters the joint torques."""
+    wall = {"name": "wall", "min": [250, 0, TZ], "max": [350, 50, TZ + 100], "stiffness": 10.0}
+    part = {**CUBE, "position": [300, -35, TZ + 20]}
+    emu = prepare(Emulator(6, scene=contact.parse_scene({"plane": [TABLE], "box": [wall], "object": [part]})))
+    call(emu, 37, sensitivity=sensitivity)
+    call(emu, 12, state=0)
+    line(emu, 300, -110, TZ + 60)
+    line(emu, 300, -110, TZ + 15)
+    call(emu, 21, pose=(300.0, 0.0, TZ + 15, math.pi, 0.0, 0.0), speed=50.0, acc=2000.0, mvtime=0.0)
+    emu.advance(3.0)
+    error = REGISTERS[15].reply.decode(emu.handle(15, b"")[1])["error"]
+    assert error == (31 if sensitivity else 0)
+    if sensitivity:  # stopped by the cube pressed against the wall, the tool short of the wall itself
+        tcp = emu.controller.tcp_matrix()[:3, 3]
+        assert -60.0 < tcp[1] < -10.0, tcp
+        assert cube(emu).position[1] > -36.0

@@ -10,7 +10,8 @@ object (motion bits 2, what the SDK's wait for a grip reads as done). Free finge
 itself, so a gripper that closes on nothing moves exactly as without the engine.
 
 Collision detection (C31, manual 3.2.1, at the sensitivity of register 37): the force of the scene's
-planes and boxes on the TCP (their spring-damper, :func:`.contact.scene_wrench`) enters the joint
+planes and boxes on the TCP (their spring-damper, :func:`.contact.scene_wrench`) and the engine's
+contact forces of objects on the arm and hand (:meth:`.world.World.arm_torques`) enter the joint
 torques as ``J^T f``; the largest external joint torque is checked against the sensitivity's
 threshold every period (:func:`.safety.collision_detected`), so pushing the tool into the table
 raises C31 as a real push would; sensitivity 0 never does.
@@ -133,7 +134,7 @@ class PhysicsComponent:
         sens = ctl.settings.collision_sensitivity
         if not sens or ctl.error_code or not all(ctl.enabled):
             return
-        tau = self.external_torques(ctl)
+        tau = self.external_torques(ctl) + self.world.arm_torques()
         if tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
             ctl.raise_error(C_COLLISION)
 
