@@ -170,7 +170,7 @@ def world_xml(model: RobotModel, scene: Scene, hand: Hand | None) -> str:
     objects = "".join(_object(o) for o in scene.objects)
     return (f'<mujoco model="xarm-emu">'
             f'<option timestep="{TIMESTEP!r}" integrator="implicitfast" cone="elliptic" impratio="10"'
-            f' noslip_iterations="3"/>'
+            f'/>'
             f'<default><geom solref="{SOLREF}" solimp="{SOLIMP}"/></default>'
             f'<worldbody>{"".join(base)}{arm}{fixtures}{objects}</worldbody>'
             + (_finger_drive(hand) if hand is not None and hand.stroke > 0 else "")

@@ -162,6 +162,7 @@ class World:
         qa = np.asarray(q[: self.robot.dof], dtype=float)
         if s.settled and inputs[-8:] == s.inputs[-8:] and self._far(qa):
             s.inputs = inputs  # the arm moves where nothing is near it: the world stays settled
+            d.qfrc_constraint[self._v] = 0.0
             return
         moving_arm = not np.array_equal(d.qpos[self._q], qa)
         d.qvel[self._v] = (qa - d.qpos[self._q]) / dt
@@ -238,30 +239,10 @@ class World:
         self.d.qvel[v: v + 6] = 0.0
 
     def arm_torques(self) -> np.ndarray:
-        """The joint torques (N m) of what objects press on the arm and the hand: ``J^T f`` of each
-        touching contact, at its point, on the arm's joints."""
-        m, d = self.m, self.d
-        tau = np.zeros(self.robot.dof)
-        n = d.ncon
-        if not n:
-            return tau
-        pairs = np.asarray(d.contact.geom[:n]).reshape(-1, 2)
-        kinds = self._kind[pairs]
-        rows = np.nonzero(kinds.any(axis=1) & (np.asarray(d.contact.dist[:n]) <= 0.0))[0]
-        if not rows.size:
-            return tau
-        f6 = np.zeros(6)
-        jacp = np.zeros((3, m.nv))
-        for k in rows:
-            c = d.contact[int(k)]
-            mujoco.mj_contactForce(m, d, int(k), f6)
-            frame = np.asarray(c.frame).reshape(3, 3)
-            force = frame.T @ f6[:3]  # on geom2, from geom1, in the base frame
-            arm_geom = int(c.geom[0]) if kinds[k, 0] else int(c.geom[1])
-            on_arm = -force if kinds[k, 0] else force
-            mujoco.mj_jac(m, d, jacp, None, c.pos, int(m.geom_bodyid[arm_geom]))
-            tau += jacp[:, self._v].T @ on_arm
-        return tau
+        """The joint torques (N m) of what objects press on the arm and the hand: the engine's
+        constraint forces on the arm's joints (``J^T f`` of every contact on the arm, the hand and
+        the fingers; a grip's squeeze cancels out) in the last step."""
+        return np.array(self.d.qfrc_constraint[self._v])
 
     def _far(self, qa: np.ndarray) -> bool:
         """The arm put at ``qa``: whether no part of it is near an object (within ``mjcf.NEAR``)."""
