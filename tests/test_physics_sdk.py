@@ -148,14 +148,14 @@ def test_sdk_vacuum_gripper_seals_on_the_cube_top_and_carries_it() -> None:
             assert arm.set_vacuum_gripper(True, wait=True, timeout=1) != 0
             assert arm.get_vacuum_gripper()[1] == 0
             assert arm.set_vacuum_gripper(False) == 0
-            assert arm.set_position(300, -100, -61, **DOWN) == 0  # the cup pressed on the top face (z -60)
+            assert arm.set_position(300, -100, -60, **DOWN) == 0  # the cup on the top face (z -60)
             assert arm.set_vacuum_gripper(True, wait=True, timeout=3) == 0
             assert arm.get_vacuum_gripper()[1] == 1
             assert arm.set_position(300, -100, 40, **DOWN) == 0
             lifted = cube(st)
             assert lifted["position"][2] == pytest.approx(20.0, abs=2.0)
             assert arm.set_position(300, 100, 40, **DOWN) == 0
-            assert arm.set_position(300, 100, -59, **DOWN) == 0
+            assert arm.set_position(300, 100, -59.5, **DOWN) == 0
             assert arm.set_vacuum_gripper(False, wait=True, timeout=3) == 0
             assert arm.set_position(300, 100, 50, **DOWN) == 0
         finally:

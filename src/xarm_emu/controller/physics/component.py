@@ -89,7 +89,7 @@ class PhysicsComponent:
         holds that object while the pump runs; the pump stopped, it lets go."""
         v, w = self.vacuum, self.world
         pumping = any(v.pumping_on(k) for k in VACUUM_WIRING)
-        sealed = w.cup_object()
+        sealed = w.cup_object(ctl.data.q)
         if w.state.held >= 0 and not pumping:
             w.release()
         elif w.state.held < 0 and pumping and sealed >= 0 and any(v.pressure_on(k) for k in VACUUM_WIRING):
@@ -134,7 +134,9 @@ class PhysicsComponent:
         sens = ctl.settings.collision_sensitivity
         if not sens or ctl.error_code or not all(ctl.enabled):
             return
-        tau = self.external_torques(ctl) + self.world.arm_torques()
+        gripping = bool(self.device is not None and self.device.gripped) or bool(
+            self.robotiq is not None and self.robotiq.gripping)
+        tau = self.external_torques(ctl) + self.world.arm_torques(gripping)
         if tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
             ctl.raise_error(C_COLLISION)
 

@@ -31,6 +31,8 @@ from .mjcf import MM, NEAR, TIMESTEP, world_xml
 
 #: Object and finger speeds below this are still (m/s, and rad/s for turning).
 STILL_SPEED = 2.0e-4
+#: The cup seals on a face its own face is this near (mm), as the cup's lip gives.
+SEAL_MM = 1.0
 #: Control periods of stillness after which the world is settled.
 SETTLE_PERIODS = 25
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -94,8 +96,6 @@ class World:
         #: Per geom: 1 arm or hand, 2 finger pad, 0 anything else.
         self._kind = np.zeros(m.ngeom, dtype=np.int8)
         self._kind[list(self._arm_geoms)] = 1
-        self._names = {m.geom(g).name: g for g in range(m.ngeom) if m.geom(g).name}
-        self._flange_body = m.body(f"link{dof}").id
         self._arm_idx = np.array(sorted(self._arm_geoms), dtype=int)
         self._kind[list(self._pads)] = 2
         self.objects: list[tuple[str, int, int, int]] = []  # name, qpos adr, dof adr, geom id
@@ -162,7 +162,6 @@ class World:
         qa = np.asarray(q[: self.robot.dof], dtype=float)
         if s.settled and inputs[-8:] == s.inputs[-8:] and self._far(qa):
             s.inputs = inputs  # the arm moves where nothing is near it: the world stays settled
-            d.qfrc_constraint[self._v] = 0.0
             return
         moving_arm = not np.array_equal(d.qpos[self._q], qa)
         d.qvel[self._v] = (qa - d.qpos[self._q]) / dt
@@ -187,21 +186,38 @@ class World:
             s.settled = True
 
     # -- the vacuum cup ------------------------------------------------------------------------
-    def cup_object(self) -> int:
-        """The object whose flat face the cup lies on (its index, -1: none): a contact of the cup
-        whose normal is within 10 degrees of the cup's axis."""
-        if "cup" not in self._names:
+    def cup_object(self, q: np.ndarray) -> int:
+        """The object whose flat face the cup's face lies on (its index, -1: none): the cup's centre
+        within :data:`SEAL_MM` of a face, inside its outline, the cup's axis within 10 degrees of the
+        face's normal. Spheres have no flat face."""
+        hand = self.hand
+        if hand is None or hand.cup_radius <= 0:
             return -1
-        cup = self._names["cup"]
-        d = self.d
-        hand_z = np.asarray(d.xmat[self._flange_body]).reshape(3, 3)[:, 2]
-        for k in range(d.ncon):
-            c = d.contact[k]
-            a, b = int(c.geom[0]), int(c.geom[1])
-            other = b if a == cup else a if b == cup else -1
-            flat = abs(float(np.dot(c.frame[:3], hand_z))) > 0.985
-            if other in self._object_geoms and c.dist <= 0.0 and flat:
-                return self._object_geoms[other]
+        T = self._flange(np.asarray(q[: self.robot.dof], dtype=float))
+        p = T[:3, :3] @ np.array([0.0, 0.0, hand.tip]) + T[:3, 3]  # mm
+        axis = T[:3, 2]
+        R = np.empty(9)
+        for i, (spec, (_, a, _, _)) in enumerate(zip(self.scene.objects, self.objects, strict=True)):
+            if spec.shape == "sphere":
+                continue
+            mujoco.mju_quat2Mat(R, self.d.qpos[a + 3: a + 7])
+            Ro = R.reshape(3, 3)
+            local = Ro.T @ (p - self.d.qpos[a: a + 3] / MM)
+            if spec.shape == "box":
+                half = np.asarray(spec.size) / 2.0
+                faces = range(3)
+            else:  # cylinder: its two round faces, along its own z
+                half = np.array([spec.size[0] / 2.0, spec.size[0] / 2.0, spec.size[1] / 2.0])
+                faces = range(2, 3)
+            for k in faces:
+                others = [j for j in range(3) if j != k]
+                if spec.shape == "box":
+                    inside = all(abs(local[j]) <= half[j] for j in others)
+                else:
+                    inside = math.hypot(local[0], local[1]) <= half[0]
+                if (inside and abs(abs(local[k]) - half[k]) <= SEAL_MM
+                        and abs(float(np.dot(Ro[:, k], axis))) > 0.985):
+                    return i
         return -1
 
     def _flange(self, qa: np.ndarray) -> np.ndarray:
@@ -238,11 +254,35 @@ class World:
         self.d.qpos[a + 3: a + 7] = quat_from_matrix(P[:3, :3])
         self.d.qvel[v: v + 6] = 0.0
 
-    def arm_torques(self) -> np.ndarray:
-        """The joint torques (N m) of what objects press on the arm and the hand: the engine's
-        constraint forces on the arm's joints (``J^T f`` of every contact on the arm, the hand and
-        the fingers; a grip's squeeze cancels out) in the last step."""
-        return np.array(self.d.qfrc_constraint[self._v])
+    def arm_torques(self, gripping: bool = False) -> np.ndarray:
+        """The joint torques (N m) of what objects press on the arm and the hand: ``J^T f`` of each
+        touching contact, at its point, on the arm's joints. While the hand grips (``gripping``, its
+        device says so) the pads' contacts with an object both pads touch are its own squeeze and
+        are left out."""
+        m, d = self.m, self.d
+        tau = np.zeros(self.robot.dof)
+        n = d.ncon
+        if not n:
+            return tau
+        pairs = np.asarray(d.contact.geom[:n]).reshape(-1, 2)
+        kinds = self._kind[pairs]
+        rows = np.nonzero(kinds.any(axis=1) & (np.asarray(d.contact.dist[:n]) <= 0.0))[0]
+        if not rows.size:
+            return tau
+        gripped = {i for i, pads in self.pad_contacts().items() if len(pads) == 2} if gripping else set()
+        f6 = np.zeros(6)
+        jacp = np.zeros((3, m.nv))
+        for k in rows:
+            c = d.contact[int(k)]
+            first = bool(kinds[k, 0])
+            arm_geom, other = (int(c.geom[0]), int(c.geom[1])) if first else (int(c.geom[1]), int(c.geom[0]))
+            if self._kind[arm_geom] == 2 and self._object_geoms.get(other) in gripped:
+                continue
+            mujoco.mj_contactForce(m, d, int(k), f6)
+            force = np.asarray(c.frame).reshape(3, 3).T @ f6[:3]  # on geom2, from geom1
+            mujoco.mj_jac(m, d, jacp, None, c.pos, int(m.geom_bodyid[arm_geom]))
+            tau += jacp[:, self._v].T @ (-force if first else force)
+        return tau
 
     def _far(self, qa: np.ndarray) -> bool:
         """The arm put at ``qa``: whether no part of it is near an object (within ``mjcf.NEAR``)."""
