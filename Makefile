@@ -17,7 +17,7 @@ $(SERVE_STAMP): pyproject.toml
 
 $(STAMP): $(SERVE_STAMP)
 	@echo "== installing the test, lint, 3D view and recording tools"
-	$(PY) -m pip install --disable-pip-version-check --progress-bar on -e '.[test,view,record]'
+	$(PY) -m pip install --disable-pip-version-check --progress-bar on -e '.[test,view,record,physics]'
 	@touch $(STAMP)
 
 install: $(STAMP)

@@ -27,6 +27,7 @@ from .protocol import codes
 from .protocol.firmware import SERVE_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, VersionError, profile_for
 from .protocol.frame import COMMAND_PORT
 from .protocol.reports import DEVELOP_PORT, NORMAL_PORT, RICH_PORT
+from .scene_cli import register as _register_scene
 from .server.report_sender import DEFAULT_PRIORITY as DEFAULT_REPORT_PRIORITY
 
 if TYPE_CHECKING:
@@ -884,7 +885,7 @@ def _admin(host: str, port: int, admin_port: int | None, cmd: str, *, refused_ex
         err_console.print(f"cannot reach the admin channel at {host}:{aport} ({exc}); start the emulator "
                           "with `xarm-emu serve --admin` and run this on the same machine")
         raise typer.Exit(1) from None
-    if cmd != "checkpoint-list":
+    if cmd not in ("checkpoint-list", "scene-objects"):
         console.print(message)
     return message
 
@@ -948,6 +949,9 @@ def _inject_command(cmd: str, doc: str, own: tuple[tuple[str, Any, str], ...]) -
 
 for _cmd, (_doc, _own) in INJECT_COMMANDS.items():
     inject_app.command(_cmd)(_inject_command(_cmd, _doc, _own))
+
+
+_register_scene(app, _admin, console)
 
 
 @app.command()

@@ -22,11 +22,11 @@
   gripper); :mod:`.linear_track` (the linear track on the control box RS-485), :mod:`.ft_sensor`
   (the six-axis F/T sensor) with :mod:`.contact` (the contact scene) and :mod:`.force_control` (its
   admittance and force control, register 202); :mod:`.modbus_map` binds the standard Modbus map to a
-  live box.
+  live box; :mod:`.physics` (objects, grasps and contacts of a scene with ``[[object]]`` tables).
 """
 
 __all__ = ["base", "bio_gripper", "box_state", "commands", "config", "contact", "core", "emulator",
            "executor", "faults", "feedback", "force_control", "ft_sensor", "gripper", "handlers", "io",
-           "linear_track", "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "poses",
+           "linear_track", "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "physics", "poses",
            "reduced", "robotiq", "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum",
            "velocity"]

@@ -24,11 +24,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from ..protocol.modbus import POINTS
 from .bio_gripper import BioGripperState
 from .feedback import FeedbackState
 from .gripper import ToolBusState, XArmGripperState
+from .inspire_hand import HandState
 from .io import IOState
 from .linear_track import LinearTrackState
 from .lite6_gripper import Lite6GripperState
@@ -37,6 +39,9 @@ from .settings import Settings
 from .state import ControllerState
 from .thermal import ThermalState
 from .vacuum import VacuumState
+
+if TYPE_CHECKING:  # the physics world imports its engine (an extra) only for a scene with objects
+    from .physics.world import PhysicsState
 
 
 def _zeros(point: str) -> Callable[[], list[int]]:
@@ -68,7 +73,7 @@ class Schedule:
 
 
 #: What may sit on the tool RS-485 beside the xArm gripper (controller/emulator.py ``tool_device``).
-ToolDeviceState = RobotiqState | BioGripperState
+ToolDeviceState = RobotiqState | BioGripperState | HandState
 
 
 @dataclass(slots=True)
@@ -90,9 +95,12 @@ class EmulatorState:
     linear_track: LinearTrackState | None = None
     #: The feedback queue of firmware 2.x (registers 253/254 and the 0xFF frames' events).
     feedback: FeedbackState | None = None
+    #: The physics world of a scene with objects (:mod:`.physics`): captured from the engine as a
+    #: value (``World.capture``) and put back with ``World.restore``.
+    physics: PhysicsState | None = None
 
     def layout(self) -> tuple[type | None, ...]:
         """Which optional parts the box has, by type: two states of one layout fit one emulator."""
         return tuple(None if x is None else type(x)
                      for x in (self.tool_device, self.vacuum, self.lite6_gripper, self.linear_track,
-                               self.feedback))
+                               self.feedback, self.physics))

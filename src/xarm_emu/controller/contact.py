@@ -24,6 +24,9 @@ at most ``mu`` times that force. The scene is declared in a TOML file (``serve -
 
 or through the admin channel as the same tables (:func:`parse_scene`). A file with errors raises
 ``ValueError`` with one line naming the shape and the key.
+
+``[[object]]`` tables add loose objects (:mod:`.physics.objects`): a scene with objects runs the
+physics engine (:mod:`.physics`), in which the planes and boxes are fixed bodies too.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from ..model import kinematics as kin
+from .physics.objects import ObjectSpec, parse_objects
 
 
 @dataclass(frozen=True)
@@ -83,9 +87,10 @@ Shape = Plane | Box
 
 @dataclass(frozen=True)
 class Scene:
-    """The shapes of one contact scene."""
+    """The shapes of one contact scene and its loose objects (as declared: where they start)."""
 
     shapes: tuple[Shape, ...] = ()
+    objects: tuple[ObjectSpec, ...] = ()
 
     def to_dict(self) -> dict[str, list[dict[str, Any]]]:
         """The scene as the tables :func:`parse_scene` reads (the admin channel shows it so)."""
@@ -93,10 +98,12 @@ class Scene:
         for s in self.shapes:
             d = dict(vars(s))
             out["plane" if isinstance(s, Plane) else "box"].append(d)
+        if self.objects:
+            out["object"] = [o.to_dict() for o in self.objects]
         return out
 
 
-def _vec3(shape: str, key: str, v: Any) -> tuple[float, float, float]:
+def vec3(shape: str, key: str, v: Any) -> tuple[float, float, float]:
     if not isinstance(v, Sequence) or isinstance(v, str) or len(v) != 3:
         raise ValueError(f"{shape}: {key} must be a list of three numbers (mm)")
     try:
@@ -136,34 +143,34 @@ def _shape(kind: str, i: int, t: Any) -> Shape:
     c = _number(label, "damping", t.get("damping", 0.0))
     mu = _number(label, "friction", t.get("friction", 0.0))
     if kind == "plane":
-        n = np.asarray(_vec3(label, "normal", t["normal"]))
+        n = np.asarray(vec3(label, "normal", t["normal"]))
         norm = float(np.linalg.norm(n))
         if norm < 1e-9:
             raise ValueError(f"{label}: normal must not be zero")
         u = n / norm
         unit = (float(u[0]), float(u[1]), float(u[2]))
-        return Plane(name, _vec3(label, "point", t["point"]), unit, k, c, mu)
-    lo, hi = _vec3(label, "min", t["min"]), _vec3(label, "max", t["max"])
+        return Plane(name, vec3(label, "point", t["point"]), unit, k, c, mu)
+    lo, hi = vec3(label, "min", t["min"]), vec3(label, "max", t["max"])
     if any(a >= b for a, b in zip(lo, hi, strict=True)):
         raise ValueError(f"{label}: min must be below max on every axis")
     return Box(name, lo, hi, k, c, mu)
 
 
 def parse_scene(tables: Mapping[str, Any]) -> Scene:
-    """A :class:`Scene` from TOML-like tables ``{"plane": [...], "box": [...]}``; ValueError on
-    anything else (one line naming the shape and the key)."""
+    """A :class:`Scene` from TOML-like tables ``{"plane": [...], "box": [...], "object": [...]}``;
+    ValueError on anything else (one line naming the shape and the key)."""
     if not isinstance(tables, Mapping):
-        raise ValueError("a scene is a table with 'plane' and 'box' lists")
-    unknown = sorted(set(tables) - {"plane", "box"})
+        raise ValueError("a scene is a table with 'plane', 'box' and 'object' lists")
+    unknown = sorted(set(tables) - {"plane", "box", "object"})
     if unknown:
-        raise ValueError(f"unknown scene entry {unknown[0]!r} (known: plane, box)")
+        raise ValueError(f"unknown scene entry {unknown[0]!r} (known: plane, box, object)")
     shapes: list[Shape] = []
     for kind in ("plane", "box"):
         items = tables.get(kind, [])
         if not isinstance(items, list):
             raise ValueError(f"{kind} must be a list of tables ([[{kind}]])")
         shapes.extend(_shape(kind, i, t) for i, t in enumerate(items))
-    return Scene(tuple(shapes))
+    return Scene(tuple(shapes), parse_objects(tables.get("object", [])))
 
 
 def load_scene(path: str | Path) -> Scene:

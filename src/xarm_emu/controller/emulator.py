@@ -28,7 +28,7 @@ from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
-from . import contact, ft_sensor, identification, safety, trajectory
+from . import contact, ft_sensor, identification, physics, safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
 from .bio_gripper import BioGripper
 from .box_state import EmulatorState, ModbusUserState, Schedule
@@ -257,6 +257,11 @@ class Emulator:
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
             contact.set_scene(self.controller, scene)
+        #: The physics world of a scene with objects (controller/physics/), else None.
+        self.physics = physics.attach(self.model, scene, gripper, self.gripper.device, self.vacuum) if (
+            scene is not None and scene.objects) else None
+        if self.physics is not None:
+            self.controller.add_component(self.physics)
         self.thermal = ThermalModel.for_model(self.model)
         #: Run every control period one by one, never jumping over idle ones (:meth:`step`); the
         #: results are the same either way, this switch is there to show it.
@@ -532,7 +537,8 @@ class Emulator:
             vacuum=None if self.vacuum is None else self.vacuum.data,
             lite6_gripper=None if self.lite6_gripper is None else self.lite6_gripper.data,
             linear_track=None if self.linear_track is None else self.linear_track.data,
-            feedback=None if (fq := find_feedback_queue(ctl)) is None else fq.data)
+            feedback=None if (fq := find_feedback_queue(ctl)) is None else fq.data,
+            physics=None if self.physics is None else self.physics.world.capture())
 
     def _adopt(self, state: EmulatorState) -> None:
         """Make ``state`` the box's state, each part handed to its component as a whole."""
@@ -556,6 +562,8 @@ class Emulator:
             self.linear_track.data = state.linear_track
         if (fq := find_feedback_queue(ctl)) is not None and state.feedback is not None:
             fq.data = state.feedback
+        if self.physics is not None and state.physics is not None:
+            self.physics.world.restore(state.physics)
 
     def _memo(self, state: EmulatorState) -> dict[int, object]:
         """Objects a copy of ``state`` shares instead of copying: the model, the controller and the
@@ -722,6 +730,27 @@ class Emulator:
         """Make ``scene`` the contact scene (planes and boxes in the base frame)."""
         self.generation += 1
         contact.set_scene(self.controller, scene)
+
+    # -- objects of the physics world (controller/physics/) -------------------------------------
+    def scene_objects(self) -> list[dict[str, Any]]:
+        """Every object's pose (mm, base frame; roll/pitch/yaw deg) and whether the hand holds it;
+        empty without objects."""
+        return [] if self.physics is None else [vars(p) for p in self.physics.world.poses()]
+
+    def place_object(self, name: str, position: Any, rpy: Any = (0.0, 0.0, 0.0)) -> None:
+        """Put object ``name`` at ``position`` (mm) turned by ``rpy`` (deg), at rest; ValueError if
+        there is no such object."""
+        self.generation += 1
+        if self.physics is None:
+            raise ValueError("the scene has no objects (serve --scene with [[object]] tables)")
+        self.physics.world.place(name, tuple(position), tuple(rpy))
+
+    def reset_objects(self) -> None:
+        """Every object back where the scene file puts it, at rest."""
+        self.generation += 1
+        if self.physics is None:
+            raise ValueError("the scene has no objects (serve --scene with [[object]] tables)")
+        self.physics.world.reset(self.controller.q)
 
     def inject_ft_error(self, code: int) -> None:
         """The F/T sensor reports error ``code`` (as get_ft_sensor_error reads it)."""

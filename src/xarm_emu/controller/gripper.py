@@ -6,7 +6,8 @@ where the gripper answers as slave 8. Gripper registers (u16, big-endian):
 =========  ======  ====================================================
 address    access  meaning
 =========  ======  ====================================================
-0x0000     r       status: bits 0-1 motion (0 stopped, 1 moving, 3 fault),
+0x0000     r       status: bits 0-1 motion (0 stopped, 1 moving, 2 stopped on an object,
+                   3 fault),
                    bits 2-3 enable (0 disabled, 2 enabled)
 0x000F     r       error code (section 3.3, 0 = none)
 0x0100     rw      enable (0/1)
@@ -105,7 +106,9 @@ GRIPPER_ERRORS = frozenset(codes.GRIPPER_ERRORS)
 #: Codes whose handling is "restart the xArm": error clear does not remove them.
 NEEDS_RESTART = frozenset({G_CURRENT_DETECTION})
 
-MOTION_STOPPED, MOTION_MOVING, MOTION_FAULT = 0, 1, 3
+#: Motion bits of the status: 2 is fingers stopped on an object short of the target, which the SDK's
+#: wait for a grip takes as done (only a physics scene, controller/physics/, stops them so).
+MOTION_STOPPED, MOTION_MOVING, MOTION_GRIPPED, MOTION_FAULT = 0, 1, 2, 3
 
 
 class ToolDevice(rtu.RegisterDevice, Protocol):
@@ -167,6 +170,8 @@ class XArmGripper:
         self.position = 0.0
         self.target = 0
         self.error = 0
+        #: The fingers press on an object short of the target (set by the physics world).
+        self.gripped = False
         self._target_words = [0, 0]
 
     # --- state -------------------------------------------------------------------------------------
@@ -177,7 +182,8 @@ class XArmGripper:
 
     @property
     def status(self) -> int:
-        motion = MOTION_FAULT if self.error else (MOTION_MOVING if self.moving else MOTION_STOPPED)
+        motion = (MOTION_FAULT if self.error else MOTION_GRIPPED if self.gripped
+                  else MOTION_MOVING if self.moving else MOTION_STOPPED)
         return motion | ((2 if self.enabled else 0) << 2)
 
     @property

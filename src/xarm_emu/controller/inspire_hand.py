@@ -88,21 +88,21 @@ class InspireHand:
 
     def __init__(self, baud_index: int = HAND_BAUD_INDEX) -> None:
         self.baud_index = baud_index
-        self.state = HandState()
+        self.data = HandState()
 
     # --- ToolDevice -------------------------------------------------------------------------------
     @property
     def error(self) -> int:
-        return max(self.state.errors)
+        return max(self.data.errors)
 
     def inject_error(self, code: int) -> None:
         """Every finger reports error byte ``code`` and stops."""
         if not 1 <= code <= 0xFF:
             raise ValueError("an RH56 error byte is 1..255")
-        self.state.errors = [code] * DOF
+        self.data.errors = [code] * DOF
 
     def clear_error(self) -> None:
-        self.state.errors = [0] * DOF
+        self.data.errors = [0] * DOF
 
     def check_object(self, width_mm: float, inner: bool = False) -> None:
         raise ValueError("the emulated RH56 hand takes no object")
@@ -113,7 +113,7 @@ class InspireHand:
 
     # --- registers --------------------------------------------------------------------------------
     def _status(self, i: int) -> int:
-        st = self.state
+        st = self.data
         if st.errors[i]:
             return STATUS_FAULT
         if abs(st.angle[i] - st.angle_set[i]) < 1e-9:
@@ -121,7 +121,7 @@ class InspireHand:
         return STATUS_CLOSING if st.angle_set[i] < st.angle[i] else STATUS_OPENING
 
     def _value(self, addr: int) -> int:
-        st = self.state
+        st = self.data
         if addr == REG_ID:
             return self.slave_id
         for base, name in _BLOCKS.items():
@@ -157,16 +157,16 @@ class InspireHand:
                 continue
             for base, name in _BLOCKS.items():
                 if base <= a < base + 2 * DOF and v != KEEP:
-                    getattr(self.state, name)[(a - base) // 2] = v
+                    getattr(self.data, name)[(a - base) // 2] = v
 
     # --- motion -----------------------------------------------------------------------------------
     def idle_until(self, ctl: ControllerView) -> float:
-        st = self.state
+        st = self.data
         moving = any(not st.errors[i] and st.angle[i] != st.angle_set[i] for i in range(DOF))
         return NOT_IDLE if moving else math.inf
 
     def step(self, dt: float) -> None:
-        st = self.state
+        st = self.data
         for i in range(DOF):
             if st.errors[i]:
                 continue

@@ -24,7 +24,8 @@ MAX_SECONDS = 3600.0
 COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "track-error", "end-module-lost",
             "collision", "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status",
             "step", "ft-error", "ft-noise", "payload", "scene",
-            "checkpoint-save", "checkpoint-restore", "checkpoint-list")
+            "checkpoint-save", "checkpoint-restore", "checkpoint-list",
+            "scene-objects", "scene-place", "scene-reset")
 #: Longest checkpoint name (``checkpoint-save``/``checkpoint-restore``).
 MAX_NAME = 64
 INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object", "gripper-object", "ft")

@@ -1,7 +1,8 @@
 """The emulator's network side (manual chapter 2): ``core`` (EmulatorServer, control loop),
 ``command_port`` (2.1.2) with ``fairness`` (back-pressure, round-robin, connection bounds),
 ``report_ports`` (2.1.6) with ``report_sender`` (one thread per process writing every frame on
-its deadline), ``admin`` (requests on an AdminTarget) over ``admin_port`` (socket),
+its deadline), ``admin`` (requests on an AdminTarget, the objects' commands in ``scene_admin``)
+over ``admin_port`` (socket),
 ``faults`` (schedules), ``thread`` (ServerThread), ``fleet``, ``workers`` (a fleet in supervised
 worker processes), ``trace``, ``disk`` (the worker that
 writes saves and traces off the loop), ``logs``, ``clock``, ``modbus_port`` (the Modbus map on a port
@@ -10,5 +11,5 @@ Nothing here imports the viewer, the CLI or the client: the composers above (``x
 ``xarm_emu.testing``) wire those."""
 
 __all__ = ["admin", "admin_port", "app", "clock", "command_port", "core", "disk", "fairness", "faults",
-           "fleet", "logs", "modbus_port", "report_ports", "report_sender", "studio", "thread", "trace",
-           "workers"]
+           "fleet", "logs", "modbus_port", "report_ports", "report_sender", "scene_admin", "studio", "thread",
+           "trace", "workers"]

@@ -74,6 +74,7 @@ from ..controller.emulator import Emulator
 from ..controller.linear_track import TRACK_ERRORS
 from ..protocol import codes
 from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS, WRENCH_FRAMES, checkpoint_name
+from . import scene_admin
 
 
 class Checkpointing(Protocol):
@@ -219,7 +220,7 @@ def execute(server: AdminTarget, request: dict[str, Any]) -> str:
 #: Admin commands a fault schedule may hold (server/faults.py): the faults and inputs, not the
 #: queries, the lockstep clock or the checkpoints.
 SCHEDULABLE = frozenset(COMMANDS) - {"status", "step", "checkpoint-save", "checkpoint-restore",
-                                     "checkpoint-list"}
+                                     "checkpoint-list", "scene-objects"}
 
 
 def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
@@ -352,6 +353,11 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
         return _checkpoint(server, cmd, request)
     if cmd in ("ft-error", "ft-noise", "payload", "scene"):
         return _ft(server, cmd, request)
+    if cmd in scene_admin.COMMANDS:
+        try:
+            return scene_admin.prepare(emu, cmd, request)
+        except ValueError as exc:
+            raise AdminError(str(exc)) from None
     raise AdminError(f"unknown command {cmd!r}; known: {', '.join(COMMANDS)}")
 
 

@@ -32,6 +32,7 @@ GHOST_COLOR = (120, 170, 255)
 TOOL_COLOR = (255, 170, 60)
 TRACK_COLOR = (90, 95, 105)
 CONTACT_COLOR = (120, 160, 220)  # the contact scene's planes and boxes
+OBJECT_COLOR = (208, 64, 32)  # the scene's loose objects (controller/physics/)
 
 
 class Viewer:
@@ -100,6 +101,10 @@ class Viewer:
         self._draw("track", [] if track is None else scene.track_parts(track.length, track.position),
                    TRACK_COLOR, 1.0, True)
         self._draw("contact", scene.contact_parts(contact.scene_of(ctl).shapes), CONTACT_COLOR, 0.4, True)
+        if self.emulator.physics is not None:
+            objs = self.emulator.physics.world.scene.objects
+            self._draw("objects", scene.object_parts([(o.name, o.shape, o.size) for o in objs],
+                                                     self.emulator.scene_objects()), OBJECT_COLOR, 1.0, True)
         if self.pendant is not None and self.updates % PANEL_EVERY == 0:
             self.pendant.update()
         self.updates += 1

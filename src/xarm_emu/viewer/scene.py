@@ -17,7 +17,7 @@ import numpy as np
 from ..model import collision
 from ..model import kinematics as kin
 from ..model.robots import RobotModel
-from ..model.rotations import quat_from_matrix
+from ..model.rotations import quat_from_matrix, rpy_to_matrix
 
 MM = 0.001  # metres per millimetre
 
@@ -245,4 +245,26 @@ def contact_parts(shapes: Sequence[Any]) -> list[Part]:
             c, h = (lo + hi) / 2, (hi - lo) / 2
             parts.append(Part(name, "box", (float(c[0]), float(c[1]), float(c[2])), (1.0, 0.0, 0.0, 0.0),
                               half=(float(h[0]), float(h[1]), float(h[2]))))
+    return parts
+
+
+def object_parts(shapes: Sequence[tuple[str, str, Sequence[float]]],
+                 poses: Sequence[dict[str, Any]]) -> list[Part]:
+    """The scene's loose objects where the physics world has them: ``shapes`` are (name, shape, size
+    mm) as the scene declares them, ``poses`` what ``Emulator.scene_objects()`` answers. A box is
+    drawn as itself, a sphere as a capsule of no length, a cylinder as the box around it."""
+    parts = []
+    for (name, shape, size), pose in zip(shapes, poses, strict=True):
+        R = rpy_to_matrix(*np.radians(pose["rpy"]))
+        c = np.asarray(pose["position"], dtype=float) * MM
+        wxyz = quat_from_matrix(R)
+        centre = (float(c[0]), float(c[1]), float(c[2]))
+        if shape == "sphere":
+            parts.append(Part(f"object_{name}", "capsule", centre, wxyz, radius=size[0] / 2 * MM))
+            continue
+        if shape == "cylinder":
+            half = (size[0] / 2 * MM, size[0] / 2 * MM, size[1] / 2 * MM)
+        else:
+            half = (size[0] / 2 * MM, size[1] / 2 * MM, size[2] / 2 * MM)
+        parts.append(Part(f"object_{name}", "box", centre, wxyz, half=half))
     return parts

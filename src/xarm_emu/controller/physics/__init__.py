@@ -1,0 +1,41 @@
+"""Objects, grasps and contacts: the physics world of a scene with ``[[object]]`` tables.
+
+- ``objects.py``: the ``[[object]]`` tables (pure data, no engine).
+- ``hands.py``: the end tools as bodies (finger pads, housing), in the flange frame.
+- ``mjcf.py``: the engine's model document from the project's own tables (joint frames, link
+  capsules, inertials, hand, fixtures, objects).
+- ``world.py``: the engine (MuJoCo, an optional extra) stepped by the control period, its state
+  (:class:`~.world.PhysicsState`), object poses, placing.
+- ``component.py``: the world as a controller component, coupling the gripper's fingers to it.
+
+The engine is imported only by :func:`attach`, which the emulator calls for a scene with objects.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ...model.robots import RobotModel
+    from ..contact import Scene
+    from .component import PhysicsComponent
+
+#: What to install when the engine is missing.
+INSTALL_HINT = "objects in a scene need the physics engine: pip install 'xarm-emu[physics]'"
+
+
+def attach(model: RobotModel, scene: Scene, gripper: str, device: Any,
+           vacuum: Any = None) -> PhysicsComponent:
+    """The physics component of ``model`` with ``gripper`` (its tool-bus ``device``), or the vacuum
+    gripper ``vacuum`` when attached, in ``scene``; ValueError with :data:`INSTALL_HINT` when the
+    engine is not installed (ValueError: one line, as a bad scene file)."""
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        raise ValueError(INSTALL_HINT) from None
+    from .component import PhysicsComponent
+    from .hands import HANDS, VACUUM_HAND
+    from .world import World
+
+    hand = VACUUM_HAND if vacuum is not None else HANDS.get(gripper)
+    return PhysicsComponent(World(model, scene, hand), device, vacuum)

@@ -1,0 +1,169 @@
+"""The physics world as a controller component: stepped once a control period after the gripper
+(so it sees this period's joints and finger command), it tells the gripper where its fingers stopped.
+
+The finger drive: the gripper's own model (controller/gripper.py) says where the fingers are told to
+go and how fast; here that command (:attr:`PhysicsState.ramp`, mm of opening) runs toward the target
+at the gripper's speed and the engine's force-limited finger drives follow it. Where a pad meets an
+object the fingers stop and the drive presses with the hand's force; the gripper's reported position
+is then the fingers' own (:attr:`XArmGripper.position`), and its status says the fingers stopped on an
+object (motion bits 2, what the SDK's wait for a grip reads as done). Free fingers report the command
+itself, so a gripper that closes on nothing moves exactly as without the engine.
+
+Collision detection (C31, manual 3.2.1, at the sensitivity of register 37): the force of the scene's
+planes and boxes on the TCP (their spring-damper, :func:`.contact.scene_wrench`) and the engine's
+contact forces of objects on the arm and hand (:meth:`.world.World.arm_torques`) enter the joint
+torques as ``J^T f``; the largest external joint torque is checked against the sensitivity's
+threshold every period (:func:`.safety.collision_detected`), so pushing the tool into the table
+raises C31 as a real push would; sensitivity 0 never does.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ...model import kinematics as kin
+from ...model.robots import VACUUM_WIRING
+from .. import contact, safety
+from ..base import C_COLLISION, NOT_IDLE, Handler
+from ..gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
+from ..robotiq import OBJ_MOVING, RobotiqGripper
+from .hands import XARM_MM_PER_PULSE
+from .mjcf import FINGER_KP
+from .world import World
+
+#: A command this far (mm) from where the free fingers are is where they are (the drive's lag).
+FOLLOW_MM = 0.05
+
+
+class PhysicsComponent:
+    """Steps :attr:`world` every control period and couples the xArm gripper's fingers to it."""
+
+    def __init__(self, world: World, device: Any, vacuum: Any = None) -> None:
+        self.world = world
+        #: The vacuum gripper (controller/vacuum.py), when it is the hand.
+        self.vacuum = vacuum
+        self.device = device if isinstance(device, XArmGripper) else None
+        if self.device is not None:
+            self.world.state.ramp = self.device.position * XARM_MM_PER_PULSE
+        #: The Robotiq 2F-85 on the tool bus, when it is the hand.
+        self.robotiq = device if isinstance(device, RobotiqGripper) and world.fingers else None
+        hand = world.hand
+        #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
+        #: (The drive holds finger a, half the opening, and presses with the force of both pads.)
+        self.squeeze = (2 * (2 * hand.force / FINGER_KP) / 0.001 + 1.0) if hand is not None else 0.0
+
+    def handlers(self) -> dict[int, Handler]:
+        return {}
+
+    def _robotiq_ramp(self) -> float:
+        """The Robotiq's command: its own fingers' opening (its model moves them and stops them at the
+        object the engine found), pressing past it while it grips; its force setting limits the drive."""
+        r = self.robotiq
+        assert r is not None
+        force = r.model.force_min + (r.model.force_max - r.model.force_min) * r.rFR / 255.0
+        self.world.set_force(force)
+        if r.gripping:
+            return r.opening_mm - 2 * (2 * force / FINGER_KP) / 0.001 - 1.0
+        return r.opening_mm
+
+    def _robotiq_contact(self) -> None:
+        """Tell the Robotiq where both pads met one object (its gOBJ then says so), and that it is
+        gone when the fingers open."""
+        r = self.robotiq
+        assert r is not None
+        w = self.world
+        gripping = any(len(pads) == 2 for pads in w.pad_contacts().values())
+        closing = r.moving and r.goal > r.position
+        if gripping and closing and r.object_mm is None:
+            width = min(w.opening(), r.model.stroke_mm)
+            r.set_object(width)
+            r.position = min(r.position, r._counts_at(width))  # the fingers stopped where they met it
+        elif r.object_mm is not None and not gripping and not r.gripping and r.gOBJ == OBJ_MOVING:
+            r.object_mm = None  # opening away from it: nothing between the fingers any more
+
+    def _vacuum(self, ctl: Any) -> None:
+        """The cup seals on a flat face under it (the pressure input then rises as the pump runs) and
+        holds that object while the pump runs; the pump stopped, it lets go."""
+        v, w = self.vacuum, self.world
+        pumping = any(v.pumping_on(k) for k in VACUUM_WIRING)
+        sealed = w.cup_object(ctl.data.q)
+        if w.state.held >= 0 and not pumping:
+            w.release()
+        elif w.state.held < 0 and pumping and sealed >= 0 and any(v.pressure_on(k) for k in VACUUM_WIRING):
+            w.hold(sealed, ctl.data.q)
+        v.object_present = w.state.held >= 0 or sealed >= 0
+
+    def _ramp(self, dt: float) -> float:
+        """This period's finger command (mm of opening)."""
+        if self.robotiq is not None:
+            return self._robotiq_ramp()
+        ramp = self.world.state.ramp
+        g = self.device
+        if g is None or not self.world.fingers:
+            return ramp
+        if not (g.enabled and not g.error and g.mode == 0):
+            return ramp
+        target = g.target * XARM_MM_PER_PULSE
+        measured = self.world.opening()
+        if target > ramp:  # opening: the command never lags behind the fingers
+            ramp = max(ramp, measured)
+        elif target < ramp:  # closing on something: press, no further
+            ramp = max(ramp, measured - self.squeeze)
+        step = min(g.speed, SPEED_TOP) * SPEED_TO_PULSES * XARM_MM_PER_PULSE * dt
+        if abs(target - ramp) <= step:
+            return target
+        return ramp + math.copysign(step, target - ramp)
+
+    def external_torques(self, ctl: Any) -> np.ndarray:
+        """The joint torques (N m) of the scene's fixtures pressing on the TCP: ``J^T f``."""
+        q = ctl.data.q
+        T = kin.fk(ctl.model, q)
+        off = T[:3, :3] @ np.asarray(ctl.settings.tcp_offset[:3], dtype=float)
+        p = T[:3, 3] + off
+        if not any(shape.penetration(p)[0] > 0 for shape in contact.scene_of(ctl).shapes):
+            return np.zeros(ctl.dof)  # the TCP touches nothing
+        f = contact.scene_wrench(ctl)[:3]
+        r = off * 0.001  # m
+        J = kin.jacobian(ctl.model, q)  # flange: linear (mm/rad) over angular rows
+        return np.asarray(J[:3].T @ f * 0.001 + J[3:].T @ np.cross(r, f))
+
+    def _collision(self, ctl: Any) -> None:
+        sens = ctl.settings.collision_sensitivity
+        if not sens or ctl.error_code or not all(ctl.enabled):
+            return
+        gripping = bool(self.device is not None and self.device.gripped) or bool(
+            self.robotiq is not None and self.robotiq.gripping)
+        tau = self.external_torques(ctl) + self.world.arm_torques(gripping)
+        if tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
+            ctl.raise_error(C_COLLISION)
+
+    def step(self, dt: float, ctl: Any) -> None:
+        self._collision(ctl)
+        w = self.world
+        ramp = self._ramp(dt)
+        w.state.ramp = ramp
+        w.step(ctl.data.q, dt, ramp)
+        if self.robotiq is not None:
+            self._robotiq_contact()
+        if self.vacuum is not None:
+            self._vacuum(ctl)
+        g = self.device
+        if g is None or not w.fingers:
+            return
+        measured = w.opening()
+        gripping = any(len(pads) == 2 for pads in w.pad_contacts().values())  # both pads on one object
+        # the grip is made when the drive presses with the hand's full force (or its target is reached)
+        full = ramp <= measured - (self.squeeze - 1.0) or ramp == g.target * XARM_MM_PER_PULSE
+        pressing = gripping and full and g.target * XARM_MM_PER_PULSE < measured - FOLLOW_MM
+        g.gripped = pressing and not g.error and g.enabled
+        if abs(measured - ramp) <= FOLLOW_MM or not (pressing or g.moving):
+            g.position = ramp / XARM_MM_PER_PULSE
+        else:
+            g.position = measured / XARM_MM_PER_PULSE
+
+    def idle_until(self, ctl: Any) -> float:
+        """Idle while the world is settled and neither the arm nor the finger command would move."""
+        return math.inf if self.world.idle(ctl.data.q, self._ramp(ctl.period)) else NOT_IDLE

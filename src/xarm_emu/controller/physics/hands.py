@@ -1,0 +1,58 @@
+"""The end tools as bodies of the physics world: finger pads, the housing between flange and
+fingers, the vacuum cup. Pure data in the flange frame (mm, N); no engine needed to read it.
+
+The geometry is the emulator's estimate from the tools' outline sizes (no vendor collision model is
+published in a form the emulator can read): the fingertips end at the tool's usual TCP offset along
+flange +z (the built-in tool lengths of ``model/collision.py``), the fingers close along flange y.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ...model.collision import BUILTIN_TOOLS
+
+
+@dataclass(frozen=True)
+class Hand:
+    """One end tool as physical bodies (flange frame, mm).
+
+    ``stroke``: the opening between the pads' inner faces, fully open (0 is closed);
+    ``pad_half``: half extents of one pad (x across the finger, y its thickness, z its length);
+    ``tip``: where the pads end along flange z; ``housing``: centre z and half extents of the box
+    between the flange and the fingers; ``force``: the most each finger presses (N), at the strongest
+    setting; ``friction``: the pads' Coulomb coefficient; ``cup_radius``: a vacuum cup's (0: none).
+    """
+
+    name: str
+    stroke: float
+    pad_half: tuple[float, float, float]
+    tip: float
+    housing: tuple[float, tuple[float, float, float]]
+    force: float
+    friction: float = 1.0
+    cup_radius: float = 0.0
+
+    @property
+    def pad_center_z(self) -> float:
+        return self.tip - self.pad_half[2]
+
+
+#: The xArm Gripper: 0..850 position pulses span an 85 mm opening (0.1 mm a pulse), fingertips at the
+#: tool's 172 mm TCP offset; 30 N a finger is the emulator's estimate of its grip.
+XARM_HAND = Hand("xArm Gripper", stroke=85.0, pad_half=(10.0, 4.0, 20.0), tip=BUILTIN_TOOLS[1][2],
+                 housing=(60.0, (30.0, 55.0, 60.0)), force=30.0)
+#: Millimetres of opening per xArm gripper position pulse (register 0x0702, 0..850).
+XARM_MM_PER_PULSE = XARM_HAND.stroke / 850.0
+
+#: The Robotiq 2F-85: its 85 mm stroke, fingertips at its 174 mm tool length; the force is set per
+#: grip by its rFR register (controller/robotiq.py), this is the most.
+ROBOTIQ_2F85_HAND = Hand("Robotiq 2F-85", stroke=85.0, pad_half=(11.0, 4.0, 19.0), tip=BUILTIN_TOOLS[4][2],
+                         housing=(55.0, (35.0, 60.0, 55.0)), force=235.0)
+
+#: The xArm Vacuum Gripper: a 20 mm cup whose face is at its 126 mm tool length.
+VACUUM_HAND = Hand("xArm Vacuum Gripper", stroke=0.0, pad_half=(0.0, 0.0, 0.0), tip=BUILTIN_TOOLS[2][2],
+                   housing=(50.0, (30.0, 30.0, 50.0)), force=0.0, cup_radius=20.0)
+
+#: The hands by the emulator's gripper names (``Emulator(gripper=...)``).
+HANDS = {"xarm": XARM_HAND, "robotiq-2f85": ROBOTIQ_2F85_HAND}

@@ -1,0 +1,357 @@
+"""The physics world: MuJoCo stepped by the controller's control period, never by a clock of its own.
+
+Imported only when a scene has objects (the engine is an optional extra). The arm is a chain of
+hinge joints of the joint frames (:mod:`.mjcf`) driven kinematically: each control period its joints
+get the speed that takes them from the last period's joints to the controller's, and end exactly on
+them, so the engine never moves the arm; it answers what touches what and with what force. Objects
+are free bodies; the fingers slide on force-limited position drives.
+
+Settling: once every object and finger has stayed still (below :data:`STILL_SPEED`) for
+:data:`SETTLE_PERIODS` periods with nothing of the arm touching an object, the world is settled: the
+speeds are zeroed and the engine is not stepped again until the arm or the fingers are told to move.
+The rule reads only the world's own state, so stepping every period or jumping over idle ones
+(controller/emulator.py) gives the same poses.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ...model import kinematics as kin
+from ...model.robots import RobotModel
+from ...model.rotations import matrix_to_rpy, quat_from_matrix, rpy_to_matrix
+from ..contact import Scene
+from .hands import Hand
+from .mjcf import MM, NEAR, TIMESTEP, world_xml
+
+#: Object and finger speeds below this are still (m/s, and rad/s for turning).
+STILL_SPEED = 2.0e-4
+#: The cup seals on a face its own face is this near (mm), as the cup's lip gives.
+SEAL_MM = 1.0
+#: Control periods of stillness after which the world is settled.
+SETTLE_PERIODS = 25
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+@dataclass
+class PhysicsState:
+    """Every mutable value of the physics world (what a checkpoint carries): the engine's integration
+    state (time, positions, speeds, actuator states, solver warm start, controls) as float64 bytes,
+    the finger drive's command (opening, mm), the settling count and flag, and the inputs of the last
+    stepped period (arm joints and finger command) as bytes."""
+
+    integration: bytes
+    ramp: float
+    still: int
+    settled: bool
+    inputs: bytes
+    #: The object a vacuum cup holds (its index in the scene, -1: none) and its pose in the flange
+    #: frame then (x, y, z mm, then the rotation's nine entries row by row).
+    held: int = -1
+    relative: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class ObjectPose:
+    """Where an object is: centre (mm, base frame), roll/pitch/yaw (deg), whether the hand holds it."""
+
+    name: str
+    position: tuple[float, float, float]
+    rpy: tuple[float, float, float]
+    held: bool
+
+
+class World:
+    """The engine's model and data for one arm, hand and scene; mutable state in :attr:`state`."""
+
+    def __init__(self, model: RobotModel, scene: Scene, hand: Hand | None) -> None:
+        self.robot = model
+        self.scene = scene
+        self.hand = hand
+        self.m = mujoco.MjModel.from_xml_string(world_xml(model, scene, hand))
+        self.d = mujoco.MjData(self.m)
+        m = self.m
+        dof = model.dof
+        adr = [int(m.jnt_qposadr[m.joint(f"j{k + 1}").id]) for k in range(dof)]
+        vadr = [int(m.jnt_dofadr[m.joint(f"j{k + 1}").id]) for k in range(dof)]
+        if adr != list(range(adr[0], adr[0] + dof)) or vadr != list(range(vadr[0], vadr[0] + dof)):
+            raise RuntimeError("arm joints are not consecutive in the engine model")
+        self._q = slice(adr[0], adr[0] + dof)
+        self._v = slice(vadr[0], vadr[0] + dof)
+        self.fingers = hand is not None and hand.stroke > 0
+        self._fq: list[int] = []
+        self._pads: set[int] = set()
+        if self.fingers:
+            for n in ("finger_a", "finger_b"):
+                self._fq.append(int(m.jnt_qposadr[m.joint(n).id]))
+                self._pads.add(m.geom(f"{n}_pad").id)
+        self._arm_geoms = {g for g in range(m.ngeom) if m.geom_contype[g] & 4}
+        self._finger_v = [int(m.jnt_dofadr[m.joint(n).id]) for n in ("finger_a", "finger_b")] \
+            if self.fingers else []
+        #: Per geom: 1 arm or hand, 2 finger pad, 0 anything else.
+        self._kind = np.zeros(m.ngeom, dtype=np.int8)
+        self._kind[list(self._arm_geoms)] = 1
+        self._arm_idx = np.array(sorted(self._arm_geoms), dtype=int)
+        self._kind[list(self._pads)] = 2
+        self.objects: list[tuple[str, int, int, int]] = []  # name, qpos adr, dof adr, geom id
+        for o in scene.objects:
+            j = m.joint(f"object:{o.name}").id
+            body = m.body(f"object:{o.name}").id
+            self.objects.append((o.name, int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]),
+                                 int(m.body_geomadr[body])))
+        self._object_geoms = {g: i for i, (_, _, _, g) in enumerate(self.objects)}
+        self._free_v = np.array([v + k for _, _, v, _ in self.objects for k in range(6)], dtype=int)
+        self._size = mujoco.mj_stateSize(m, _STATE)
+        self._initial = (self.d.qpos.copy(), self.d.qvel.copy())
+        self.state = PhysicsState(b"", 0.0, 0, False, b"")
+        self.reset()
+
+    # -- state ---------------------------------------------------------------------------------
+    def capture(self) -> PhysicsState:
+        """The world's state as an independent value."""
+        buf = np.empty(self._size)
+        mujoco.mj_getState(self.m, self.d, buf, _STATE)
+        s = self.state
+        return PhysicsState(buf.tobytes(), s.ramp, s.still, s.settled, s.inputs, s.held, s.relative)
+
+    def restore(self, state: PhysicsState) -> None:
+        """Put ``state`` back exactly (a later step gives what it gave the first time)."""
+        buf = np.frombuffer(state.integration, dtype=np.float64)
+        if buf.size != self._size:
+            raise ValueError("physics state of another world (other objects or arm)")
+        mujoco.mj_setState(self.m, self.d, buf.copy(), _STATE)
+        mujoco.mj_forward(self.m, self.d)
+        self.state = PhysicsState(state.integration, state.ramp, state.still, state.settled, state.inputs,
+                                  state.held, state.relative)
+
+    def reset(self, q: np.ndarray | None = None) -> None:
+        """Objects back where the scene puts them, at rest; the arm at ``q`` (zero if None)."""
+        mujoco.mj_resetData(self.m, self.d)
+        self.d.qpos[:] = self._initial[0]
+        if q is not None:
+            self.d.qpos[self._q] = q[: self.robot.dof]
+        mujoco.mj_forward(self.m, self.d)
+        self.state = PhysicsState(b"", 0.0, 0, False, b"")
+
+    # -- stepping ------------------------------------------------------------------------------
+    def set_force(self, per_pad: float) -> None:
+        """The most each pad presses with (N): the finger drive's force limit (both pads' worth)."""
+        if self.fingers:
+            self.m.actuator_forcerange[0] = (-2.0 * per_pad, 2.0 * per_pad)
+
+    def inputs(self, q: np.ndarray, ramp: float) -> bytes:
+        return np.asarray(q[: self.robot.dof], dtype=float).tobytes() + struct.pack("<d", ramp)
+
+    def idle(self, q: np.ndarray, ramp: float) -> bool:
+        """Whether stepping a period with these inputs would change nothing."""
+        return self.state.settled and self.inputs(q, ramp) == self.state.inputs
+
+    def step(self, q: np.ndarray, dt: float, ramp: float) -> None:
+        """One control period of ``dt`` s: the arm from its last joints to ``q`` (rad), the finger
+        drives told to open to ``ramp`` mm."""
+        s = self.state
+        inputs = self.inputs(q, ramp)
+        if s.settled and inputs == s.inputs:
+            return
+        m, d = self.m, self.d
+        qa = np.asarray(q[: self.robot.dof], dtype=float)
+        if s.settled and inputs[-8:] == s.inputs[-8:] and self._far(qa):
+            s.inputs = inputs  # the arm moves where nothing is near it: the world stays settled
+            return
+        moving_arm = not np.array_equal(d.qpos[self._q], qa)
+        d.qvel[self._v] = (qa - d.qpos[self._q]) / dt
+        if self.fingers:
+            d.ctrl[:] = ramp / 2.0 * MM
+        mujoco.mj_step(m, d, nstep=max(1, round(dt / TIMESTEP)))
+        d.qpos[self._q] = qa
+        d.qvel[self._v] = 0.0
+        if s.held >= 0:
+            self._carry(qa)
+        s.inputs = inputs
+        s.settled = False
+        still = not moving_arm and not self.touching_arm()
+        if still and self._free_v.size:
+            still = float(np.max(np.abs(d.qvel[self._free_v]))) < STILL_SPEED
+        if still and self._finger_v:
+            still = max(abs(float(d.qvel[v])) for v in self._finger_v) < STILL_SPEED
+        s.still = s.still + 1 if still else 0
+        if s.still >= SETTLE_PERIODS:
+            d.qvel[:] = 0.0
+            d.qacc_warmstart[:] = 0.0
+            s.settled = True
+
+    # -- the vacuum cup ------------------------------------------------------------------------
+    def cup_object(self, q: np.ndarray) -> int:
+        """The object whose flat face the cup's face lies on (its index, -1: none): the cup's centre
+        within :data:`SEAL_MM` of a face, inside its outline, the cup's axis within 10 degrees of the
+        face's normal. Spheres have no flat face."""
+        hand = self.hand
+        if hand is None or hand.cup_radius <= 0:
+            return -1
+        T = self._flange(np.asarray(q[: self.robot.dof], dtype=float))
+        p = T[:3, :3] @ np.array([0.0, 0.0, hand.tip]) + T[:3, 3]  # mm
+        axis = T[:3, 2]
+        R = np.empty(9)
+        for i, (spec, (_, a, _, _)) in enumerate(zip(self.scene.objects, self.objects, strict=True)):
+            if spec.shape == "sphere":
+                continue
+            mujoco.mju_quat2Mat(R, self.d.qpos[a + 3: a + 7])
+            Ro = R.reshape(3, 3)
+            local = Ro.T @ (p - self.d.qpos[a: a + 3] / MM)
+            if spec.shape == "box":
+                half = np.asarray(spec.size) / 2.0
+                faces = range(3)
+            else:  # cylinder: its two round faces, along its own z
+                half = np.array([spec.size[0] / 2.0, spec.size[0] / 2.0, spec.size[1] / 2.0])
+                faces = range(2, 3)
+            for k in faces:
+                others = [j for j in range(3) if j != k]
+                if spec.shape == "box":
+                    inside = all(abs(local[j]) <= half[j] for j in others)
+                else:
+                    inside = math.hypot(local[0], local[1]) <= half[0]
+                if (inside and abs(abs(local[k]) - half[k]) <= SEAL_MM
+                        and abs(float(np.dot(Ro[:, k], axis))) > 0.985):
+                    return i
+        return -1
+
+    def _flange(self, qa: np.ndarray) -> np.ndarray:
+        return kin.fk(self.robot, qa)
+
+    def hold(self, index: int, q: np.ndarray) -> None:
+        """The cup holds object ``index`` where it is now relative to the flange."""
+        _, a, _, _ = self.objects[index]
+        T = self._flange(np.asarray(q[: self.robot.dof], dtype=float))
+        R = np.empty(9)
+        mujoco.mju_quat2Mat(R, self.d.qpos[a + 3: a + 7])
+        P = np.eye(4)
+        P[:3, :3] = R.reshape(3, 3)
+        P[:3, 3] = self.d.qpos[a: a + 3] / MM
+        rel = np.linalg.inv(T) @ P
+        self.state.held = index
+        self.state.relative = tuple(float(x) for x in (*rel[:3, 3], *rel[:3, :3].ravel()))
+
+    def release(self) -> None:
+        """The cup lets go: the object falls from where it is."""
+        self.state.held = -1
+        self.state.relative = ()
+        self.state.settled = False
+
+    def _carry(self, qa: np.ndarray) -> None:
+        """Put the held object where the flange carries it, at rest in the engine."""
+        _, a, v, _ = self.objects[self.state.held]
+        r = self.state.relative
+        rel = np.eye(4)
+        rel[:3, 3] = r[:3]
+        rel[:3, :3] = np.asarray(r[3:]).reshape(3, 3)
+        P = self._flange(qa) @ rel
+        self.d.qpos[a: a + 3] = P[:3, 3] * MM
+        self.d.qpos[a + 3: a + 7] = quat_from_matrix(P[:3, :3])
+        self.d.qvel[v: v + 6] = 0.0
+
+    def arm_torques(self, gripping: bool = False) -> np.ndarray:
+        """The joint torques (N m) of what objects press on the arm and the hand: ``J^T f`` of each
+        touching contact, at its point, on the arm's joints. While the hand grips (``gripping``, its
+        device says so) the pads' contacts with an object both pads touch are its own squeeze and
+        are left out."""
+        m, d = self.m, self.d
+        tau = np.zeros(self.robot.dof)
+        n = d.ncon
+        if not n:
+            return tau
+        pairs = np.asarray(d.contact.geom[:n]).reshape(-1, 2)
+        kinds = self._kind[pairs]
+        rows = np.nonzero(kinds.any(axis=1) & (np.asarray(d.contact.dist[:n]) <= 0.0))[0]
+        if not rows.size:
+            return tau
+        gripped = {i for i, pads in self.pad_contacts().items() if len(pads) == 2} if gripping else set()
+        f6 = np.zeros(6)
+        jacp = np.zeros((3, m.nv))
+        for k in rows:
+            c = d.contact[int(k)]
+            first = bool(kinds[k, 0])
+            arm_geom, other = (int(c.geom[0]), int(c.geom[1])) if first else (int(c.geom[1]), int(c.geom[0]))
+            if self._kind[arm_geom] == 2 and self._object_geoms.get(other) in gripped:
+                continue
+            mujoco.mj_contactForce(m, d, int(k), f6)
+            force = np.asarray(c.frame).reshape(3, 3).T @ f6[:3]  # on geom2, from geom1
+            mujoco.mj_jac(m, d, jacp, None, c.pos, int(m.geom_bodyid[arm_geom]))
+            tau += jacp[:, self._v].T @ (-force if first else force)
+        return tau
+
+    def _far(self, qa: np.ndarray) -> bool:
+        """The arm put at ``qa``: whether no part of it is near an object (within ``mjcf.NEAR``)."""
+        m, d = self.m, self.d
+        d.qpos[self._q] = qa
+        mujoco.mj_kinematics(m, d)
+        m.geom_margin[self._arm_idx] = NEAR  # contacts of the arm seen from this far, for this test only
+        mujoco.mj_collision(m, d)
+        m.geom_margin[self._arm_idx] = 0.0
+        return not self._kind[np.asarray(d.contact.geom[: d.ncon]).reshape(-1, 2)].any()
+
+    # -- what the world shows ------------------------------------------------------------------
+    def _pairs(self) -> np.ndarray:
+        """The geoms of each contact that touches (not one only near)."""
+        n = self.d.ncon
+        c = self.d.contact
+        pairs = np.asarray(c.geom[:n]).reshape(-1, 2)
+        return pairs[np.asarray(c.dist[:n]) <= 0.0]
+
+    def touching_arm(self) -> bool:
+        """Whether any part of the arm or hand touches an object."""
+        return bool(self.d.ncon) and bool(self._kind[self._pairs()].any())
+
+    def pad_contacts(self) -> dict[int, set[int]]:
+        """For each object index, the finger pads that touch it."""
+        out: dict[int, set[int]] = {}
+        pairs = self._pairs()
+        if not pairs.size or not (self._kind[pairs] == 2).any():
+            return out
+        for a, b in pairs:
+            a, b = int(a), int(b)
+            for pad, other in ((a, b), (b, a)):
+                if pad in self._pads and other in self._object_geoms:
+                    out.setdefault(self._object_geoms[other], set()).add(pad)
+        return out
+
+    def opening(self) -> float:
+        """The opening between the pads (mm)."""
+        return sum(float(self.d.qpos[a]) for a in self._fq) / MM
+
+    def poses(self) -> list[ObjectPose]:
+        """Every object's pose, in scene order."""
+        held = {i for i, pads in self.pad_contacts().items() if len(pads) == 2}
+        out = []
+        for i, (name, a, _, _) in enumerate(self.objects):
+            qp = self.d.qpos
+            R = np.empty(9)
+            mujoco.mju_quat2Mat(R, qp[a + 3: a + 7])
+            rpy = np.degrees(matrix_to_rpy(R.reshape(3, 3)))
+            out.append(ObjectPose(name, (float(qp[a]) / MM, float(qp[a + 1]) / MM, float(qp[a + 2]) / MM),
+                                  (float(rpy[0]), float(rpy[1]), float(rpy[2])), i in held))
+        return out
+
+    def place(self, name: str, position: tuple[float, float, float],
+              rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        """Put object ``name`` at ``position`` (mm) turned by ``rpy`` (deg), at rest; ValueError for
+        an unknown name or a value that is not finite."""
+        found = [(a, v) for n, a, v, _ in self.objects if n == name]
+        if not found:
+            names = ", ".join(n for n, *_ in self.objects)
+            raise ValueError(f"no object {name!r} in the scene (objects: {names})")
+        a, v = found[0]
+        vals = (*position, *rpy)
+        if not all(math.isfinite(float(x)) for x in vals):
+            raise ValueError("position and rpy must be finite")
+        d = self.d
+        d.qpos[a: a + 3] = np.asarray(position, dtype=float) * MM
+        d.qpos[a + 3: a + 7] = quat_from_matrix(rpy_to_matrix(*np.radians(rpy)))
+        d.qvel[v: v + 6] = 0.0
+        mujoco.mj_forward(self.m, d)
+        self.state.settled = False
+        self.state.still = 0

@@ -1,0 +1,250 @@
+"""Objects and grasps on the stepped clock, in process: a pick-and-place with the xArm gripper through
+the registers (21 lines, 124 the gripper's Modbus registers) ends with the cube where it was put;
+the same program twice, and a checkpoint restored before the grasp, give identical object poses."""
+
+from __future__ import annotations
+
+import math
+import struct
+import time
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from xarm_emu.controller import contact  # noqa: E402
+from xarm_emu.controller.emulator import Emulator  # noqa: E402
+from xarm_emu.protocol import rtu  # noqa: E402
+from xarm_emu.protocol.registers import REGISTERS  # noqa: E402
+
+#: The table top (mm): 100 mm below the arm's mounting face (the arm on a pedestal), so the gripper
+#: hanging down at the zero pose (TCP at z = -60) is above it.
+TZ = -100.0
+TABLE = {"name": "table", "point": [0, 0, TZ], "normal": [0, 0, 1], "stiffness": 10.0}
+CUBE = {"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1, "position": [300, -100, TZ + 20]}
+SCENE = {"plane": [TABLE], "object": [CUBE]}
+TCP_Z = 172.0  # the xArm gripper's TCP offset: the fingertips
+
+
+def call(emu: Emulator, code: int, **values: Any) -> dict[str, Any]:
+    reg = REGISTERS[code]
+    state, reply = emu.handle(code, reg.request.encode(values))
+    assert not state & 0x60, (code, hex(state))
+    return reg.reply.decode(reply) if reg.reply.fields else {}
+
+
+def gripper(emu: Emulator, pdu: bytes) -> tuple[int, ...]:
+    out = call(emu, 124, host=9, rtu=pdu)
+    slave, func, values = rtu.parse_reply(bytes(out["rtu"]))
+    assert slave == 8, (func, values)
+    return values
+
+
+def gripper_position(emu: Emulator) -> int:
+    hi, lo = gripper(emu, rtu.read_request(8, 0x0702, 2))
+    return int(struct.unpack(">i", struct.pack(">HH", hi, lo))[0])
+
+
+def grip(emu: Emulator, pulses: int) -> int:
+    """Move the fingers toward ``pulses`` and wait as the SDK does: until the status says stopped (0)
+    or stopped on an object (2); returns the position then."""
+    gripper(emu, rtu.write_multiple_request(8, 0x0700, struct.unpack(">HH", struct.pack(">i", pulses))))
+    for _ in range(100):
+        emu.advance(0.1)
+        (status,) = gripper(emu, rtu.read_request(8, 0x0000, 1))
+        if status & 3 in (0, 2):
+            break
+    return gripper_position(emu)
+
+
+def line(emu: Emulator, x: float, y: float, z: float) -> None:
+    call(emu, 21, pose=(x, y, z, math.pi, 0.0, 0.0), speed=150.0, acc=2000.0, mvtime=0.0)
+    while call(emu, 13)["state"] == 1 or call(emu, 14)["cmdnum"]:
+        emu.advance(0.1)
+
+
+def cube(emu: Emulator) -> Any:
+    assert emu.physics is not None
+    return emu.physics.world.poses()[0]
+
+
+def ready() -> Emulator:
+    return prepare(Emulator(6, scene=contact.parse_scene(SCENE)))
+
+
+def prepare(emu: Emulator) -> Emulator:
+    call(emu, 35, pose=(0.0, 0.0, TCP_Z, 0.0, 0.0, 0.0))
+    call(emu, 11, joint=8, enable=1)
+    call(emu, 19, mode=0)
+    call(emu, 12, state=0)
+    gripper(emu, rtu.write_multiple_request(8, 0x0100, [1]))  # enable
+    gripper(emu, rtu.write_multiple_request(8, 0x0303, [3000]))  # speed
+    return emu
+
+
+def pick(emu: Emulator) -> int:
+    """Open, above, down, close; returns the position the close reported."""
+    grip(emu, 850)
+    line(emu, 300, -100, TZ + 150)
+    line(emu, 300, -100, TZ + 15)
+    return grip(emu, 0)
+
+
+def place(emu: Emulator) -> None:
+    line(emu, 300, 100, TZ + 115)
+    line(emu, 300, 100, TZ + 16)
+    grip(emu, 850)
+    line(emu, 300, 100, TZ + 150)
+    emu.advance(0.5)
+
+
+def test_pick_and_place_with_the_xarm_gripper_ends_where_the_cube_was_put() -> None:
+    emu = ready()
+    closed = pick(emu)
+    z0 = cube(emu).position[2]
+    assert closed * 0.1 == pytest.approx(40.0, abs=2.0)  # the opening is the cube's width
+    assert cube(emu).held
+    line(emu, 300, -100, TZ + 115)
+    assert cube(emu).position[2] - z0 == pytest.approx(100.0, abs=2.0)
+    place(emu)
+    end = cube(emu)
+    assert not end.held
+    assert end.position[0] == pytest.approx(300.0, abs=3.0)
+    assert end.position[1] == pytest.approx(100.0, abs=3.0)
+    assert end.position[2] == pytest.approx(TZ + 20.0, abs=1.0)
+    assert abs(end.rpy[0]) < 2.0 and abs(end.rpy[1]) < 2.0
+
+
+def test_same_program_twice_and_a_restored_checkpoint_give_identical_poses() -> None:
+    first = ready()
+    line(first, 300, -100, TZ + 150)
+    cp = first.checkpoint()
+    pick(first)
+    place(first)
+    a = first.physics.world.poses()  # type: ignore[union-attr]
+    second = ready()
+    line(second, 300, -100, TZ + 150)
+    pick(second)
+    place(second)
+    assert second.physics.world.poses() == a  # type: ignore[union-attr]
+    first.restore(cp)
+    pick(first)
+    place(first)
+    assert first.physics.world.poses() == a  # type: ignore[union-attr]
+
+
+def test_an_arm_moving_without_objects_does_not_step_an_engine() -> None:
+    emu = Emulator(6, scene=contact.parse_scene({"plane": [TABLE]}))
+    assert emu.physics is None
+
+
+def test_speed_against_the_same_moves_without_objects() -> None:
+    """The pick-and-place on the stepped clock, timed against the same arm moves without objects
+    (measured here): the engine stepping every period near the cube costs several times the
+    controller alone (on a quiet 2-core machine some 15-20x real time against 90-130x)."""
+    def program(emu: Emulator) -> float:
+        t0 = time.perf_counter()
+        pick(emu)
+        line(emu, 300, -100, TZ + 115)
+        place(emu)
+        return time.perf_counter() - t0
+
+    ready()  # warm the kinematics code
+    with_objects = ready()
+    wall = program(with_objects)
+    rate = with_objects.time / wall
+    bare = prepare(Emulator(6))
+    bare_wall = program(bare)
+    bare_rate = bare.time / bare_wall
+    print(f"pick-and-place: {with_objects.time:.1f} s of arm time at {rate:.0f}x real time "
+          f"(without objects {bare_rate:.0f}x)")
+    assert rate > bare_rate / 15
+
+
+@pytest.mark.parametrize("sensitivity", [3, 0])
+def test_pushing_the_tool_into_the_table_raises_c31_at_sensitivity_3_not_0(sensitivity: int) -> None:
+    """The TCP driven into the table at 50 mm/s: the table's reaction enters the joint torques."""
+    emu = ready()
+    call(emu, 37, sensitivity=sensitivity)
+    call(emu, 12, state=0)
+    line(emu, 200, 0, TZ + 50)
+    call(emu, 21, pose=(200.0, 0.0, TZ - 40.0, math.pi, 0.0, 0.0), speed=50.0, acc=2000.0, mvtime=0.0)
+    emu.advance(2.5)
+    (_, reply) = emu.handle(15, b"")
+    error = REGISTERS[15].reply.decode(reply)["error"]
+    z = emu.controller.tcp_matrix()[2, 3]
+    if sensitivity:
+        assert error == 31
+        assert TZ - 30.0 < z < TZ  # stopped in the table, short of the target
+    else:
+        assert error == 0
+        assert z == pytest.approx(TZ - 40.0, abs=0.1)
+
+
+def test_jumping_over_idle_periods_gives_the_same_poses_as_stepping_each() -> None:
+    """A cube dropped from 30 mm falls, settles; the arm then waits and the fingers close on nothing:
+    the stepped clock's jump over idle periods (controller/emulator.py) leaves every pose as stepping
+    each period does."""
+    def program(exact: bool) -> tuple[Any, int, int]:
+        emu = ready()
+        emu.exact_steps = exact
+        emu.place_object("cube", (300.0, -100.0, TZ + 50.0), (10.0, 0.0, 0.0))
+        emu.advance(1.5)
+        line(emu, 200, 0, TZ + 150)
+        grip(emu, 300)
+        emu.advance(3.0)
+        return emu.scene_objects(), gripper_position(emu), emu.periods_jumped
+
+    stepped, jumped = program(True), program(False)
+    assert stepped[:2] == jumped[:2]
+    assert stepped[2] == 0 and jumped[2] > 500  # the settled world let the clock jump
+    assert stepped[0][0]["position"][2] == pytest.approx(TZ + 20.0, abs=0.5)  # it fell onto the table
+
+
+def test_a_cube_too_heavy_for_the_grip_slips_out_and_is_not_held() -> None:
+    """3 kg with friction 0.3: the pads' 2 x 30 N grip holds at most 18 N of its 29.4 N weight."""
+    heavy = {**CUBE, "mass": 3.0, "friction": 0.3}
+    emu = prepare(Emulator(6, scene=contact.parse_scene({"plane": [TABLE], "object": [heavy]})))
+    closed = pick(emu)
+    assert closed * 0.1 == pytest.approx(40.0, abs=2.0)
+    line(emu, 300, -100, TZ + 115)
+    emu.advance(0.5)
+    end = cube(emu)
+    assert end.position[2] < TZ + 25.0  # it stayed down (or fell back)
+    assert not end.held
+
+
+def test_the_ft_sensor_reads_the_tables_reaction_in_a_scene_with_objects() -> None:
+    from xarm_emu.controller import ft_sensor
+
+    emu = prepare(Emulator(6, scene=contact.parse_scene(SCENE), ft_sensor=True, ft_noise=False))
+    call(emu, 37, sensitivity=0)
+    call(emu, 12, state=0)
+    line(emu, 200, 0, TZ + 10)
+    assert np.linalg.norm(ft_sensor.reading(emu.controller)[:3]) < 1.0  # above the table: nothing
+    line(emu, 200, 0, TZ - 5)
+    force = ft_sensor.reading(emu.controller)[:3]
+    assert np.linalg.norm(force) == pytest.approx(50.0, rel=0.02)  # 5 mm into 10 N/mm
+
+
+@pytest.mark.parametrize("sensitivity", [3, 0])
+def test_pushing_a_cube_against_a_wall_raises_c31_from_the_contact(sensitivity: int) -> None:
+    """The closed fingers push a cube along the table into a fixed block at 50 mm/s: the cube's push
+    on the hand, from the engine's contacts, enters the joint torques."""
+    wall = {"name": "wall", "min": [250, 0, TZ], "max": [350, 50, TZ + 100], "stiffness": 10.0}
+    part = {**CUBE, "position": [300, -35, TZ + 20]}
+    emu = prepare(Emulator(6, scene=contact.parse_scene({"plane": [TABLE], "box": [wall], "object": [part]})))
+    call(emu, 37, sensitivity=sensitivity)
+    call(emu, 12, state=0)
+    line(emu, 300, -110, TZ + 60)
+    line(emu, 300, -110, TZ + 15)
+    call(emu, 21, pose=(300.0, 0.0, TZ + 15, math.pi, 0.0, 0.0), speed=50.0, acc=2000.0, mvtime=0.0)
+    emu.advance(3.0)
+    error = REGISTERS[15].reply.decode(emu.handle(15, b"")[1])["error"]
+    assert error == (31 if sensitivity else 0)
+    if sensitivity:  # stopped by the cube pressed against the wall, the tool short of the wall itself
+        tcp = emu.controller.tcp_matrix()[:3, 3]
+        assert -60.0 < tcp[1] < -10.0, tcp
+        assert cube(emu).position[1] > -36.0

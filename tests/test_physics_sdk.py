@@ -1,0 +1,165 @@
+"""The pick-and-place through the unchanged official SDK on the real-time clock (sped up), and the
+scene's admin commands: ``scene-objects``, ``scene-place``, ``scene-reset``, and the CLI's
+``xarm-emu scene --json``."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+pytest.importorskip("mujoco")
+
+from xarm_emu.client.admin import AdminClient, AdminRefused  # noqa: E402
+from xarm_emu.testing import running_emulator, sdk_pointed_at  # noqa: E402
+
+SCENE = {"plane": [{"name": "table", "point": [0, 0, -100], "normal": [0, 0, 1], "stiffness": 10.0}],
+         "object": [{"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1,
+                     "position": [300, -100, -80]}]}
+DOWN = dict(roll=180, pitch=0, yaw=0, speed=150, mvacc=2000, wait=True)
+
+
+def start(arm, tcp_z: float) -> None:
+    """The TCP offset of the tool, then enable, position mode, ready."""
+    assert arm.set_tcp_offset([0, 0, tcp_z, 0, 0, 0]) == 0
+    arm.motion_enable(True)
+    arm.set_mode(0)
+    arm.set_state(0)
+
+
+def cube(st) -> dict:
+    return st.call(lambda: st.emulator.scene_objects())[0]
+
+
+def test_sdk_pick_and_place_with_the_xarm_gripper() -> None:
+    from xarm.wrapper import XArmAPI
+
+    with running_emulator(6, scene=SCENE, speed=4.0) as st, sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1")
+        try:
+            start(arm, 172)
+            assert arm.set_gripper_enable(True) == 0
+            assert arm.set_gripper_speed(3000) == 0
+            assert arm.set_gripper_position(850, wait=True) == 0
+            assert arm.set_position(300, -100, 50, **DOWN) == 0
+            assert arm.set_position(300, -100, -85, **DOWN) == 0
+            assert arm.set_gripper_position(0, wait=True) == 0
+            code, pos = arm.get_gripper_position()
+            assert code == 0 and pos * 0.1 == pytest.approx(40.0, abs=2.0)
+            z0 = cube(st)["position"][2]
+            assert cube(st)["held"]
+            assert arm.set_position(300, -100, 15, **DOWN) == 0
+            assert cube(st)["position"][2] - z0 == pytest.approx(100.0, abs=2.0)
+            assert arm.set_position(300, 100, 15, **DOWN) == 0
+            assert arm.set_position(300, 100, -84, **DOWN) == 0
+            assert arm.set_gripper_position(850, wait=True) == 0
+            assert arm.set_position(300, 100, 50, **DOWN) == 0
+        finally:
+            arm.disconnect()
+        end = cube(st)
+        assert not end["held"]
+        assert end["position"][0] == pytest.approx(300.0, abs=3.0)
+        assert end["position"][1] == pytest.approx(100.0, abs=3.0)
+        assert end["position"][2] == pytest.approx(-80.0, abs=1.0)
+        assert abs(end["rpy"][0]) < 2.0 and abs(end["rpy"][1]) < 2.0
+
+
+def test_admin_scene_commands_and_the_cli() -> None:
+    with running_emulator(6, scene=SCENE, admin=True) as st:
+        port = st.ports["admin"]
+        with AdminClient("127.0.0.1", port) as a:
+            first = json.loads(a.request("scene-objects"))["objects"][0]
+            assert first["name"] == "cube" and first["position"][:2] == pytest.approx([300, -100], abs=0.01)
+            a.request("scene-place", name="cube", position=[250, 150, -80], rpy=[0, 0, 30])
+            placed = json.loads(a.request("scene-objects"))["objects"][0]
+            assert placed["position"] == pytest.approx([250, 150, -80], abs=0.5)
+            assert placed["rpy"][2] == pytest.approx(30.0, abs=0.1)
+            with pytest.raises(AdminRefused, match="no object 'ball'"):
+                a.request("scene-place", name="ball", position=[0, 0, 0])
+            with pytest.raises(AdminRefused, match="three numbers"):
+                a.request("scene-place", name="cube", position=[0, 0])
+            a.request("scene-reset")
+        out = subprocess.run([sys.executable, "-m", "xarm_emu.cli", "scene", "--json", "--port",
+                              str(st.ports["command"]), "--admin-port", str(port)],
+                             capture_output=True, text=True, timeout=60)
+        assert out.returncode == 0, out.stderr
+        back = json.loads(out.stdout)["objects"][0]
+        assert back["position"] == pytest.approx([300, -100, -80], abs=0.5)
+
+
+def test_admin_scene_commands_without_objects_are_refused() -> None:
+    with running_emulator(6, admin=True) as st:
+        with AdminClient("127.0.0.1", st.ports["admin"]) as a:
+            with pytest.raises(AdminRefused, match="no objects"):
+                a.request("scene-objects")
+
+
+def _robotiq_pick(mass: float, friction: float, force: int) -> tuple[dict, dict, int]:
+    """The same task with the Robotiq 2F-85 through the SDK's robotiq_* calls; returns the cube after
+    the close, after the lift, and gOBJ after the close."""
+    from xarm.wrapper import XArmAPI
+
+    scene = {**SCENE, "object": [{**SCENE["object"][0], "mass": mass, "friction": friction}]}
+    with running_emulator(6, scene=scene, speed=4.0, gripper="robotiq-2f85") as st, sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1")
+        try:
+            start(arm, 174)
+            assert arm.robotiq_reset()[0] == 0
+            assert arm.robotiq_set_activate()[0] == 0
+            assert arm.robotiq_open(speed=0xFF, force=force)[0] == 0
+            assert arm.set_position(300, -100, 50, **DOWN) == 0
+            assert arm.set_position(300, -100, -85, **DOWN) == 0
+            assert arm.robotiq_close(speed=0xFF, force=force)[0] == 0
+            assert arm.robotiq_get_status()[0] == 0
+            gobj = arm.robotiq_status["gOBJ"]
+            closed = cube(st)
+            assert arm.set_position(300, -100, 15, **DOWN) == 0
+            lifted = cube(st)
+        finally:
+            arm.disconnect()
+    return closed, lifted, gobj
+
+
+def test_sdk_robotiq_2f85_grips_the_cube_by_contact() -> None:
+    closed, lifted, gobj = _robotiq_pick(0.1, 1.0, 0xFF)
+    assert gobj == 2 and closed["held"]
+    assert lifted["held"] and lifted["position"][2] - closed["position"][2] == pytest.approx(100.0, abs=2.0)
+
+
+def test_sdk_3kg_cube_slips_out_of_the_robotiq_2f85_at_its_lowest_force() -> None:
+    closed, lifted, gobj = _robotiq_pick(3.0, 0.5, 0)
+    assert gobj == 2
+    assert not lifted["held"] and lifted["position"][2] < -75.0
+
+
+def test_sdk_vacuum_gripper_seals_on_the_cube_top_and_carries_it() -> None:
+    """The pressure input rises only while the cup lies on the cube's top face; the cube rides with
+    the cup while the vacuum is on and rests where it is let go."""
+    from xarm.wrapper import XArmAPI
+
+    with running_emulator(6, scene=SCENE, speed=4.0, vacuum=True) as st, sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1")
+        try:
+            start(arm, 126)
+            assert arm.set_position(300, -100, 50, **DOWN) == 0
+            # in the air: the pump runs, the pressure never becomes normal (the SDK's wait times out)
+            assert arm.set_vacuum_gripper(True, wait=True, timeout=1) != 0
+            assert arm.get_vacuum_gripper()[1] == 0
+            assert arm.set_vacuum_gripper(False) == 0
+            assert arm.set_position(300, -100, -60, **DOWN) == 0  # the cup on the top face (z -60)
+            assert arm.set_vacuum_gripper(True, wait=True, timeout=3) == 0
+            assert arm.get_vacuum_gripper()[1] == 1
+            assert arm.set_position(300, -100, 40, **DOWN) == 0
+            lifted = cube(st)
+            assert lifted["position"][2] == pytest.approx(20.0, abs=2.0)
+            assert arm.set_position(300, 100, 40, **DOWN) == 0
+            assert arm.set_position(300, 100, -59.5, **DOWN) == 0
+            assert arm.set_vacuum_gripper(False, wait=True, timeout=3) == 0
+            assert arm.set_position(300, 100, 50, **DOWN) == 0
+        finally:
+            arm.disconnect()
+        end = cube(st)
+        assert end["position"][:2] == pytest.approx([300, 100], abs=3.0)
+        assert end["position"][2] == pytest.approx(-80.0, abs=1.0)
