@@ -25,8 +25,9 @@
   live box; :mod:`.physics` (objects, grasps and contacts of a scene with ``[[object]]`` tables).
 """
 
-__all__ = ["base", "bio_gripper", "box_state", "commands", "config", "contact", "core", "emulator",
-           "executor", "faults", "feedback", "force_control", "ft_sensor", "gripper", "handlers", "io",
-           "linear_track", "lite6_gripper", "modbus_map", "mode_steps", "motion", "online", "physics", "poses",
-           "reduced", "robotiq", "safety", "settings", "state", "states", "thermal", "trajectory", "vacuum",
-           "velocity"]
+__all__ = ["base", "bio_gripper", "bio_gripper_g1", "box_state", "commands", "config",
+           "contact", "core", "emulator", "executor", "faults", "feedback", "firmware2_report",
+           "force_control", "ft_sensor", "gripper", "handlers", "identification",
+           "inspire_hand", "io", "linear_track", "lite6_gripper", "modbus_map", "mode_steps",
+           "motion", "online", "physics", "poses", "reduced", "robotiq", "safety", "settings",
+           "state", "states", "thermal", "trajectory", "vacuum", "velocity"]

@@ -31,8 +31,8 @@ from ..protocol.rtu import CONTROL_BOX_HOST
 from . import contact, ft_sensor, identification, physics, safety, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
 from .bio_gripper import BioGripper
-from .box_state import EmulatorState, ModbusUserState, Schedule
 from .bio_gripper_g1 import BioGripperG1
+from .box_state import EmulatorState, ModbusUserState, Schedule
 from .core import Controller, joint_torques, tcp_matrix
 from .faults import Faults
 from .feedback import FeedbackQueue, feedback_queue, find_feedback_queue
@@ -605,7 +605,7 @@ class Emulator:
             out.update(enabled=dev.enabled, mode=dev.mode, opening_mm=round(dev.opening_mm, 1),
                        object=dev.detected)
         elif isinstance(dev, InspireHand):
-            out.update(angles=[int(round(a)) for a in dev.state.angle])
+            out.update(angles=[int(round(a)) for a in dev.data.angle])
         else:
             g = self.gripper.gripper
             out.update(enabled=g.enabled, position=g.position_pulses)
