@@ -64,7 +64,7 @@ def test_the_sdk_example_functions_open_and_close_the_hand(hand: tuple[Any, Serv
     exec(compile(source.split("\narm = XArmAPI(ip)")[0], "set_yinshi_rh56_gripper.py", "exec"), env)
     env["set_rh56_finger"](arm, pos=0, force=500, speed=1000)
     time.sleep(0.5)
-    assert angles(arm)[:5] == [0] * 5 and device(st).state.force_set[:5] == [500] * 5
+    assert angles(arm)[:5] == [0] * 5 and device(st).data.force_set[:5] == [500] * 5
     env["set_rh56_finger"](arm, pos=1000, force=500, speed=1000)
     time.sleep(0.5)
     assert angles(arm)[:5] == [1000] * 5
