@@ -38,7 +38,6 @@ REGISTER = 204
 IDEN_SPEED = 1.0
 IDEN_ACC = 5.0
 TYPE_SENSOR, TYPE_TORQUES = 0, 1
-_ATTR = "_identification"
 
 
 @dataclass
@@ -55,7 +54,7 @@ class Identification:
 
 def of(ctl: Any) -> Identification | None:
     """The controller's last identification, if any."""
-    return getattr(ctl.data, _ATTR, None)
+    return ctl.data.identification
 
 
 def progress(ctl: Any) -> int:
@@ -71,7 +70,7 @@ def start(ctl: Any, kind: int) -> None:
     lo, hi = ctl.model.lower, ctl.model.upper
     poses = [np.clip(q, lo, hi) for q in ft.iden_poses(ctl, q0)]
     iden = Identification(kind=kind, readings=len(poses), running=True)
-    setattr(ctl.data, _ATTR, iden)
+    ctl.data.identification = iden
     for i, q in enumerate(poses):
         ctl.queue(JointMove(REGISTER, q, IDEN_SPEED, IDEN_ACC))
         ctl.queue(Task(REGISTER, functools.partial(_read, ctl, iden, i)))

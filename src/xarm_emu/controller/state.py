@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from .ft_sensor import FtSensorState
     from .handlers.extras import ExtraState
     from .handlers.ft_sensor import FtConfig
+    from .identification import Identification
     from .motion import ServoTracker
     from .online import OnlinePlanner
     from .reduced import ReducedMode
@@ -122,6 +123,8 @@ class ControllerState:
     trajectory_store: TrajectoryStore | None = None
     #: The less common registers' values (controller/handlers/extras.py).
     extra_state: ExtraState | None = None
+    #: The load identification of register 204 under way or last run (:mod:`.identification`).
+    identification: Identification | None = None
 
     @classmethod
     def initial(cls, dof: int) -> ControllerState:
