@@ -14,12 +14,15 @@
   trajectory planning, :mod:`.trajectory` playback), what the core runs for them each period.
 - :mod:`.reduced`: reduced mode, its speed caps and joint ranges.
 - :mod:`.safety`, :mod:`.faults`, :mod:`.thermal`: safety checks, the fault group, joint temperatures.
+- :mod:`.identification`: load identification (register 204) as a wrist motion with progress.
+- :mod:`.firmware2_report`: the fields a 2.x box's report frames carry beyond the manual's.
 - :mod:`.feedback`: the queue of feedback events of firmware 2.x (registers 253/254), drained by the
   server into 0xFF frames.
 - :mod:`.base`: the control period, command outcomes and the interface components plug in through.
 - Components: :mod:`.io`, :mod:`.gripper`, :mod:`.vacuum`, :mod:`.lite6_gripper`; on the tool RS-485
   beside the xArm gripper, :mod:`.robotiq` (Robotiq 2F-85/2F-140) and :mod:`.bio_gripper` (BIO
-  gripper); :mod:`.linear_track` (the linear track on the control box RS-485), :mod:`.ft_sensor`
+  gripper, second generation; :mod:`.bio_gripper_g1` the first), :mod:`.inspire_hand` (Inspire
+  RH56 hand); :mod:`.linear_track` (the linear track on the control box RS-485), :mod:`.ft_sensor`
   (the six-axis F/T sensor) with :mod:`.contact` (the contact scene) and :mod:`.force_control` (its
   admittance and force control, register 202); :mod:`.modbus_map` binds the standard Modbus map to a
   live box; :mod:`.physics` (objects, grasps and contacts of a scene with ``[[object]]`` tables).

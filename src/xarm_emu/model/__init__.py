@@ -7,6 +7,8 @@
   (its unrolled scalar code comes from :mod:`._unroll`).
 - :mod:`.dynamics`: gravity and inverse-dynamics joint torques.
 - :mod:`.collision`: self-collision geometry derived from the joint frames.
+- :mod:`.calibration`: a calibration's measured constants (torque constants and offsets, friction,
+  thermal), applied when a model is built; never what the manual fixes.
 """
 
-__all__ = ["collision", "dynamics", "inertials", "kinematics", "robots", "rotations"]
+__all__ = ["calibration", "collision", "dynamics", "inertials", "kinematics", "robots", "rotations"]

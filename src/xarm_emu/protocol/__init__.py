@@ -10,7 +10,9 @@
 - :mod:`.rtu`: Modbus-RTU PDUs of the tool and control box RS-485 (section 2.1.4).
 - :mod:`.modbus`: the standard Modbus-TCP map (protocol id 0).
 - :mod:`.admin`: the admin channel's JSON-lines wire.
+- :mod:`.modbus_pdu`: standard Modbus PDUs decoded for the trace (function, address, count, values,
+  exception).
 """
 
-__all__ = ["admin", "codes", "feedback", "firmware", "frame", "layouts", "modbus", "registers", "reports",
-           "rtu"]
+__all__ = ["admin", "codes", "feedback", "firmware", "frame", "layouts", "modbus", "modbus_pdu",
+           "registers", "reports", "rtu"]

@@ -8,8 +8,10 @@ worker processes), ``trace``, ``disk`` (the worker that
 writes saves and traces off the loop), ``logs``, ``clock``, ``modbus_port`` (the Modbus map on a port
 of its own), ``studio`` (the SDK's Studio HTTP calls); ``app`` gathers the names users import.
 Nothing here imports the viewer, the CLI or the client: the composers above (``xarm-emu serve``,
-``xarm_emu.testing``) wire those."""
+``xarm_emu.testing``) wire those. ``proxy`` is ``xarm-emu proxy``, a transparent recording relay
+to a real box, and ``xrec`` its versioned recording format.
+"""
 
-__all__ = ["admin", "admin_port", "app", "clock", "command_port", "core", "disk", "fairness", "faults",
-           "fleet", "logs", "modbus_port", "report_ports", "report_sender", "scene_admin", "studio", "thread",
-           "trace", "workers"]
+__all__ = ["admin", "admin_port", "app", "clock", "command_port", "core", "disk", "fairness",
+           "faults", "fleet", "logs", "modbus_port", "proxy", "report_ports", "report_sender",
+           "scene_admin", "studio", "thread", "trace", "workers", "xrec"]
