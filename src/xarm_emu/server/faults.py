@@ -138,6 +138,7 @@ ARGUMENTS: dict[str, tuple[str, ...]] = {
     "report-pause": ("seconds",), "reply-delay": ("seconds",), "drop-clients": (), "clear": (),
     "set-input": ("kind", "index", "value", "wrench", "frame", "ramp", "for"),
     "ft-error": ("code",), "ft-noise": ("on",), "payload": ("mass", "com"), "scene": ("scene",),
+    "scene-place": ("name", "position", "rpy"), "scene-reset": (),
 }
 
 
