@@ -29,6 +29,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Emulator", "config_dir"): FIXED,
     ("Emulator", "config_message"): FIXED,  # what loading the saved configuration reported
     ("Emulator", "exact_steps"): FIXED,
+    ("Emulator", "physics"): WIRING,  # its world's state is the tree's ``physics`` part
     ("Emulator", "_store"): FIXED,  # the saved configuration's file (register 39/40)
     ("Emulator", "controller"): WIRING,
     ("Emulator", "io"): WIRING,
@@ -49,6 +50,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Controller", "model"): FIXED,
     ("Controller", "firmware"): FIXED,
     ("Controller", "dof"): FIXED,
+    ("Controller", "_per_joint"): FIXED,  # the per-joint fields of the firmware's register table
     ("Controller", "period"): FIXED,
     ("Controller", "robot_sn"): FIXED,
     ("Controller", "box_sn"): FIXED,

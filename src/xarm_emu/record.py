@@ -28,13 +28,15 @@ import selectors
 import socket
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .client import ReportStream
 from .controller.states import MODE_NAMES, STATE_NAMES
 from .protocol import codes
+from .protocol.registers import REGISTERS as MANUAL_REGISTERS
+from .protocol.registers import Register
 from .protocol.reports import DEVELOP_PORT, RICH_PORT, ReportSnapshot
 
 if TYPE_CHECKING:
@@ -260,14 +262,21 @@ class RecordingTrace:
         self.recorder.event(f"client {peer}: {what}")
 
     def command(self, t: float, peer: str, tid: int, protocol: int, register: int, params: bytes,
-                frame: bytes) -> None:
+                frame: bytes, table: Mapping[int, Register] | None = None,
+                asked: float | None = None) -> None:
+        """One request and its reply, named with ``table``, the registers the box answers (default:
+        the manual's), as the file trace names it."""
         if self.inner is not None:
-            self.inner.command(t, peer, tid, protocol, register, params, frame)
-        from .protocol import registers as regs
-
-        reg = regs.get(register)
+            self.inner.command(t, peer, tid, protocol, register, params, frame, table, asked)
+        reg = (table or MANUAL_REGISTERS).get(register)
         self.recorder.command(t, peer, register, reg.name if reg is not None else None,
                               frame[7] if len(frame) >= 8 else None)
+
+    def modbus(self, t: float, peer: str, tid: int, unit: int, pdu: bytes, frame: bytes) -> None:
+        """One standard Modbus request and its reply (the file trace's line; the recording shows
+        the register map's values in its own streams)."""
+        if self.inner is not None:
+            self.inner.modbus(t, peer, tid, unit, pdu, frame)
 
     def flush(self) -> None:
         if self.inner is not None:

@@ -147,6 +147,8 @@ class XArmGripperState:
     target: int = 0
     error: int = 0
     _target_words: list[int] = field(default_factory=lambda: [0, 0])
+    #: The fingers press on an object short of the target (set by the physics world).
+    gripped: bool = False
 
 
 @holds(XArmGripperState)
@@ -170,7 +172,6 @@ class XArmGripper:
         self.position = 0.0
         self.target = 0
         self.error = 0
-        #: The fingers press on an object short of the target (set by the physics world).
         self.gripped = False
         self._target_words = [0, 0]
 
