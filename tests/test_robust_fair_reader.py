@@ -1,6 +1,7 @@
 """A client that pipelines get_state (manual 2.1.2, register 13) as fast as it can and reads its
 replies costs the other clients little: another client's get_state p50 stays within 3x of its own
-baseline, both measured in this run against ``serve`` in a child process."""
+baseline, both measured in this run against ``serve`` in a child process (the baseline beside the
+same reader pipelining to another box, so both share the machine's load)."""
 
 from __future__ import annotations
 
@@ -50,22 +51,36 @@ def _pipelining_reader(port: int, stop: object, replies: object) -> None:
             replies.value = got // 9  # type: ignore[attr-defined]  # 6-byte header, register, state, state
 
 
+def _p50_beside_a_pipeliner(measured: int, piped: int) -> tuple[float, int]:
+    """get_state p50 on port ``measured`` while a pipelining reader runs against port ``piped``,
+    and the replies that reader got."""
+    ctx = multiprocessing.get_context("fork")
+    stop = ctx.Event()
+    replies = ctx.Value("q", 0)
+    reader = ctx.Process(target=_pipelining_reader, args=(piped, stop, replies))
+    reader.start()
+    try:
+        time.sleep(0.3)
+        p50 = _p50(measured, 300)
+    finally:
+        stop.set()
+        reader.join(5)
+    return p50, int(replies.value)  # type: ignore[attr-defined]
+
+
 def test_a_pipelining_reader_raises_another_clients_p50_at_most_3x(tmp_path: Path) -> None:
+    """The baseline runs with the same pipelining reader against a second box of its own, so both
+    measurements share the machine's load (a pipelining process takes a core on a 2-core
+    machine whichever box it talks to) and the ratio is what sharing the box costs."""
     (cmd, normal, rich, develop), last = serve_ports()
-    with serve_subprocess(tmp_path, *port_args(cmd, normal, rich, develop)):
-        assert wait_for(lambda: accepts(last), 15.0)
+    (cmd2, normal2, rich2, develop2), last2 = serve_ports()
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    with serve_subprocess(tmp_path / "a", *port_args(cmd, normal, rich, develop)), \
+            serve_subprocess(tmp_path / "b", *port_args(cmd2, normal2, rich2, develop2)):
+        assert wait_for(lambda: accepts(last), 15.0) and wait_for(lambda: accepts(last2), 15.0)
         _p50(cmd, 100)  # warm-up
-        base = _p50(cmd, 300)
-        ctx = multiprocessing.get_context("fork")
-        stop = ctx.Event()
-        replies = ctx.Value("q", 0)
-        reader = ctx.Process(target=_pipelining_reader, args=(cmd, stop, replies))
-        reader.start()
-        try:
-            time.sleep(0.3)
-            loaded = _p50(cmd, 300)
-        finally:
-            stop.set()
-            reader.join(5)
-    assert replies.value > 1000  # the pipelining client was served meanwhile
-    assert loaded <= 3 * base, (loaded * 1e3, base * 1e3, replies.value)
+        base, _ = _p50_beside_a_pipeliner(cmd, cmd2)
+        loaded, replies = _p50_beside_a_pipeliner(cmd, cmd)
+    assert replies > 1000  # the pipelining client was served meanwhile
+    assert loaded <= 3 * base, (loaded * 1e3, base * 1e3, replies)
