@@ -2,19 +2,38 @@
 
 from __future__ import annotations
 
+import ast
+import inspect
+from types import ModuleType
+
 import pytest
 
 from xarm_emu.controller import base, gripper, io, states
 from xarm_emu.protocol import codes, rtu
 
 
+def _assigned(module: ModuleType) -> set[str]:
+    """The names a module binds at its top level by assignment (not by import)."""
+    names: set[str] = set()
+    for node in ast.parse(inspect.getsource(module)).body:
+        targets = node.targets if isinstance(node, ast.Assign) else (
+            [node.target] if isinstance(node, ast.AnnAssign) else [])
+        names |= {t.id for t in targets if isinstance(t, ast.Name)}
+    return names
+
+
 def test_rs485_hosts_live_in_the_rtu_module() -> None:
-    assert io.TOOL_HOST is rtu.TOOL_HOST and gripper.TOOL_HOST is rtu.TOOL_HOST
-    assert io.CONTROL_BOX_HOST is rtu.CONTROL_BOX_HOST and gripper.CONTROL_BOX_HOST is rtu.CONTROL_BOX_HOST
+    """The hosts are imported from the RTU module, never written again (an ``is`` check could not
+    tell: small ints are one object whichever module defines them)."""
+    assert {"TOOL_HOST", "CONTROL_BOX_HOST"} <= _assigned(rtu)
+    for module in (io, gripper):
+        assert not {"TOOL_HOST", "CONTROL_BOX_HOST"} & _assigned(module)
+        assert (module.TOOL_HOST, module.CONTROL_BOX_HOST) == (rtu.TOOL_HOST, rtu.CONTROL_BOX_HOST)
 
 
 def test_io_stop_state_is_the_state_machines() -> None:
-    assert io.STATE_STOP is states.STATE_STOP
+    assert "STATE_STOP" in _assigned(states) and "STATE_STOP" not in _assigned(io)
+    assert io.STATE_STOP == states.STATE_STOP
 
 
 def test_gripper_error_set_is_the_code_tables() -> None:
