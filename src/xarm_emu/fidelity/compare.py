@@ -20,7 +20,6 @@ from __future__ import annotations
 import bisect
 import math
 import tempfile
-import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,6 +34,7 @@ from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..server import xrec
 from ..server.command_port import PURE_READS
+from ..tomlfile import read_toml
 
 #: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
 DEFAULT_TOLERANCES: dict[str, float] = {
@@ -119,12 +119,7 @@ def load_tolerances(path: Path | None) -> dict[str, float]:
     tol = dict(DEFAULT_TOLERANCES)
     if path is None:
         return tol
-    try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise CompareError(f"cannot read {path}: {exc.strerror or exc}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise CompareError(f"{path} is not TOML: {exc}") from None
+    data = read_toml(path, CompareError)
     for k, v in data.items():
         if k not in tol:
             raise CompareError(f"{path}: unknown tolerance {k!r} (known: {', '.join(tol)})")

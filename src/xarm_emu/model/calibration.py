@@ -28,10 +28,11 @@ Files are TOML (``xarm-emu calibrate -o cal.toml``, ``serve --calibration cal.to
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from ..tomlfile import read_toml
 
 #: Version of the calibration file format.
 FORMAT = 1
@@ -115,12 +116,7 @@ def from_dict(data: dict[str, Any]) -> Calibration:
 
 def load(path: Path | str) -> Calibration:
     """Read a calibration file; ``CalibrationError`` with a one-line reason on any problem."""
-    try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise CalibrationError(f"cannot read {path}: {exc.strerror or exc}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise CalibrationError(f"{path} is not TOML: {exc}") from None
+    data = read_toml(path, CalibrationError)
     return from_dict(data)
 
 
