@@ -57,7 +57,7 @@ from typing import Any, Protocol
 
 from ..protocol import codes, rtu
 from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
-from .base import NOT_IDLE, ControllerView, Handler, ParameterError, idle_until
+from .base import NOT_IDLE, Binding, ControllerView, Handler, ParameterError, bind_component, idle_until
 from .state import holds
 
 GRIPPER_ID = 8  # section 2.1.4 "Gripper ID 0x08"
@@ -438,7 +438,8 @@ class GripperModule:
 
     # --- register table adapter --------------------------------------------------------------------
 
-    def _handle_124(self, values: Any) -> dict[str, Any]:
+    def rs485_rtu(self, values: Any) -> dict[str, Any]:
+        """Register 124: one Modbus-RTU request to the RS-485 of host 9 (tool) or 11 (control box)."""
         host = int(values["host"])
         return {"host": host, "rtu": self.rtu(host, bytes(values["rtu"]))}
 
@@ -449,15 +450,15 @@ class GripperModule:
             raise ParameterError(f"timeout {ms} ms")
         return ms
 
-    def _handle_123(self, values: Any) -> None:
+    def set_modbus_timeout(self, values: Any) -> None:
         """Register 123: the tool RS-485 Modbus bridge's timeout (ms)."""
         self.modbus_timeout_ms = self._timeout(values)
 
-    def _handle_240(self, values: Any) -> None:
+    def set_transparent_timeout(self, values: Any) -> None:
         """Register 240: the transparent transfer's timeout (ms)."""
         self.transparent_timeout_ms = self._timeout(values)
 
-    def _handle_241(self, values: Any) -> dict[str, Any]:
+    def transparent_transfer(self, values: Any) -> dict[str, Any]:
         host = int(values["host"])
         return {"host": host, "data": self.transparent(host, bytes(values["data"]))}
 
@@ -468,11 +469,11 @@ class GripperModule:
             raise ParameterError("the old gripper path drives the xArm gripper, which is not attached")
         return self.gripper
 
-    def _handle_125(self, values: Any) -> dict[str, Any]:
+    def old_gripper_error(self, values: Any) -> dict[str, Any]:
         """Register 125: the gripper error code (old path): the second byte carries it."""
         return {"error": 0, "code": self.gripper.error & 0xFF}
 
-    def _handle_129(self, values: Any) -> None:
+    def old_gripper_write(self, values: Any) -> None:
         """Register 129 (old path): write a 32-bit gripper register (enable, speed, target)."""
         g = self._old_path(values)
         raw = float(values["value"])
@@ -491,7 +492,7 @@ class GripperModule:
         else:
             raise ParameterError(f"gripper address {addr:#06x} is not writable on the old path")
 
-    def _handle_130(self, values: Any) -> dict[str, Any]:
+    def old_gripper_read(self, values: Any) -> dict[str, Any]:
         """Register 130 (old path): read a 32-bit gripper register (position, target, speed)."""
         g = self._old_path(values)
         addr = int(values["addr"])
@@ -502,6 +503,17 @@ class GripperModule:
         return {"value": int(table[addr])}
 
     def handlers(self) -> dict[int, Handler]:
-        return {123: self._handle_123, 124: self._handle_124, 125: self._handle_125,
-                129: self._handle_129, 130: self._handle_130, 240: self._handle_240,
-                241: self._handle_241}
+        """This component's registers (:data:`BINDINGS`), bound to it."""
+        return bind_component(self, BINDINGS)
+
+
+#: The registers of the tool RS-485 bus component (:class:`~.base.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(123, GripperModule.set_modbus_timeout, GripperModule),
+    Binding(124, GripperModule.rs485_rtu, GripperModule),
+    Binding(125, GripperModule.old_gripper_error, GripperModule),
+    Binding(129, GripperModule.old_gripper_write, GripperModule),
+    Binding(130, GripperModule.old_gripper_read, GripperModule),
+    Binding(240, GripperModule.set_transparent_timeout, GripperModule),
+    Binding(241, GripperModule.transparent_transfer, GripperModule),
+)

@@ -11,13 +11,10 @@ The frames themselves come from :class:`~xarm_emu.controller.feedback.FeedbackQu
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from ..base import Values
+from ..base import Binding, Values
 from ..feedback import feedback_queue
-
-if TYPE_CHECKING:
-    from . import CtlHandler
 
 
 def set_feedback_type(ctl: Any, v: Values) -> None:
@@ -32,7 +29,8 @@ def feedback_check(ctl: Any, v: Values) -> None:
     return None
 
 
-HANDLERS: dict[int, CtlHandler] = {
-    253: feedback_check,
-    254: set_feedback_type,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(253, feedback_check),
+    Binding(254, set_feedback_type),
+)

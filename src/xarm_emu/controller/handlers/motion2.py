@@ -12,14 +12,13 @@ reply's third byte, as registers 21 and 23 do (0, or the error code the move wou
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from ...model import kinematics as kin
 from .. import velocity
-from ..base import C_JOINT_LIMIT, CommandError, ParameterError, Values
+from ..base import C_JOINT_LIMIT, Binding, CommandError, ParameterError, Values
 from ..commands import JointMove, LineMove
 from ..poses import resolve_line_target
 from ..settings import in_range
@@ -123,8 +122,9 @@ def set_cartesian_velocity(ctl: Any, v: Values) -> None:
     return None
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    81: set_joint_velocity,
-    82: set_cartesian_velocity,
-    83: move_relative,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(81, set_joint_velocity),
+    Binding(82, set_cartesian_velocity),
+    Binding(83, move_relative),
+)

@@ -3,11 +3,10 @@ The mechanism is :mod:`xarm_emu.controller.trajectory`."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 from .. import trajectory as traj
-from ..base import CommandWarning, ParameterError, Values
+from ..base import Binding, CommandWarning, ParameterError, Values
 from ..states import STATE_SLEEP
 
 
@@ -77,11 +76,12 @@ def speeding(ctl: Any, v: Values) -> dict[str, Any]:
     return {"result": 1 if over else 0, "servo_id": joint if over else 0, "speed": speed}
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    61: set_record,
-    62: save,
-    63: load,
-    64: play,
-    65: rw_status,
-    230: speeding,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(61, set_record),
+    Binding(62, save),
+    Binding(63, load),
+    Binding(64, play),
+    Binding(65, rw_status),
+    Binding(230, speeding),
+)
