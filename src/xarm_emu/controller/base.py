@@ -1,7 +1,8 @@
 """Shared pieces of the controller: the control period, command outcomes and
 the interface controller components (IO, gripper, ...) plug in through.
 
-A component contributes register handlers. A handler gets the request values
+Every register handler, the controller's and a component's, is bound by one
+row of the binding table (:class:`Binding`). A handler gets the request values
 decoded by the register table and returns the reply values (or ``None`` for an
 empty reply). It signals a refusal by raising :class:`CommandWarning` (the
 manual's warning codes, section 3.2.2) or :class:`CommandError` (a control box
@@ -182,9 +183,8 @@ class ControllerView(Protocol):
 
 
 class Component(Protocol):
-    """A controller part with its own registers and its own state."""
-
-    def handlers(self) -> dict[int, Handler]: ...
+    """A controller part with its own state that steps with the controller. Its registers, if any,
+    are rows of the binding table naming its class (:class:`Binding`)."""
 
     def step(self, dt: float, ctl: ControllerView) -> None: ...
 

@@ -33,7 +33,7 @@ from typing import Any
 from ..protocol.feedback import Feedback, FeedbackCode, FeedbackType
 from ..protocol.frame import PROTOCOL_PRIVATE_V3, STATE_FAILED, STATE_NOT_READY
 from ..protocol.registers import Flag
-from .base import NOT_IDLE, ControllerView, Handler
+from .base import NOT_IDLE, ControllerView
 from .commands import CircleMove, Dwell, JointMove, LineMove
 from .state import holds
 
@@ -139,9 +139,6 @@ class FeedbackQueue:
         self.dropped = 0
 
     # -- the component interface ---------------------------------------------------------------
-    def handlers(self) -> dict[int, Handler]:
-        return {}  # registers 253/254 live in controller/handlers/feedback.py
-
     def step(self, dt: float, ctl: ControllerView) -> None:
         """After each control period: report tasks that started or finished."""
         if self._tasks or self._checks:

@@ -192,9 +192,6 @@ class FtSensorComponent:
     def __init__(self, ctl: Any) -> None:
         self.ctl = ctl
 
-    def handlers(self) -> dict[int, Any]:
-        return {}
-
     def step(self, dt: float, view: Any) -> None:
         step(self.ctl, dt)
 

@@ -61,7 +61,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from ..protocol import rtu
-from .base import C_ESTOP, NOT_IDLE, ControllerView, Handler
+from .base import C_ESTOP, NOT_IDLE, ControllerView
 from .state import holds
 
 TRACK_ID = 1  # the SDK's linear motor slave id on the control box RS-485
@@ -462,7 +462,3 @@ class LinearTrack:
         if self.moving or self.velocity != 0.0 or (ctl.error_code == C_ESTOP and self.enabled):
             return NOT_IDLE
         return math.inf
-
-    def handlers(self) -> dict[int, Handler]:
-        """No register of its own: the track answers through register 124 (host 11)."""
-        return {}

@@ -20,7 +20,7 @@ import math
 from dataclasses import dataclass
 
 from ..model.robots import PneumaticGripper
-from .base import NOT_IDLE, ControllerView, Handler
+from .base import NOT_IDLE, ControllerView
 from .io import ToolIO
 from .state import holds
 
@@ -63,9 +63,6 @@ class Lite6Gripper:
         if self.opening <= 0.0:
             return JAW_CLOSED if self.command != "open" else JAW_OPENING
         return {"open": JAW_OPENING, "close": JAW_CLOSING}.get(self.command or "", JAW_STOPPED)
-
-    def handlers(self) -> dict[int, Handler]:
-        return {}
 
     def step(self, dt: float, ctl: ControllerView) -> None:
         cmd = self.command

@@ -27,7 +27,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..model.robots import VACUUM_WIRING, VacuumWiring
-from .base import NOT_IDLE, ControllerView, Handler
+from .base import NOT_IDLE, ControllerView
 from .io import ToolIO
 from .state import holds
 
@@ -81,9 +81,6 @@ class VacuumGripper:
     def pressure_normal(self) -> bool:
         """TI0 (hardware version 1) reads "pressure normal"."""
         return self.pressure_on(1)
-
-    def handlers(self) -> dict[int, Handler]:
-        return {}
 
     def _step_wiring(self, version: int, w: VacuumWiring, dt: float) -> None:
         want = self.pumping_on(version) and self.object_present
