@@ -55,7 +55,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from ..protocol import codes, rtu
+from ..protocol import codes, regmap, rtu
 from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from .base import NOT_IDLE, Binding, ControllerView, Handler, ParameterError, bind_component, idle_until
 from .state import holds
@@ -249,55 +249,11 @@ class XArmGripper:
 
     # --- Modbus slave ------------------------------------------------------------------------------
 
-    def _read(self, addr: int) -> int:
-        pos_words = rtu.s32_words(self.position_pulses)
-        tgt_words = rtu.s32_words(self.target)
-        table: dict[int, Callable[[], int]] = {
-            REG_STATUS: lambda: self.status,
-            REG_ERROR: lambda: self.error,
-            REG_ENABLE: lambda: int(self.enabled),
-            REG_MODE: lambda: self.mode,
-            REG_SPEED: lambda: self.speed,
-            REG_TARGET: lambda: tgt_words[0],
-            REG_TARGET + 1: lambda: tgt_words[1],
-            REG_POSITION: lambda: pos_words[0],
-            REG_POSITION + 1: lambda: pos_words[1],
-            REG_VERSION: lambda: self.version[0],
-            REG_VERSION + 1: lambda: self.version[1],
-            REG_VERSION + 2: lambda: self.version[2],
-        }
-        getter = table.get(addr)
-        if getter is None:
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        return getter() & 0xFFFF
-
     def read_registers(self, address: int, count: int) -> list[int]:
-        return [self._read(a) for a in range(address, address + count)]
+        return regmap.read_registers(REGISTER_MAP, self, address, count)
 
     def write_registers(self, address: int, values: Sequence[int]) -> None:
-        writable = {REG_ENABLE, REG_MODE, REG_CLEAR, REG_SPEED, REG_TARGET, REG_TARGET + 1, REG_ZERO}
-        addrs = range(address, address + len(values))
-        if any(a not in writable for a in addrs):
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        target_written = False
-        for a, v in zip(addrs, values, strict=True):
-            if a == REG_ENABLE:
-                self.set_enable(v)
-            elif a == REG_MODE:
-                self.set_mode(v)
-            elif a == REG_CLEAR:
-                if v == 1:
-                    self.clear_error()
-            elif a == REG_SPEED:
-                self.set_speed(v)
-            elif a == REG_ZERO:
-                if v == 1:
-                    self.set_zero()
-            else:
-                self._target_words[a - REG_TARGET] = v
-                target_written = True
-        if target_written:
-            self.set_target(rtu.words_s32(*self._target_words))
+        regmap.write_registers(REGISTER_MAP, self, address, values)
 
     # --- motion ------------------------------------------------------------------------------------
 
@@ -311,6 +267,43 @@ class XArmGripper:
             self.position = float(self.target)
         else:
             self.position += max_step if delta > 0 else -max_step
+
+
+def _put_target_word(g: XArmGripper, value: int, *, word: int) -> None:
+    g._target_words[word] = value
+
+
+def _commit_target(g: XArmGripper) -> None:
+    """Both target registers written by one request (or one of them with the other's last value)."""
+    g.set_target(rtu.words_s32(*g._target_words))
+
+
+def _clear_error(g: XArmGripper, value: int) -> None:
+    if value == 1:
+        g.clear_error()
+
+
+def _set_zero(g: XArmGripper, value: int) -> None:
+    if value == 1:
+        g.set_zero()
+
+
+#: The xArm gripper's registers (the table of the module docstring); :func:`~xarm_emu.protocol.regmap.
+#: write_registers` refuses a request that reaches any other address before it changes anything.
+REGISTER_MAP: dict[int, regmap.Reg] = {
+    REG_STATUS: regmap.Reg("status"),
+    REG_ERROR: regmap.Reg("error"),
+    REG_ENABLE: regmap.Reg("enabled", "rw", put=XArmGripper.set_enable, range=(0, 1)),
+    REG_MODE: regmap.Reg("mode", "rw", put=XArmGripper.set_mode, range=(0, 1)),
+    REG_CLEAR: regmap.Reg("clear_error", "w", put=_clear_error),
+    # 1..10000 accepted; outside it the gripper raises G12 itself (set_speed), no exception.
+    REG_SPEED: regmap.Reg("speed", "rw", put=XArmGripper.set_speed, unit="r/min"),
+    **regmap.s32(REG_TARGET, "target", access="rw", put=_put_target_word, commit=_commit_target,
+                 unit="pulse"),
+    **regmap.s32(REG_POSITION, "position", unit="pulse"),
+    **regmap.items(REG_VERSION, "version", 3),
+    REG_ZERO: regmap.Reg("set_zero", "w", put=_set_zero),
+}
 
 
 #: The gripper's turnaround, ms: from the end of a request to the start of its reply. The public
