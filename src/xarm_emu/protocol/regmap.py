@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import functools
 import operator
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -170,3 +170,11 @@ def items(address: int, field: str, count: int, *, access: str = "r", stride: in
                                       put=functools.partial(_set_item, field=field, index=i)
                                       if "w" in access else None, **kwargs)
             for i in range(count)}
+
+
+def entries(field: str, addresses: Iterable[int], *, access: str = "r") -> dict[int, Reg]:
+    """Registers at ``addresses`` holding the entries of the device's mapping ``field`` under the same
+    keys (stored parameters, by address)."""
+    return {a: Reg(f"{field}[{a:#06x}]", access, get=functools.partial(_item, field=field, index=a),
+                   put=functools.partial(_set_item, field=field, index=a) if "w" in access else None)
+            for a in addresses}
