@@ -15,6 +15,7 @@ Sans-IO: a device's behaviour stays in its own methods, which ``put``/``commit``
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import operator
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -34,8 +35,8 @@ class Reg:
     access: str = "r"
     #: The device's value: by default its attribute ``field``, as an int (masked to 16 bits).
     get: Callable[[Any], int] | None = None
-    #: Take a written value: by default set the attribute ``field``.
-    put: Callable[[Any, int], None] | None = None
+    #: Take a written value (a block's values as a tuple): by default set the attribute ``field``.
+    put: Callable[[Any, Any], None] | None = None
     #: The raw values a write accepts; any other is exception 3 (``None``: the device decides).
     range: tuple[int, int] | None = None
     #: A raw value that leaves the field unchanged (no ``put``), whatever the range.
@@ -130,17 +131,21 @@ def _s32_word(device: Any, *, value: Callable[[Any], float], counts: float, word
 
 def s32(address: int, field: str, *, value: Callable[[Any], float] | None = None, counts: float = 1.0,
         unit: str = "", access: str = "r", put: Callable[..., None] | None = None,
-        commit: Callable[[Any], None] | None = None) -> dict[int, Reg]:
+        commit: Callable[[Any], None] | None = None, whole: bool = False) -> dict[int, Reg]:
     """A signed 32-bit field in two registers, high word first (positions of the grippers and the
     linear track): ``value`` (default: the attribute ``field``) in ``unit`` times ``counts`` counts
     per unit, rounded. A writable one takes each word with ``put(device, value, word=0 or 1)`` and
-    runs ``commit`` once after the request."""
+    runs ``commit`` once after the request; ``whole``: it takes both words at once,
+    ``put(device, (hi, lo))``, and a write of one of them is exception 2."""
     get = value or operator.attrgetter(field)
-    return {address + w: Reg(f"{field}[{'hi' if w == 0 else 'lo'}]", access,
-                             get=functools.partial(_s32_word, value=get, counts=counts, word=w),
-                             put=None if put is None else functools.partial(put, word=w),
-                             scale=1.0 / counts, unit=unit, commit=commit)
-            for w in (0, 1)}
+    out = {address + w: Reg(f"{field}[{'hi' if w == 0 else 'lo'}]", access if w == 0 or not whole else "r",
+                            get=functools.partial(_s32_word, value=get, counts=counts, word=w),
+                            put=None if put is None or whole else functools.partial(put, word=w),
+                            scale=1.0 / counts, unit=unit, commit=commit)
+           for w in (0, 1)}
+    if whole:
+        out[address] = dataclasses.replace(out[address], put=put, block=2)
+    return out
 
 
 def _item(device: Any, *, field: str, index: int) -> Any:
