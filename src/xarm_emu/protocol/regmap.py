@@ -55,7 +55,7 @@ class Reg:
         get = self.get or operator.attrgetter(self.field)
         return int(get(device)) & 0xFFFF
 
-    def accept(self, value: int) -> bool:
+    def accept(self, value: Any) -> bool:
         """Whether a write of raw ``value`` passes the range (a ``keep`` value always does)."""
         return self.range is None or value == self.keep or self.range[0] <= value <= self.range[1]
 
@@ -84,17 +84,21 @@ def read_registers(regmap: RegisterMap, device: Any, address: int, count: int, s
     return out
 
 
-def _plan(regmap: RegisterMap, address: int, values: Sequence[int],
-          stride: int) -> list[tuple[Reg, Any]]:
+def _plan(regmap: RegisterMap, address: int, values: Sequence[int], stride: int,
+          check_values: bool) -> list[tuple[Reg, Any]]:
     """The registers a write request reaches, each with its value (a block's values as a tuple);
-    any address without a writable register, or a block not written whole, is exception 2."""
+    any address without a writable register, or a block not written whole, is exception 2, and with
+    ``check_values`` a value outside its register's range is exception 3, in the order they come."""
     plan: list[tuple[Reg, Any]] = []
     i = 0
     while i < len(values):
         reg = regmap.get(address + i * stride)
         if reg is None or "w" not in reg.access or i + reg.block > len(values):
             raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        plan.append((reg, values[i] if reg.block == 1 else tuple(values[i:i + reg.block])))
+        v = values[i] if reg.block == 1 else tuple(values[i:i + reg.block])
+        if check_values and not reg.accept(v):
+            raise rtu.RtuError(rtu.ILLEGAL_VALUE)
+        plan.append((reg, v))
         i += reg.block
     return plan
 
@@ -103,16 +107,11 @@ def write_registers(regmap: RegisterMap, device: Any, address: int, values: Sequ
                     stride: int = 1, atomic: bool = False) -> None:
     """Functions 0x06/0x10: write ``values`` from ``address``. Every address is checked first
     (exception 2, nothing changed); then each register in turn checks its range (exception 3) and
-    takes its value, and the commits of the registers written run once, in order. ``atomic``: every
-    register checks its address and range before any takes its value, so a refused write changes
-    nothing."""
-    plan = _plan(regmap, address, values, stride)
-    if atomic:
-        for reg, v in plan:
-            if not reg.accept(v):
-                raise rtu.RtuError(rtu.ILLEGAL_VALUE)
+    takes its value, and the commits of the registers written run once, in order. ``atomic``: each
+    register checks its address and then its range before any takes its value, so a refused write
+    changes nothing."""
     commits: list[Callable[[Any], None]] = []
-    for reg, v in plan:
+    for reg, v in _plan(regmap, address, values, stride, check_values=atomic):
         if not reg.accept(v):
             raise rtu.RtuError(rtu.ILLEGAL_VALUE)
         reg.store(device, v)
