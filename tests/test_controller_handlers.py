@@ -12,10 +12,10 @@ import pytest
 from typer.testing import CliRunner
 
 from xarm_emu import cli
-from xarm_emu.controller import online
-from xarm_emu.controller.base import Binding, binding_table
+from xarm_emu.controller.applications import online
+from xarm_emu.controller.core.interface import Binding, binding_table
+from xarm_emu.controller.devices.gripper import GripperModule
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.gripper import GripperModule
 from xarm_emu.controller.handlers import TABLE, motion
 from xarm_emu.protocol.firmware import SUPPORTED_VERSIONS, profile_for
 from xarm_emu.protocol.frame import STATE_WARNING
@@ -102,7 +102,7 @@ def test_registers_names_the_function_the_controller_calls_for_124_and_21(versio
         assert isinstance(handler, functools.partial)
         assert handler.func is _resolve(name)
         if code == 124:
-            assert name == "xarm_emu.controller.gripper.GripperModule.rs485_rtu"
+            assert name == "xarm_emu.controller.devices.gripper.GripperModule.rs485_rtu"
             assert handler.args == (emu.gripper,)
         else:
             assert name == "xarm_emu.controller.handlers.motion.move_line(register=21)"
@@ -113,8 +113,9 @@ def test_registers_names_the_online_route_of_21_on_firmware_2_only() -> None:
     """Mode 7 (online Cartesian planning, firmware 2.x) routes register 21 to the online planner: a
     column of the same table, shown for 2.7.103 and absent on 1.6.0 (which has no mode 7)."""
     out = CliRunner().invoke(cli.app, ["registers", "21"], terminal_width=250).output
-    assert "in mode 7: xarm_emu.controller.online.cartesian_target" in out.split("handler on 2.7.103")[1]
-    assert "in mode 7" not in out.split("handler on 2.7.103")[0]
+    on_1_6, on_2_7 = out.split("handler on 2.7.103")
+    assert "in mode 7: xarm_emu.controller.applications.online.cartesian_target" in on_2_7
+    assert "in mode 7" not in on_1_6
     emu = Emulator(6, firmware="2.7.103")
     assert emu.controller._routes[21][7].func is online.cartesian_target
     assert Emulator(6, firmware="1.6.0").controller._routes[21][7].func is online.cartesian_target

@@ -1,12 +1,13 @@
 """Register handlers as plain functions, bound to register codes in one table.
 
 Each module of this package holds the handlers of one group of registers, as the manual groups them
-(section 2.1.3), and ends in a ``BINDINGS`` tuple of :class:`~xarm_emu.controller.base.Binding` rows:
-register code, handler ``handler(ctl, values) -> reply values | None``, and the modes (register 19)
-that route the code to another handler. Components (IO, the tool RS-485 bus) declare their rows in
-the same form, with the component class whose instance answers them. :data:`TABLE` is every row,
-checked at import: a code bound twice is an error naming both handlers, and every handler is a
-plain function that :func:`handler_of` can name.
+(section 2.1.3), and ends in a ``BINDINGS`` tuple of
+:class:`~xarm_emu.controller.core.interface.Binding` rows: register code, handler
+``handler(ctl, values) -> reply values | None``, and the modes (register 19) that route the code to
+another handler. Components (IO, the tool RS-485 bus) declare their rows in the same form, with the
+component class whose instance answers them. :data:`TABLE` is every row, checked at import: a code
+bound twice is an error naming both handlers, and every handler is a plain function that
+:func:`handler_of` can name.
 
 Where one function serves several registers, the row binds the register code with
 :func:`functools.partial` (``partial(move, register=21)``); no handler learns its register any
@@ -21,43 +22,44 @@ from typing import TYPE_CHECKING, Any
 
 from ...protocol.firmware import DEFAULT_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, profile_for
 from ...protocol.registers import registers_for
-from .. import gripper, io
-from ..base import Binding, Handler, Values, binding_table, function_name
-from ..mode_steps import create_state, extra_modes_of
+from ..applications.modes import create_state, extra_modes_of
+from ..core.interface import Binding, Handler, Values, binding_table, function_name
+from ..devices import gripper, io
 from . import (
-    extras,
     feedback,
     force_control,
     ft_sensor,
     kinematics,
     motion,
-    motion2,
     reduced,
+    relative_and_velocity,
+    service,
     settings,
     state,
     trajectory,
 )
 
 if TYPE_CHECKING:
-    from ..core import Controller
+    from ..controller import Controller
 
 #: A register handler: the controller and the request values decoded by the register table in,
 #: the reply values (or ``None`` for an empty reply) out. It refuses by raising
-#: :class:`~xarm_emu.controller.base.CommandWarning` or :class:`~xarm_emu.controller.base.CommandError`.
+#: :class:`~xarm_emu.controller.core.interface.CommandWarning` or
+#: :class:`~xarm_emu.controller.core.interface.CommandError`.
 CtlHandler = Callable[["Any", Values], "dict[str, Any] | None"]
 
 #: Every register binding, the controller's and its components', by register code (checked at
-#: import: :func:`~xarm_emu.controller.base.binding_table`).
+#: import: :func:`~xarm_emu.controller.core.interface.binding_table`).
 TABLE: dict[int, Binding] = binding_table((
     *state.BINDINGS,
     *motion.BINDINGS,
     *settings.BINDINGS,
     *kinematics.BINDINGS,
     *feedback.BINDINGS,
-    *motion2.BINDINGS,
+    *relative_and_velocity.BINDINGS,
     *reduced.BINDINGS,
     *trajectory.BINDINGS,
-    *extras.BINDINGS,
+    *service.BINDINGS,
     *ft_sensor.BINDINGS,
     *force_control.BINDINGS,
     *io.BINDINGS,
@@ -70,7 +72,7 @@ def bind(ctl: Controller) -> tuple[dict[int, Handler], dict[int, dict[int, Handl
     controller bound as its first argument, for the registers of ``ctl``'s firmware only; and the
     mode routes of those registers (register -> mode -> handler)."""
     create_state(ctl)  # the state behind these handlers exists from construction (checkpoints)
-    extras.extra_state(ctl)
+    service.extra_state(ctl)
     ft_sensor.ft_config(ctl)
     force_control.create_state(ctl)
     handlers: dict[int, Handler] = {}

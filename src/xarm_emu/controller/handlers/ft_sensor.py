@@ -14,9 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from .. import force_control, identification
-from .. import ft_sensor as ft
-from ..base import Binding, ParameterError, Values
+from ..applications import force_control, identification
+from ..core.interface import Binding, ParameterError, Values
+from ..devices import ft_sensor as ft
 
 NO_SENSOR = "no F/T sensor attached"
 NOT_ENABLED = "the F/T sensor is not switched on (register 201)"
@@ -136,7 +136,7 @@ def get_config(ctl: Any, v: Values) -> dict[str, Any]:
             **cfg.pid}
 
 
-#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
 BINDINGS: tuple[Binding, ...] = (
     Binding(150, get_data),
     Binding(200, get_data),

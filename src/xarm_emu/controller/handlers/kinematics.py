@@ -8,11 +8,11 @@ import numpy as np
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
-from ..base import WARN_NO_SOLUTION, Binding, CommandWarning, Values
-from ..poses import wire_pose_to_matrix
+from ..core.interface import WARN_NO_SOLUTION, Binding, CommandWarning, Values
+from ..core.poses import wire_pose_to_matrix
 
 if TYPE_CHECKING:
-    from ..core import Controller
+    from ..controller import Controller
 
 
 def kinematics_params(ctl: Controller, v: Values) -> dict[str, Any]:
@@ -84,7 +84,7 @@ def tcp_pose_aa(ctl: Any, v: Values) -> dict[str, Any]:
     return {"pose": tuple(rot.matrix_to_pose_aa(ctl.tcp_matrix()))}
 
 
-#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
 BINDINGS: tuple[Binding, ...] = (
     Binding(8, kinematics_params),
     Binding(41, tcp_pose),

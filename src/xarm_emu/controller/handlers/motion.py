@@ -25,8 +25,12 @@ import numpy as np
 from ...model import collision
 from ...model import kinematics as kin
 from ...model import rotations as rot
-from .. import motion, online, safety
-from ..base import (
+from .. import motion
+from ..applications import online
+from ..core import safety
+from ..core.commands import CircleMove, Dwell, JointMove, LineMove
+from ..core.executor import keep_unchanged_joints, line_target
+from ..core.interface import (
     C_BOUNDARY,
     C_JOINT_LIMIT,
     C_KINEMATIC,
@@ -38,14 +42,12 @@ from ..base import (
     ParameterError,
     Values,
 )
-from ..commands import CircleMove, Dwell, JointMove, LineMove
-from ..executor import keep_unchanged_joints, line_target
-from ..poses import apply_offset, wire_pose_to_matrix
-from ..settings import in_range
+from ..core.poses import apply_offset, wire_pose_to_matrix
+from ..core.settings import in_range
 from .settings import report_tau_or_i
 
 if TYPE_CHECKING:
-    from ..core import Controller
+    from ..controller import Controller
 
 #: Joint positions sampled along the straight joint path of an only-check move.
 CHECK_SAMPLES = 24
@@ -295,7 +297,7 @@ def servo_cartesian_aa(ctl: Controller, v: Values) -> None:
     return None
 
 
-#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
 BINDINGS: tuple[Binding, ...] = (
     # In online planning (modes 6/7, firmware 2.x) a joint or linear move is a new online target.
     Binding(21, functools.partial(move_line, register=21),

@@ -1,12 +1,13 @@
-"""Reduced-mode registers (47-50, 53, 58, 60). The mechanism is :mod:`xarm_emu.controller.reduced`."""
+"""Reduced-mode registers (47-50, 53, 58, 60). The mechanism is
+:mod:`xarm_emu.controller.applications.reduced`."""
 
 from __future__ import annotations
 
 import math
 from typing import Any
 
-from ..base import Binding, ParameterError, Values
-from ..reduced import reduced_of
+from ..applications.reduced import reduced_of
+from ..core.interface import Binding, ParameterError, Values
 
 
 def _switch(v: Values, name: str = "on") -> bool:
@@ -76,7 +77,7 @@ def set_rebound(ctl: Any, v: Values) -> None:
     return None
 
 
-#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
 BINDINGS: tuple[Binding, ...] = (
     Binding(47, set_tcp_speed),
     Binding(48, set_joint_speed),

@@ -6,8 +6,8 @@ import functools
 from typing import TYPE_CHECKING, Any
 
 from ...model import collision
-from ..base import Binding, ParameterError, Values
-from ..settings import (
+from ..core.interface import Binding, ParameterError, Values
+from ..core.settings import (
     COLLISION_SENSITIVITY_RANGE,
     MOTION_LIMITS,
     TEACH_SENSITIVITY_RANGE,
@@ -16,10 +16,10 @@ from ..settings import (
     gravity_ok,
     in_range,
 )
-from ..states import Event, fire
+from ..core.state_machine import Event, fire
 
 if TYPE_CHECKING:
-    from ..core import Controller
+    from ..controller import Controller
 
 
 def motion_limit(ctl: Controller, v: Values, *, name: str, key: str) -> dict[str, Any]:
@@ -168,7 +168,7 @@ def get_tau_or_i(ctl: Any, v: Values) -> dict[str, Any]:
     return {"tau_or_i": int(ctl.settings.report_current)}
 
 
-#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
 BINDINGS: tuple[Binding, ...] = (
     Binding(5, get_tau_or_i),
     Binding(31, functools.partial(motion_limit, name="tcp_jerk", key="jerk")),

@@ -40,9 +40,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
-from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
-from .base import (
+from ...protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
+from ...protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
+from ..core.controller_state import holds
+from ..core.interface import (
     C_DELAYED_IO,
     NOT_IDLE,
     Binding,
@@ -53,8 +54,7 @@ from .base import (
     Values,
     bind_component,
 )
-from .state import holds
-from .states import STATE_STOP
+from ..core.state_machine import STATE_STOP
 
 # Tool board addresses (registers 127/128).
 ADDR_TOOL_DI = 0x0A14
@@ -367,7 +367,7 @@ class IOModule:
         ctl = self._ctl() if self._ctl is not None else None
         if ctl is None:
             return None
-        from .handlers.extras import queue_behind_moves
+        from ..handlers.service import queue_behind_moves
 
         return functools.partial(queue_behind_moves, ctl)
 
@@ -691,7 +691,7 @@ def reset_on_stop(io: IOModule, v: Values) -> dict[str, Any]:
     return {"cmdnum": int(v["on"])}
 
 
-#: The registers of the IO component (:class:`~.base.Binding`).
+#: The registers of the IO component (:class:`~xarm_emu.controller.core.interface.Binding`).
 BINDINGS: tuple[Binding, ...] = (
     Binding(127, tool_write, IOModule),
     Binding(128, tool_read, IOModule),

@@ -36,8 +36,8 @@ import operator
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from ..protocol import regmap
-from .base import NOT_IDLE, ControllerView
+from ...protocol import regmap
+from ..core.interface import NOT_IDLE, ControllerView
 
 HAND_SLAVE = 1
 HAND_BAUD_INDEX = 5  # 115200 bps in the register 127 baud table

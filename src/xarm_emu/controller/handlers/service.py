@@ -18,11 +18,11 @@ import numpy as np
 from ...model import kinematics as kin
 from ...model import rotations as rot
 from ...protocol import registers as regs
-from .. import ft_sensor
-from ..base import Binding, ParameterError, Values
-from ..commands import Task
-from ..poses import wire_pose_to_matrix
-from ..states import MODE_POSITION, STATE_MOVING
+from ..core.commands import Task
+from ..core.interface import Binding, ParameterError, Values
+from ..core.poses import wire_pose_to_matrix
+from ..core.state_machine import MODE_POSITION, STATE_MOVING
+from ..devices import ft_sensor
 
 #: Register 3: 0 means "verified" (the SDK's check_verification); an emulated box is always verified.
 VERIFIED = 0
@@ -414,7 +414,7 @@ def get_common_info(ctl: Any, v: Values) -> dict[str, Any]:
     return {"data": bytes(size)}
 
 
-#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
 BINDINGS: tuple[Binding, ...] = (
     Binding(3, check_verify),
     Binding(4, reload_dynamics),

@@ -61,9 +61,9 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from ..protocol import regmap, rtu
-from .base import C_ESTOP, NOT_IDLE, ControllerView
-from .state import holds
+from ...protocol import regmap, rtu
+from ..core.controller_state import holds
+from ..core.interface import C_ESTOP, NOT_IDLE, ControllerView
 
 TRACK_ID = 1  # the SDK's linear motor slave id on the control box RS-485
 TRACK_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default baud for the track

@@ -17,11 +17,11 @@ from typing import Any
 import numpy as np
 
 from ...model import kinematics as kin
-from .. import velocity
-from ..base import C_JOINT_LIMIT, Binding, CommandError, ParameterError, Values
-from ..commands import JointMove, LineMove
-from ..poses import resolve_line_target
-from ..settings import in_range
+from ..applications import velocity
+from ..core.commands import JointMove, LineMove
+from ..core.interface import C_JOINT_LIMIT, Binding, CommandError, ParameterError, Values
+from ..core.poses import resolve_line_target
+from ..core.settings import in_range
 from . import motion
 
 
@@ -86,7 +86,7 @@ def _duration(ctl: Any, v: Values) -> float | None:
 
 
 def _require_mode(ctl: Any, mode: int) -> None:
-    from ..core import NotReady
+    from ..controller import NotReady
 
     if ctl.error_code or not ctl.ready or ctl.mode != mode:
         raise NotReady()
@@ -122,7 +122,7 @@ def set_cartesian_velocity(ctl: Any, v: Values) -> None:
     return None
 
 
-#: The registers of this module, bound (:class:`~xarm_emu.controller.base.Binding`).
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
 BINDINGS: tuple[Binding, ...] = (
     Binding(81, set_joint_velocity),
     Binding(82, set_cartesian_velocity),

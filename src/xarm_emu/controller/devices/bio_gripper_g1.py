@@ -29,7 +29,7 @@ the fingers cross the stroke in about a second (:data:`SPEED_TO_UNITS`, the emul
 
 from __future__ import annotations
 
-from ..protocol import regmap, rtu
+from ...protocol import regmap, rtu
 from .bio_gripper import (
     REG_ENABLE,
     REG_ERROR,

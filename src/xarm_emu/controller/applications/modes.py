@@ -1,13 +1,14 @@
 """Modes of register 19 beyond the manual's (velocity control 4/5, online planning 6/7): which
 firmware answers them and what the core runs for them each control period. The registers they take
-over while active are the mode routes of the binding table (:class:`~.base.Binding`)."""
+over while active are the mode routes of the binding table
+(:class:`~xarm_emu.controller.core.interface.Binding`)."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Container
 from typing import Any
 
-from ..protocol.firmware import FirmwareProfile
+from ...protocol.firmware import FirmwareProfile
 from . import online, reduced, trajectory, velocity
 
 #: What the core runs each control period while the controller is in one of these modes.
