@@ -15,9 +15,9 @@ from collections.abc import Callable
 from typing import Any
 
 from ..applications import force_control as fc
+from ..core.ft_config import ft_config
 from ..core.interface import CommandFailed, ParameterError, Values
 from ..devices import ft_sensor as sensor
-from .ft_sensor import ft_config
 
 
 def _floats(values: Any) -> tuple[float, ...]:
