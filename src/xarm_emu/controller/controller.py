@@ -429,7 +429,7 @@ class Controller:
                 state = d.motion_state
                 mode = d.mode
                 if mode == MODE_POSITION and state in _POSITION_STATES:
-                    if not force_control.period(self, dt):  # admittance or force control (202)
+                    if not force_control.period(self, dt, self._ft_control_wrench):  # register 202
                         self._step_position(dt)
                 elif mode == MODE_SERVO and d.servo_target is not None and state in _SERVO_STATES:
                     tracker = self._tracker()
@@ -507,6 +507,16 @@ class Controller:
             if not EVERY_STEP_IDLE.get(hook, _never_idle)(self):
                 return False
         return True
+
+    def ft_sensor_in_use(self) -> bool:
+        """Whether an application reads the F/T sensor every period: admittance or force control
+        (register 202) is set."""
+        return force_control.engaged(self)
+
+    def _ft_control_wrench(self) -> np.ndarray | None:
+        """What admittance and force control act on: the F/T sensor's control wrench, None while
+        the sensor is switched off."""
+        return ft_sensor.control_wrench(self) if ft_sensor.enabled(self) else None
 
     def _servo_holding(self) -> bool:
         """Servo mode: the arm holds its target exactly, so a period gives the same joints again."""

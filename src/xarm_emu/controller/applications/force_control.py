@@ -26,14 +26,14 @@ must; when nothing of it can be followed the arm stops there without an error, a
 velocity control does (controller/applications/velocity.py), and moves again once pushed another way. Queued
 motion commands run as usual while an application is on; the application starts again from
 wherever they leave the arm. The wrench is the sensor's reading of the period before
-(:func:`.ft_sensor.control_wrench`), turned from the sensor's axes into the tool's by the TCP
-offset's rotation (register 35).
+(``devices/ft_sensor.control_wrench``, handed in by the core each period), turned from the sensor's
+axes into the tool's by the TCP offset's rotation (register 35).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any
@@ -42,8 +42,8 @@ import numpy as np
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
+from ..core.ft_config import ft_config
 from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
-from ..devices import ft_sensor as sensor
 from . import reduced
 
 APP_OFF = 0
@@ -271,22 +271,31 @@ def runs(ctl: Any) -> bool:
             and ctl.motion_state in (STATE_SLEEP, STATE_MOVING) and not ctl.executor.active)
 
 
-def period(ctl: Any, dt: float) -> bool:
+def period(ctl: Any, dt: float, sensor_wrench: Callable[[], np.ndarray | None]) -> bool:
     """The core's call each control period in position mode: run the application when it
-    :func:`runs` (True: this period's motion is done), else let queued commands run (False)."""
+    :func:`runs` (True: this period's motion is done), else let queued commands run (False).
+    ``sensor_wrench`` answers the sensor's control wrench (sensor frame, torques about the TCP), or
+    None while the sensor is switched off."""
     fc = ctl.data.force_control
     if fc is None or fc.app == APP_OFF:
         return False
     if not runs(ctl):
         fc.restart()  # stopped, suspended or running a queued command: start again afterwards
         return False
-    if not sensor.enabled(ctl):  # the sensor was switched off: the application ends
+    wrench = sensor_wrench()
+    if wrench is None:  # the sensor was switched off: the application ends
         fc.app = APP_OFF
         fc.restart()
         fire(ctl, Event.SERVO_AT_TARGET)
         return True
-    step(ctl, dt, sensor_to_tool(ctl.settings.tcp_offset, sensor.control_wrench(ctl)))
+    step(ctl, dt, sensor_to_tool(ctl.settings.tcp_offset, wrench))
     return True
+
+
+def engaged(ctl: Any) -> bool:
+    """Whether admittance or force control is set (register 202): it acts on every period's reading."""
+    fc = ctl.data.force_control
+    return fc is not None and fc.app != APP_OFF
 
 
 def sensor_to_tool(tcp_offset: Sequence[float], wrench: Any) -> np.ndarray:
@@ -302,8 +311,6 @@ def sensor_to_tool(tcp_offset: Sequence[float], wrench: Any) -> np.ndarray:
 def step(ctl: Any, dt: float, wrench_tool: np.ndarray) -> None:
     """One control period of the application under ``wrench_tool`` (the sensor's compensated wrench
     in the tool frame, N and N m); moves ``ctl.q``."""
-    from ..handlers.ft_sensor import ft_config
-
     fc = control_of(ctl)
     cfg = ft_config(ctl)
     T_now = ctl.tcp_matrix()

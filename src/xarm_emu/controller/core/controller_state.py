@@ -31,11 +31,11 @@ if TYPE_CHECKING:
     from ..applications.trajectory import TrajectoryStore
     from ..applications.velocity import VelocityControl
     from ..devices.ft_sensor import FtSensorState
-    from ..handlers.ft_sensor import FtConfig
     from ..handlers.service import ExtraState
     from ..motion import ServoTracker
     from ..physics.contact import Scene
     from .commands import QueuedCommand
+    from .ft_config import FtConfig
 
 T = TypeVar("T")
 C = TypeVar("C", bound=type)

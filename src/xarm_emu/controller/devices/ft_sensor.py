@@ -50,6 +50,7 @@ import numpy as np
 
 from ...model import dynamics as dyn
 from ...model import kinematics as kin
+from ..core.ft_config import ft_config
 from ..core.interface import NOT_IDLE
 
 #: Sensor thickness, flange to tool face (mm): the offset the SDK adds to an identified centroid.
@@ -207,8 +208,6 @@ CONFIG_KEY = "ft_sensor"
 def config_of(ctl: Any) -> dict[str, Any] | None:
     """What register 40 saves of the sensor: register 205's load and the zero (205/206); None
     while they are all zero."""
-    from ..handlers.ft_sensor import ft_config
-
     cfg = ft_config(ctl)
     if cfg.mass == 0 and not any(cfg.centroid) and not any(cfg.offsets):
         return None
@@ -217,8 +216,6 @@ def config_of(ctl: Any) -> dict[str, Any] | None:
 
 def load_config(ctl: Any, data: Any) -> None:
     """Apply a saved load and zero; anything of the wrong shape or not finite is ignored."""
-    from ..handlers.ft_sensor import ft_config
-
     if not isinstance(data, dict):
         return
     try:
@@ -470,22 +467,19 @@ def _load_point(ctl: Any) -> np.ndarray:
 
 
 def idle_until(ctl: Any) -> float:
-    """Controller time up to which the sensor is idle (:func:`~.base.idle_until`): while no force or
-    admittance application is set (register 202, the only reader of the sensor inside a period)
-    and, switched on, the load's centre of mass has stood still over the last periods (its
-    acceleration is zero), up to the end of the first played wrench that ends (:func:`step` removes
-    it then). With the arm at rest the reading is a function of the clock alone: the noise and the
-    drift (pure functions of the period and the time) and the played wrenches (a ramp is one of the
-    time), which the period that runs in full computes afresh."""
+    """Controller time up to which the sensor is idle (:func:`~.base.idle_until`): while no
+    application reads it every period (``ctl.ft_sensor_in_use()``: admittance or force control,
+    register 202) and, switched on, the load's centre of mass has stood still over the last periods
+    (its acceleration is zero), up to the end of the first played wrench that ends (:func:`step`
+    removes it then). With the arm at rest the reading is a function of the clock alone:
+    the noise and the drift (pure functions of the period and the time) and the played wrenches (a
+    ramp is one of the time), which the period that runs in full computes afresh."""
     st = state_of(ctl)
     horizon = math.inf
     for w in st.wrenches:
         if w.until is not None:
             horizon = min(horizon, w.until - 1e-9)
-    from ..applications import force_control
-
-    fc = ctl.data.force_control
-    if fc is not None and fc.app != force_control.APP_OFF:
+    if ctl.ft_sensor_in_use():
         return NOT_IDLE
     hist = st.com_history
     if not enabled(ctl):
@@ -512,8 +506,6 @@ def step(ctl: Any, dt: float) -> None:
 def compensation(ctl: Any) -> np.ndarray:
     """What the box takes off the raw reading: register 205's offsets (or 206's zero) and the gravity
     of register 205's load at the present pose (sensor frame)."""
-    from ..handlers.ft_sensor import ft_config
-
     cfg = ft_config(ctl)
     out = np.asarray(cfg.offsets, dtype=float).copy()
     if cfg.mass > 0:
@@ -544,8 +536,6 @@ def control_wrench(ctl: Any) -> np.ndarray:
 
 def set_zero(ctl: Any) -> None:
     """Register 206: the present reading becomes the zero (stored as register 205's offsets)."""
-    from ..handlers.ft_sensor import ft_config
-
     cfg = ft_config(ctl)
     cfg.offsets = tuple(float(x) for x in (np.asarray(cfg.offsets) + reading(ctl)))
 

@@ -14,9 +14,9 @@ from __future__ import annotations
 from typing import Any
 
 from ..applications import force_control as fc
+from ..core.ft_config import ft_config
 from ..core.interface import Binding, CommandFailed, ParameterError, Values
 from ..devices import ft_sensor as sensor
-from .ft_sensor import ft_config
 
 
 def _floats(values: Any) -> tuple[float, ...]:
