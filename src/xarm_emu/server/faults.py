@@ -60,7 +60,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from .admin import SCHEDULABLE, AdminError, AdminTarget, prepare
+from .admin import SCHEDULABLE, AdminError, AdminTarget, arguments, prepare
 
 log = logging.getLogger("xarm_emu.faults")
 
@@ -129,17 +129,9 @@ def schedule(server: AdminTarget, entries: list[dict[str, Any]]) -> int:
     return len(actions)
 
 
-#: The arguments each schedulable admin command takes (server/admin.py), beside ``at``, ``after``
-#: and ``do``.
-ARGUMENTS: dict[str, tuple[str, ...]] = {
-    "estop": (), "error": ("code",), "warning": ("code",), "servo-error": ("code", "joint"),
-    "gripper-error": ("code",), "track-error": ("code",), "end-module-lost": (),
-    "collision": ("joint", "torque"),
-    "report-pause": ("seconds",), "reply-delay": ("seconds",), "drop-clients": (), "clear": (),
-    "set-input": ("kind", "index", "value", "wrench", "frame", "ramp", "for"),
-    "ft-error": ("code",), "ft-noise": ("on",), "payload": ("mass", "com"), "scene": ("scene",),
-    "scene-place": ("name", "position", "rpy"), "scene-reset": (),
-}
+#: The arguments each schedulable admin command takes (its declared arguments in the admin table,
+#: server/admin.py), beside ``at``, ``after`` and ``do``.
+ARGUMENTS: dict[str, tuple[str, ...]] = {cmd: arguments(cmd) for cmd in sorted(SCHEDULABLE)}
 
 
 def _started(server: AdminTarget, after: str) -> bool:
