@@ -34,7 +34,7 @@ from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..server import xrec
 from ..server.command_port import PURE_READS
-from ..tomlfile import read_toml
+from ..tomlfile import check_keys, load_toml
 
 #: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
 DEFAULT_TOLERANCES: dict[str, float] = {
@@ -119,14 +119,16 @@ def load_tolerances(path: Path | None) -> dict[str, float]:
     tol = dict(DEFAULT_TOLERANCES)
     if path is None:
         return tol
-    data = read_toml(path, CompareError)
-    for k, v in data.items():
-        if k not in tol:
-            raise CompareError(f"{path}: unknown tolerance {k!r} (known: {', '.join(tol)})")
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
-            raise CompareError(f"{path}: {k} must be a number >= 0")
-        tol[k] = float(v)
-    return tol
+
+    def parse(data: dict[str, Any]) -> dict[str, float]:
+        check_keys(data, tol, error=CompareError)
+        for k, v in data.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+                raise CompareError(f"{k} must be a number >= 0")
+            tol[k] = float(v)
+        return tol
+
+    return load_toml(path, "tolerances file", parse, CompareError)
 
 
 def model_of(version: str) -> RobotModel:

@@ -31,15 +31,14 @@ and ``faults`` (a command trace file and a fault schedule, as ``serve --trace`` 
 relative to the fleet file; ``faults`` may be a top-level default). Arms
 without ``robot_sn`` get their model's default serial number, counted up when an earlier arm has
 it, so that no two arms share a saved configuration.
-Everything is checked before any port is opened; a bad file gives one message naming the arm and
-the key.
+Everything is checked before any port is opened; a bad file gives one message naming the file, the
+arm and the key (the TOML files' one format, :mod:`xarm_emu.tomlfile`).
 """
 
 from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -51,6 +50,7 @@ from ..model.calibration import Calibration, load
 from ..model.robots import MODEL_NAMES, get_model, with_calibration
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.firmware import SERVE_VERSION, FirmwareProfile, VersionError, profile_for
+from ..tomlfile import check_keys, load_toml
 from .core import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
@@ -96,19 +96,14 @@ class Fleet:
 
 
 def load_fleet(path: Path) -> Fleet:
-    """Read and check a fleet file (module docstring); raises :class:`FleetError`."""
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise FleetError(f"cannot read the fleet file {path}: {exc.strerror or exc}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise FleetError(f"{path} is not valid TOML: {exc}") from None
-    return parse_fleet(data, base=path.parent)
+    """Read and check a fleet file (module docstring); raises :class:`FleetError` in the TOML
+    files' one-line format (xarm_emu.tomlfile), naming the file."""
+    return load_toml(path, "fleet file", lambda data: parse_fleet(data, base=path.parent), FleetError)
 
 
 def parse_fleet(data: dict[str, Any], base: Path = Path(".")) -> Fleet:
     """Check fleet data already read from TOML; relative ``config_dir`` is taken from ``base``."""
-    _unknown(data, TOP_KEYS, "the fleet file")
+    check_keys(data, TOP_KEYS, error=FleetError)
     arms_data = data.get("arm")
     if not isinstance(arms_data, list) or not arms_data or not all(isinstance(a, dict) for a in arms_data):
         raise FleetError("the fleet file needs at least one [[arm]] table")
@@ -123,7 +118,7 @@ def parse_fleet(data: dict[str, Any], base: Path = Path(".")) -> Fleet:
     arms: list[ArmSpec] = []
     for i, raw in enumerate(arms_data, start=1):
         where = f"arm {i}"
-        _unknown(raw, ARM_KEYS, where)
+        check_keys(raw, ARM_KEYS, where, FleetError)
         arms.append(_arm({**defaults, **raw}, float(speed), where, [a.robot_sn for a in arms], base))
     _distinct([a.server for a in arms])
     traces = [a.server.trace for a in arms if a.server.trace is not None]
@@ -131,12 +126,6 @@ def parse_fleet(data: dict[str, Any], base: Path = Path(".")) -> Fleet:
         raise FleetError("two arms write the same trace file")
     cdir = None if config_dir is None else (base / config_dir)
     return Fleet(tuple(arms), cdir)
-
-
-def _unknown(table: dict[str, Any], known: tuple[str, ...], where: str) -> None:
-    extra = sorted(set(table) - set(known))
-    if extra:
-        raise FleetError(f"{where}: unknown key {extra[0]!r}; known: {', '.join(known)}")
 
 
 def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], base: Path) -> ArmSpec:
