@@ -47,7 +47,7 @@ from ..controller import contact
 from ..controller.emulator import GRIPPERS, Emulator, check_firmware
 from ..controller.linear_track import DEFAULT_LENGTH, MODELS
 from ..model.calibration import Calibration, load
-from ..model.robots import MODEL_NAMES, get_model, with_calibration
+from ..model.robots import MODEL_NAMES, RobotModel, get_model, with_calibration
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.firmware import SERVE_VERSION, FirmwareProfile, VersionError, profile_for
 from ..tomlfile import check_keys, load_toml
@@ -129,16 +129,43 @@ def parse_fleet(data: dict[str, Any], base: Path = Path(".")) -> Fleet:
 
 
 def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], base: Path) -> ArmSpec:
+    robot = _robot(values, where)
+    host = values.get("host", "127.0.0.1")
+    if not isinstance(host, str) or not host:
+        raise FleetError(f"{where}: host must be an address string, got {host!r}")
+    ports = _ports(values, where)
+    admin, vacuum, ft_sensor = (_flag(values, key, where) for key in ("admin", "vacuum", "ft_sensor"))
+    gripper = values.get("gripper", "xarm")
+    if gripper not in GRIPPERS:
+        raise FleetError(f"{where}: gripper is one of {', '.join(GRIPPERS)}, got {gripper!r}")
+    if vacuum and "gripper" in values:
+        raise FleetError(f"{where}: vacuum and gripper: one end tool at a time")
+    track = _track(values, where)
+    profile = _firmware(values, where)
+    sn = _robot_sn(values, robot, where, taken)
+    paths = _paths(values, where, base)
+    cfg = replace(ServerConfig(host=host, speed=speed, admin=admin, trace=paths["trace"],
+                               faults=paths["faults"]), **ports)
+    try:
+        check_firmware(robot, profile)
+    except ValueError as exc:
+        raise FleetError(f"{where}: {exc}") from None
+    scene, calibration = _files(paths, robot, where)
+    return ArmSpec(values.get("model", 6), sn, cfg, vacuum, profile, linear_track=track, gripper=gripper,
+                   ft_sensor=ft_sensor, scene=scene, calibration=calibration)
+
+
+def _robot(values: dict[str, Any], where: str) -> RobotModel:
     model = values.get("model", 6)
     try:
         if not isinstance(model, int | str):
             raise ValueError(model)
-        robot = get_model(model)
+        return get_model(model)
     except ValueError:
         raise FleetError(f"{where}: model is one of {', '.join(MODEL_NAMES)}, got {model!r}") from None
-    host = values.get("host", "127.0.0.1")
-    if not isinstance(host, str) or not host:
-        raise FleetError(f"{where}: host must be an address string, got {host!r}")
+
+
+def _ports(values: dict[str, Any], where: str) -> dict[str, Any]:
     ports: dict[str, Any] = {}
     for key in _PORT_KEYS:
         if key not in values:
@@ -147,31 +174,41 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         if isinstance(p, bool) or not isinstance(p, int) or not 0 <= p <= 0xFFFF:
             raise FleetError(f"{where}: {key} must be a port number 0..65535, got {p!r}")
         ports[key] = p
-    admin, vacuum = values.get("admin", False), values.get("vacuum", False)
-    ft_sensor = values.get("ft_sensor", False)
-    for key, flag in (("admin", admin), ("vacuum", vacuum), ("ft_sensor", ft_sensor)):
-        if not isinstance(flag, bool):
-            raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
-    gripper = values.get("gripper", "xarm")
-    if gripper not in GRIPPERS:
-        raise FleetError(f"{where}: gripper is one of {', '.join(GRIPPERS)}, got {gripper!r}")
-    if vacuum and "gripper" in values:
-        raise FleetError(f"{where}: vacuum and gripper: one end tool at a time")
+    return ports
+
+
+def _flag(values: dict[str, Any], key: str, where: str) -> bool:
+    flag = values.get(key, False)
+    if not isinstance(flag, bool):
+        raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
+    return flag
+
+
+def _track(values: dict[str, Any], where: str) -> int | None:
+    """The linear track's stroke in mm, or None without one."""
     track = values.get("linear_track", False)
     if track is True:
-        track = DEFAULT_LENGTH
+        return DEFAULT_LENGTH
     if track is False:
-        track = None
-    elif isinstance(track, bool) or not isinstance(track, int) or track not in MODELS:
+        return None
+    if isinstance(track, bool) or not isinstance(track, int) or track not in MODELS:
         raise FleetError(f"{where}: linear_track is true or a stroke in mm "
                          f"({', '.join(map(str, MODELS))}), got {track!r}")
+    return track
+
+
+def _firmware(values: dict[str, Any], where: str) -> FirmwareProfile:
     firmware = values.get("firmware", SERVE_VERSION)
     if not isinstance(firmware, str):
         raise FleetError(f"{where}: firmware is a version string such as \"2.7.103\", got {firmware!r}")
     try:
-        profile = profile_for(firmware)
+        return profile_for(firmware)
     except VersionError as exc:
         raise FleetError(f"{where}: {exc}") from None
+
+
+def _robot_sn(values: dict[str, Any], robot: RobotModel, where: str, taken: list[str]) -> str:
+    """The arm's serial number: as given, or its model's default counted up past the ones taken."""
     sn = values.get("robot_sn")
     if sn is None:
         sn = robot.default_robot_sn
@@ -182,18 +219,23 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     if sn in taken:
         raise FleetError(f"{where}: robot_sn {sn} is already another arm's (they would share a "
                          "saved configuration)")
+    return str(sn)
+
+
+def _paths(values: dict[str, Any], where: str, base: Path) -> dict[str, Path | None]:
+    """The arm's files (trace, fault schedule, scene, calibration), relative to the fleet file."""
     paths: dict[str, Path | None] = {}
     for key in ("trace", "faults", "scene", "calibration"):
         value = values.get(key)
         if value is not None and not isinstance(value, str):
             raise FleetError(f"{where}: {key} must be a path string, got {value!r}")
         paths[key] = None if value is None else base / value
-    cfg = replace(ServerConfig(host=host, speed=speed, admin=admin, trace=paths["trace"],
-                               faults=paths["faults"]), **ports)
-    try:
-        check_firmware(robot, profile)
-    except ValueError as exc:
-        raise FleetError(f"{where}: {exc}") from None
+    return paths
+
+
+def _files(paths: dict[str, Path | None], robot: RobotModel,
+           where: str) -> tuple[contact.Scene | None, Calibration | None]:
+    """The arm's contact scene and calibration, read from their files where it has them."""
     scene = None
     if paths["scene"] is not None:
         try:
@@ -207,8 +249,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
             with_calibration(robot, calibration)
         except ValueError as exc:
             raise FleetError(f"{where}: {exc}") from None
-    return ArmSpec(model, sn, cfg, vacuum, profile, linear_track=track, gripper=gripper, ft_sensor=ft_sensor,
-                   scene=scene, calibration=calibration)
+    return scene, calibration
 
 
 _WILDCARD = frozenset({"", "0.0.0.0", "::"})
