@@ -65,6 +65,7 @@ before anything changes) and a small function that turns them into the action.
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -122,18 +123,22 @@ class AdminTarget(Protocol):
 
 #: What a checked request does when run: its message back. It does not refuse.
 Action = Callable[[], str]
-#: A command's function: the server and the checked arguments by name -> the action.
-Act = Callable[[AdminTarget, dict[str, Any]], Action]
+#: The checked arguments of a request, by name.
+Args = dict[str, Any]
 
 
 @dataclass(frozen=True)
 class Command:
-    """One admin command: what it needs of the server, its arguments and its function."""
+    """One admin command: what it needs of the server, its arguments, and its function."""
 
-    act: Act
+    #: Carries the command out with its checked arguments; returns the message back, never refuses.
+    run: Callable[[AdminTarget, Args], str]
     args: tuple[Arg, ...] = ()
     #: Checked first: refuses (AdminError) when the server cannot carry the command out at all.
     needs: Callable[[AdminTarget], None] | None = None
+    #: Checked after the arguments: what depends on several of them or on the server's state
+    #: (AdminError); it may add to the arguments what it found (a checkpoint's saved state).
+    check: Callable[[AdminTarget, Args], None] | None = None
     #: A command whose arguments depend on one of them (set-input's kind): that argument's name
     #: and the command for each of its values, ``None`` for every other value.
     forms: tuple[str, dict[str | None, Command]] | None = None
@@ -146,7 +151,9 @@ class Command:
         if self.forms is not None:
             key, forms = self.forms
             return forms.get(values[key], forms[None]).prepare(server, request)
-        return self.act(server, values)
+        if self.check is not None:
+            self.check(server, values)
+        return functools.partial(self.run, server, values)
 
     def names(self) -> tuple[str, ...]:
         """Every argument it may take, its forms' too, in declared order."""
@@ -178,122 +185,78 @@ def prepare(server: AdminTarget, request: dict[str, Any]) -> Action:
 
 # -- faults ----------------------------------------------------------------------------------------
 
-def _estop(server: AdminTarget, a: dict[str, Any]) -> Action:
-    def estop() -> str:
-        server.emulator.inject_estop()
-        return "emergency stop: C1"
-
-    return estop
+def _estop(server: AdminTarget, a: Args) -> str:
+    server.emulator.inject_estop()
+    return "emergency stop: C1"
 
 
-def _error(server: AdminTarget, a: dict[str, Any]) -> Action:
+def _error(server: AdminTarget, a: Args) -> str:
     entry: codes.Code = a["code"]
-
-    def inject() -> str:
-        server.emulator.inject_error(entry.code)
-        return f"injected {entry.label} {entry.name}"
-
-    return inject
+    server.emulator.inject_error(entry.code)
+    return f"injected {entry.label} {entry.name}"
 
 
-def _warning(server: AdminTarget, a: dict[str, Any]) -> Action:
+def _warning(server: AdminTarget, a: Args) -> str:
     entry: codes.Code = a["code"]
-
-    def inject() -> str:
-        server.emulator.inject_warning(entry.code)
-        return f"injected warning {entry.code} {entry.name}"
-
-    return inject
+    server.emulator.inject_warning(entry.code)
+    return f"injected warning {entry.code} {entry.name}"
 
 
-def _gripper_error(server: AdminTarget, a: dict[str, Any]) -> Action:
+def _gripper_error(server: AdminTarget, a: Args) -> str:
     entry: codes.Code = a["code"]
-
-    def inject() -> str:
-        server.emulator.inject_gripper_error(entry.code)
-        return f"injected gripper {entry.label} {entry.name}"
-
-    return inject
+    server.emulator.inject_gripper_error(entry.code)
+    return f"injected gripper {entry.label} {entry.name}"
 
 
-def _track_error(server: AdminTarget, a: dict[str, Any]) -> Action:
-    code: int = a["code"]
-
-    def inject_track() -> str:
-        server.emulator.inject_track_error(code)
-        return f"injected linear track error {code} {TRACK_ERRORS[code]}"
-
-    return inject_track
+def _track_error(server: AdminTarget, a: Args) -> str:
+    server.emulator.inject_track_error(a["code"])
+    return f"injected linear track error {a['code']} {TRACK_ERRORS[a['code']]}"
 
 
-def _servo_error(server: AdminTarget, a: dict[str, Any]) -> Action:
+def _servo_error(server: AdminTarget, a: Args) -> str:
     joint, servo = a["joint"], a["code"]
-
-    def inject_servo() -> str:
-        server.emulator.inject_servo_error(joint, servo.code)
-        return f"injected {servo.label} {servo.name} on joint {joint} (C{10 + joint})"
-
-    return inject_servo
+    server.emulator.inject_servo_error(joint, servo.code)
+    return f"injected {servo.label} {servo.name} on joint {joint} (C{10 + joint})"
 
 
-def _end_module_lost(server: AdminTarget, a: dict[str, Any]) -> Action:
-    def lose_end_module() -> str:
-        server.emulator.inject_end_module_lost()
-        return "end module lost: C28"
-
-    return lose_end_module
+def _end_module_lost(server: AdminTarget, a: Args) -> str:
+    server.emulator.inject_end_module_lost()
+    return "end module lost: C28"
 
 
-def _collision(server: AdminTarget, a: dict[str, Any]) -> Action:
-    joint, torque = a["joint"], a["torque"]
-    emu = server.emulator
-
-    def push() -> str:
-        ctl = emu.controller
-        level = ctl.settings.collision_sensitivity
-        active, enabled = ctl.error_code, all(ctl.enabled)  # detection needs no error, enabled joints
-        if emu.inject_collision(joint, torque):
-            return f"collision of {torque:g} N m on joint {joint} detected at sensitivity {level}: C31"
-        why = (f"error {codes.describe_error(active)} is already active" if active else
-               "the joints are not enabled" if not enabled else f"sensitivity {level}")
-        return f"collision of {torque:g} N m on joint {joint} not detected ({why})"
-
-    return push
+def _collision(server: AdminTarget, a: Args) -> str:
+    joint, torque, emu = a["joint"], a["torque"], server.emulator
+    ctl = emu.controller
+    level = ctl.settings.collision_sensitivity
+    active, enabled = ctl.error_code, all(ctl.enabled)  # detection needs no error, enabled joints
+    if emu.inject_collision(joint, torque):
+        return f"collision of {torque:g} N m on joint {joint} detected at sensitivity {level}: C31"
+    why = (f"error {codes.describe_error(active)} is already active" if active else
+           "the joints are not enabled" if not enabled else f"sensitivity {level}")
+    return f"collision of {torque:g} N m on joint {joint} not detected ({why})"
 
 
 # -- the server's knobs ----------------------------------------------------------------------------
 
-def _report_pause(server: AdminTarget, a: dict[str, Any]) -> Action:
-    pause: float = a["seconds"]
-
-    def pause_reports() -> str:
-        server.pause_reports(pause)
-        return f"reports paused for {pause:g} s"
-
-    return pause_reports
+def _report_pause(server: AdminTarget, a: Args) -> str:
+    server.pause_reports(a["seconds"])
+    return f"reports paused for {a['seconds']:g} s"
 
 
-def _reply_delay(server: AdminTarget, a: dict[str, Any]) -> Action:
-    delay: float = a["seconds"]
-
-    def set_delay() -> str:
-        server.set_reply_delay(delay)
-        return f"reply delay {delay * 1e3:g} ms" if delay else "reply delay off"
-
-    return set_delay
+def _reply_delay(server: AdminTarget, a: Args) -> str:
+    delay = a["seconds"]
+    server.set_reply_delay(delay)
+    return f"reply delay {delay * 1e3:g} ms" if delay else "reply delay off"
 
 
-def _drop_clients(server: AdminTarget, a: dict[str, Any]) -> Action:
-    return lambda: f"dropped {server.drop_clients()} client connections"
+def _drop_clients(server: AdminTarget, a: Args) -> str:
+    return f"dropped {server.drop_clients()} client connections"
 
 
-def _clear(server: AdminTarget, a: dict[str, Any]) -> Action:
-    def clear() -> str:
-        server.emulator.clear_faults()
-        server.clear_delays()
-        return "faults, reply delay and report pause cleared"
-
-    return clear
+def _clear(server: AdminTarget, a: Args) -> str:
+    server.emulator.clear_faults()
+    server.clear_delays()
+    return "faults, reply delay and report pause cleared"
 
 
 def _stepped(server: AdminTarget) -> None:
@@ -301,32 +264,23 @@ def _stepped(server: AdminTarget) -> None:
         raise AdminError("step needs lockstep time: start the emulator with --stepped")
 
 
-def _step(server: AdminTarget, a: dict[str, Any]) -> Action:
-    secs: float = a["seconds"]
-
-    def advance() -> str:
-        n = server.advance(secs)
-        return f"advanced {n} control periods to t = {server.emulator.time:.3f} s"
-
-    return advance
+def _step(server: AdminTarget, a: Args) -> str:
+    n = server.advance(a["seconds"])
+    return f"advanced {n} control periods to t = {server.emulator.time:.3f} s"
 
 
-def _status(server: AdminTarget, a: dict[str, Any]) -> Action:
+def _status(server: AdminTarget, a: Args) -> str:
     emu = server.emulator
-
-    def status() -> str:
-        ctl = emu.controller
-        out = {"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
-               "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
-               "reports_paused": server.reports_paused(), "gripper": emu.gripper_status()}
-        if emu.has_ft_sensor:
-            out["ft_sensor"] = _ft_status(emu)
-        health = getattr(server, "health", None)  # disk and trace state, where the server has it
-        if callable(health):
-            out.update(health())
-        return json.dumps(out)
-
-    return status
+    ctl = emu.controller
+    out = {"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
+           "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
+           "reports_paused": server.reports_paused(), "gripper": emu.gripper_status()}
+    if emu.has_ft_sensor:
+        out["ft_sensor"] = _ft_status(emu)
+    health = getattr(server, "health", None)  # disk and trace state, where the server has it
+    if callable(health):
+        out.update(health())
+    return json.dumps(out)
 
 
 def _ft_status(emu: Emulator) -> dict[str, Any]:
@@ -342,23 +296,18 @@ def _ft_status(emu: Emulator) -> dict[str, Any]:
 
 # -- inputs ----------------------------------------------------------------------------------------
 
-def _set_wrench(server: AdminTarget, a: dict[str, Any]) -> Action:
+def _set_wrench(server: AdminTarget, a: Args) -> str:
     """``set-input`` kind ``ft``: the external wrench played on the TCP (replacing the last one)."""
     wrench, frame, ramp, duration = a["wrench"], a["frame"], a["ramp"], a["for"]
-    emu = server.emulator
-
-    def play() -> str:
-        emu.clear_wrench()
-        emu.apply_wrench(wrench, frame, ramp, duration)
-        text = " ".join(f"{x:g}" for x in wrench)
-        how = (f", ramp {ramp:g} s" if ramp else "") + (f", for {duration:g} s" if duration else "")
-        return f"external wrench ({text}) in the {frame} frame{how}"
-
-    return play
+    server.emulator.clear_wrench()
+    server.emulator.apply_wrench(wrench, frame, ramp, duration)
+    text = " ".join(f"{x:g}" for x in wrench)
+    how = (f", ramp {ramp:g} s" if ramp else "") + (f", for {duration:g} s" if duration else "")
+    return f"external wrench ({text}) in the {frame} frame{how}"
 
 
-def _set_input(server: AdminTarget, a: dict[str, Any]) -> Action:
-    """``set-input`` of a digital or analog input, or an object at the vacuum gripper or the fingers."""
+def _input_in_range(server: AdminTarget, a: Args) -> None:
+    """A digital input is 0 or 1, an object's width >= 0, and the IO module takes the index."""
     kind, index, value = a["kind"], a["index"], a["value"]
     if kind in ("cgpio", "tgpio", "vacuum-object") and value not in (0, 1):
         raise AdminError(f"digital input value must be 0 or 1, got {value!r}")
@@ -369,58 +318,43 @@ def _set_input(server: AdminTarget, a: dict[str, Any]) -> Action:
     except (ValueError, CommandWarning) as exc:  # the IO module's own range checks
         raise AdminError(f"{kind} input {index}: {exc}") from None
 
-    def play() -> str:
-        server.emulator.set_input(kind, index, value)
-        if kind == "gripper-object":
-            return (f"gripper object {'removed' if value == 0 else f'{value:g} mm wide'}"
-                    f"{' around the fingers' if index == 1 else ''}")
-        return f"{kind} input {index} = {value:g}"
 
-    return play
+def _set_input(server: AdminTarget, a: Args) -> str:
+    """``set-input`` of a digital or analog input, or an object at the vacuum gripper or the fingers."""
+    kind, index, value = a["kind"], a["index"], a["value"]
+    server.emulator.set_input(kind, index, value)
+    if kind == "gripper-object":
+        return (f"gripper object {'removed' if value == 0 else f'{value:g} mm wide'}"
+                f"{' around the fingers' if index == 1 else ''}")
+    return f"{kind} input {index} = {value:g}"
 
 
 # -- the F/T sensor and what it touches ------------------------------------------------------------
 
-def _ft_error(server: AdminTarget, a: dict[str, Any]) -> Action:
-    code: int = a["code"]
-
-    def ft_error() -> str:
-        server.emulator.inject_ft_error(code)
-        return f"F/T sensor error {code}" if code else "F/T sensor error cleared"
-
-    return ft_error
+def _ft_error(server: AdminTarget, a: Args) -> str:
+    server.emulator.inject_ft_error(a["code"])
+    return f"F/T sensor error {a['code']}" if a["code"] else "F/T sensor error cleared"
 
 
-def _ft_noise(server: AdminTarget, a: dict[str, Any]) -> Action:
-    on: bool = a["on"]
-
-    def noise() -> str:
-        server.emulator.set_ft_noise(on)
-        return f"F/T noise and drift {'on' if on else 'off'}"
-
-    return noise
+def _ft_noise(server: AdminTarget, a: Args) -> str:
+    server.emulator.set_ft_noise(a["on"])
+    return f"F/T noise and drift {'on' if a['on'] else 'off'}"
 
 
-def _payload(server: AdminTarget, a: dict[str, Any]) -> Action:
+def _mass_in_range(server: AdminTarget, a: Args) -> None:
+    if a["mass"] < 0:
+        raise AdminError(f"mass must be >= 0 kg, got {a['mass']:g}")
+
+
+def _payload(server: AdminTarget, a: Args) -> str:
     mass, com = a["mass"], a["com"]
-    if mass < 0:
-        raise AdminError(f"mass must be >= 0 kg, got {mass:g}")
-
-    def payload() -> str:
-        server.emulator.set_payload(mass, com)
-        return f"payload {mass:g} kg at ({com[0]:g}, {com[1]:g}, {com[2]:g}) mm"
-
-    return payload
+    server.emulator.set_payload(mass, com)
+    return f"payload {mass:g} kg at ({com[0]:g}, {com[1]:g}, {com[2]:g}) mm"
 
 
-def _scene(server: AdminTarget, a: dict[str, Any]) -> Action:
-    scene = a["scene"]
-
-    def set_scene() -> str:
-        server.emulator.set_scene(scene)
-        return f"contact scene of {len(scene.shapes)} shapes"
-
-    return set_scene
+def _scene(server: AdminTarget, a: Args) -> str:
+    server.emulator.set_scene(a["scene"])
+    return f"contact scene of {len(a['scene'].shapes)} shapes"
 
 
 # -- the objects of the physics world (no real control box has these) -----------------------------
@@ -430,65 +364,51 @@ def _physics(server: AdminTarget) -> None:
         raise AdminError("the scene has no objects (serve --scene with [[object]] tables)")
 
 
-def _scene_objects(server: AdminTarget, a: dict[str, Any]) -> Action:
-    emu = server.emulator
-    return lambda: json.dumps({"time": emu.time, "objects": emu.scene_objects()})
+def _scene_objects(server: AdminTarget, a: Args) -> str:
+    return json.dumps({"time": server.emulator.time, "objects": server.emulator.scene_objects()})
 
 
-def _scene_reset(server: AdminTarget, a: dict[str, Any]) -> Action:
-    def reset() -> str:
-        server.emulator.reset_objects()
-        return "every object back where the scene puts it"
-
-    return reset
+def _scene_reset(server: AdminTarget, a: Args) -> str:
+    server.emulator.reset_objects()
+    return "every object back where the scene puts it"
 
 
-def _scene_place(server: AdminTarget, a: dict[str, Any]) -> Action:
+def _scene_place(server: AdminTarget, a: Args) -> str:
     name, position, rpy = a["name"], a["position"], a["rpy"]
-
-    def place() -> str:
-        server.emulator.place_object(name, position, rpy)
-        return f"{name} at ({position[0]:g}, {position[1]:g}, {position[2]:g}) mm"
-
-    return place
+    server.emulator.place_object(name, position, rpy)
+    return f"{name} at ({position[0]:g}, {position[1]:g}, {position[2]:g}) mm"
 
 
 # -- checkpoints (an emulator feature: they live in the server's memory until the process ends) --
 
-def _keeper(server: AdminTarget) -> Checkpointing:
+def _keeper(server: AdminTarget, a: Args) -> None:
+    """The emulator keeps checkpoints (Emulator.checkpoint() and Emulator.restore())."""
     emu = server.emulator
     if not (callable(getattr(emu, "checkpoint", None)) and callable(getattr(emu, "restore", None))):
         raise AdminError("this emulator keeps no checkpoints")
-    return cast(Checkpointing, emu)  # Emulator.checkpoint() and Emulator.restore()
 
 
-def _checkpoint_list(server: AdminTarget, a: dict[str, Any]) -> Action:
-    kept = server.checkpoints
-    return lambda: json.dumps(sorted(kept))
+def _saved(server: AdminTarget, a: Args) -> None:
+    """The emulator keeps checkpoints and one is saved under the name: taken now."""
+    _keeper(server, a)
+    if a["name"] not in server.checkpoints:
+        known = ", ".join(repr(k) for k in sorted(server.checkpoints)) or "none"
+        raise AdminError(f"no checkpoint {a['name']!r}; saved: {known}")
+    a["saved"] = server.checkpoints[a["name"]]
 
 
-def _checkpoint_save(server: AdminTarget, a: dict[str, Any]) -> Action:
-    name, kept, keeper = a["name"], server.checkpoints, _keeper(server)
-
-    def save() -> str:
-        kept[name] = keeper.checkpoint()
-        return f"checkpoint {name!r} saved at t = {server.emulator.time:.3f} s"
-
-    return save
+def _checkpoint_list(server: AdminTarget, a: Args) -> str:
+    return json.dumps(sorted(server.checkpoints))
 
 
-def _checkpoint_restore(server: AdminTarget, a: dict[str, Any]) -> Action:
-    name, kept, keeper = a["name"], server.checkpoints, _keeper(server)
-    if name not in kept:
-        known = ", ".join(repr(k) for k in sorted(kept)) or "none"
-        raise AdminError(f"no checkpoint {name!r}; saved: {known}")
-    saved = kept[name]
+def _checkpoint_save(server: AdminTarget, a: Args) -> str:
+    server.checkpoints[a["name"]] = cast(Checkpointing, server.emulator).checkpoint()
+    return f"checkpoint {a['name']!r} saved at t = {server.emulator.time:.3f} s"
 
-    def restore() -> str:
-        keeper.restore(saved)
-        return f"checkpoint {name!r} restored: t = {server.emulator.time:.3f} s"
 
-    return restore
+def _checkpoint_restore(server: AdminTarget, a: Args) -> str:
+    cast(Checkpointing, server.emulator).restore(a["saved"])
+    return f"checkpoint {a['name']!r} restored: t = {server.emulator.time:.3f} s"
 
 
 # -- the table -------------------------------------------------------------------------------------
@@ -517,18 +437,18 @@ TABLE: dict[str, Command] = {
             Arg("wrench", t.vector(6, "wrench"), alias="value"),
             Arg("frame", t.choice(WRENCH_FRAMES, "frame must be one of {known}, got {value}"), "tool"),
             Arg("ramp", t.seconds, 0.0), Arg("for", t.hold))),
-        None: Command(_set_input, (_KIND, Arg("index", t.integer("index")),
-                                   Arg("value", t.number("value")))),
+        None: Command(_set_input, (_KIND, Arg("index", t.integer("index")), Arg("value", t.number("value"))),
+                      check=_input_in_range),
     })),
     "status": Command(_status),
     "step": Command(_step, (_SECONDS,), needs=_stepped),
     "ft-error": Command(_ft_error, (Arg("code", t.ft_code),)),
     "ft-noise": Command(_ft_noise, (Arg("on", t.flag("on")),)),
-    "payload": Command(_payload, (
-        Arg("mass", t.number("mass")), Arg("com", t.vector(3, "com"), [0.0, 0.0, 0.0]))),
+    "payload": Command(_payload, (Arg("mass", t.number("mass")),
+                                  Arg("com", t.vector(3, "com"), [0.0, 0.0, 0.0])), check=_mass_in_range),
     "scene": Command(_scene, (Arg("scene", t.scene, {}),)),
-    "checkpoint-save": Command(_checkpoint_save, (_CHECKPOINT,)),
-    "checkpoint-restore": Command(_checkpoint_restore, (_CHECKPOINT,)),
+    "checkpoint-save": Command(_checkpoint_save, (_CHECKPOINT,), check=_keeper),
+    "checkpoint-restore": Command(_checkpoint_restore, (_CHECKPOINT,), check=_saved),
     "checkpoint-list": Command(_checkpoint_list),
     "scene-objects": Command(_scene_objects, needs=_physics),
     "scene-place": Command(_scene_place, (

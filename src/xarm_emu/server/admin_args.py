@@ -94,11 +94,7 @@ def gripper_code(value: Any, emu: Emulator) -> codes.Code:
 
 def integer(name: str) -> Check:
     """A whole number (an integer or its decimal text)."""
-
-    def check(value: Any, emu: Emulator) -> int:
-        return as_int(value, name)
-
-    return check
+    return lambda value, emu: as_int(value, name)
 
 
 def as_int(value: Any, name: str) -> int:
@@ -151,11 +147,7 @@ def as_float(value: Any, name: str) -> float:
 
 def number(name: str) -> Check:
     """A finite number."""
-
-    def check(value: Any, emu: Emulator) -> float:
-        return as_float(value, name)
-
-    return check
+    return lambda value, emu: as_float(value, name)
 
 
 def vector(n: int, name: str) -> Check:
