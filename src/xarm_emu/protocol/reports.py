@@ -287,13 +287,18 @@ def encode_normal(s: ReportSnapshot) -> bytes:
     return bytes(buf)
 
 
-def encode_rich(s: ReportSnapshot) -> bytes:
-    """REPORT_TCP_RICH frame, 433 bytes (section 2.1.6, port 30002)."""
-    buf = bytearray(RICH_SIZE)
-    _pack_develop(buf, s, RICH_SIZE)
+def _rich_frame(s: ReportSnapshot, size: int) -> bytearray:
+    """A rich frame of ``size`` bytes with the manual's 433 packed (section 2.1.6)."""
+    buf = bytearray(size)
+    _pack_develop(buf, s, size)
     _pack_normal(buf, s)
     _pack_rich(buf, s)
-    return bytes(buf)
+    return buf
+
+
+def encode_rich(s: ReportSnapshot) -> bytes:
+    """REPORT_TCP_RICH frame, 433 bytes (section 2.1.6, port 30002)."""
+    return bytes(_rich_frame(s, RICH_SIZE))
 
 
 # --- decoding ------------------------------------------------------------------------------------
@@ -463,10 +468,7 @@ def encode_develop2(s: ReportSnapshot) -> bytes:
 
 def encode_rich2(s: ReportSnapshot) -> bytes:
     """Firmware 2.x rich frame (port 30002), 587 bytes: the manual's 433 then bytes 433..586."""
-    buf = bytearray(RICH2_SIZE)
-    _pack_develop(buf, s, RICH2_SIZE)
-    _pack_normal(buf, s)
-    _pack_rich(buf, s)
+    buf = _rich_frame(s, RICH2_SIZE)
     _pack_rich_tail(buf, s)
     return bytes(buf)
 
