@@ -71,9 +71,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol, cast
 
-from ..controller.base import CommandWarning
+from ..controller.core.interface import CommandWarning
+from ..controller.devices.linear_track import TRACK_ERRORS
 from ..controller.emulator import Emulator
-from ..controller.linear_track import TRACK_ERRORS
 from ..protocol import codes
 from ..protocol.admin import COMMANDS, INPUT_KINDS, WRENCH_FRAMES
 from . import admin_args as t
@@ -285,7 +285,7 @@ def _status(server: AdminTarget, a: Args) -> str:
 
 def _ft_status(emu: Emulator) -> dict[str, Any]:
     """The F/T sensor in ``status``: switched on, its error, the compensated and raw readings."""
-    from ..controller import ft_sensor as ft
+    from ..controller.devices import ft_sensor as ft
 
     ctl = emu.controller
     return {"enabled": ft.enabled(ctl), "error": ft.state_of(ctl).error,

@@ -14,9 +14,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from ..controller import contact
+from ..controller.devices.linear_track import TRACK_ERRORS
 from ..controller.emulator import Emulator
-from ..controller.linear_track import TRACK_ERRORS
+from ..controller.physics import contact
 from ..protocol import codes
 from ..protocol.admin import MAX_SECONDS, checkpoint_name
 

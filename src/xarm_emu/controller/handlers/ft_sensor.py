@@ -12,45 +12,15 @@ the joint torques on every arm. The reply lengths are the ones the SDK reads.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
-from .. import force_control, identification
-from .. import ft_sensor as ft
-from ..base import ParameterError, Values
+from ..applications import force_control, identification
+from ..core.ft_config import ZEROS6, ft_config
+from ..core.interface import ParameterError, Values
+from ..devices import ft_sensor as ft
 
 NO_SENSOR = "no F/T sensor attached"
 NOT_ENABLED = "the F/T sensor is not switched on (register 201)"
-ZEROS6 = (0.0,) * 6
-
-
-@dataclass(slots=True)
-class FtConfig:
-    """What registers 205 and 207-211 set, as register 212 reports it."""
-
-    mass: float = 0.0
-    centroid: tuple[float, ...] = (0.0, 0.0, 0.0)
-    offsets: tuple[float, ...] = ZEROS6
-    imp_coord: int = 0
-    imp_c_axis: tuple[int, ...] = (0,) * 6
-    M: tuple[float, ...] = ZEROS6
-    K: tuple[float, ...] = ZEROS6
-    B: tuple[float, ...] = ZEROS6
-    fc_coord: int = 0
-    fc_c_axis: tuple[int, ...] = (0,) * 6
-    f_ref: tuple[float, ...] = ZEROS6
-    limits: tuple[float, ...] = ZEROS6
-    pid: dict[str, tuple[float, ...]] = field(
-        default_factory=lambda: {k: ZEROS6 for k in ("kp", "ki", "kd", "xe_limit")})
-
-
-def ft_config(ctl: Any) -> FtConfig:
-    """The F/T configuration of ``ctl``, created on first use."""
-    cfg = ctl.data.ft_config
-    if not isinstance(cfg, FtConfig):
-        cfg = FtConfig()
-        ctl.data.ft_config = cfg
-    return cfg
 
 
 def _floats(values: Any) -> tuple[float, ...]:
@@ -106,7 +76,7 @@ def identify_load(ctl: Any, v: Values) -> dict[str, Any]:
     else:
         _require_enabled(ctl)
     ctl.require_motion_allowed()
-    identification.start(ctl, kind)
+    identification.start(ctl, kind, ft)
     return identification.reply(ctl)
 
 
