@@ -549,27 +549,33 @@ def decode_realtime(data: bytes) -> ReportSnapshot:
     return s
 
 
-def encoders_for(profile: FirmwareProfile) -> dict[int, Callable[[ReportSnapshot], bytes]]:
+Encoder = Callable[[ReportSnapshot], bytes]
+Decoder = Callable[[bytes], ReportSnapshot]
+#: The frames of a 2.x box by port (encoder, decoder); port 30000 where the profile has it.
+_FW2_CODECS: dict[int, tuple[Encoder, Decoder]] = {
+    DEVELOP_PORT: (encode_develop2, decode_develop2), NORMAL_PORT: (encode_normal, decode_normal),
+    RICH_PORT: (encode_rich2, decode_rich2)}
+
+
+def _codecs_for(profile: FirmwareProfile) -> dict[int, tuple[Encoder, Decoder]]:
+    """Report port -> (encoder, decoder) for a box of ``profile``'s firmware."""
+    if profile.version.major < 2:
+        return {port: (ENCODERS[port], DECODERS[port]) for port in ENCODERS}
+    out = dict(_FW2_CODECS)
+    if profile.realtime_report:
+        out[REALTIME_PORT] = (encode_realtime, decode_realtime)
+    return out
+
+
+def encoders_for(profile: FirmwareProfile) -> dict[int, Encoder]:
     """Report port -> encoder for a box of ``profile``'s firmware: the manual's frames for 1.x,
     the 135/145/587-byte frames plus port 30000 for 2.x."""
-    if profile.version.major < 2:
-        return dict(ENCODERS)
-    out: dict[int, Callable[[ReportSnapshot], bytes]] = {
-        DEVELOP_PORT: encode_develop2, NORMAL_PORT: encode_normal, RICH_PORT: encode_rich2}
-    if profile.realtime_report:
-        out[REALTIME_PORT] = encode_realtime
-    return out
+    return {port: enc for port, (enc, _) in _codecs_for(profile).items()}
 
 
-def decoders_for(profile: FirmwareProfile) -> dict[int, Callable[[bytes], ReportSnapshot]]:
+def decoders_for(profile: FirmwareProfile) -> dict[int, Decoder]:
     """Report port -> decoder matching :func:`encoders_for`."""
-    if profile.version.major < 2:
-        return dict(DECODERS)
-    out: dict[int, Callable[[bytes], ReportSnapshot]] = {
-        DEVELOP_PORT: decode_develop2, NORMAL_PORT: decode_normal, RICH_PORT: decode_rich2}
-    if profile.realtime_report:
-        out[REALTIME_PORT] = decode_realtime
-    return out
+    return {port: dec for port, (_, dec) in _codecs_for(profile).items()}
 
 
 def rates_for(profile: FirmwareProfile) -> dict[int, float]:
