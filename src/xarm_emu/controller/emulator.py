@@ -33,6 +33,7 @@ from .applications import identification, trajectory
 from .box_state import EmulatorState, ModbusUserState, Schedule
 from .controller import Controller, joint_torques, tcp_matrix
 from .core import safety
+from .core.config import ConfigStore
 from .core.controller_state import ControllerState
 from .core.faults import Faults
 from .core.feedback import FeedbackQueue, feedback_queue, find_feedback_queue
@@ -295,8 +296,6 @@ class Emulator:
 
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
-        from .core.config import ConfigStore
-
         self._store = ConfigStore(directory, self.controller.robot_sn)
         ctl = self.controller
         ctl.hooks.on_save = self._save_config

@@ -41,6 +41,7 @@ import numpy as np
 
 from ...model import kinematics as kin
 from ...tomlfile import check_keys, load_toml
+from ..core.controller_protocol import Controller
 from .objects import ObjectSpec, parse_objects
 
 
@@ -175,18 +176,18 @@ def load_scene(path: str | Path) -> Scene:
     return load_toml(path, "scene file", parse_scene)
 
 
-def scene_of(ctl: Any) -> Scene:
+def scene_of(ctl: Controller) -> Scene:
     """The contact scene of ``ctl`` (in its controller state); empty unless one was set."""
     sc = ctl.data.contact_scene
     return sc if isinstance(sc, Scene) else Scene()
 
 
-def set_scene(ctl: Any, scene: Scene) -> None:
+def set_scene(ctl: Controller, scene: Scene) -> None:
     """Make ``scene`` the contact scene of ``ctl``."""
     ctl.data.contact_scene = scene
 
 
-def _tcp_point_velocity(ctl: Any) -> tuple[np.ndarray, np.ndarray]:
+def _tcp_point_velocity(ctl: Controller) -> tuple[np.ndarray, np.ndarray]:
     """The TCP point (mm, base frame) and its velocity (mm/s) from the joints and their rates."""
     model, d = ctl.model, ctl.data
     off = np.asarray(ctl.settings.tcp_offset[:3], dtype=float)
@@ -215,7 +216,7 @@ def shape_force(shape: Shape, p: np.ndarray, v: np.ndarray) -> np.ndarray:
     return f
 
 
-def scene_wrench(ctl: Any) -> np.ndarray:
+def scene_wrench(ctl: Controller) -> np.ndarray:
     """The wrench (base frame, N and N m about the TCP point) of the scene on the TCP."""
     scene = scene_of(ctl)
     if not scene.shapes:
