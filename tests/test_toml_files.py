@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from xarm_emu.controller.physics.contact import load_scene
+from xarm_emu.controller.scene.contact import load_scene
 from xarm_emu.fidelity.compare import load_tolerances
 from xarm_emu.model.calibration import load as load_calibration
 from xarm_emu.server.faults import read_schedule

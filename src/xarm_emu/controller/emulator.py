@@ -52,7 +52,7 @@ from .devices.robotiq import MODELS as ROBOTIQ_MODELS
 from .devices.robotiq import RobotiqGripper
 from .devices.vacuum import VacuumGripper
 from .firmware2_report import firmware2_fields
-from .physics import contact
+from .scene import contact
 
 #: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
 THERMAL_EVERY = 250
@@ -696,7 +696,7 @@ class Emulator:
             self.linear_track.clear_error()
         ft_sensor.state_of(ctl).error = 0
 
-    # -- the F/T sensor and the contact scene (devices/ft_sensor.py, physics/contact.py) ----
+    # -- the F/T sensor and the contact scene (devices/ft_sensor.py, scene/contact.py) ----
     def attach_ft_sensor(self, *, noise: bool = True) -> None:
         """Mount the six-axis F/T sensor between flange and tool (once)."""
         self.generation += 1

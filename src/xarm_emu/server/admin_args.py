@@ -16,7 +16,7 @@ from typing import Any
 
 from ..controller.devices.linear_track import TRACK_ERRORS
 from ..controller.emulator import Emulator
-from ..controller.physics import contact
+from ..controller.scene import contact
 from ..protocol import codes
 from ..protocol.admin import MAX_SECONDS, checkpoint_name
 

@@ -39,9 +39,7 @@ import numpy as np
 from ...model import kinematics as kin
 from .. import motion
 from ..core.controller_protocol import Controller
-from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
-
-MODE_PLAYBACK = 11
+from ..core.state_machine import MODE_PLAYBACK, STATE_MOVING, STATE_SLEEP, Event, ModeEvent, fire, fire_mode
 
 #: Longest recording (s of controller time); recording stops by itself after it.
 MAX_RECORD_SECONDS = 300.0
@@ -266,7 +264,7 @@ def start_playback(ctl: Controller, times: int, factor: int) -> None:
         lead_in = motion.plan_joint_move(ctl.q, samples[0], LEAD_IN_SPEED, min(LEAD_IN_ACC, s.joint_maxacc),
                                          s.joint_jerk)
     st.playback = Playback(samples, factor, times, lead_in, origin=_started(ctl, 64))
-    ctl.mode = MODE_PLAYBACK
+    fire_mode(ctl, ModeEvent.PLAYBACK_START)
     fire(ctl, Event.SERVO_MOVING)
 
 
@@ -274,7 +272,7 @@ def _end_playback(ctl: Controller, st: TrajectoryStore, code: int) -> None:
     if st.playback is not None:
         _finished(ctl, st.playback.origin, 64, code)
     st.playback = None
-    ctl.mode = 0
+    fire_mode(ctl, ModeEvent.PLAYBACK_END)
     st.finish(64, code)
 
 
@@ -283,7 +281,7 @@ def playback_step(ctl: Controller, dt: float) -> None:
     st = store_of(ctl)
     pb = st.playback
     if pb is None:
-        ctl.mode = 0
+        fire_mode(ctl, ModeEvent.PLAYBACK_END)
         return
     if ctl.motion_state not in (STATE_SLEEP, STATE_MOVING):
         _end_playback(ctl, st, 1)  # stopped (state 4) or reset: playback ends unfinished

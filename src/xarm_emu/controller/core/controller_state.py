@@ -102,7 +102,7 @@ class ControllerState:
     motion: PlanState = field(default_factory=PlanState)
     #: The F/T sensor (controller/devices/ft_sensor.py: mounted, switched on, wrenches, readings).
     ft_sensor: Slot = None  # FtSensorState
-    #: The contact scene (controller/physics/contact.py), fixed in the base frame.
+    #: The contact scene (controller/scene/contact.py), fixed in the base frame.
     contact_scene: Slot = None  # Scene
     #: The F/T configuration registers 201-208 (controller/handlers/ft_sensor.py).
     ft_config: Slot = None  # FtConfig

@@ -53,7 +53,7 @@ from ...model import kinematics as kin
 from ..core.controller_protocol import Controller
 from ..core.ft_config import ft_config
 from ..core.interface import NOT_IDLE
-from ..physics import contact
+from ..scene import contact
 
 #: Sensor thickness, flange to tool face (mm): the offset the SDK adds to an identified centroid.
 SENSOR_HEIGHT = 32.0

@@ -19,7 +19,9 @@ from ..core.state_machine import (
     STATE_STOP,
     STATE_SUSPEND,
     Event,
+    ModeEvent,
     fire,
+    fire_mode,
 )
 
 if TYPE_CHECKING:
@@ -135,7 +137,7 @@ def set_mode(ctl: Controller, v: Values) -> None:
     mode = v["mode"]
     if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH) + extra_modes(ctl):
         raise ParameterError(f"mode {mode} not available")
-    ctl.mode = mode
+    fire_mode(ctl, ModeEvent.SELECT, mode)
     ctl.system_reset()
     return None
 

@@ -31,7 +31,7 @@ from ..core.controller_protocol import Controller
 from ..core.interface import C_COLLISION, NOT_IDLE, Handler
 from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
 from ..devices.robotiq import OBJ_MOVING, RobotiqGripper
-from . import contact
+from ..scene import contact
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
 from .world import World

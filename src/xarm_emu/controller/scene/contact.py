@@ -25,7 +25,7 @@ at most ``mu`` times that force. The scene is declared in a TOML file (``serve -
 or through the admin channel as the same tables (:func:`parse_scene`). A file with errors raises
 ``ValueError`` with one line naming the shape and the key.
 
-``[[object]]`` tables add loose objects (:mod:`.physics.objects`): a scene with objects runs the
+``[[object]]`` tables add loose objects (:mod:`.objects`): a scene with objects runs the
 physics engine (:mod:`.physics`), in which the planes and boxes are fixed bodies too.
 """
 
