@@ -72,6 +72,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol, cast
 
 from ..controller.core.interface import CommandWarning
+from ..controller.devices import ft_sensor as ft
 from ..controller.devices.linear_track import TRACK_ERRORS
 from ..controller.emulator import Emulator
 from ..protocol import codes
@@ -285,8 +286,6 @@ def _status(server: AdminTarget, a: Args) -> str:
 
 def _ft_status(emu: Emulator) -> dict[str, Any]:
     """The F/T sensor in ``status``: switched on, its error, the compensated and raw readings."""
-    from ..controller.devices import ft_sensor as ft
-
     ctl = emu.controller
     return {"enabled": ft.enabled(ctl), "error": ft.state_of(ctl).error,
             "reading": [round(float(x), 4) for x in ft.reading(ctl)],
