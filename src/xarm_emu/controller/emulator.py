@@ -390,7 +390,7 @@ class Emulator:
         """How many control periods from now would, stepped in any calls, change nothing but the
         clock (:attr:`revision` unchanged) unless something outside changes the box: 0 unless
         :meth:`_quiet_now`; else up to the period before the next thermal step, component time
-        (:func:`~.base.idle_until`) or scheduled action. A lower bound (one period short of each
+        (:func:`~.core.interface.idle_until`) or scheduled action. A lower bound (one period short of each
         event's own period). ``settled``: as :meth:`Controller.at_rest` takes it (``None``: nothing
         has changed the box since the last :meth:`step` call); :meth:`step` asks it of its last
         period."""
@@ -417,7 +417,7 @@ class Emulator:
 
     def _jump(self, most: int) -> int:
         """Jump over at most ``most`` control periods while the controller is at rest
-        (:meth:`Controller.at_rest`), each component idle (:func:`~.base.idle_until`) and no
+        (:meth:`Controller.at_rest`), each component idle (:func:`~.core.interface.idle_until`) and no
         scheduled action due; returns the number of periods jumped.
 
         Nothing changes in such a period but the clock and, every :data:`THERMAL_EVERY` periods, the
@@ -720,7 +720,8 @@ class Emulator:
 
     def apply_wrench(self, wrench: Any, frame: str = "tool", ramp_s: float = 0.0,
                      duration_s: float | None = None) -> None:
-        """An external wrench on the TCP (:func:`.ft_sensor.apply_wrench`); ValueError if not finite."""
+        """An external wrench on the TCP (:func:`.devices.ft_sensor.apply_wrench`); ValueError if not
+        finite."""
         self.generation += 1
         ft_sensor.apply_wrench(self.controller, wrench, frame, ramp_s, duration_s)
 
