@@ -21,7 +21,7 @@ import functools
 from ...protocol.firmware import DEFAULT_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, profile_for
 from ...protocol.registers import registers_for
 from ..applications.modes import create_state, extra_modes_of
-from ..core.controller_protocol import Controller, CtlHandler
+from ..core.controller_protocol import Controller
 from ..core.interface import Binding, Handler, binding_table, function_name
 from ..devices import gripper, io
 from . import (
@@ -37,8 +37,6 @@ from . import (
     state,
     trajectory,
 )
-
-__all__ = ["TABLE", "CtlHandler", "bind", "handled_by", "handler_of"]
 
 #: Every register binding, the controller's and its components', by register code (checked at
 #: import: :func:`~xarm_emu.controller.core.interface.binding_table`).

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -11,9 +11,6 @@ from ...model import rotations as rot
 from ..core.controller_protocol import Controller
 from ..core.interface import WARN_NO_SOLUTION, Binding, CommandWarning, Values
 from ..core.poses import wire_pose_to_matrix
-
-if TYPE_CHECKING:
-    pass
 
 
 def kinematics_params(ctl: Controller, v: Values) -> dict[str, Any]:

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -46,9 +46,6 @@ from ..core.interface import (
 from ..core.poses import apply_offset, wire_pose_to_matrix
 from ..core.settings import in_range
 from .settings import report_tau_or_i
-
-if TYPE_CHECKING:
-    pass
 
 #: Joint positions sampled along the straight joint path of an only-check move.
 CHECK_SAMPLES = 24

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import functools
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ...model import collision
 from ..core.controller_protocol import Controller
@@ -18,9 +18,6 @@ from ..core.settings import (
     in_range,
 )
 from ..core.state_machine import Event, fire
-
-if TYPE_CHECKING:
-    pass
 
 
 def motion_limit(ctl: Controller, v: Values, *, name: str, key: str) -> dict[str, Any]:

@@ -3,7 +3,7 @@ and 106): version, serial numbers, enable, state, mode, errors and warnings."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ...protocol import codes
 from ..applications.modes import extra_modes
@@ -22,9 +22,6 @@ from ..core.state_machine import (
     fire,
     fire_mode,
 )
-
-if TYPE_CHECKING:
-    pass
 
 
 def needs_power_on(code: int) -> bool:
