@@ -108,7 +108,7 @@ def serve_fleet_workers(fleet: Path, cfg: ServerConfig, cdir: Path, workers: int
 def _check_fleet(fleet: Path, cdir: Path) -> tuple[Any, Path]:
     """Load and check a fleet file for worker processes: hosts, fault schedules (against a throwaway
     box of each arm's model) and that no saved configuration is in use; raises ValueError."""
-    from ..controller.config import ConfigStore
+    from ..controller.core.config import ConfigStore
     from ..controller.emulator import Emulator
     from ..server.app import EmulatorServer
     from ..server.faults import schedule_file

@@ -36,7 +36,7 @@ class ServeCommand(TyperCommand):
 
 def bare_linear_track(args: list[str]) -> list[str]:
     """``--linear-track`` without a length (last, or before another option) as the default stroke."""
-    from ..controller.linear_track import DEFAULT_LENGTH
+    from ..controller.devices.linear_track import DEFAULT_LENGTH
 
     out = list(args)
     for i, a in enumerate(out):
@@ -79,7 +79,8 @@ LinearTrackOpt = Annotated[int | None, typer.Option(
 FtSensorOpt = Annotated[bool, typer.Option("--ft-sensor", help="Mount the six-axis F/T sensor between "
                                                                 "flange and tool.")]
 SceneOpt = Annotated[Path | None, typer.Option(help="Contact scene: planes and boxes the TCP presses "
-                                                    "into, a TOML file (controller/contact.py).")]
+                                                    "into, a TOML file "
+                                                    "(controller/physics/contact.py).")]
 GripperOpt = Annotated[str | None, typer.Option(help="The gripper on the tool RS-485: xarm (the default), "
                                                      "robotiq-2f85, robotiq-2f140, bio, bio-g1 "
                                                      "(the first-generation BIO) or inspire-rh56 (the "
@@ -245,7 +246,7 @@ def checked_arm(model: str, firmware: str, calibration: Path | None, linear_trac
         err_console.print(f"--model: {exc}")
         raise typer.Exit(2) from None
     if linear_track is not None:
-        from ..controller.linear_track import TRACK_FIRMWARE, check_length
+        from ..controller.devices.linear_track import TRACK_FIRMWARE, check_length
 
         try:
             check_length(linear_track)

@@ -59,8 +59,8 @@ def compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, va
     """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
     port opens. Returns them and the configuration directory they use."""
-    from ..controller.contact import load_scene
     from ..controller.emulator import Emulator
+    from ..controller.physics.contact import load_scene
     from ..server.app import EmulatorServer
     from ..server.faults import schedule_file
     from ..server.fleet import load_fleet
@@ -84,7 +84,7 @@ def compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, va
         arm_cfg.limits = cfg.limits
         arm_cfg.report_priority = cfg.report_priority  # one report sender per process
         store = getattr(emu, "_store", None)
-        if store is not None:  # one running box per saved configuration (controller/config.py)
+        if store is not None:  # one running box per saved configuration (controller/core/config.py)
             store.lock()
         srv = EmulatorServer(emu, arm_cfg)
         schedule_file(srv, arm_cfg.faults)

@@ -1,7 +1,7 @@
 """Where the admin channel's token lives and how it is written, for server and client alike.
 
 Every admin request carries the token (:mod:`.admin`); the server creates the file
-(:func:`xarm_emu.controller.config.load_or_create_admin_token`, owner-only) and a client reads it, so
+(:func:`xarm_emu.controller.core.config.load_or_create_admin_token`, owner-only) and a client reads it, so
 the rule for its place is kept here, below both. No sockets: the place is computed from the
 environment, and the file holds one line of ASCII.
 """

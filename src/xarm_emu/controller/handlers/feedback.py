@@ -6,18 +6,15 @@
 - 253 FEEDBACK_CHECK: empty reply at once; a MOTION_FINISH frame carrying 253's transaction id
   follows once every task queued before it has finished.
 
-The frames themselves come from :class:`~xarm_emu.controller.feedback.FeedbackQueue`.
+The frames themselves come from :class:`~xarm_emu.controller.core.feedback.FeedbackQueue`.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from ..base import Values
-from ..feedback import feedback_queue
-
-if TYPE_CHECKING:
-    from . import CtlHandler
+from ..core.feedback import feedback_queue
+from ..core.interface import Binding, Values
 
 
 def set_feedback_type(ctl: Any, v: Values) -> None:
@@ -32,7 +29,8 @@ def feedback_check(ctl: Any, v: Values) -> None:
     return None
 
 
-HANDLERS: dict[int, CtlHandler] = {
-    253: feedback_check,
-    254: set_feedback_type,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(253, feedback_check),
+    Binding(254, set_feedback_type),
+)

@@ -1,7 +1,7 @@
 """The F/T sensor's applications (firmware 2.x): register 202 sets admittance (1) or force control
 (2) or neither (0), 203 reads it back, 207-211 set their parameters (the SDK's
 ``set_ft_sensor_mode``, ``get_ft_sensor_mode``, ``set_ft_sensor_admittance_parameters`` and
-``set_ft_sensor_force_parameters``); the control laws are in controller/force_control.py.
+``set_ft_sensor_force_parameters``); the control laws are in controller/applications/force_control.py.
 
 Parameters outside the vendor's ranges (those the SDK checks unless ``params_limit=False``) are
 parameter abnormal, warning 12 (manual 3.2.2), and change nothing. An application needs the sensor
@@ -11,13 +11,12 @@ carried out (reply bit 0x08, the SDK's code 10) and the application stays off.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
-from .. import force_control as fc
-from .. import ft_sensor as sensor
-from ..base import CommandFailed, ParameterError, Values
-from .ft_sensor import ft_config
+from ..applications import force_control as fc
+from ..core.ft_config import ft_config
+from ..core.interface import Binding, CommandFailed, ParameterError, Values
+from ..devices import ft_sensor as sensor
 
 
 def _floats(values: Any) -> tuple[float, ...]:
@@ -97,15 +96,16 @@ def admittance_frame(ctl: Any, v: Values) -> None:
     cfg.imp_coord, cfg.imp_c_axis = _coord_axes(v)
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    202: set_mode,
-    203: get_mode,
-    207: admittance_config,
-    208: force_pid,
-    209: force_config,
-    210: admittance_mkb,
-    211: admittance_frame,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(202, set_mode),
+    Binding(203, get_mode),
+    Binding(207, admittance_config),
+    Binding(208, force_pid),
+    Binding(209, force_config),
+    Binding(210, admittance_mkb),
+    Binding(211, admittance_frame),
+)
 
 
 def create_state(ctl: Any) -> None:

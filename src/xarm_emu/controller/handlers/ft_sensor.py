@@ -11,46 +11,15 @@ the joint torques on every arm. The reply lengths are the ones the SDK reads.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
-from .. import force_control, identification
-from .. import ft_sensor as ft
-from ..base import ParameterError, Values
+from ..applications import force_control, identification
+from ..core.ft_config import ZEROS6, ft_config
+from ..core.interface import Binding, ParameterError, Values
+from ..devices import ft_sensor as ft
 
 NO_SENSOR = "no F/T sensor attached"
 NOT_ENABLED = "the F/T sensor is not switched on (register 201)"
-ZEROS6 = (0.0,) * 6
-
-
-@dataclass(slots=True)
-class FtConfig:
-    """What registers 205 and 207-211 set, as register 212 reports it."""
-
-    mass: float = 0.0
-    centroid: tuple[float, ...] = (0.0, 0.0, 0.0)
-    offsets: tuple[float, ...] = ZEROS6
-    imp_coord: int = 0
-    imp_c_axis: tuple[int, ...] = (0,) * 6
-    M: tuple[float, ...] = ZEROS6
-    K: tuple[float, ...] = ZEROS6
-    B: tuple[float, ...] = ZEROS6
-    fc_coord: int = 0
-    fc_c_axis: tuple[int, ...] = (0,) * 6
-    f_ref: tuple[float, ...] = ZEROS6
-    limits: tuple[float, ...] = ZEROS6
-    pid: dict[str, tuple[float, ...]] = field(
-        default_factory=lambda: {k: ZEROS6 for k in ("kp", "ki", "kd", "xe_limit")})
-
-
-def ft_config(ctl: Any) -> FtConfig:
-    """The F/T configuration of ``ctl``, created on first use."""
-    cfg = ctl.data.ft_config
-    if not isinstance(cfg, FtConfig):
-        cfg = FtConfig()
-        ctl.data.ft_config = cfg
-    return cfg
 
 
 def _floats(values: Any) -> tuple[float, ...]:
@@ -106,7 +75,7 @@ def identify_load(ctl: Any, v: Values) -> dict[str, Any]:
     else:
         _require_enabled(ctl)
     ctl.require_motion_allowed()
-    identification.start(ctl, kind)
+    identification.start(ctl, kind, ft)
     return identification.reply(ctl)
 
 
@@ -137,12 +106,13 @@ def get_config(ctl: Any, v: Values) -> dict[str, Any]:
             **cfg.pid}
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    150: get_data,
-    200: get_data,
-    201: enable,
-    204: identify_load,
-    205: set_load_offset,
-    206: set_zero,
-    212: get_config,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(150, get_data),
+    Binding(200, get_data),
+    Binding(201, enable),
+    Binding(204, identify_load),
+    Binding(205, set_load_offset),
+    Binding(206, set_zero),
+    Binding(212, get_config),
+)

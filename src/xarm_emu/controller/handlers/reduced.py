@@ -1,13 +1,13 @@
-"""Reduced-mode registers (47-50, 53, 58, 60). The mechanism is :mod:`xarm_emu.controller.reduced`."""
+"""Reduced-mode registers (47-50, 53, 58, 60). The mechanism is
+:mod:`xarm_emu.controller.applications.reduced`."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
-from ..base import ParameterError, Values
-from ..reduced import reduced_of
+from ..applications.reduced import reduced_of
+from ..core.interface import Binding, ParameterError, Values
 
 
 def _switch(v: Values, name: str = "on") -> bool:
@@ -77,12 +77,13 @@ def set_rebound(ctl: Any, v: Values) -> None:
     return None
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    47: set_tcp_speed,
-    48: set_joint_speed,
-    49: get_mode,
-    50: set_mode,
-    53: get_state,
-    58: set_joint_ranges,
-    60: set_rebound,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(47, set_tcp_speed),
+    Binding(48, set_joint_speed),
+    Binding(49, get_mode),
+    Binding(50, set_mode),
+    Binding(53, get_state),
+    Binding(58, set_joint_ranges),
+    Binding(60, set_rebound),
+)

@@ -1,14 +1,13 @@
 """Trajectory registers (61-65, 230): recording, saving, loading, playback and its speed check.
-The mechanism is :mod:`xarm_emu.controller.trajectory`."""
+The mechanism is :mod:`xarm_emu.controller.applications.trajectory`."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
-from .. import trajectory as traj
-from ..base import CommandWarning, ParameterError, Values
-from ..states import STATE_SLEEP
+from ..applications import trajectory as traj
+from ..core.interface import Binding, CommandWarning, ParameterError, Values
+from ..core.state_machine import STATE_SLEEP
 
 
 def set_record(ctl: Any, v: Values) -> None:
@@ -42,7 +41,7 @@ def load(ctl: Any, v: Values) -> None:
 def play(ctl: Any, v: Values) -> None:
     """Register 64: play the loaded trajectory ``times`` times (-1 forever) at a factor 1, 2 or 4.
     Only from position mode at rest; mode 11 during playback."""
-    from ..core import NotReady
+    from ..controller import NotReady
 
     times = int(v["times"])
     factor = int(v.get("speed", 1)) if ctl.firmware.play_traj_speed else 1
@@ -77,11 +76,12 @@ def speeding(ctl: Any, v: Values) -> dict[str, Any]:
     return {"result": 1 if over else 0, "servo_id": joint if over else 0, "speed": speed}
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    61: set_record,
-    62: save,
-    63: load,
-    64: play,
-    65: rw_status,
-    230: speeding,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(61, set_record),
+    Binding(62, save),
+    Binding(63, load),
+    Binding(64, play),
+    Binding(65, rw_status),
+    Binding(230, speeding),
+)
