@@ -80,7 +80,7 @@ FtSensorOpt = Annotated[bool, typer.Option("--ft-sensor", help="Mount the six-ax
                                                                 "flange and tool.")]
 SceneOpt = Annotated[Path | None, typer.Option(help="Contact scene: planes and boxes the TCP presses "
                                                     "into, a TOML file "
-                                                    "(controller/physics/contact.py).")]
+                                                    "(controller/scene/contact.py).")]
 GripperOpt = Annotated[str | None, typer.Option(help="The gripper on the tool RS-485: xarm (the default), "
                                                      "robotiq-2f85, robotiq-2f140, bio, bio-g1 "
                                                      "(the first-generation BIO) or inspire-rh56 (the "

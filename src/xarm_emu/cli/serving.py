@@ -60,7 +60,7 @@ def compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, va
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
     port opens. Returns them and the configuration directory they use."""
     from ..controller.emulator import Emulator
-    from ..controller.physics.contact import load_scene
+    from ..controller.scene.contact import load_scene
     from ..server.app import EmulatorServer
     from ..server.faults import schedule_file
     from ..server.fleet import load_fleet

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import logging
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -29,11 +30,12 @@ from ..protocol import registers as regs
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..protocol.frame import STATE_ERROR, STATE_FAILED, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError, all_within
-from . import motion
+from . import handlers, motion
 from .applications import force_control, reduced
 from .applications.modes import EVERY_STEP, EVERY_STEP_IDLE, MODE_STEPS
 from .core import safety
 from .core.commands import QueuedCommand
+from .core.controller_protocol import Component
 from .core.controller_state import ControllerState, StateField
 from .core.executor import Executor, Limits
 from .core.faults import Faults
@@ -48,7 +50,6 @@ from .core.interface import (
     CommandError,
     CommandFailed,
     CommandWarning,
-    Component,
     Handler,
     Hooks,
     NotReady,
@@ -158,8 +159,6 @@ class Controller:
     def register_handlers(self) -> tuple[dict[int, Handler], dict[int, dict[int, Handler]]]:
         """Handlers and mode routes by register code: the controller's rows of the binding table
         (:data:`.handlers.TABLE`), bound to this controller."""
-        from . import handlers
-
         return handlers.bind(self)
 
     def adopt(self, data: ControllerState, settings: Settings) -> None:
@@ -245,6 +244,10 @@ class Controller:
         """Register codes with a handler, the controller's and its components'."""
         return frozenset(self._handlers)
 
+    def handler_of(self, code: int) -> Handler:
+        """The handler bound to register ``code`` (KeyError when none is)."""
+        return self._handlers[code]
+
     def version_string(self) -> str:
         """Register 1's version string of this control box."""
         return version_string(self.model, self.robot_sn, self.box_sn, self.firmware)
@@ -253,9 +256,7 @@ class Controller:
     def add_component(self, component: Component) -> None:
         """Plug in a component: it steps with the controller, and its handlers answer the registers
         of this box's firmware (a register its table lacks stays unknown, warning 13)."""
-        from .handlers import TABLE
-
-        bound = bind_component(component, TABLE.values())
+        bound = bind_component(component, handlers.TABLE.values())
         for code in bound.keys() & self._handlers.keys():
             raise ValueError(f"register {code} of {type(component).__name__} is bound already")
         self.components.append(component)
@@ -265,10 +266,6 @@ class Controller:
         """Answer register ``code`` although this firmware's table lacks it: an accessory that brings
         its own register (the F/T sensor's 150 on a box of the manual's firmware, which the SDK
         reads the sensor through below 1.8.3). The layout is the register table's."""
-        from types import MappingProxyType
-
-        from .handlers import TABLE
-
         if code in self.registers:
             return
         table = dict(self.registers)
@@ -277,7 +274,7 @@ class Controller:
         self._float_checked = regs.float_checked(self.registers)
         self._inf_unchanged = regs.inf_unchanged(self.registers)
         self._per_joint = regs.per_joint_fields(self.registers)
-        self._handlers[code] = functools.partial(TABLE[code].handler, self)
+        self._handlers[code] = functools.partial(handlers.TABLE[code].handler, self)
 
     # -- ControllerView ------------------------------------------------------------------------
     @property
@@ -625,9 +622,6 @@ class Controller:
         self.executor.queue(cmd)
         fire(self, Event.QUEUED)
         return {"cmdnum": self.executor.cmdnum}
-
-    #: The name component handler modules use for :meth:`queue`.
-    _queue = queue
 
     # torques (the dynamic model, model/dynamics.py)
     def joint_torques(self) -> np.ndarray:

@@ -36,12 +36,13 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
+from ..core.controller_protocol import Controller
 from ..core.ft_config import ft_config
 from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
 from . import reduced
@@ -219,16 +220,16 @@ class ForceControl:
         self.blocked = None
 
 
-def control_of(ctl: Any) -> ForceControl:
+def control_of(ctl: Controller) -> ForceControl:
     """The force-control state of ``ctl`` (created, off, on first use)."""
-    fc = ctl.data.force_control
+    fc = cast("ForceControl | None", ctl.data.force_control)
     if fc is None:
         fc = ForceControl()
         ctl.data.force_control = fc
     return fc
 
 
-def set_app(ctl: Any, app: int) -> None:
+def set_app(ctl: Controller, app: int) -> None:
     """Register 202 (checked by the handler): 1 or 2 ends the present motion like a mode change and
     waits for the state to be set to 0; 0 stops the application where the arm is."""
     fc = control_of(ctl)
@@ -263,20 +264,20 @@ def target_pose(anchor: np.ndarray, x: np.ndarray, frame: int) -> np.ndarray:
     return T
 
 
-def runs(ctl: Any) -> bool:
+def runs(ctl: Controller) -> bool:
     """Whether an application is set, the arm is in position mode and ready, and no queued command
     is running: then :func:`step` moves the arm this period."""
-    fc = ctl.data.force_control
+    fc = cast("ForceControl | None", ctl.data.force_control)
     return (fc is not None and fc.app != APP_OFF and ctl.mode == 0
             and ctl.motion_state in (STATE_SLEEP, STATE_MOVING) and not ctl.executor.active)
 
 
-def period(ctl: Any, dt: float, sensor_wrench: Callable[[], np.ndarray | None]) -> bool:
+def period(ctl: Controller, dt: float, sensor_wrench: Callable[[], np.ndarray | None]) -> bool:
     """The core's call each control period in position mode: run the application when it
     :func:`runs` (True: this period's motion is done), else let queued commands run (False).
     ``sensor_wrench`` answers the sensor's control wrench (sensor frame, torques about the TCP), or
     None while the sensor is switched off."""
-    fc = ctl.data.force_control
+    fc = cast("ForceControl | None", ctl.data.force_control)
     if fc is None or fc.app == APP_OFF:
         return False
     if not runs(ctl):
@@ -292,9 +293,9 @@ def period(ctl: Any, dt: float, sensor_wrench: Callable[[], np.ndarray | None]) 
     return True
 
 
-def engaged(ctl: Any) -> bool:
+def engaged(ctl: Controller) -> bool:
     """Whether admittance or force control is set (register 202): it acts on every period's reading."""
-    fc = ctl.data.force_control
+    fc = cast("ForceControl | None", ctl.data.force_control)
     return fc is not None and fc.app != APP_OFF
 
 
@@ -308,7 +309,7 @@ def sensor_to_tool(tcp_offset: Sequence[float], wrench: Any) -> np.ndarray:
     return np.concatenate([R.T @ w[:3], R.T @ w[3:]])
 
 
-def step(ctl: Any, dt: float, wrench_tool: np.ndarray) -> None:
+def step(ctl: Controller, dt: float, wrench_tool: np.ndarray) -> None:
     """One control period of the application under ``wrench_tool`` (the sensor's compensated wrench
     in the tool frame, N and N m); moves ``ctl.q``."""
     fc = control_of(ctl)
@@ -353,7 +354,7 @@ def step(ctl: Any, dt: float, wrench_tool: np.ndarray) -> None:
     fire(ctl, Event.SERVO_MOVING if moving else Event.SERVO_AT_TARGET)
 
 
-def _follow(ctl: Any, fc: ForceControl, x_prev: np.ndarray,
+def _follow(ctl: Controller, fc: ForceControl, x_prev: np.ndarray,
             x_new: np.ndarray) -> tuple[np.ndarray, float] | None:
     """Joints that put the TCP at displacement ``x_new``, or part of the way (the fraction returned)
     when the whole step would leave the joint limits or the workspace or exceed the joint speed

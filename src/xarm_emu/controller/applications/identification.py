@@ -27,11 +27,12 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 
 from ..core.commands import JointMove, Task
+from ..core.controller_protocol import Controller
 
 REGISTER = 204
 #: Joint speed (rad/s, about 57 deg/s) and acceleration (rad/s^2) of the sequence's moves.
@@ -59,29 +60,29 @@ class LoadReadings(Protocol):
     """Where the sequence reads and how it solves: the F/T sensor's functions (its readings for type
     0, the dynamic model's joint torques for type 1), which register 204's handler hands in."""
 
-    def iden_poses(self, ctl: Any, q0: np.ndarray) -> list[np.ndarray]: ...
+    def iden_poses(self, ctl: Controller, q0: np.ndarray) -> list[np.ndarray]: ...
 
-    def iden_reading(self, ctl: Any, index: int, q: np.ndarray | None = None) -> np.ndarray: ...
+    def iden_reading(self, ctl: Controller, index: int, q: np.ndarray | None = None) -> np.ndarray: ...
 
-    def iden_torques(self, ctl: Any, q: np.ndarray | None = None) -> np.ndarray: ...
+    def iden_torques(self, ctl: Controller, q: np.ndarray | None = None) -> np.ndarray: ...
 
-    def solve_ft_load(self, ctl: Any, samples: Samples) -> tuple[float, ...]: ...
+    def solve_ft_load(self, ctl: Controller, samples: Samples) -> tuple[float, ...]: ...
 
-    def solve_tcp_load(self, ctl: Any, samples: Samples) -> tuple[float, ...]: ...
+    def solve_tcp_load(self, ctl: Controller, samples: Samples) -> tuple[float, ...]: ...
 
 
-def of(ctl: Any) -> Identification | None:
+def of(ctl: Controller) -> Identification | None:
     """The controller's last identification, if any."""
-    return ctl.data.identification
+    return cast("Identification | None", ctl.data.identification)
 
 
-def progress(ctl: Any) -> int:
+def progress(ctl: Controller) -> int:
     """The identification progress (%, rich report byte 481)."""
     iden = of(ctl)
     return 0 if iden is None else iden.progress
 
 
-def start(ctl: Any, kind: int, loads: LoadReadings) -> None:
+def start(ctl: Controller, kind: int, loads: LoadReadings) -> None:
     """Queue the sequence of type ``kind`` from the present joints, reading and solving with
     ``loads`` (the caller has checked that the arm may move)."""
     q0 = np.array(ctl.q, dtype=float)
@@ -98,7 +99,7 @@ def start(ctl: Any, kind: int, loads: LoadReadings) -> None:
                                                loads.solve_tcp_load)))
 
 
-def _read(ctl: Any, iden: Identification, index: int, sensor: Callable[..., np.ndarray],
+def _read(ctl: Controller, iden: Identification, index: int, sensor: Callable[..., np.ndarray],
           torques: Callable[..., np.ndarray]) -> None:
     q = np.array(ctl.q, dtype=float)
     reading = sensor(ctl, index, q) if iden.kind == TYPE_SENSOR else torques(ctl, q)
@@ -106,7 +107,7 @@ def _read(ctl: Any, iden: Identification, index: int, sensor: Callable[..., np.n
     iden.progress = min(99, round(100 * len(iden.samples) / (iden.readings + 1)))
 
 
-def _finish(ctl: Any, iden: Identification, solve_ft: Callable[..., tuple[float, ...]],
+def _finish(ctl: Controller, iden: Identification, solve_ft: Callable[..., tuple[float, ...]],
             solve_tcp: Callable[..., tuple[float, ...]]) -> None:
     if iden.kind == TYPE_SENSOR:
         iden.result = solve_ft(ctl, iden.samples)
@@ -116,7 +117,7 @@ def _finish(ctl: Any, iden: Identification, solve_ft: Callable[..., tuple[float,
     iden.running = False
 
 
-def finished(ctl: Any) -> bool:
+def finished(ctl: Controller) -> bool:
     """Whether the identification the last register 204 started is over: its result is in, or the
     command buffer no longer holds its moves (a stop or an error discarded them)."""
     iden = of(ctl)
@@ -128,7 +129,7 @@ def finished(ctl: Any) -> bool:
     return False
 
 
-def reply(ctl: Any) -> dict[str, Any]:
+def reply(ctl: Controller) -> dict[str, Any]:
     """Register 204's reply values once :func:`finished`: the result, or zeros when interrupted."""
     iden = of(ctl)
     r = iden.result if iden is not None and iden.result is not None else None

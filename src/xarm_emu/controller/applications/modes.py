@@ -9,6 +9,7 @@ from collections.abc import Callable, Container
 from typing import Any
 
 from ...protocol.firmware import FirmwareProfile
+from ..core.controller_protocol import Controller
 from . import online, reduced, trajectory, velocity
 
 #: What the core runs each control period while the controller is in one of these modes.
@@ -29,7 +30,7 @@ EVERY_STEP_IDLE: dict[Callable[[Any, float], None], Callable[[Any], bool]] = {
     trajectory.record_step: trajectory.record_idle,
 }
 
-def extra_modes(ctl: Any) -> tuple[int, ...]:
+def extra_modes(ctl: Controller) -> tuple[int, ...]:
     """Modes 4-7 that ``ctl``'s firmware answers (:func:`extra_modes_of`)."""
     return extra_modes_of(ctl.firmware, ctl.registers)
 
@@ -43,7 +44,7 @@ def extra_modes_of(firmware: FirmwareProfile, registers: Container[int]) -> tupl
     return out
 
 
-def create_state(ctl: Any) -> None:
+def create_state(ctl: Controller) -> None:
     """Create the state behind modes 4-7 and 11, trajectories and reduced mode at construction, in
     their declared fields of ``ctl.data`` (the :class:`~.state.ControllerState`), so that a
     checkpoint (a copy of that state) always holds it."""

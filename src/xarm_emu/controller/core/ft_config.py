@@ -5,7 +5,8 @@ applications and their handlers share."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+
+from .controller_protocol import Controller
 
 ZEROS6 = (0.0,) * 6
 
@@ -30,7 +31,7 @@ class FtConfig:
         default_factory=lambda: {k: ZEROS6 for k in ("kp", "ki", "kd", "xe_limit")})
 
 
-def ft_config(ctl: Any) -> FtConfig:
+def ft_config(ctl: Controller) -> FtConfig:
     """The F/T configuration of ``ctl``, created on first use."""
     cfg = ctl.data.ft_config
     if not isinstance(cfg, FtConfig):

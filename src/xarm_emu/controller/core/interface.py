@@ -182,13 +182,6 @@ class ControllerView(Protocol):
     def raise_error(self, code: int) -> None: ...  # a component raises a control box error
 
 
-class Component(Protocol):
-    """A controller part with its own state that steps with the controller. Its registers, if any,
-    are rows of the binding table naming its class (:class:`Binding`)."""
-
-    def step(self, dt: float, ctl: ControllerView) -> None: ...
-
-
 #: What :func:`idle_until` answers for a component that cannot tell: never idle.
 NOT_IDLE = -math.inf
 

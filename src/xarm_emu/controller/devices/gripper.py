@@ -67,6 +67,7 @@ from ..core.interface import (
     bind_component,
     idle_until,
 )
+from .io import BAUD_RATES
 
 GRIPPER_ID = 8  # section 2.1.4 "Gripper ID 0x08"
 GRIPPER_BAUD_INDEX = 11  # 2,000,000 bps (register 127 baud table)
@@ -345,8 +346,6 @@ def crc16_modbus(data: bytes) -> bytes:
 
 
 def _baud(index: int) -> int:
-    from .io import BAUD_RATES
-
     return BAUD_RATES[index] if 0 <= index < len(BAUD_RATES) else BAUD_RATES[-1]
 
 

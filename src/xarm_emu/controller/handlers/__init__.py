@@ -17,13 +17,12 @@ other way.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
 
 from ...protocol.firmware import DEFAULT_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, profile_for
 from ...protocol.registers import registers_for
 from ..applications.modes import create_state, extra_modes_of
-from ..core.interface import Binding, Handler, Values, binding_table, function_name
+from ..core.controller_protocol import Controller, CtlHandler
+from ..core.interface import Binding, Handler, binding_table, function_name
 from ..devices import gripper, io
 from . import (
     feedback,
@@ -39,14 +38,7 @@ from . import (
     trajectory,
 )
 
-if TYPE_CHECKING:
-    from ..controller import Controller
-
-#: A register handler: the controller and the request values decoded by the register table in,
-#: the reply values (or ``None`` for an empty reply) out. It refuses by raising
-#: :class:`~xarm_emu.controller.core.interface.CommandWarning` or
-#: :class:`~xarm_emu.controller.core.interface.CommandError`.
-CtlHandler = Callable[["Any", Values], "dict[str, Any] | None"]
+__all__ = ["TABLE", "CtlHandler", "bind", "handled_by", "handler_of"]
 
 #: Every register binding, the controller's and its components', by register code (checked at
 #: import: :func:`~xarm_emu.controller.core.interface.binding_table`).

@@ -8,11 +8,12 @@ import numpy as np
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
+from ..core.controller_protocol import Controller
 from ..core.interface import WARN_NO_SOLUTION, Binding, CommandWarning, Values
 from ..core.poses import wire_pose_to_matrix
 
 if TYPE_CHECKING:
-    from ..controller import Controller
+    pass
 
 
 def kinematics_params(ctl: Controller, v: Values) -> dict[str, Any]:
@@ -69,17 +70,17 @@ def pose_offset(ctl: Controller, v: Values) -> dict[str, Any]:
     return {"pose": tuple(out)}
 
 
-def tcp_pose(ctl: Any, v: Values) -> dict[str, Any]:
+def tcp_pose(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 41: the TCP pose (user frame, TCP offset applied)."""
     return {"pose": tuple(ctl.tcp_pose())}
 
 
-def joint_torques(ctl: Any, v: Values) -> dict[str, Any]:
+def joint_torques(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 55: the theoretical joint torques."""
     return {"torques": ctl.joint_torques7()}
 
 
-def tcp_pose_aa(ctl: Any, v: Values) -> dict[str, Any]:
+def tcp_pose_aa(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 91: the TCP pose with its orientation as an axis-angle vector."""
     return {"pose": tuple(rot.matrix_to_pose_aa(ctl.tcp_matrix()))}
 

@@ -29,6 +29,7 @@ from .. import motion
 from ..applications import online
 from ..core import safety
 from ..core.commands import CircleMove, Dwell, JointMove, LineMove
+from ..core.controller_protocol import Controller
 from ..core.executor import keep_unchanged_joints, line_target
 from ..core.interface import (
     C_BOUNDARY,
@@ -47,7 +48,7 @@ from ..core.settings import in_range
 from .settings import report_tau_or_i
 
 if TYPE_CHECKING:
-    from ..controller import Controller
+    pass
 
 #: Joint positions sampled along the straight joint path of an only-check move.
 CHECK_SAMPLES = 24

@@ -6,6 +6,7 @@ import functools
 from typing import TYPE_CHECKING, Any
 
 from ...model import collision
+from ..core.controller_protocol import Controller
 from ..core.interface import Binding, ParameterError, Values
 from ..core.settings import (
     COLLISION_SENSITIVITY_RANGE,
@@ -19,7 +20,7 @@ from ..core.settings import (
 from ..core.state_machine import Event, fire
 
 if TYPE_CHECKING:
-    from ..controller import Controller
+    pass
 
 
 def motion_limit(ctl: Controller, v: Values, *, name: str, key: str) -> dict[str, Any]:
@@ -163,7 +164,7 @@ def simulation_robot(ctl: Controller, v: Values) -> None:
     return None
 
 
-def get_tau_or_i(ctl: Any, v: Values) -> dict[str, Any]:
+def get_tau_or_i(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 5: whether the reports carry joint currents (1) or torques (0)."""
     return {"tau_or_i": int(ctl.settings.report_current)}
 

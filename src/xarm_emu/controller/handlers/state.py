@@ -6,6 +6,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ...protocol import codes
+from ..applications.modes import extra_modes
+from ..core.controller_protocol import Controller
 from ..core.interface import Binding, ParameterError, Values
 from ..core.state_machine import (
     MODE_JOINT_TEACH,
@@ -16,11 +18,13 @@ from ..core.state_machine import (
     STATE_STOP,
     STATE_SUSPEND,
     Event,
+    ModeEvent,
     fire,
+    fire_mode,
 )
 
 if TYPE_CHECKING:
-    from ..controller import Controller
+    pass
 
 
 def needs_power_on(code: int) -> bool:
@@ -129,12 +133,10 @@ def set_mode(ctl: Controller, v: Values) -> None:
     """Register 19: motion mode 0, 1 or 2 (3, Cartesian teaching, is not available), and the modes
     4-7 of the firmware (:func:`~xarm_emu.controller.applications.modes.extra_modes`); a system reset.
     The detection parameter byte SDKs append for firmware >= 1.10.0 is accepted and has no effect."""
-    from ..applications.modes import extra_modes
-
     mode = v["mode"]
     if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH) + extra_modes(ctl):
         raise ParameterError(f"mode {mode} not available")
-    ctl.mode = mode
+    fire_mode(ctl, ModeEvent.SELECT, mode)
     ctl.system_reset()
     return None
 
@@ -151,17 +153,17 @@ def servo_debug(ctl: Controller, v: Values) -> dict[str, Any]:
     return {"servos": tuple(servos)}
 
 
-def get_state(ctl: Any, v: Values) -> dict[str, Any]:
+def get_state(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 13: the motion state."""
     return {"state": ctl.state}
 
 
-def get_cmdnum(ctl: Any, v: Values) -> dict[str, Any]:
+def get_cmdnum(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 14: the number of commands in the buffer."""
     return {"cmdnum": ctl.executor.cmdnum}
 
 
-def get_err_warn(ctl: Any, v: Values) -> dict[str, Any]:
+def get_err_warn(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 15: the error and warning codes."""
     return {"error": ctl.error_code, "warning": ctl.warning_code}
 
