@@ -28,7 +28,7 @@ from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
-from . import contact, ft_sensor, identification, physics, safety, trajectory
+from . import contact, ft_sensor, identification, physics, safety, state_bytes, trajectory
 from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
 from .bio_gripper import BioGripper
 from .bio_gripper_g1 import BioGripperG1
@@ -42,6 +42,7 @@ from .inspire_hand import InspireHand
 from .io import IOModule
 from .linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
 from .lite6_gripper import Lite6Gripper
+from .motion import JointTrajectory, MovingProfile
 from .robotiq import MODELS as ROBOTIQ_MODELS
 from .robotiq import RobotiqGripper
 from .settings import Settings
@@ -111,8 +112,8 @@ class Checkpoint:
 
 
 def _shared_immutables(root: object) -> dict[int, object]:
-    """Planned ruckig trajectories under ``root``: they cannot be copied and never change once
-    planned, so a checkpoint shares them."""
+    """Planned trajectories under ``root`` (ruckig's, and the joint moves and moving profiles
+    planned with it): they never change once planned, so a checkpoint shares them."""
     found: dict[int, object] = {}
     seen: set[int] = set()
     stack = [root]
@@ -121,7 +122,7 @@ def _shared_immutables(root: object) -> dict[int, object]:
         if id(obj) in seen or isinstance(obj, (int, float, str, bytes, bool, np.ndarray)) or obj is None:
             continue
         seen.add(id(obj))
-        if isinstance(obj, Trajectory):
+        if isinstance(obj, (Trajectory, JointTrajectory, MovingProfile)):
             found[id(obj)] = obj
         elif isinstance(obj, dict):
             stack.extend(obj.values())
@@ -586,6 +587,42 @@ class Emulator:
         if cp.state.layout() != self.state.layout():
             raise ValueError("checkpoint of an emulator with other components (grippers, linear track)")
         self._adopt(copy.deepcopy(cp.state, self._memo(cp.state)))
+
+    def _fixed(self) -> dict[str, object]:
+        """The fixed objects a state tree refers to (tasks in the command buffer call their methods),
+        by the names its bytes give them."""
+        return {"model": self.model, "controller": self.controller, "emulator": self, "io": self.io,
+                "gripper": self.gripper}
+
+    def _identity(self) -> dict[str, str]:
+        """What box a saved state belongs to: the arm, the firmware and the tool-bus gripper."""
+        return {"model": self.model.name, "firmware": str(self.firmware), "gripper": self.gripper_kind}
+
+    def checkpoint_bytes(self) -> bytes:
+        """The whole emulator state as bytes (:mod:`.state_bytes`), for a file or another process:
+        :meth:`restore_bytes` of an emulator built with the same options puts it back, the running
+        motion included (planned again from its inputs). Raises
+        :class:`~.state_bytes.StateBytesError` when the state holds a value that has no written
+        form (a lambda among the scheduled actions)."""
+        return state_bytes.encode(self.state, self._fixed(), self._identity())
+
+    def restore_bytes(self, data: bytes) -> None:
+        """Put back a state saved by :meth:`checkpoint_bytes`, as a whole. Raises
+        :class:`~.state_bytes.StateBytesError` (a ValueError) for bytes that are no saved state
+        or belong to another kind of box; the box is unchanged then."""
+        state, meta = state_bytes.decode(data, self._fixed())
+        if meta != self._identity():
+            mine = self._identity()
+            diff = ", ".join(f"{k} {meta.get(k)!r} (this box: {v!r})" for k, v in mine.items()
+                             if meta.get(k) != v)
+            raise state_bytes.StateBytesError(f"a saved state of another box: {diff}")
+        sensor = state.controller.ft_sensor if isinstance(state, EmulatorState) else None
+        if (not isinstance(state, EmulatorState) or state.layout() != self.state.layout()
+                or (sensor is not None and sensor.attached) != self.has_ft_sensor):
+            raise state_bytes.StateBytesError("a saved state of an emulator with other components "
+                                              "(grippers, linear track, F/T sensor)")
+        self.generation += 1
+        self._adopt(state)
 
     # -- in-process API ------------------------------------------------------------------------
     @property

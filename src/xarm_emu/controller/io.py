@@ -503,7 +503,7 @@ class IOModule:
         if len(xyz) != 3 or not all(math.isfinite(c) for c in xyz) or not math.isfinite(radius) or radius < 0:
             raise ParameterError("trigger point or tolerance radius")
         point = tuple(float(c) for c in xyz)
-        defer(register, lambda: self.position_output(target, index, value, point, radius))
+        defer(register, functools.partial(self.position_output, target, index, value, point, radius))
 
     def set_reset_on_stop(self, io_type: int, on: int) -> None:
         """Register 146: io_type 0 control box, 1 tool."""
@@ -600,7 +600,7 @@ class IOModule:
                 self.tool.write(*args)
                 return
             copy.deepcopy(self.tool).write(*args)  # refuse bad values now, apply in turn
-            self._in_turn(127, lambda: self.tool.write(*args))
+            self._in_turn(127, functools.partial(self.tool.write, *args))
 
         def r128(v: Any) -> dict[str, Any]:
             return {"value": self.tool.read(int(v["host"]), int(v["addr"]))}
@@ -613,7 +613,7 @@ class IOModule:
                 self.cgpio_set_digital(words)
                 return
             copy.deepcopy(self.cgpio).apply_word(words[0], high=False)
-            self._in_turn(134, lambda: self.cgpio_set_digital(words))
+            self._in_turn(134, functools.partial(self.cgpio_set_digital, words))
 
         def analog_out(i: int) -> Handler:
             def h(v: Any) -> None:
@@ -622,7 +622,7 @@ class IOModule:
                     self.cgpio.set_analog_output(i, raw)
                     return
                 copy.deepcopy(self.cgpio).set_analog_output(i, raw)
-                self._in_turn(135 + i, lambda: self.cgpio.set_analog_output(i, raw))
+                self._in_turn(135 + i, functools.partial(self.cgpio.set_analog_output, i, raw))
             return h
 
         def r146(v: Any) -> dict[str, Any]:
