@@ -253,12 +253,10 @@ class Emulator:
         #: from the start so that every checkpoint holds it.
         self.feedback: FeedbackQueue | None = (feedback_queue(self.controller) if self.firmware.feedback
                                                else None)
-        #: Changes whenever anything a register or a report could show may have changed (every
-        #: command, control period and change from outside the protocol), so readers can key
-        #: derived values on it instead of being told to forget them.
+        #: Counts the changes that do not come from the control periods themselves: every command,
+        #: restore and change from outside the protocol (:meth:`touch`). With :meth:`next_event` it
+        #: tells whether anything can have changed since a moment (:meth:`mark`, :meth:`unchanged`).
         self.generation = 0
-        #: ``step()`` calls in which nothing changed but the clock (:attr:`revision`).
-        self._quiet_calls = 0
         if ft_sensor:  # the six-axis F/T sensor between flange and tool (controller/devices/ft_sensor.py)
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
@@ -341,11 +339,8 @@ class Emulator:
         falls due, always runs in full, so everything anyone can observe comes out identical."""
         ctl = self.controller
         settled = self.generation == self._settled  # nothing changed the box since the last call
-        self.generation += 1
         step, at_rest, scheduled = ctl.step, ctl.at_rest, self._scheduled
         last = n - 1
-        quiet = True  # so far nothing has changed but the clock (revision)
-        steps0 = ctl.data.steps
         i = 0
         while i < n:
             if i < last and not self.exact_steps and at_rest(settled):
@@ -353,8 +348,6 @@ class Emulator:
                 if k:
                     i += k
                     continue
-            if quiet and (i < last or not self.quiet_periods(settled)):
-                quiet = False
             step()
             settled = True
             d = ctl.data
@@ -363,34 +356,28 @@ class Emulator:
             if scheduled and scheduled[0][0] <= d.time + 1e-9:
                 self._run_scheduled()
                 settled = False
-                quiet = False
             i += 1
         if n > 0:
             self._settled = self.generation
-        if quiet and ctl.data.steps // THERMAL_EVERY == steps0 // THERMAL_EVERY:  # no thermal step ran
-            self._quiet_calls += 1
 
-    @property
-    def revision(self) -> int:
-        """Like :attr:`generation`, but a :meth:`step` call in which nothing changed but the clock
-        (every period at rest, jumped over or run in full, no component, scheduled action or
-        thermal step due) is not a change: what a register or a report shows that does not carry
-        the time is the same at one revision. Every change from outside the protocol must go
-        through a command or :meth:`touch` to be seen."""
-        return self.generation - self._quiet_calls
+    # -- when the box next changes on its own --------------------------------------------------
+    def next_event(self) -> float:
+        """The first control period (numbered as ``controller.steps`` counts them) whose step may
+        change anything but the clock, unless something outside changes the box first
+        (:attr:`generation`): the next period while the arm moves, a dwell or a stop runs, a command
+        has just changed the box or the F/T sensor's readings follow the clock; else the period of
+        the next thermal step, component event (:func:`~.core.interface.idle_until`: a gripper or
+        the track moving, a delayed output, a timeout) or scheduled action, whichever comes first
+        (``math.inf``: none). A lower bound: every period before it, stepped in any calls, leaves
+        every register and every report without the clock as it was.
 
-    def quiet_periods(self, settled: bool | None = None) -> float:
-        """How many control periods from now would, stepped in any calls, change nothing but the
-        clock (:attr:`revision` unchanged) unless something outside changes the box: 0 unless
-        :meth:`_quiet_now`; else up to the period before the next thermal step, component time
-        (:func:`~.base.idle_until`) or scheduled action. A lower bound (one period short of each
-        event's own period). ``settled``: as :meth:`Controller.at_rest` takes it (``None``: nothing
-        has changed the box since the last :meth:`step` call); :meth:`step` asks it of its last
-        period."""
+        The one rule behind everything that is kept while the box is quiet (report frames without
+        the clock, pure reads' replies): keep it with :meth:`mark` and use it while
+        :meth:`unchanged` says so."""
         ctl = self.controller
-        if not self._quiet_now(self.generation == self._settled if settled is None else settled):
-            return 0
         d = ctl.data
+        if not self._quiet_now(self.generation == self._settled):
+            return d.steps + 1
         dt = ctl.period
         count: float = THERMAL_EVERY - 1 - d.steps % THERMAL_EVERY  # the thermal step's period is not
         due = min((idle_until(c, ctl) for c in ctl.components), default=math.inf)
@@ -399,7 +386,17 @@ class Emulator:
         span = (due - d.time) / dt  # periods to the next event (inf: none; -inf: a busy component)
         if span < count + 2:
             count = math.floor(span) - 1 if span > 1.0 else 0
-        return max(0, count)
+        return d.steps + 1 + max(0, count)
+
+    def mark(self) -> tuple[int, float]:
+        """The moment now, for :meth:`unchanged`: (:attr:`generation`, :meth:`next_event`)."""
+        return self.generation, self.next_event()
+
+    def unchanged(self, mark: tuple[int, float]) -> bool:
+        """Whether everything a register or a report without the clock shows is still what it was at
+        ``mark`` (:meth:`mark`): nothing outside has changed the box and no period at or after the
+        mark's :meth:`next_event` has run."""
+        return mark[0] == self.generation and self.controller.data.steps < mark[1]
 
     def _quiet_now(self, settled: bool) -> bool:
         """The controller at rest (:meth:`Controller.at_rest`) with no command in its buffer (a
