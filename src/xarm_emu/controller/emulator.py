@@ -274,6 +274,8 @@ class Emulator:
         self.periods_jumped = 0
         self._rest_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._settled = -1  # the generation at the end of the last step() call
+        #: (generation, period) of the last :meth:`next_event` answer, kept while it holds.
+        self._next_event: tuple[int, float] = (-1, -math.inf)
         #: Actions due at a controller time (:meth:`at`); ``_scheduled`` is its heap.
         self.schedule = Schedule()
         self._scheduled = self.schedule.heap
@@ -338,6 +340,13 @@ class Emulator:
         :attr:`exact_steps` is set; the last period of every call, and the period in which anything
         falls due, always runs in full, so everything anyone can observe comes out identical."""
         ctl = self.controller
+        if n > 0 and not self.exact_steps and ctl.data.steps + n < self.next_event():
+            # Every period of the call comes before the next event: none would change anything but
+            # the clock (:meth:`next_event`), so only the clock runs, the last period too. This is
+            # what a report frame or a command costs an arm at rest.
+            self._tick(n)
+            self._settled = self.generation
+            return
         settled = self.generation == self._settled  # nothing changed the box since the last call
         step, at_rest, scheduled = ctl.step, ctl.at_rest, self._scheduled
         last = n - 1
@@ -361,6 +370,17 @@ class Emulator:
             self._settled = self.generation
 
     # -- when the box next changes on its own --------------------------------------------------
+    def _tick(self, n: int) -> None:
+        """Run ``n`` control periods in which nothing changes but the clock: the time summed period
+        by period, as a step sums it."""
+        d = self.controller.data
+        t, dt = d.time, self.controller.period
+        for _ in range(n):
+            t += dt
+        d.time = t
+        d.steps += n
+        self.periods_jumped += n
+
     def next_event(self) -> float:
         """The first control period (numbered as ``controller.steps`` counts them) whose step may
         change anything but the clock, unless something outside changes the box first
@@ -373,7 +393,18 @@ class Emulator:
 
         The one rule behind everything that is kept while the box is quiet (report frames without
         the clock, pure reads' replies): keep it with :meth:`mark` and use it while
-        :meth:`unchanged` says so."""
+        :meth:`unchanged` says so.
+
+        Kept while it holds (nothing outside changed the box and its period has not come): the
+        box is the same then but for the clock, so the answer is too."""
+        generation, event = self._next_event
+        if generation == self.generation and self.controller.data.steps < event:
+            return event
+        event = self._find_next_event()
+        self._next_event = (self.generation, event)
+        return event
+
+    def _find_next_event(self) -> float:
         ctl = self.controller
         d = ctl.data
         if not self._quiet_now(self.generation == self._settled):

@@ -318,7 +318,10 @@ class IOState:
     pending: list[PendingIO] = field(default_factory=list)
     cgpio_reset_on_stop: bool = False
     tgpio_reset_on_stop: bool = False
-    now: float = 0.0  # controller time of the last step, s
+    #: Time of the last step, s, kept only while the module is not attached to a controller (an
+    #: attached module reads the controller's clock, :meth:`IOModule.time`, so a period jumped
+    #: over at rest leaves nothing of it behind).
+    now: float = 0.0
     _last_tcp: tuple[float, float, float] | None = None
     _last_state: int | None = None
 
@@ -481,7 +484,13 @@ class IOModule:
         self._check_target(target, index, on)
         if not math.isfinite(delay) or delay < 0:
             raise ParameterError(f"delay {delay}")
-        self._add_pending(PendingIO(target, index, on, due=self.now + delay))
+        self._add_pending(PendingIO(target, index, on, due=self.time() + delay))
+
+    def time(self) -> float:
+        """Controller time now, s (the end of the period that ran last); unattached, the time of
+        this module's last step."""
+        ctl = self._ctl() if self._ctl is not None else None
+        return self.now if ctl is None else float(ctl.time)
 
     def position_output(self, target: str, index: int, value: int,
                         xyz: Sequence[float], radius: float) -> None:
@@ -539,7 +548,9 @@ class IOModule:
 
     def step(self, dt: float, ctl: ControllerView) -> None:
         d = self.data  # written through directly: this runs every period
-        d.now = ctl.time
+        if self._ctl is None:
+            d.now = ctl.time
+        now = ctl.time
         state = ctl.state
         if state == STATE_STOP and d._last_state not in (None, STATE_STOP):
             d.pending.clear()
@@ -563,7 +574,7 @@ class IOModule:
             keep: list[PendingIO] = []
             for p in self.pending:
                 if p.due is not None:
-                    hit = self.now >= p.due - 1e-9
+                    hit = now >= p.due - 1e-9
                 else:
                     assert tcp3 is not None
                     hit = self._reached(p, self._last_tcp, tcp3)
