@@ -129,3 +129,23 @@ def test_a_lambda_among_the_scheduled_actions_is_named_not_written() -> None:
     emu.at(5.0, lambda: emu.inject_error(22))
     with pytest.raises(StateBytesError, match=r"state\.schedule\.heap\[0\]\[2\]: .*lambda"):
         emu.checkpoint_bytes()
+
+
+def test_periods_run_only_on_the_clock_leave_the_tree_of_every_period_stepped() -> None:
+    """At rest a ``step()`` call before ``next_event()`` runs only the clock: the whole state, as
+    bytes, is the same as that of a box that stepped every period (delayed outputs, the gripper
+    moving on its own and the thermal steps in between)."""
+    fast, exact = Emulator(6), Emulator(6, exact_steps=True)
+    for emu in (fast, exact):
+        ready(emu)
+        send(emu, 142, ionum=2, on=1, delay=1.3)
+        send(emu, 23, joints=(0.1, 0.0, -0.1, 0.0, 0.1, 0.0, 0.0), speed=1.0, acc=8.0, mvtime=0.0)
+    compared = 0
+    for k in range(900):  # 7.2 s in strides of 1 to 3 periods, as report frames catch up
+        for emu in (fast, exact):
+            emu.step(1 + k % 3)
+        if k % 9 == 0:
+            assert fast.checkpoint_bytes() == exact.checkpoint_bytes(), k
+            compared += 1
+    assert fast.periods_jumped > 1000 and exact.periods_jumped == 0  # most of it ran on the clock
+    assert compared == 100

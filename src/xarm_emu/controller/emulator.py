@@ -42,6 +42,7 @@ from .core.thermal import ThermalModel
 from .devices import ft_sensor
 from .devices.bio_gripper import BioGripper
 from .devices.bio_gripper_g1 import BioGripperG1
+from .devices.ft_sensor import state_of as sensor_state_of
 from .devices.gripper import GripperModule, ToolDevice
 from .devices.inspire_hand import InspireHand
 from .devices.io import IOModule
@@ -257,6 +258,7 @@ class Emulator:
         #: restore and change from outside the protocol (:meth:`touch`). With :meth:`next_event` it
         #: tells whether anything can have changed since a moment (:meth:`mark`, :meth:`unchanged`).
         self.generation = 0
+        sensor_state_of(self.controller)  # mounted or not, its state is part of the box from the start
         if ft_sensor:  # the six-axis F/T sensor between flange and tool (controller/devices/ft_sensor.py)
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
