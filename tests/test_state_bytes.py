@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 from helpers import ready, report_frames
+from test_clock_exact import gripper_to
 
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.controller.state_bytes import StateBytesError
@@ -131,15 +132,19 @@ def test_a_lambda_among_the_scheduled_actions_is_named_not_written() -> None:
         emu.checkpoint_bytes()
 
 
-def test_periods_run_only_on_the_clock_leave_the_tree_of_every_period_stepped() -> None:
+@pytest.mark.parametrize("kw", [{}, {"firmware": "2.7.103", "gripper": "robotiq-2f85", "linear_track": 700},
+                                {"vacuum": True, "gripper": "xarm"}], ids=["1.6.0", "robotiq-track", "vacuum"])
+def test_periods_run_only_on_the_clock_leave_the_tree_of_every_period_stepped(kw: dict[str, Any]) -> None:
     """At rest a ``step()`` call before ``next_event()`` runs only the clock: the whole state, as
-    bytes, is the same as that of a box that stepped every period (delayed outputs, the gripper
-    moving on its own and the thermal steps in between)."""
-    fast, exact = Emulator(6), Emulator(6, exact_steps=True)
+    bytes, is the same as that of a box that stepped every period (a move, a delayed output, the
+    devices and the thermal steps in between)."""
+    fast, exact = Emulator(6, **kw), Emulator(6, exact_steps=True, **kw)
     for emu in (fast, exact):
         ready(emu)
         send(emu, 142, ionum=2, on=1, delay=1.3)
         send(emu, 23, joints=(0.1, 0.0, -0.1, 0.0, 0.1, 0.0, 0.0), speed=1.0, acc=8.0, mvtime=0.0)
+        if kw.get("gripper", "xarm") == "xarm":
+            gripper_to(emu, 500, speed=1500)  # the gripper moves on its own for a while
     compared = 0
     for k in range(900):  # 7.2 s in strides of 1 to 3 periods, as report frames catch up
         for emu in (fast, exact):
