@@ -1,4 +1,4 @@
-"""The emulator's state as bytes (controller/state_bytes.py): a checkpoint written mid-motion and
+"""The emulator's state as bytes (controller/core/state_bytes.py): a checkpoint written mid-motion and
 loaded into a fresh emulator, in this process or another, continues the same motion to the bit;
 commands waiting in the buffer (IO sent with the sync byte, the counter) run in their turn after
 the load; bytes of another box or no state at all are refused with a clear error (an emulator
@@ -19,8 +19,8 @@ import pytest
 from helpers import ready, report_frames
 from test_clock_exact import gripper_to
 
+from xarm_emu.controller.core.state_bytes import StateBytesError
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.state_bytes import StateBytesError
 
 PI = math.pi
 

@@ -28,11 +28,12 @@ from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
-from . import physics, state_bytes
+from . import physics
 from .applications import identification, trajectory
 from .box_state import EmulatorState, ModbusUserState, Schedule
 from .controller import Controller, joint_torques, tcp_matrix
-from .core import safety
+from .core import safety, state_bytes
+from .core.config import ConfigStore
 from .core.controller_state import ControllerState
 from .core.faults import Faults
 from .core.feedback import FeedbackQueue, feedback_queue, find_feedback_queue
@@ -53,7 +54,7 @@ from .devices.robotiq import RobotiqGripper
 from .devices.vacuum import VacuumGripper
 from .firmware2_report import firmware2_fields
 from .motion import JointTrajectory, MovingProfile
-from .physics import contact
+from .scene import contact
 
 #: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
 THERMAL_EVERY = 250
@@ -298,8 +299,6 @@ class Emulator:
 
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
-        from .core.config import ConfigStore
-
         self._store = ConfigStore(directory, self.controller.robot_sn)
         ctl = self.controller
         ctl.hooks.on_save = self._save_config
@@ -634,16 +633,16 @@ class Emulator:
         return {"model": self.model.name, "firmware": str(self.firmware), "gripper": self.gripper_kind}
 
     def checkpoint_bytes(self) -> bytes:
-        """The whole emulator state as bytes (:mod:`.state_bytes`), for a file or another process:
+        """The whole emulator state as bytes (:mod:`.core.state_bytes`), for a file or another process:
         :meth:`restore_bytes` of an emulator built with the same options puts it back, the running
         motion included (planned again from its inputs). Raises
-        :class:`~.state_bytes.StateBytesError` when the state holds a value that has no written
+        :class:`~.core.state_bytes.StateBytesError` when the state holds a value that has no written
         form (a lambda among the scheduled actions)."""
         return state_bytes.encode(self.state, self._fixed(), self._identity())
 
     def restore_bytes(self, data: bytes) -> None:
         """Put back a state saved by :meth:`checkpoint_bytes`, as a whole. Raises
-        :class:`~.state_bytes.StateBytesError` (a ValueError) for bytes that are no saved state
+        :class:`~.core.state_bytes.StateBytesError` (a ValueError) for bytes that are no saved state
         or belong to another kind of box; the box is unchanged then."""
         state, meta = state_bytes.decode(data, self._fixed())
         if meta != self._identity():
@@ -653,7 +652,7 @@ class Emulator:
             raise state_bytes.StateBytesError(f"a saved state of another box: {diff}")
         sensor = state.controller.ft_sensor if isinstance(state, EmulatorState) else None
         if (not isinstance(state, EmulatorState) or state.layout() != self.state.layout()
-                or (sensor is not None and sensor.attached) != self.has_ft_sensor):
+                or bool(getattr(sensor, "attached", False)) != self.has_ft_sensor):
             raise state_bytes.StateBytesError("a saved state of an emulator with other components "
                                               "(grippers, linear track, F/T sensor)")
         self.generation += 1
@@ -764,7 +763,7 @@ class Emulator:
             self.linear_track.clear_error()
         ft_sensor.state_of(ctl).error = 0
 
-    # -- the F/T sensor and the contact scene (devices/ft_sensor.py, physics/contact.py) ----
+    # -- the F/T sensor and the contact scene (devices/ft_sensor.py, scene/contact.py) ----
     def attach_ft_sensor(self, *, noise: bool = True) -> None:
         """Mount the six-axis F/T sensor between flange and tool (once)."""
         self.generation += 1

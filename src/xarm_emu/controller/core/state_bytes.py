@@ -1,5 +1,6 @@
-"""The state tree (:class:`~.box_state.EmulatorState`) as bytes and back: what a checkpoint file
-holds, loadable by another process (an emulator feature; no real control box has checkpoints).
+"""The state tree (:class:`~xarm_emu.controller.box_state.EmulatorState`) as bytes and back: what a
+checkpoint file holds, loadable by another process (an emulator feature; no real control box has
+checkpoints).
 
 The bytes are MessagePack written and read by msgspec: a binary format whose floats are IEEE
 doubles bit for bit (a resumed motion must continue exactly), compact and fast, and msgspec is
