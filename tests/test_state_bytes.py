@@ -133,7 +133,8 @@ def test_a_lambda_among_the_scheduled_actions_is_named_not_written() -> None:
 
 
 @pytest.mark.parametrize("kw", [{}, {"firmware": "2.7.103", "gripper": "robotiq-2f85", "linear_track": 700},
-                                {"vacuum": True}], ids=["1.6.0", "robotiq-track", "vacuum"])
+                                {"vacuum": True}, {"firmware": "2.7.103", "gripper": "bio"}],
+                         ids=["1.6.0", "robotiq-track", "vacuum", "bio"])
 def test_periods_run_only_on_the_clock_leave_the_tree_of_every_period_stepped(kw: dict[str, Any]) -> None:
     """At rest a ``step()`` call before ``next_event()`` runs only the clock: the whole state, as
     bytes, is the same as that of a box that stepped every period (a move, a delayed output, the

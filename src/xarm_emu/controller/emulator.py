@@ -337,9 +337,12 @@ class Emulator:
     def step(self, n: int = 1) -> None:
         """Run ``n`` control periods.
 
-        Periods in which nothing would change but the clock are jumped over (:meth:`_jump`) unless
-        :attr:`exact_steps` is set; the last period of every call, and the period in which anything
-        falls due, always runs in full, so everything anyone can observe comes out identical."""
+        Unless :attr:`exact_steps` is set: a call whose periods all come before :meth:`next_event`
+        runs only the clock (:meth:`_tick`); otherwise periods in which nothing would change but the
+        clock are jumped over (:meth:`_jump`), and the last period of the call and the period in
+        which anything falls due run in full. Everything anyone can observe, and the whole state
+        tree, comes out as if every period had run (``tests/test_clock_exact.py``,
+        ``tests/test_state_bytes.py``)."""
         ctl = self.controller
         if n > 0 and not self.exact_steps and ctl.data.steps + n < self.next_event():
             # Every period of the call comes before the next event: none would change anything but
