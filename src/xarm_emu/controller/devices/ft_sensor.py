@@ -195,9 +195,6 @@ class FtSensorComponent:
     def __init__(self, ctl: Controller) -> None:
         self.ctl = ctl
 
-    def handlers(self) -> dict[int, Any]:
-        return {}
-
     def step(self, dt: float, view: Any) -> None:
         step(self.ctl, dt)
 

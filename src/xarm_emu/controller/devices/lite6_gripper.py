@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from ...model.robots import PneumaticGripper
 from ..core.controller_state import holds
-from ..core.interface import NOT_IDLE, ControllerView, Handler
+from ..core.interface import NOT_IDLE, ControllerView
 from .io import ToolIO
 
 TRAVEL_TIME = 0.3  # s for a full stroke, either way
@@ -63,9 +63,6 @@ class Lite6Gripper:
         if self.opening <= 0.0:
             return JAW_CLOSED if self.command != "open" else JAW_OPENING
         return {"open": JAW_OPENING, "close": JAW_CLOSING}.get(self.command or "", JAW_STOPPED)
-
-    def handlers(self) -> dict[int, Handler]:
-        return {}
 
     def step(self, dt: float, ctl: ControllerView) -> None:
         cmd = self.command

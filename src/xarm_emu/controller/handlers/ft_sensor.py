@@ -11,13 +11,12 @@ the joint torques on every arm. The reply lengths are the ones the SDK reads.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 from ..applications import force_control, identification
 from ..core.controller_protocol import Controller
 from ..core.ft_config import ZEROS6, ft_config
-from ..core.interface import ParameterError, Values
+from ..core.interface import Binding, ParameterError, Values
 from ..devices import ft_sensor as ft
 
 NO_SENSOR = "no F/T sensor attached"
@@ -108,12 +107,13 @@ def get_config(ctl: Controller, v: Values) -> dict[str, Any]:
             **cfg.pid}
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    150: get_data,
-    200: get_data,
-    201: enable,
-    204: identify_load,
-    205: set_load_offset,
-    206: set_zero,
-    212: get_config,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(150, get_data),
+    Binding(200, get_data),
+    Binding(201, enable),
+    Binding(204, identify_load),
+    Binding(205, set_load_offset),
+    Binding(206, set_zero),
+    Binding(212, get_config),
+)

@@ -28,7 +28,7 @@ from ...model import kinematics as kin
 from ...model.robots import VACUUM_WIRING
 from ..core import safety
 from ..core.controller_protocol import Controller
-from ..core.interface import C_COLLISION, NOT_IDLE, Handler
+from ..core.interface import C_COLLISION, NOT_IDLE
 from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
 from ..devices.robotiq import OBJ_MOVING, RobotiqGripper
 from ..scene import contact
@@ -56,9 +56,6 @@ class PhysicsComponent:
         #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
         #: (The drive holds finger a, half the opening, and presses with the force of both pads.)
         self.squeeze = (2 * (2 * hand.force / FINGER_KP) / 0.001 + 1.0) if hand is not None else 0.0
-
-    def handlers(self) -> dict[int, Handler]:
-        return {}
 
     def _robotiq_ramp(self) -> float:
         """The Robotiq's command: its own fingers' opening (its model moves them and stops them at the
