@@ -37,6 +37,8 @@ def _program(emu: Emulator) -> None:
     send(emu, 22, pose=(300.0, 80.0, 250.0, PI, 0.0, 0.0), speed=120.0, acc=1500.0, mvtime=0.0, radius=20.0)
     send(emu, 22, pose=(300.0, -20.0, 250.0, PI, 0.0, 0.0), speed=120.0, acc=1500.0, mvtime=0.0, radius=20.0)
     send(emu, 134, digital=0x0101, sync=1)  # output 0 on behind the moves
+    send(emu, 135, analog=2000, sync=1)  # an analog output behind them
+    send(emu, 144, ionum=3, on=1, xyz=(260.0, 30.0, 250.0), tol_r=10.0)  # a trigger on the arc, armed in turn
     emu.handle(75, b"")  # the counter, behind the moves (firmware 2.x)
     emu.advance(1.7)  # on the chain's last straight piece: the next line is blended in from there
     send(emu, 22, pose=(220.0, -20.0, 250.0, PI, 0.0, 0.0), speed=120.0, acc=1500.0, mvtime=0.0, radius=0.0)
@@ -71,7 +73,8 @@ def test_a_checkpoint_loaded_in_a_fresh_emulator_continues_the_motion(kw: dict[s
     assert not live.controller.executor.active and live.controller.motion_state != 1  # the motion ended
     assert report_frames(loaded) == report_frames(live)  # the IO, the counter, the clock and the rest
     assert live.controller.user_counter == loaded.controller.user_counter == (0 if kw == {} else 1)
-    assert loaded.io.cgpio.general_outputs & 1
+    assert loaded.io.cgpio.general_outputs & 0b1001 == 0b1001  # the synced output and the trigger's
+    assert loaded.io.cgpio.analog_outputs[0] == live.io.cgpio.analog_outputs[0] > 0
 
 
 def test_the_bytes_read_back_to_the_same_tree() -> None:
