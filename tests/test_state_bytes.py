@@ -158,3 +158,26 @@ def test_periods_run_only_on_the_clock_leave_the_tree_of_every_period_stepped(kw
             compared += 1
     assert fast.periods_jumped > 1000 and exact.periods_jumped == 0  # most of it ran on the clock
     assert compared == 100
+
+
+@pytest.mark.parametrize(("mode", "code", "values"), [
+    (1, 29, {"joints": (0.3, 0.1, -0.2, 0.0, 0.2, 0.0, 0.0), "speed": 0.0, "acc": 0.0, "mvtime": 0.0}),
+    (6, 23, {"joints": (0.3, 0.1, -0.2, 0.0, 0.2, 0.0, 0.0), "speed": 1.0, "acc": 8.0, "mvtime": 0.0}),
+    (7, 21, {"pose": (250.0, 50.0, 250.0, PI, 0.0, 0.0), "speed": 100.0, "acc": 1000.0, "mvtime": 0.0}),
+], ids=["servo", "online-joint", "online-cartesian"])
+def test_servo_and_online_motions_continue_after_a_load(mode: int, code: int, values: dict[str, Any]) -> None:
+    """Servo mode's tracker and the online planner's trajectory (modes 1, 6, 7 of register 19)
+    continue from a saved state as in the live box."""
+    live = Emulator(6, firmware="2.7.103")
+    ready(live)
+    send(live, 19, mode=mode)
+    send(live, 12, state=0)
+    live.step(2)
+    send(live, code, **values)
+    live.advance(0.2)
+    q0 = live.controller.q.copy()
+    loaded = Emulator(6, firmware="2.7.103")
+    loaded.restore_bytes(live.checkpoint_bytes())
+    assert _continue_both(live, loaded, 3.0) <= 1e-9
+    assert float(np.max(np.abs(live.controller.q - q0))) > 0.01  # it moved after the save
+    assert report_frames(loaded) == report_frames(live)
