@@ -4,8 +4,8 @@ control step and the safety checks.
 Pure and deterministic: no sockets, no wall clock. The server calls :meth:`handle` for every
 request and :meth:`step` once per control period (:data:`~xarm_emu.controller.core.interface.PERIOD`).
 Register handlers are plain functions in :mod:`.handlers`, bound in one table; the mutable state is
-one :class:`~.state.ControllerState` (:attr:`Controller.data`), beside the constant robot model
-and the :class:`~.settings.Settings`.
+one :class:`~.core.controller_state.ControllerState` (:attr:`Controller.data`), beside the constant
+robot model and the :class:`~.core.settings.Settings`.
 
 States (register 13, manual section 2.1.3): 1 in motion, 2 sleep (idle and ready), 3 suspend,
 4 stop, 5 system reset. Modes (register 19): 0 position, 1 servo, 2 joint teaching, 3 Cartesian
@@ -118,7 +118,7 @@ def tcp_matrix(model: RobotModel, q: np.ndarray, settings: Settings) -> np.ndarr
 
 class Controller:
     """One emulated control box with its arm: dispatch, readiness, poses and the control step over
-    one :class:`~.state.ControllerState`."""
+    one :class:`~.core.controller_state.ControllerState`."""
 
     def __init__(self, model: RobotModel, *, robot_sn: str = "XI1300", box_sn: str = "AC1300",
                  period: float = PERIOD, firmware: FirmwareProfile = DEFAULT_PROFILE) -> None:
@@ -133,7 +133,7 @@ class Controller:
         self.period = period
         self.robot_sn = robot_sn
         self.box_sn = box_sn
-        #: Every mutable value of the box (:class:`~.state.ControllerState`).
+        #: Every mutable value of the box (:class:`~.core.controller_state.ControllerState`).
         self.data = ControllerState.initial(self.dof)
         self.settings = Settings.for_model(self.model)
         #: Calls outside the controller; the emulator wires them up.
@@ -170,7 +170,7 @@ class Controller:
         self._torque_cache = self._pose_cache = self._limits_cache = self._still = None
 
     # -- the state's values (ControllerState), by the names the handlers and components use ---
-    #: Motion state (register 13); only :func:`.states.fire` changes it.
+    #: Motion state (register 13); only :func:`.core.state_machine.fire` changes it.
     motion_state = StateField[int]()
     steps = StateField[int]()
     q = StateField[np.ndarray]()
@@ -475,7 +475,7 @@ class Controller:
         """Whether a control period now would change nothing of the controller but its clock (time
         and period count): the joints rest (speeds and accelerations exactly +0), no motion runs or
         is due in the present state and mode (the branches of :meth:`step`), and every per-period
-        hook is idle. Components answer for themselves (:func:`~.base.idle_until`).
+        hook is idle. Components answer for themselves (:func:`~.core.interface.idle_until`).
 
         Servo mode holding its target counts only when ``settled`` (the caller knows that nothing
         has changed the box since the last period ran in full): its period re-checks the boundary
@@ -553,7 +553,7 @@ class Controller:
 
     def limits(self) -> Limits:
         """The motion limits of the settings (registers 31-34) and the model (Table 1.2); the same
-        object again while they stay (nothing changes a :class:`~.executor.Limits` once made)."""
+        object again while they stay (nothing changes a :class:`~.core.executor.Limits` once made)."""
         s = self.settings
         tcp_cap, joint_cap = reduced.speed_caps(self)
         key = (s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed,

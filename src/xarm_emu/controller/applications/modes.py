@@ -46,7 +46,7 @@ def extra_modes_of(firmware: FirmwareProfile, registers: Container[int]) -> tupl
 
 def create_state(ctl: Controller) -> None:
     """Create the state behind modes 4-7 and 11, trajectories and reduced mode at construction, in
-    their declared fields of ``ctl.data`` (the :class:`~.state.ControllerState`), so that a
+    their declared fields of ``ctl.data`` (the :class:`~..core.controller_state.ControllerState`), so that a
     checkpoint (a copy of that state) always holds it."""
     velocity.control_of(ctl)
     online.planner_of(ctl)

@@ -146,7 +146,7 @@ class FeedbackQueue:
             self._observe(ctl)
 
     def idle_until(self, ctl: Controller) -> float:
-        """Idle (:func:`~.base.idle_until`) while no watched task can have started or finished: the
+        """Idle (:func:`~.interface.idle_until`) while no watched task can have started or finished: the
         buffer, the running command and its chain are as the last look saw them."""
         if self._tasks or self._checks:
             ex = ctl.executor

@@ -257,7 +257,7 @@ class BioGripper:
         return self.speed * SPEED_TO_PULSES
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while the motor is not being enabled and the fingers do
+        """Idle (:func:`~..core.interface.idle_until`) while the motor is not being enabled and the fingers do
         not move: then :meth:`step` changes nothing until a command, an object or an error comes."""
         return NOT_IDLE if self.enable == ENABLE_ENABLING or self.moving else math.inf
 

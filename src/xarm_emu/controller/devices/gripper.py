@@ -128,7 +128,8 @@ class ToolDevice(rtu.RegisterDevice, Protocol):
 
     slave_id: int
     baud_index: int
-    #: Every mutable value of the device, one dataclass (:func:`~.state.holds`; a checkpoint holds it).
+    #: Every mutable value of the device, one dataclass (:func:`~..core.controller_state.holds`; a
+    #: checkpoint holds it).
     data: Any
 
     @property
@@ -431,7 +432,7 @@ class GripperModule:
         self.device.step(dt)
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while the xArm gripper's fingers do not move; another
+        """Idle (:func:`~..core.interface.idle_until`) while the xArm gripper's fingers do not move; another
         device on the tool bus is idle only as far as it says so itself (never, without a method)."""
         if self.device is not self.gripper:
             return idle_until(self.device, ctl)

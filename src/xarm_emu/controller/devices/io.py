@@ -597,7 +597,7 @@ class IOModule:
         self.cgpio.update_functions(ctl)
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) until the first delayed output is due, once a step has
+        """Idle (:func:`~..core.interface.idle_until`) until the first delayed output is due, once a step has
         seen the present motion state; a position trigger the last step did not fire cannot fire
         while the TCP rests where that step saw it."""
         if self._last_state != ctl.state:

@@ -402,7 +402,7 @@ class LinearTrack:
             self.target = 0.0
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while the carriage rests: no move, no homing, and no
+        """Idle (:func:`~..core.interface.idle_until`) while the carriage rests: no move, no homing, and no
         emergency stop left to cut the drive."""
         if self.moving or self.velocity != 0.0 or (ctl.error_code == C_ESTOP and self.enabled):
             return NOT_IDLE

@@ -75,7 +75,7 @@ class Lite6Gripper:
         self.opening = 0.0 if self.opening < 1e-9 else 1.0 if self.opening > 1.0 - 1e-9 else self.opening
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while the jaws rest: at the end the command drives them
+        """Idle (:func:`~..core.interface.idle_until`) while the jaws rest: at the end the command drives them
         to, or held between the ends."""
         o, cmd = self.opening, self.command
         if cmd == "open":

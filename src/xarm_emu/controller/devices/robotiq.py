@@ -284,7 +284,7 @@ class RobotiqGripper:
         return None
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while neither the activation runs nor the fingers move:
+        """Idle (:func:`~..core.interface.idle_until`) while neither the activation runs nor the fingers move:
         then :meth:`step` changes nothing until a request, an object or a fault comes from outside."""
         return NOT_IDLE if self.gSTA == STA_ACTIVATING or self.moving else math.inf
 

@@ -98,7 +98,7 @@ class VacuumGripper:
             self._step_wiring(version, w, dt)
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while every wiring's pressure input reads what its pump
+        """Idle (:func:`~..core.interface.idle_until`) while every wiring's pressure input reads what its pump
         and the object give."""
         for version in VACUUM_WIRING:
             want = self.pumping_on(version) and self.object_present

@@ -3,7 +3,7 @@
 With no sensor mounted the box answers as one without it: readings are zeros, the configuration
 registers store what they are sent and register 212 reads it back, and what needs the sensor itself
 (switching it on, zeroing, identifying its load) is refused with warning 12 (parameter abnormal,
-manual 3.2.2). With the sensor mounted (``Emulator(ft_sensor=True)``, :mod:`..ft_sensor`) it must
+manual 3.2.2). With the sensor mounted (``Emulator(ft_sensor=True)``, :mod:`..devices.ft_sensor`) it must
 also be switched on (register 201) before it reads, zeroes or identifies, as on the real box.
 Register 204 with type 1 (``iden_tcp_load``) needs no sensor: it identifies the flange load from
 the joint torques on every arm. The reply lengths are the ones the SDK reads.
@@ -64,7 +64,7 @@ def identify_load(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 204: type 1 identifies the flange load from the joint torques (4 fp32: kg, mm),
     on any arm; type 0 the load below the F/T sensor from its readings (10 fp32: kg, centre of
     mass in m, six offsets), which needs the sensor switched on. Either turns the wrist through
-    the identification sequence (:mod:`..identification`): the arm must be able to move, and the
+    the identification sequence (:mod:`..applications.identification`): the arm must be able to move, and the
     reply (which the server holds until the sequence ends) carries the result."""
     kind = int(v["iden_type"])
     if kind not in (0, 1):

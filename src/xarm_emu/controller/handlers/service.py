@@ -347,8 +347,8 @@ def _gripper(ctl: Controller) -> Any:
 
 
 def set_common_param(ctl: Controller, v: Values) -> None:
-    """Register 232: ``[type]`` and the value by type (:data:`~.registers.COMMON_PARAM_LAYOUTS`);
-    read back through 233."""
+    """Register 232: ``[type]`` and the value by type
+    (:data:`~xarm_emu.protocol.registers.COMMON_PARAM_LAYOUTS`); read back through 233."""
     ptype, data = int(v["type"]), bytes(v["data"])
     layout = regs.COMMON_PARAM_LAYOUTS.get(ptype)
     if layout is None:

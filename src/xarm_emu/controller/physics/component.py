@@ -10,10 +10,10 @@ object (motion bits 2, what the SDK's wait for a grip reads as done). Free finge
 itself, so a gripper that closes on nothing moves exactly as without the engine.
 
 Collision detection (C31, manual 3.2.1, at the sensitivity of register 37): the force of the scene's
-planes and boxes on the TCP (their spring-damper, :func:`.contact.scene_wrench`) and the engine's
+planes and boxes on the TCP (their spring-damper, :func:`..scene.contact.scene_wrench`) and the engine's
 contact forces of objects on the arm and hand (:meth:`.world.World.arm_torques`) enter the joint
 torques as ``J^T f``; the largest external joint torque is checked against the sensitivity's
-threshold every period (:func:`.safety.collision_detected`), so pushing the tool into the table
+threshold every period (:func:`..core.safety.collision_detected`), so pushing the tool into the table
 raises C31 as a real push would; sensitivity 0 never does.
 """
 
