@@ -43,7 +43,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Emulator", "schedule"): WIRING,  # idem
     ("Emulator", "_scheduled"): WIRING,  # the schedule's heap
     ("Emulator", "generation"): TRACKING,
-    ("Emulator", "_quiet_calls"): TRACKING,
+    ("Emulator", "_next_event"): DERIVED,
     ("Emulator", "_settled"): TRACKING,
     ("Emulator", "periods_jumped"): TRACKING,
     ("Emulator", "_rest_cache"): DERIVED,
