@@ -38,6 +38,14 @@ from .world import World
 FOLLOW_MM = 0.05
 
 
+def _inside(shape: contact.Plane | contact.Box, p: tuple[float, float, float]) -> bool:
+    """Whether the point ``p`` (mm) is inside the fixture ``shape`` (plain floats: asked every period;
+    the fixture's own penetration says the same)."""
+    if isinstance(shape, contact.Plane):
+        return sum((a - b) * n for a, b, n in zip(shape.point, p, shape.normal, strict=True)) > 0.0
+    return all(lo < x < hi for lo, x, hi in zip(shape.min, p, shape.max, strict=True))
+
+
 class PhysicsComponent:
     """Steps :attr:`world` every control period and couples the xArm gripper's fingers to it."""
 
@@ -75,7 +83,7 @@ class PhysicsComponent:
         r = self.robotiq
         assert r is not None
         w = self.world
-        gripping = any(len(pads) == 2 for pads in w.pad_contacts().values())
+        gripping = w.gripped()
         closing = r.moving and r.goal > r.position
         if gripping and closing and r.object_mm is None:
             width = min(w.opening(), r.model.stroke_mm)
@@ -117,14 +125,18 @@ class PhysicsComponent:
             return target
         return ramp + math.copysign(step, target - ramp)
 
-    def external_torques(self, ctl: Any) -> np.ndarray:
-        """The joint torques (N m) of the scene's fixtures pressing on the TCP: ``J^T f``."""
+    def external_torques(self, ctl: Any) -> np.ndarray | None:
+        """The joint torques (N m) of the scene's fixtures pressing on the TCP: ``J^T f``; None when
+        the TCP touches none of them."""
         q = ctl.data.q
+        shapes = contact.scene_of(ctl).shapes
+        if not shapes:
+            return None
+        p = self.world.tcp_point(q, ctl.settings.tcp_offset)
+        if not any(_inside(s, p) for s in shapes):
+            return None
         T = kin.fk(ctl.model, q)
         off = T[:3, :3] @ np.asarray(ctl.settings.tcp_offset[:3], dtype=float)
-        p = T[:3, 3] + off
-        if not any(shape.penetration(p)[0] > 0 for shape in contact.scene_of(ctl).shapes):
-            return np.zeros(ctl.dof)  # the TCP touches nothing
         f = contact.scene_wrench(ctl)[:3]
         r = off * 0.001  # m
         J = kin.jacobian(ctl.model, q)  # flange: linear (mm/rad) over angular rows
@@ -136,8 +148,11 @@ class PhysicsComponent:
             return
         gripping = bool(self.device is not None and self.device.gripped) or bool(
             self.robotiq is not None and self.robotiq.gripping)
-        tau = self.external_torques(ctl) + self.world.arm_torques(gripping)
-        if tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
+        tau = self.external_torques(ctl)
+        if self.world.touching_arm():
+            arm = self.world.arm_torques(gripping)
+            tau = arm if tau is None else tau + arm
+        if tau is not None and tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
             ctl.raise_error(C_COLLISION)
 
     def step(self, dt: float, ctl: Any) -> None:
@@ -154,7 +169,7 @@ class PhysicsComponent:
         if g is None or not w.fingers:
             return
         measured = w.opening()
-        gripping = any(len(pads) == 2 for pads in w.pad_contacts().values())  # both pads on one object
+        gripping = w.gripped()  # both pads on one object
         # the grip is made when the drive presses with the hand's full force (or its target is reached)
         full = ramp <= measured - (self.squeeze - 1.0) or ramp == g.target * XARM_MM_PER_PULSE
         pressing = gripping and full and g.target * XARM_MM_PER_PULSE < measured - FOLLOW_MM
