@@ -9,8 +9,8 @@ from typing import Any
 
 from ..model import rotations as rot
 from ..protocol.reports import ReportSnapshot
-from .handlers.extras import extra_state
-from .reduced import reduced_of
+from .applications.reduced import reduced_of
+from .handlers.service import extra_state
 
 
 def firmware2_fields(ctl: Any, snap: ReportSnapshot) -> ReportSnapshot:

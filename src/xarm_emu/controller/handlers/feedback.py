@@ -6,15 +6,15 @@
 - 253 FEEDBACK_CHECK: empty reply at once; a MOTION_FINISH frame carrying 253's transaction id
   follows once every task queued before it has finished.
 
-The frames themselves come from :class:`~xarm_emu.controller.feedback.FeedbackQueue`.
+The frames themselves come from :class:`~xarm_emu.controller.core.feedback.FeedbackQueue`.
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ..base import Values
-from ..feedback import feedback_queue
+from ..core.feedback import feedback_queue
+from ..core.interface import Values
 
 if TYPE_CHECKING:
     from . import CtlHandler

@@ -1,7 +1,7 @@
 """The F/T sensor's applications (firmware 2.x): register 202 sets admittance (1) or force control
 (2) or neither (0), 203 reads it back, 207-211 set their parameters (the SDK's
 ``set_ft_sensor_mode``, ``get_ft_sensor_mode``, ``set_ft_sensor_admittance_parameters`` and
-``set_ft_sensor_force_parameters``); the control laws are in controller/force_control.py.
+``set_ft_sensor_force_parameters``); the control laws are in controller/applications/force_control.py.
 
 Parameters outside the vendor's ranges (those the SDK checks unless ``params_limit=False``) are
 parameter abnormal, warning 12 (manual 3.2.2), and change nothing. An application needs the sensor
@@ -14,9 +14,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from .. import force_control as fc
-from .. import ft_sensor as sensor
-from ..base import CommandFailed, ParameterError, Values
+from ..applications import force_control as fc
+from ..core.interface import CommandFailed, ParameterError, Values
+from ..devices import ft_sensor as sensor
 from .ft_sensor import ft_config
 
 

@@ -15,9 +15,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from .. import force_control, identification
-from .. import ft_sensor as ft
-from ..base import ParameterError, Values
+from ..applications import force_control, identification
+from ..core.interface import ParameterError, Values
+from ..devices import ft_sensor as ft
 
 NO_SENSOR = "no F/T sensor attached"
 NOT_ENABLED = "the F/T sensor is not switched on (register 201)"

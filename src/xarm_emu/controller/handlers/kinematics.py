@@ -9,11 +9,11 @@ import numpy as np
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
-from ..base import WARN_NO_SOLUTION, CommandWarning, Values
-from ..poses import wire_pose_to_matrix
+from ..core.interface import WARN_NO_SOLUTION, CommandWarning, Values
+from ..core.poses import wire_pose_to_matrix
 
 if TYPE_CHECKING:
-    from ..core import Controller
+    from ..controller import Controller
     from . import CtlHandler
 
 

@@ -1,4 +1,5 @@
-"""Reduced-mode registers (47-50, 53, 58, 60). The mechanism is :mod:`xarm_emu.controller.reduced`."""
+"""Reduced-mode registers (47-50, 53, 58, 60). The mechanism is
+:mod:`xarm_emu.controller.applications.reduced`."""
 
 from __future__ import annotations
 
@@ -6,8 +7,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from ..base import ParameterError, Values
-from ..reduced import reduced_of
+from ..applications.reduced import reduced_of
+from ..core.interface import ParameterError, Values
 
 
 def _switch(v: Values, name: str = "on") -> bool:

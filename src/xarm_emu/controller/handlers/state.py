@@ -7,8 +7,8 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from ...protocol import codes
-from ..base import ParameterError, Values
-from ..states import (
+from ..core.interface import ParameterError, Values
+from ..core.state_machine import (
     MODE_JOINT_TEACH,
     MODE_POSITION,
     MODE_SERVO,
@@ -21,7 +21,7 @@ from ..states import (
 )
 
 if TYPE_CHECKING:
-    from ..core import Controller
+    from ..controller import Controller
     from . import CtlHandler
 
 
@@ -129,9 +129,9 @@ def clean_warning(ctl: Controller, v: Values) -> None:
 
 def set_mode(ctl: Controller, v: Values) -> None:
     """Register 19: motion mode 0, 1 or 2 (3, Cartesian teaching, is not available), and the modes
-    4-7 of the firmware (:func:`~xarm_emu.controller.mode_steps.extra_modes`); a system reset.
+    4-7 of the firmware (:func:`~xarm_emu.controller.applications.modes.extra_modes`); a system reset.
     The detection parameter byte SDKs append for firmware >= 1.10.0 is accepted and has no effect."""
-    from ..mode_steps import extra_modes
+    from ..applications.modes import extra_modes
 
     mode = v["mode"]
     if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH) + extra_modes(ctl):

@@ -1,14 +1,14 @@
 """Trajectory registers (61-65, 230): recording, saving, loading, playback and its speed check.
-The mechanism is :mod:`xarm_emu.controller.trajectory`."""
+The mechanism is :mod:`xarm_emu.controller.applications.trajectory`."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from typing import Any
 
-from .. import trajectory as traj
-from ..base import CommandWarning, ParameterError, Values
-from ..states import STATE_SLEEP
+from ..applications import trajectory as traj
+from ..core.interface import CommandWarning, ParameterError, Values
+from ..core.state_machine import STATE_SLEEP
 
 
 def set_record(ctl: Any, v: Values) -> None:
@@ -42,7 +42,7 @@ def load(ctl: Any, v: Values) -> None:
 def play(ctl: Any, v: Values) -> None:
     """Register 64: play the loaded trajectory ``times`` times (-1 forever) at a factor 1, 2 or 4.
     Only from position mode at rest; mode 11 during playback."""
-    from ..core import NotReady
+    from ..controller import NotReady
 
     times = int(v["times"])
     factor = int(v.get("speed", 1)) if ctl.firmware.play_traj_speed else 1

@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from ...model.robots import RobotModel
-    from ..contact import Scene
     from .component import PhysicsComponent
+    from .contact import Scene
 
 #: What to install when the engine is missing.
 INSTALL_HINT = "objects in a scene need the physics engine: pip install 'xarm-emu[physics]'"

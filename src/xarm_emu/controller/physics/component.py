@@ -1,7 +1,7 @@
 """The physics world as a controller component: stepped once a control period after the gripper
 (so it sees this period's joints and finger command), it tells the gripper where its fingers stopped.
 
-The finger drive: the gripper's own model (controller/gripper.py) says where the fingers are told to
+The finger drive: the gripper's own model (controller/devices/gripper.py) says where the fingers are told to
 go and how fast; here that command (:attr:`PhysicsState.ramp`, mm of opening) runs toward the target
 at the gripper's speed and the engine's force-limited finger drives follow it. Where a pad meets an
 object the fingers stop and the drive presses with the hand's force; the gripper's reported position
@@ -26,10 +26,11 @@ import numpy as np
 
 from ...model import kinematics as kin
 from ...model.robots import VACUUM_WIRING
-from .. import contact, safety
-from ..base import C_COLLISION, NOT_IDLE, Handler
-from ..gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
-from ..robotiq import OBJ_MOVING, RobotiqGripper
+from ..core import safety
+from ..core.interface import C_COLLISION, NOT_IDLE, Handler
+from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
+from ..devices.robotiq import OBJ_MOVING, RobotiqGripper
+from . import contact
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
 from .world import World
@@ -51,7 +52,7 @@ class PhysicsComponent:
 
     def __init__(self, world: World, device: Any, vacuum: Any = None) -> None:
         self.world = world
-        #: The vacuum gripper (controller/vacuum.py), when it is the hand.
+        #: The vacuum gripper (controller/devices/vacuum.py), when it is the hand.
         self.vacuum = vacuum
         self.device = device if isinstance(device, XArmGripper) else None
         if self.device is not None:

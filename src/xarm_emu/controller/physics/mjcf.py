@@ -24,7 +24,7 @@ from ...model.collision import _link_capsules
 from ...model.inertials import get_inertials
 from ...model.robots import RobotModel
 from ...model.rotations import quat_from_matrix, rpy_to_matrix
-from ..contact import Box, Plane, Scene
+from .contact import Box, Plane, Scene
 from .hands import Hand
 from .objects import ObjectSpec
 

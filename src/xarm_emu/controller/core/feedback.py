@@ -19,7 +19,7 @@ command and each batch of control periods and turns into 21-byte 0xFF frames
 - Trajectory tasks (registers 61-65) report OTHER_START/OTHER_FINISH through :meth:`FeedbackQueue.emit`
   with the origin they took from :meth:`FeedbackQueue.capture` when they were accepted.
 
-The queue is a controller component (:class:`~xarm_emu.controller.base.Component`): its ``step``
+The queue is a controller component (:class:`~xarm_emu.controller.core.interface.Component`): its ``step``
 runs at the end of every control period. :func:`feedback_queue` finds or attaches it.
 """
 
@@ -30,12 +30,12 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..protocol.feedback import Feedback, FeedbackCode, FeedbackType
-from ..protocol.frame import PROTOCOL_PRIVATE_V3, STATE_FAILED, STATE_NOT_READY
-from ..protocol.registers import Flag
-from .base import NOT_IDLE, ControllerView, Handler
+from ...protocol.feedback import Feedback, FeedbackCode, FeedbackType
+from ...protocol.frame import PROTOCOL_PRIVATE_V3, STATE_FAILED, STATE_NOT_READY
+from ...protocol.registers import Flag
 from .commands import CircleMove, Dwell, JointMove, LineMove
-from .state import holds
+from .controller_state import holds
+from .interface import NOT_IDLE, ControllerView, Handler
 
 #: Queued task classes that move the arm (MOTION_START/MOTION_FINISH); any other queued task is a
 #: non-motion task (TRIGGER).

@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..model.inertials import joint_sizes
-from ..model.robots import RobotModel
-from .state import holds
+from ...model.inertials import joint_sizes
+from ...model.robots import RobotModel
+from .controller_state import holds
 
 #: Ambient temperature (C); the manual's operating range is 0-50 C.
 AMBIENT_C = 25.0

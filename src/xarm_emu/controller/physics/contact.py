@@ -40,8 +40,8 @@ from typing import Any
 
 import numpy as np
 
-from ..model import kinematics as kin
-from .physics.objects import ObjectSpec, parse_objects
+from ...model import kinematics as kin
+from .objects import ObjectSpec, parse_objects
 
 
 @dataclass(frozen=True)

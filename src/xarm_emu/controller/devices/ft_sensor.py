@@ -48,9 +48,9 @@ from typing import Any
 
 import numpy as np
 
-from ..model import dynamics as dyn
-from ..model import kinematics as kin
-from .base import NOT_IDLE
+from ...model import dynamics as dyn
+from ...model import kinematics as kin
+from ..core.interface import NOT_IDLE
 
 #: Sensor thickness, flange to tool face (mm): the offset the SDK adds to an identified centroid.
 SENSOR_HEIGHT = 32.0
@@ -210,7 +210,7 @@ CONFIG_KEY = "ft_sensor"
 def config_of(ctl: Any) -> dict[str, Any] | None:
     """What register 40 saves of the sensor: register 205's load and the zero (205/206); None
     while they are all zero."""
-    from .handlers.ft_sensor import ft_config
+    from ..handlers.ft_sensor import ft_config
 
     cfg = ft_config(ctl)
     if cfg.mass == 0 and not any(cfg.centroid) and not any(cfg.offsets):
@@ -220,7 +220,7 @@ def config_of(ctl: Any) -> dict[str, Any] | None:
 
 def load_config(ctl: Any, data: Any) -> None:
     """Apply a saved load and zero; anything of the wrong shape or not finite is ignored."""
-    from .handlers.ft_sensor import ft_config
+    from ..handlers.ft_sensor import ft_config
 
     if not isinstance(data, dict):
         return
@@ -375,7 +375,7 @@ def external_wrench(ctl: Any) -> np.ndarray:
         if w.frame == "tool":
             v = np.concatenate([R @ v[:3], R @ v[3:]])
         total += v
-    from . import contact
+    from ..physics import contact
 
     total += contact.scene_wrench(ctl)
     return total
@@ -485,7 +485,7 @@ def idle_until(ctl: Any) -> float:
     for w in st.wrenches:
         if w.until is not None:
             horizon = min(horizon, w.until - 1e-9)
-    from . import force_control
+    from ..applications import force_control
 
     fc = ctl.data.force_control
     if fc is not None and fc.app != force_control.APP_OFF:
@@ -515,7 +515,7 @@ def step(ctl: Any, dt: float) -> None:
 def compensation(ctl: Any) -> np.ndarray:
     """What the box takes off the raw reading: register 205's offsets (or 206's zero) and the gravity
     of register 205's load at the present pose (sensor frame)."""
-    from .handlers.ft_sensor import ft_config
+    from ..handlers.ft_sensor import ft_config
 
     cfg = ft_config(ctl)
     out = np.asarray(cfg.offsets, dtype=float).copy()
@@ -547,7 +547,7 @@ def control_wrench(ctl: Any) -> np.ndarray:
 
 def set_zero(ctl: Any) -> None:
     """Register 206: the present reading becomes the zero (stored as register 205's offsets)."""
-    from .handlers.ft_sensor import ft_config
+    from ..handlers.ft_sensor import ft_config
 
     cfg = ft_config(ctl)
     cfg.offsets = tuple(float(x) for x in (np.asarray(cfg.offsets) + reading(ctl)))

@@ -60,9 +60,9 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from ..protocol import rtu
-from .base import C_ESTOP, NOT_IDLE, ControllerView, Handler
-from .state import holds
+from ...protocol import rtu
+from ..core.controller_state import holds
+from ..core.interface import C_ESTOP, NOT_IDLE, ControllerView, Handler
 
 TRACK_ID = 1  # the SDK's linear motor slave id on the control box RS-485
 TRACK_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default baud for the track

@@ -12,8 +12,8 @@ import math
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
-from ..model.robots import RobotModel
-from .base import PARAMETER_LIMIT
+from ...model.robots import RobotModel
+from .interface import PARAMETER_LIMIT
 
 log = logging.getLogger(__name__)
 

@@ -18,11 +18,11 @@ from typing import Any
 import numpy as np
 
 from ...model import kinematics as kin
-from .. import velocity
-from ..base import C_JOINT_LIMIT, CommandError, ParameterError, Values
-from ..commands import JointMove, LineMove
-from ..poses import resolve_line_target
-from ..settings import in_range
+from ..applications import velocity
+from ..core.commands import JointMove, LineMove
+from ..core.interface import C_JOINT_LIMIT, CommandError, ParameterError, Values
+from ..core.poses import resolve_line_target
+from ..core.settings import in_range
 from . import motion
 
 
@@ -87,7 +87,7 @@ def _duration(ctl: Any, v: Values) -> float | None:
 
 
 def _require_mode(ctl: Any, mode: int) -> None:
-    from ..core import NotReady
+    from ..controller import NotReady
 
     if ctl.error_code or not ctl.ready or ctl.mode != mode:
         raise NotReady()

@@ -55,10 +55,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from ..protocol import codes, rtu
-from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
-from .base import NOT_IDLE, ControllerView, Handler, ParameterError, idle_until
-from .state import holds
+from ...protocol import codes, rtu
+from ...protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
+from ..core.controller_state import holds
+from ..core.interface import NOT_IDLE, ControllerView, Handler, ParameterError, idle_until
 
 GRIPPER_ID = 8  # section 2.1.4 "Gripper ID 0x08"
 GRIPPER_BAUD_INDEX = 11  # 2,000,000 bps (register 127 baud table)
@@ -114,7 +114,8 @@ MOTION_STOPPED, MOTION_MOVING, MOTION_GRIPPED, MOTION_FAULT = 0, 1, 2, 3
 class ToolDevice(rtu.RegisterDevice, Protocol):
     """A device on the tool RS-485 (register 124, host 9): a Modbus slave with its own slave id and
     baud rate (register 127 baud table index) that moves in :meth:`step`; the xArm gripper, the
-    Robotiq 2F-85/2F-140 (controller/robotiq.py) or the BIO gripper (controller/bio_gripper.py)."""
+    Robotiq 2F-85/2F-140 (controller/devices/robotiq.py) or the BIO gripper
+    (controller/devices/bio_gripper.py)."""
 
     slave_id: int
     baud_index: int
@@ -381,7 +382,7 @@ class GripperModule:
         self.modbus_timeout_ms = DEFAULT_MODBUS_TIMEOUT_MS
         self.transparent_timeout_ms = DEFAULT_TRANSPARENT_TIMEOUT_MS
         #: The slaves answering on the control box RS-485 (host 11) now, by slave id (the linear
-        #: track, controller/linear_track.py, when attached and the bus baud matches its own).
+        #: track, controller/devices/linear_track.py, when attached and the bus baud matches its own).
         self.box_devices: Callable[[], dict[int, rtu.RegisterDevice]] = dict
 
     def _bus_baud_index(self) -> int:

@@ -34,8 +34,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from ..protocol import rtu
-from .base import NOT_IDLE, ControllerView
+from ...protocol import rtu
+from ..core.interface import NOT_IDLE, ControllerView
 
 HAND_SLAVE = 1
 HAND_BAUD_INDEX = 5  # 115200 bps in the register 127 baud table

@@ -26,10 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.collision import NO_TOOL, ToolModel, self_collision
-from ..model.kinematics import tcp_pose
-from ..model.robots import RobotModel
-from .base import C_BOUNDARY, C_SELF_COLLISION
+from ...model.collision import NO_TOOL, ToolModel, self_collision
+from ...model.kinematics import tcp_pose
+from ...model.robots import RobotModel
+from .interface import C_BOUNDARY, C_SELF_COLLISION
 
 #: External joint torque (N m) that collision sensitivity 1..5 detects (C31). The vendor publishes
 #: no figures, only that a higher level needs less torque; these are the emulator's, the same for

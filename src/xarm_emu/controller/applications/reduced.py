@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import C_JOINT_LIMIT, CommandError
+from ..core.interface import C_JOINT_LIMIT, CommandError
 
 
 @dataclass(slots=True)

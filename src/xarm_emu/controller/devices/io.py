@@ -40,11 +40,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
-from ..protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
-from .base import C_DELAYED_IO, NOT_IDLE, CommandError, ControllerView, Handler, ParameterError
-from .state import holds
-from .states import STATE_STOP
+from ...protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
+from ...protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
+from ..core.controller_state import holds
+from ..core.interface import C_DELAYED_IO, NOT_IDLE, CommandError, ControllerView, Handler, ParameterError
+from ..core.state_machine import STATE_STOP
 
 # Tool board addresses (registers 127/128).
 ADDR_TOOL_DI = 0x0A14
@@ -357,7 +357,7 @@ class IOModule:
         ctl = self._ctl() if self._ctl is not None else None
         if ctl is None:
             return None
-        from .handlers.extras import queue_behind_moves
+        from ..handlers.service import queue_behind_moves
 
         return functools.partial(queue_behind_moves, ctl)
 

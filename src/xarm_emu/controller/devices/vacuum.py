@@ -6,7 +6,7 @@ It has no register of its own: the SDK's ``set_vacuum_gripper`` drives two tool 
 ``hardware_version``, :data:`~xarm_emu.model.robots.VACUUM_WIRING`): 1 runs the pump with TO0 = 1,
 TO1 = 0 and releases with TO0 = 0, TO1 = 1, reporting on TI0; 2 does the same on TO3/TO4 and
 reports on TI3. ``get_vacuum_gripper(check_on=True)`` first reads the outputs back at tool address
-0x0A18 (controller/io.py). Without a model the input never rises and every
+0x0A18 (controller/devices/io.py). Without a model the input never rises and every
 ``set_vacuum_gripper(True, wait=True)`` times out, so the emulator can attach one
 (``Emulator(vacuum=True)``, ``serve --vacuum``); it answers on both wirings, each with its own
 pressure switch:
@@ -26,10 +26,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..model.robots import VACUUM_WIRING, VacuumWiring
-from .base import NOT_IDLE, ControllerView, Handler
+from ...model.robots import VACUUM_WIRING, VacuumWiring
+from ..core.controller_state import holds
+from ..core.interface import NOT_IDLE, ControllerView, Handler
 from .io import ToolIO
-from .state import holds
 
 PRESSURE_BUILD = 0.3  # s from pump on (object present) to the pressure input = 1
 PRESSURE_RELEASE = 0.2  # s from pump off / release to the pressure input = 0

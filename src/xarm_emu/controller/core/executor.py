@@ -21,14 +21,14 @@ from operator import le, sub
 
 import numpy as np
 
-from ..model import kinematics as kin
-from ..model import rotations as rot
-from ..model.robots import RobotModel
-from . import motion
-from .base import C_CIRCLE, C_JOINT_LIMIT, C_KINEMATIC, C_SPEED, CommandError
+from ...model import kinematics as kin
+from ...model import rotations as rot
+from ...model.robots import RobotModel
+from .. import motion
 from .commands import CircleMove, Dwell, JointMove, LineMove, QueuedCommand, Task
+from .controller_state import RAMP_TIME, PlanState
+from .interface import C_CIRCLE, C_JOINT_LIMIT, C_KINEMATIC, C_SPEED, CommandError
 from .poses import resolve_line_target, wire_pose_to_matrix
-from .state import RAMP_TIME, PlanState
 
 #: Points at which a TCP line is tried for joint solutions (register 21, motion type 1).
 LINE_SAMPLES = 24
@@ -67,7 +67,7 @@ def keep_unchanged_pose(cmd: LineMove, start: np.ndarray) -> LineMove:
 
 def line_target(cmd: LineMove, start: np.ndarray) -> np.ndarray:
     """The absolute target (4x4, user frame) of a linear move from ``start``, kept components
-    resolved (:func:`keep_unchanged_pose`, :func:`~xarm_emu.controller.poses.resolve_line_target`)."""
+    resolved (:func:`keep_unchanged_pose`, :func:`~xarm_emu.controller.core.poses.resolve_line_target`)."""
     return resolve_line_target(keep_unchanged_pose(cmd, start), start)
 
 

@@ -36,9 +36,9 @@ from typing import Any
 
 import numpy as np
 
-from ..model import kinematics as kin
-from . import motion
-from .states import STATE_MOVING, STATE_SLEEP, Event, fire
+from ...model import kinematics as kin
+from .. import motion
+from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
 
 MODE_PLAYBACK = 11
 

@@ -19,23 +19,23 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
 
-from ..model import collision
+from ...model import collision
 from .faults import Faults
-from .states import MODE_POSITION, STATE_STOP
+from .state_machine import MODE_POSITION, STATE_STOP
 
 if TYPE_CHECKING:
+    from ..applications.force_control import ForceControl
+    from ..applications.identification import Identification
+    from ..applications.online import OnlinePlanner
+    from ..applications.reduced import ReducedMode
+    from ..applications.trajectory import TrajectoryStore
+    from ..applications.velocity import VelocityControl
+    from ..devices.ft_sensor import FtSensorState
+    from ..handlers.ft_sensor import FtConfig
+    from ..handlers.service import ExtraState
+    from ..motion import ServoTracker
+    from ..physics.contact import Scene
     from .commands import QueuedCommand
-    from .contact import Scene
-    from .force_control import ForceControl
-    from .ft_sensor import FtSensorState
-    from .handlers.extras import ExtraState
-    from .handlers.ft_sensor import FtConfig
-    from .identification import Identification
-    from .motion import ServoTracker
-    from .online import OnlinePlanner
-    from .reduced import ReducedMode
-    from .trajectory import TrajectoryStore
-    from .velocity import VelocityControl
 
 T = TypeVar("T")
 C = TypeVar("C", bound=type)
@@ -105,23 +105,23 @@ class ControllerState:
     #: The joints where the last only-check move ended (the SDK's "intermediate state"), if kept.
     check_q: np.ndarray | None = None
     motion: PlanState = field(default_factory=PlanState)
-    #: The F/T sensor (controller/ft_sensor.py: mounted, switched on, wrenches, readings).
+    #: The F/T sensor (controller/devices/ft_sensor.py: mounted, switched on, wrenches, readings).
     ft_sensor: FtSensorState | None = None
-    #: The contact scene (controller/contact.py), fixed in the base frame.
+    #: The contact scene (controller/physics/contact.py), fixed in the base frame.
     contact_scene: Scene | None = None
     #: The F/T configuration registers 201-208 (controller/handlers/ft_sensor.py).
     ft_config: FtConfig | None = None
-    #: Force control and impedance control (register 202, controller/force_control.py).
+    #: Force control and impedance control (register 202, controller/applications/force_control.py).
     force_control: ForceControl | None = None
-    #: Reduced mode and its limits (registers 47-52, controller/reduced.py).
+    #: Reduced mode and its limits (registers 47-52, controller/applications/reduced.py).
     reduced: ReducedMode | None = None
-    #: Velocity control (modes 4 and 5, controller/velocity.py).
+    #: Velocity control (modes 4 and 5, controller/applications/velocity.py).
     velocity_control: VelocityControl | None = None
-    #: The online planner (modes 7 and 11, controller/online.py).
+    #: The online planner (modes 7 and 11, controller/applications/online.py).
     online_planner: OnlinePlanner | None = None
-    #: Trajectory recording and playback (registers 61-66, controller/trajectory.py).
+    #: Trajectory recording and playback (registers 61-66, controller/applications/trajectory.py).
     trajectory_store: TrajectoryStore | None = None
-    #: The less common registers' values (controller/handlers/extras.py).
+    #: The less common registers' values (controller/handlers/service.py).
     extra_state: ExtraState | None = None
     #: The load identification of register 204 under way or last run (:mod:`.identification`).
     identification: Identification | None = None

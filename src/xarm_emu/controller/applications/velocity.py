@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 from ruckig import ControlInterface, InputParameter, Result, Ruckig, Synchronization, Trajectory
 
-from ..model import kinematics as kin
-from ..model import rotations as rot
+from ...model import kinematics as kin
+from ...model import rotations as rot
+from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
 from . import reduced
-from .states import STATE_MOVING, STATE_SLEEP, Event, fire
 
 #: Modes of register 19 (SDK vocabulary): joint and Cartesian velocity control.
 MODE_JOINT_VELOCITY = 4

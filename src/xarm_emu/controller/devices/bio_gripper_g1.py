@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from ..protocol import rtu
+from ...protocol import rtu
 from .bio_gripper import (
     ENABLE_OFF,
     REG_ENABLE,

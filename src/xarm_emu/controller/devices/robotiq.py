@@ -46,9 +46,9 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from ..protocol import codes, rtu
-from .base import NOT_IDLE, ControllerView
-from .state import holds
+from ...protocol import codes, rtu
+from ..core.controller_state import holds
+from ..core.interface import NOT_IDLE, ControllerView
 
 ROBOTIQ_ID = 9
 ROBOTIQ_BAUD_INDEX = 5  # 115200 bps in the register 127 baud table, the SDK's default for Robotiq
@@ -116,7 +116,7 @@ class RobotiqState:
 @holds(RobotiqState)
 class RobotiqGripper:
     """The simulated Robotiq 2F gripper: a Modbus slave (:class:`rtu.RegisterDevice`) that moves in
-    :meth:`step` (a :class:`~xarm_emu.controller.gripper.ToolDevice`)."""
+    :meth:`step` (a :class:`~xarm_emu.controller.devices.gripper.ToolDevice`)."""
 
     slave_id = ROBOTIQ_ID
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import rotations as rot
+from ...model import rotations as rot
 from .commands import LineMove
 
 

@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from . import ft_sensor as ft
-from .commands import JointMove, Task
+from ..core.commands import JointMove, Task
+from ..devices import ft_sensor as ft
 
 REGISTER = 204
 #: Joint speed (rad/s, about 57 deg/s) and acceleration (rad/s^2) of the sequence's moves.

@@ -23,7 +23,7 @@ the application started:
 The joints follow the TCP through inverse kinematics within the joint speed limit (a faster step is
 shortened). A step that would leave the joint limits or the workspace is shortened as far as it
 must; when nothing of it can be followed the arm stops there without an error, as Cartesian
-velocity control does (controller/velocity.py), and moves again once pushed another way. Queued
+velocity control does (controller/applications/velocity.py), and moves again once pushed another way. Queued
 motion commands run as usual while an application is on; the application starts again from
 wherever they leave the arm. The wrench is the sensor's reading of the period before
 (:func:`.ft_sensor.control_wrench`), turned from the sensor's axes into the tool's by the TCP
@@ -40,11 +40,11 @@ from typing import Any
 
 import numpy as np
 
-from ..model import kinematics as kin
-from ..model import rotations as rot
-from . import ft_sensor as sensor
+from ...model import kinematics as kin
+from ...model import rotations as rot
+from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
+from ..devices import ft_sensor as sensor
 from . import reduced
-from .states import STATE_MOVING, STATE_SLEEP, Event, fire
 
 APP_OFF = 0
 APP_ADMITTANCE = 1
@@ -302,7 +302,7 @@ def sensor_to_tool(tcp_offset: Sequence[float], wrench: Any) -> np.ndarray:
 def step(ctl: Any, dt: float, wrench_tool: np.ndarray) -> None:
     """One control period of the application under ``wrench_tool`` (the sensor's compensated wrench
     in the tool frame, N and N m); moves ``ctl.q``."""
-    from .handlers.ft_sensor import ft_config
+    from ..handlers.ft_sensor import ft_config
 
     fc = control_of(ctl)
     cfg = ft_config(ctl)

@@ -19,10 +19,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..model.robots import PneumaticGripper
-from .base import NOT_IDLE, ControllerView, Handler
+from ...model.robots import PneumaticGripper
+from ..core.controller_state import holds
+from ..core.interface import NOT_IDLE, ControllerView, Handler
 from .io import ToolIO
-from .state import holds
 
 TRAVEL_TIME = 0.3  # s for a full stroke, either way
 

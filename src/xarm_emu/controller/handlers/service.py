@@ -18,11 +18,11 @@ import numpy as np
 from ...model import kinematics as kin
 from ...model import rotations as rot
 from ...protocol import registers as regs
-from .. import ft_sensor
-from ..base import ParameterError, Values
-from ..commands import Task
-from ..poses import wire_pose_to_matrix
-from ..states import MODE_POSITION, STATE_MOVING
+from ..core.commands import Task
+from ..core.interface import ParameterError, Values
+from ..core.poses import wire_pose_to_matrix
+from ..core.state_machine import MODE_POSITION, STATE_MOVING
+from ..devices import ft_sensor
 
 #: Register 3: 0 means "verified" (the SDK's check_verification); an emulated box is always verified.
 VERIFIED = 0

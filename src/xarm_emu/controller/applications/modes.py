@@ -8,8 +8,8 @@ import functools
 from collections.abc import Callable
 from typing import Any
 
+from ..core.interface import Handler, Values
 from . import online, reduced, trajectory, velocity
-from .base import Handler, Values
 
 #: What the core runs each control period while the controller is in one of these modes.
 MODE_STEPS: dict[int, Callable[[Any, float], None]] = {

@@ -51,9 +51,9 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from ..protocol import codes, rtu
-from .base import NOT_IDLE, ControllerView
-from .state import holds
+from ...protocol import codes, rtu
+from ..core.controller_state import holds
+from ..core.interface import NOT_IDLE, ControllerView
 
 BIO_ID = 8
 BIO_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default for the BIO gripper
@@ -138,7 +138,7 @@ class BioGripperState:
 @holds(BioGripperState)
 class BioGripper:
     """The simulated BIO gripper: a Modbus slave (:class:`rtu.RegisterDevice`) that moves in
-    :meth:`step` (a :class:`~xarm_emu.controller.gripper.ToolDevice`)."""
+    :meth:`step` (a :class:`~xarm_emu.controller.devices.gripper.ToolDevice`)."""
 
     slave_id = BIO_ID
 

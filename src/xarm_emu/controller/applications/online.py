@@ -21,13 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from ..model import kinematics as kin
-from ..model import rotations as rot
-from . import motion, reduced
-from .base import C_JOINT_LIMIT, C_KINEMATIC, CommandError, NotReady, ParameterError, Values
-from .poses import wire_pose_to_matrix
-from .settings import in_range
-from .states import STATE_MOVING, STATE_SLEEP, Event, fire
+from ...model import kinematics as kin
+from ...model import rotations as rot
+from .. import motion
+from ..core.interface import C_JOINT_LIMIT, C_KINEMATIC, CommandError, NotReady, ParameterError, Values
+from ..core.poses import wire_pose_to_matrix
+from ..core.settings import in_range
+from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
+from . import reduced
 
 MODE_JOINT_ONLINE = 6
 MODE_CARTESIAN_ONLINE = 7

@@ -2,7 +2,7 @@
 control step and the safety checks.
 
 Pure and deterministic: no sockets, no wall clock. The server calls :meth:`handle` for every
-request and :meth:`step` once per control period (:data:`~xarm_emu.controller.base.PERIOD`).
+request and :meth:`step` once per control period (:data:`~xarm_emu.controller.core.interface.PERIOD`).
 Register handlers are plain functions in :mod:`.handlers`, bound in one table; the mutable state is
 one :class:`~.state.ControllerState` (:attr:`Controller.data`), beside the constant robot model
 and the :class:`~.settings.Settings`.
@@ -29,8 +29,15 @@ from ..protocol import registers as regs
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..protocol.frame import STATE_ERROR, STATE_FAILED, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError, all_within
-from . import force_control, ft_sensor, motion, reduced, safety
-from .base import (
+from . import motion
+from .applications import force_control, reduced
+from .applications.modes import EVERY_STEP, EVERY_STEP_IDLE, MODE_STEPS, route
+from .core import safety
+from .core.commands import QueuedCommand
+from .core.controller_state import ControllerState, StateField
+from .core.executor import Executor, Limits
+from .core.faults import Faults
+from .core.interface import (
     C_OTHER,
     C_PLANNING,
     PARAMETER_LIMIT,
@@ -47,13 +54,8 @@ from .base import (
     NotReady,
     ParameterError,
 )
-from .commands import QueuedCommand
-from .executor import Executor, Limits
-from .faults import Faults
-from .mode_steps import EVERY_STEP, EVERY_STEP_IDLE, MODE_STEPS, route
-from .settings import Settings
-from .state import ControllerState, StateField
-from .states import (
+from .core.settings import Settings
+from .core.state_machine import (
     MODE_JOINT_TEACH,
     MODE_POSITION,
     MODE_SERVO,
@@ -64,6 +66,7 @@ from .states import (
     Event,
     fire,
 )
+from .devices import ft_sensor
 
 #: Command buffer capacity; the SDK throttles itself at 512 (max_cmdnum).
 BUFFER_CAPACITY = 1024
@@ -514,7 +517,7 @@ class Controller:
 
     def _check_safety(self, q_prev: np.ndarray) -> None:
         """Safety boundary (52, 59: C35) and self-collision (77, 78: C22) on the step just planned:
-        the arm stops on the boundary or before contact (controller/safety.py)."""
+        the arm stops on the boundary or before contact (controller/core/safety.py)."""
         reduced.check_step(self, q_prev)  # reduced-mode joint ranges: C23
         s = self.settings
         if not (s.boundary_on or s.self_collision_on):
