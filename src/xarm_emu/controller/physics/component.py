@@ -182,4 +182,6 @@ class PhysicsComponent:
 
     def idle_until(self, ctl: Any) -> float:
         """Idle while the world is settled and neither the arm nor the finger command would move."""
+        if not self.world.state.settled:
+            return NOT_IDLE
         return math.inf if self.world.idle(ctl.data.q, self._ramp(ctl.period)) else NOT_IDLE

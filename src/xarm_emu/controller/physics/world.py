@@ -108,8 +108,9 @@ class World:
             self.objects.append((o.name, int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]),
                                  int(m.body_geomadr[body])))
         self._object_geoms = {g: i for i, (_, _, _, g) in enumerate(self.objects)}
-        #: The model of the nearness test (:meth:`_far`): the arm's geoms see objects from ``NEAR``,
-        #: nothing else collides (fixtures touch nothing, objects only the arm).
+        #: The model of the nearness test (:meth:`_kinematics_at`, :meth:`_far`): the arm's geoms
+        #: see objects from ``NEAR``; nothing else collides (fixtures touch nothing, objects only
+        #: the arm), so the world's own contacts stay those of its last step.
         self._near_m = near = copy.copy(m)
         near.geom_margin[self._arm_idx] = NEAR
         obj_idx = [g for *_, g in self.objects]
@@ -119,6 +120,9 @@ class World:
         near.geom_contype[obj_idx] = 0
         self._near_d = mujoco.MjData(near)
         self._flange_body = m.body(f"link{dof}").id
+        self._near_key: tuple[bytes, bytes] = (b"", b"")
+        self._far_key: tuple[bytes, bytes] = (b"", b"")
+        self._far_out = False
         self._free_v = np.array([v + k for _, _, v, _ in self.objects for k in range(6)], dtype=int)
         self._size = mujoco.mj_stateSize(m, _STATE)
         #: The engine's contacts are read once each time they change (:meth:`_scan`): ``_version``
@@ -190,7 +194,7 @@ class World:
             s.inputs = inputs
             return
         last = d.qpos[self._q].copy()
-        moving_arm = not np.array_equal(last, qa)
+        moving_arm = last.tolist() != qa.tolist()
         # an arm moving where nothing is near it lets the objects settle all the same
         far = (moving_arm or self.fingers) and self._far(qa)
         d.qpos[self._q] = last
@@ -300,21 +304,23 @@ class World:
         device says so) the pads' contacts with an object both pads touch are its own squeeze and
         are left out."""
         tau = np.zeros(self.robot.dof)
-        rows = self._scan()
-        if not rows:
-            return tau
-        m, d = self.m, self.d
+        kind = self._kinds
         gripped = {i for i, pads in self._pad_map.items() if len(pads) == 2} if gripping else set()
-        kind = self._kind
-        f6 = np.zeros(6)
-        jacp = np.zeros((3, m.nv))
-        frames = d.contact.frame
-        points = d.contact.pos
-        for k, g1, g2 in rows:
+        pushing = []
+        for k, g1, g2 in self._scan():
             first = bool(kind[g1])
             arm_geom, other = (g1, g2) if first else (g2, g1)
             if kind[arm_geom] == 2 and self._object_geoms.get(other) in gripped:
                 continue
+            pushing.append((k, arm_geom, first))
+        if not pushing:
+            return tau
+        m, d = self.m, self.d
+        f6 = np.zeros(6)
+        jacp = np.zeros((3, m.nv))
+        frames = d.contact.frame
+        points = d.contact.pos
+        for k, arm_geom, first in pushing:
             mujoco.mj_contactForce(m, d, k, f6)
             force = frames[k].reshape(3, 3).T @ f6[:3]  # on geom2, from geom1
             mujoco.mj_jac(m, d, jacp, None, points[k], int(m.geom_bodyid[arm_geom]))
@@ -324,9 +330,8 @@ class World:
     def tcp_point(self, q: np.ndarray, offset: Sequence[float]) -> tuple[float, float, float]:
         """The point ``offset`` (mm, flange frame) of the arm at ``q`` (rad), in the base frame (mm),
         from the engine's kinematics of the nearness model (the same joint frames as ``model/``)."""
-        m, d = self._near_m, self._near_d
-        d.qpos[self._q] = q[: self.robot.dof]
-        mujoco.mj_kinematics(m, d)
+        self._kinematics_at(q)
+        d = self._near_d
         b = self._flange_body
         r = d.xmat[b].tolist()
         x, y, z = (v / MM for v in d.xpos[b].tolist())
@@ -335,17 +340,25 @@ class World:
                 z + r[6] * ox + r[7] * oy + r[8] * oz)
 
     def _far(self, qa: np.ndarray) -> bool:
-        """The arm put at ``qa``: whether no part of it is near an object (within ``mjcf.NEAR``).
+        """The arm put at ``qa``: whether no part of it is near an object (within ``mjcf.NEAR``),
+        asked of the nearness model (once for the same joints and world)."""
+        self._kinematics_at(qa)
+        if self._far_key != self._near_key:
+            mujoco.mj_collision(self._near_m, self._near_d)
+            self._far_key, self._far_out = self._near_key, not self._near_d.ncon
+        return self._far_out
 
-        Asked of a second copy of the engine's model (:attr:`_near_m`) in which only the arm and the
-        objects collide, with the arm's margins at ``NEAR``, so the world's own contacts stay those
-        of its last step."""
-        m, d = self._near_m, self._near_d
+    def _kinematics_at(self, q: np.ndarray) -> None:
+        """The nearness model's bodies where the world's are, the arm at ``q`` (done once for the
+        same joints and world)."""
+        key = (self.d.qpos.tobytes(), q[: self.robot.dof].tobytes())
+        if key == self._near_key:
+            return
+        d = self._near_d
         d.qpos[:] = self.d.qpos
-        d.qpos[self._q] = qa
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_collision(m, d)
-        return not d.ncon
+        d.qpos[self._q] = q[: self.robot.dof]
+        mujoco.mj_kinematics(self._near_m, d)
+        self._near_key = key
 
     # -- what the world shows ------------------------------------------------------------------
     def _scan(self) -> list[tuple[int, int, int]]:
@@ -361,8 +374,9 @@ class World:
         if n:
             c = d.contact
             kind, objects = self._kinds, self._object_geoms
-            for k, ((a, b), dist) in enumerate(zip(c.geom[:n].tolist(), c.dist[:n].tolist(), strict=True)):
-                if dist > 0.0 or not (kind[a] or kind[b]):
+            # the world's geoms have no margins: every contact of the engine touches
+            for k, (a, b) in enumerate(c.geom[:n].tolist()):
+                if not (kind[a] or kind[b]):
                     continue
                 rows.append((k, a, b))
                 for pad, other in ((a, b), (b, a)):
@@ -387,7 +401,10 @@ class World:
 
     def opening(self) -> float:
         """The opening between the pads (mm)."""
-        return sum(float(self.d.qpos[a]) for a in self._fq) / MM
+        if not self._fq:
+            return 0.0
+        qpos = self.d.qpos
+        return (float(qpos[self._fq[0]]) + float(qpos[self._fq[1]])) / MM
 
     def poses(self) -> list[ObjectPose]:
         """Every object's pose, in scene order."""
