@@ -42,9 +42,12 @@ FOLLOW_MM = 0.05
 def _inside(shape: contact.Plane | contact.Box, p: tuple[float, float, float]) -> bool:
     """Whether the point ``p`` (mm) is inside the fixture ``shape`` (plain floats: asked every period;
     the fixture's own penetration says the same)."""
+    x, y, z = p
     if isinstance(shape, contact.Plane):
-        return sum((a - b) * n for a, b, n in zip(shape.point, p, shape.normal, strict=True)) > 0.0
-    return all(lo < x < hi for lo, x, hi in zip(shape.min, p, shape.max, strict=True))
+        (px, py, pz), (nx, ny, nz) = shape.point, shape.normal
+        return (px - x) * nx + (py - y) * ny + (pz - z) * nz > 0.0
+    lo, hi = shape.min, shape.max
+    return lo[0] < x < hi[0] and lo[1] < y < hi[1] and lo[2] < z < hi[2]
 
 
 class PhysicsComponent:

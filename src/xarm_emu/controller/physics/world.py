@@ -6,11 +6,13 @@ get the speed that takes them from the last period's joints to the controller's,
 them, so the engine never moves the arm; it answers what touches what and with what force. Objects
 are free bodies; the fingers slide on force-limited position drives.
 
-Settling: once every object and finger has stayed still (below :data:`STILL_SPEED`) for
-:data:`SETTLE_PERIODS` periods with nothing of the arm touching an object, the world is settled: the
-speeds are zeroed and the engine is not stepped again until the arm or the fingers are told to move.
-The rule reads only the world's own state, so stepping every period or jumping over idle ones
-(controller/emulator.py) gives the same poses.
+Settling: once every object has stayed still (below :data:`STILL_SPEED`) for :data:`SETTLE_PERIODS`
+periods, with nothing of the arm touching an object and the arm and the fingers either still or
+farther than ``mjcf.NEAR`` from every object, the world is settled: the speeds are zeroed and the
+engine is not stepped again until the arm or the fingers come that near an object (free fingers
+are then put where their drive is told). Nearness is asked of a second copy of the model in which
+only the arm and the objects collide. The rule reads only the world's own state, so stepping every
+period or jumping over idle ones (controller/emulator.py) gives the same poses.
 """
 
 from __future__ import annotations
@@ -124,6 +126,7 @@ class World:
         self._far_key: tuple[bytes, bytes] = (b"", b"")
         self._far_out = False
         self._free_v = np.array([v + k for _, _, v, _ in self.objects for k in range(6)], dtype=int)
+        self._free_list: list[int] = self._free_v.tolist()
         self._size = mujoco.mj_stateSize(m, _STATE)
         #: The engine's contacts are read once each time they change (:meth:`_scan`): ``_version``
         #: counts the changes, ``_scanned`` the one read; ``_rows`` (contact index, geom, geom) of each
@@ -197,7 +200,6 @@ class World:
         moving_arm = last.tolist() != qa.tolist()
         # an arm moving where nothing is near it lets the objects settle all the same
         far = (moving_arm or self.fingers) and self._far(qa)
-        d.qpos[self._q] = last
         d.qvel[self._v] = (qa - last) / dt
         if self.fingers:
             d.ctrl[:] = ramp / 2.0 * MM
@@ -210,10 +212,11 @@ class World:
         s.inputs = inputs
         s.settled = False
         still = (far or not moving_arm) and not self.touching_arm()
-        if still and self._free_v.size:
-            still = float(np.max(np.abs(d.qvel[self._free_v]))) < STILL_SPEED
-        if still and self._finger_v and not far:
-            still = max(abs(float(d.qvel[v])) for v in self._finger_v) < STILL_SPEED
+        if still and (self._free_v.size or (self._finger_v and not far)):
+            qvel = d.qvel.tolist()
+            still = all(abs(qvel[v]) < STILL_SPEED for v in self._free_list)
+            if still and self._finger_v and not far:
+                still = all(abs(qvel[v]) < STILL_SPEED for v in self._finger_v)
         s.still = s.still + 1 if still else 0
         if s.still >= SETTLE_PERIODS:
             d.qvel[:] = 0.0
