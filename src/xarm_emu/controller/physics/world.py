@@ -42,7 +42,7 @@ SETTLE_PERIODS = 25
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
-@dataclass
+@dataclass(slots=True)
 class PhysicsState:
     """Every mutable value of the physics world (what a checkpoint carries): the engine's integration
     state (time, positions, speeds, actuator states, solver warm start, controls) as float64 bytes,
