@@ -179,3 +179,34 @@ def test_sdk_vacuum_gripper_seals_on_the_cube_top_and_carries_it() -> None:
         end = cube(st)
         assert end["position"][:2] == pytest.approx([300, 100], abs=3.0)
         assert end["position"][2] == pytest.approx(-80.0, abs=1.0)
+
+
+def test_sdk_bio_gripper_grips_a_block_by_contact() -> None:
+    """The BIO gripper (fingertips at its 150 mm tool length, opening 71..150 mm) closes on an 80 mm
+    block: its status says "object" (motion bits 2), its reported opening is the block's width, and
+    the block rides 100 mm up with the hand."""
+    from xarm.wrapper import XArmAPI
+
+    scene = on_table(0.1, 1.0, -100.0)
+    scene["object"][0]["size"] = [40, 80, 40]  # 80 mm across the fingers (flange y)
+    with running_emulator(6, scene=scene, speed=4.0, gripper="bio", firmware="2.7.103") as st, \
+            sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1")
+        try:
+            start(arm, 150)
+            assert arm.set_bio_gripper_enable(True) == 0
+            assert arm.open_bio_gripper(speed=2000) == 0
+            assert arm.set_position(300, -100, 50, **DOWN) == 0
+            assert arm.set_position(300, -100, -85, **DOWN) == 0
+            assert arm.close_bio_gripper(speed=2000) == 0
+            code, status = arm.get_bio_gripper_status()
+            assert code == 0 and status & 0x03 == 2  # stopped on an object
+            code, opening = arm.get_bio_gripper_g2_position()
+            assert code == 0 and opening == pytest.approx(80.0, abs=2.0)
+            closed = cube(st)
+            assert closed["held"]
+            assert arm.set_position(300, -100, 15, **DOWN) == 0
+            lifted = cube(st)
+        finally:
+            arm.disconnect()
+    assert lifted["held"] and lifted["position"][2] - closed["position"][2] == pytest.approx(100.0, abs=2.0)

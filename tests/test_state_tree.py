@@ -51,7 +51,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Emulator", "_rest_cache"): DERIVED,
     ("PhysicsComponent", "world"): WIRING,
     ("PhysicsComponent", "device"): WIRING,  # the gripper on the tool bus (the tree's part)
-    ("PhysicsComponent", "robotiq"): WIRING,  # idem
+    ("PhysicsComponent", "driven"): WIRING,  # the adapter of a gripper whose model moves its fingers
     ("PhysicsComponent", "vacuum"): WIRING,
     ("PhysicsComponent", "squeeze"): FIXED,  # from the hand's force and the finger drive's gain
     ("World", "state"): ENGINE,

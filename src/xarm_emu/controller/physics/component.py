@@ -29,8 +29,8 @@ from ...model.robots import VACUUM_WIRING
 from ..core import safety
 from ..core.interface import C_COLLISION, NOT_IDLE, Handler
 from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
-from ..devices.robotiq import OBJ_MOVING, RobotiqGripper
 from . import contact
+from .driven import driven
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
 from .world import World
@@ -60,9 +60,10 @@ class PhysicsComponent:
         self.device = device if isinstance(device, XArmGripper) else None
         if self.device is not None:
             self.world.state.ramp = self.device.position * XARM_MM_PER_PULSE
-        #: The Robotiq 2F-85 on the tool bus, when it is the hand.
-        self.robotiq = device if isinstance(device, RobotiqGripper) and world.fingers else None
         hand = world.hand
+        #: A gripper on the tool bus whose own model moves its fingers (Robotiq, BIO), when it is
+        #: the hand (:mod:`.driven`).
+        self.driven = driven(device, hand)
         #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
         #: (The drive holds finger a, half the opening, and presses with the force of both pads.)
         self.squeeze = (2 * (2 * hand.force / FINGER_KP) / 0.001 + 1.0) if hand is not None else 0.0
@@ -70,31 +71,29 @@ class PhysicsComponent:
     def handlers(self) -> dict[int, Handler]:
         return {}
 
-    def _robotiq_ramp(self) -> float:
-        """The Robotiq's command: its own fingers' opening (its model moves them and stops them at the
-        object the engine found), pressing past it while it grips; its force setting limits the drive."""
-        r = self.robotiq
-        assert r is not None
-        force = r.model.force_min + (r.model.force_max - r.model.force_min) * r.rFR / 255.0
+    def _driven_ramp(self) -> float:
+        """A driven gripper's command: its own fingers' opening (its model moves them and stops them
+        at the object the engine found), pressing past it while it grips; its force setting limits
+        the drive."""
+        f = self.driven
+        assert f is not None
+        force = f.force
         self.world.set_force(force)
-        if r.gripping:
-            return r.opening_mm - 2 * (2 * force / FINGER_KP) / 0.001 - 1.0
-        return r.opening_mm
+        if f.gripping:
+            return f.opening - 2 * (2 * force / FINGER_KP) / 0.001 - 1.0
+        return f.opening
 
-    def _robotiq_contact(self) -> None:
-        """Tell the Robotiq where both pads met one object (its gOBJ then says so), and that it is
-        gone when the fingers open."""
-        r = self.robotiq
-        assert r is not None
+    def _driven_contact(self) -> None:
+        """Tell a driven gripper where both pads met one object (its status then says so), and that
+        it is gone when the fingers open."""
+        f = self.driven
+        assert f is not None
         w = self.world
-        gripping = w.gripped()
-        closing = r.moving and r.goal > r.position
-        if gripping and closing and r.object_mm is None:
-            width = min(w.opening(), r.model.stroke_mm)
-            r.set_object(width)
-            r.position = min(r.position, r._counts_at(width))  # the fingers stopped where they met it
-        elif r.object_mm is not None and not gripping and not r.gripping and r.gOBJ == OBJ_MOVING:
-            r.object_mm = None  # opening away from it: nothing between the fingers any more
+        touching = w.gripped()
+        if touching and f.closing and not f.met:
+            f.meet(w.opening())
+        else:
+            f.part(touching)
 
     def _vacuum(self, ctl: Any) -> None:
         """The cup seals on a flat face under it (the pressure input then rises as the pump runs) and
@@ -110,8 +109,8 @@ class PhysicsComponent:
 
     def _ramp(self, dt: float) -> float:
         """This period's finger command (mm of opening)."""
-        if self.robotiq is not None:
-            return self._robotiq_ramp()
+        if self.driven is not None:
+            return self._driven_ramp()
         ramp = self.world.state.ramp
         g = self.device
         if g is None or not self.world.fingers:
@@ -151,7 +150,7 @@ class PhysicsComponent:
         if not sens or ctl.error_code or not all(ctl.enabled):
             return
         gripping = bool(self.device is not None and self.device.gripped) or bool(
-            self.robotiq is not None and self.robotiq.gripping)
+            self.driven is not None and self.driven.gripping)
         tau = self.external_torques(ctl)
         if self.world.touching_arm():
             arm = self.world.arm_torques(gripping)
@@ -165,8 +164,8 @@ class PhysicsComponent:
         ramp = self._ramp(dt)
         w.state.ramp = ramp
         w.step(ctl.data.q, dt, ramp)
-        if self.robotiq is not None:
-            self._robotiq_contact()
+        if self.driven is not None:
+            self._driven_contact()
         if self.vacuum is not None:
             self._vacuum(ctl)
         g = self.device

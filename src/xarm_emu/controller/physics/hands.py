@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ...model.collision import BUILTIN_TOOLS
+from ..devices import bio_gripper
 from ..devices.robotiq import ROBOTIQ_2F85, ROBOTIQ_2F140
 
 
@@ -62,5 +63,11 @@ ROBOTIQ_2F140_HAND = Hand("Robotiq 2F-140", stroke=ROBOTIQ_2F140.stroke_mm, pad_
 VACUUM_HAND = Hand("xArm Vacuum Gripper", stroke=0.0, pad_half=(0.0, 0.0, 0.0), tip=BUILTIN_TOOLS[2][2],
                    housing=(50.0, (30.0, 30.0, 50.0)), force=0.0, cup_radius=20.0)
 
+#: The BIO gripper: fingertips at its 150 mm tool length, opening 71..150 mm (its model keeps the
+#: fingers within; the pads' joints span 0..150); 50 N a finger at force 100 is the emulator's estimate.
+BIO_HAND = Hand("xArm BIO Gripper", stroke=bio_gripper.OPEN_MM, pad_half=(12.0, 4.0, 20.0),
+                tip=BUILTIN_TOOLS[3][2], housing=(50.0, (40.0, 90.0, 50.0)), force=50.0)
+
 #: The hands by the emulator's gripper names (``Emulator(gripper=...)``).
-HANDS = {"xarm": XARM_HAND, "robotiq-2f85": ROBOTIQ_2F85_HAND, "robotiq-2f140": ROBOTIQ_2F140_HAND}
+HANDS = {"xarm": XARM_HAND, "robotiq-2f85": ROBOTIQ_2F85_HAND, "robotiq-2f140": ROBOTIQ_2F140_HAND,
+         "bio": BIO_HAND}
