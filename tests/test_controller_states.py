@@ -96,3 +96,20 @@ def test_not_ready_keeps_the_warning() -> None:
     assert status & STATE_NOT_READY
     assert emu.controller.warning_code == 11
     assert emu.controller.executor.cmdnum == 0
+
+
+def test_the_mode_changes_through_its_table() -> None:
+    """Register 19 selects the mode it names from any mode; playback (register 64) takes position
+    mode to 11 and back; an event the table lacks keeps the mode."""
+    ME = state_machine.ModeEvent
+    for mode in state_machine.MODE_NAMES:
+        assert state_machine.next_mode(mode, ME.SELECT, 1) == 1
+    assert state_machine.next_mode(0, ME.PLAYBACK_START) == state_machine.MODE_PLAYBACK == 11
+    assert state_machine.next_mode(11, ME.PLAYBACK_END) == 0
+    assert state_machine.next_mode(1, ME.PLAYBACK_START) == 1
+    assert state_machine.next_mode(2, ME.PLAYBACK_END) == 2
+    with pytest.raises(ValueError):
+        state_machine.next_mode(0, ME.SELECT)
+    emu = _ready()
+    emu.handle(19, bytes([1]))
+    assert emu.controller.mode == 1

@@ -14,7 +14,7 @@ import pytest
 from xarm_emu.controller.applications import force_control as fc
 from xarm_emu.controller.core.interface import PERIOD, WARN_PARAMETER
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.physics.contact import Plane, Scene
+from xarm_emu.controller.scene.contact import Plane, Scene
 from xarm_emu.protocol.firmware import profile_for
 from xarm_emu.protocol.frame import STATE_FAILED, STATE_WARNING
 from xarm_emu.protocol.registers import registers_for

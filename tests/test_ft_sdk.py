@@ -13,7 +13,7 @@ from helpers import sdk_ready, wait_for
 
 from xarm_emu.controller.devices import ft_sensor as ft
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.physics import contact
+from xarm_emu.controller.scene import contact
 from xarm_emu.model import kinematics as kin
 from xarm_emu.protocol.firmware import FirmwareProfile
 

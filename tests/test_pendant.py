@@ -122,7 +122,7 @@ def test_the_scene_draws_a_falling_object_where_the_world_has_it(make_server, tm
     """A cube let go 100 mm above the table: its node follows the physics world down to the table,
     turned as the world turns it, in the scene file's colour."""
     pytest.importorskip("mujoco")
-    from xarm_emu.controller.physics import contact
+    from xarm_emu.controller.scene import contact
 
     sc = contact.parse_scene({"plane": [{"point": [0, 0, 0], "normal": [0, 0, 1], "stiffness": 10.0}],
                               "object": [{"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1,

@@ -15,7 +15,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from xarm_emu.controller.emulator import Emulator  # noqa: E402
-from xarm_emu.controller.physics import contact  # noqa: E402
+from xarm_emu.controller.scene import contact  # noqa: E402
 from xarm_emu.protocol import rtu  # noqa: E402
 from xarm_emu.protocol.registers import REGISTERS  # noqa: E402
 

@@ -99,7 +99,7 @@ def test_served_pick_records_the_objects_poses(tmp_path: Path) -> None:
     pytest.importorskip("mujoco")
     from xarm.wrapper import XArmAPI
 
-    from xarm_emu.controller.physics import contact
+    from xarm_emu.controller.scene import contact
     from xarm_emu.testing import sdk_pointed_at
 
     path = tmp_path / "pick.rrd"

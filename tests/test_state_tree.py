@@ -225,7 +225,7 @@ def _outside(emu: Emulator) -> Iterator[tuple[str, object, str]]:
 def _moving_box(**kw: Any) -> Emulator:
     if "scene" in kw:
         pytest.importorskip("mujoco")
-        from xarm_emu.controller.physics import contact
+        from xarm_emu.controller.scene import contact
 
         kw = {**kw, "scene": contact.parse_scene(kw["scene"])}
     emu = Emulator(6, **kw)

@@ -109,7 +109,7 @@ def serve(
                                                                  "flange and tool.")] = False,
     scene: Annotated[Path | None, typer.Option(help="Contact scene: planes and boxes the TCP presses "
                                                     "into, a TOML file "
-                                                    "(controller/physics/contact.py).")] = None,
+                                                    "(controller/scene/contact.py).")] = None,
     gripper: Annotated[str | None, typer.Option(help="The gripper on the tool RS-485: xarm (the default), "
                                                      "robotiq-2f85, robotiq-2f140, bio, bio-g1 "
                                                      "(the first-generation BIO) or inspire-rh56 (the "
@@ -378,7 +378,7 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
     port opens. Returns them and the configuration directory they use."""
     from .controller.emulator import Emulator
-    from .controller.physics.contact import load_scene
+    from .controller.scene.contact import load_scene
     from .server.app import EmulatorServer
     from .server.faults import schedule_file
     from .server.fleet import load_fleet

@@ -20,8 +20,9 @@ Its rooms, by subject:
 - :mod:`.applications`: admittance and force control, velocity control, online planning,
   trajectories, reduced mode, load identification, and the modes of register 19 beyond the manual's.
 - :mod:`.motion`: trajectory generation, pure math.
-- :mod:`.physics`: the contact scene and the physics world of a scene with ``[[object]]`` tables.
+- :mod:`.scene`: the scene as its file declares it: contact planes and boxes, loose objects.
+- :mod:`.physics`: the physics world of a scene with ``[[object]]`` tables.
 """
 
 __all__ = ["applications", "box_state", "controller", "core", "devices", "emulator",
-           "firmware2_report", "handlers", "modbus_map", "motion", "physics"]
+           "firmware2_report", "handlers", "modbus_map", "motion", "physics", "scene"]

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import logging
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -29,11 +30,12 @@ from ..protocol import registers as regs
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..protocol.frame import STATE_ERROR, STATE_FAILED, STATE_NOT_READY, STATE_WARNING
 from ..protocol.layouts import LayoutError, all_within
-from . import motion
+from . import handlers, motion
 from .applications import force_control, reduced
 from .applications.modes import EVERY_STEP, EVERY_STEP_IDLE, MODE_STEPS, route
 from .core import safety
 from .core.commands import QueuedCommand
+from .core.controller_protocol import Component
 from .core.controller_state import ControllerState, StateField
 from .core.executor import Executor, Limits
 from .core.faults import Faults
@@ -48,7 +50,6 @@ from .core.interface import (
     CommandError,
     CommandFailed,
     CommandWarning,
-    Component,
     Handler,
     Hooks,
     NotReady,
@@ -152,8 +153,6 @@ class Controller:
 
     def register_handlers(self) -> dict[int, Handler]:
         """Handlers by register code: the tables of :mod:`.handlers`, bound to this controller."""
-        from . import handlers
-
         return handlers.bind(self)
 
     def adopt(self, data: ControllerState, settings: Settings) -> None:
@@ -239,6 +238,10 @@ class Controller:
         """Register codes with a handler, the controller's and its components'."""
         return frozenset(self._handlers)
 
+    def handler_of(self, code: int) -> Handler:
+        """The handler bound to register ``code`` (KeyError when none is)."""
+        return self._handlers[code]
+
     def version_string(self) -> str:
         """Register 1's version string of this control box."""
         return version_string(self.model, self.robot_sn, self.box_sn, self.firmware)
@@ -254,10 +257,6 @@ class Controller:
         """Answer register ``code`` although this firmware's table lacks it: an accessory that brings
         its own register (the F/T sensor's 150 on a box of the manual's firmware, which the SDK
         reads the sensor through below 1.8.3). The layout is the register table's."""
-        from types import MappingProxyType
-
-        from .handlers import TABLES
-
         if code in self.registers:
             return
         table = dict(self.registers)
@@ -266,7 +265,7 @@ class Controller:
         self._float_checked = regs.float_checked(self.registers)
         self._inf_unchanged = regs.inf_unchanged(self.registers)
         self._per_joint = regs.per_joint_fields(self.registers)
-        fn = next(t[code] for t in TABLES if code in t)
+        fn = next(t[code] for t in handlers.TABLES if code in t)
         self._handlers[code] = functools.partial(fn, self)
 
     # -- ControllerView ------------------------------------------------------------------------
@@ -418,7 +417,7 @@ class Controller:
                 state = d.motion_state
                 mode = d.mode
                 if mode == MODE_POSITION and state in _POSITION_STATES:
-                    if not force_control.period(self, dt):  # admittance or force control (202)
+                    if not force_control.period(self, dt, self._ft_control_wrench):  # register 202
                         self._step_position(dt)
                 elif mode == MODE_SERVO and d.servo_target is not None and state in _SERVO_STATES:
                     tracker = self._tracker()
@@ -496,6 +495,16 @@ class Controller:
             if not EVERY_STEP_IDLE.get(hook, _never_idle)(self):
                 return False
         return True
+
+    def ft_sensor_in_use(self) -> bool:
+        """Whether an application reads the F/T sensor every period: admittance or force control
+        (register 202) is set."""
+        return force_control.engaged(self)
+
+    def _ft_control_wrench(self) -> np.ndarray | None:
+        """What admittance and force control act on: the F/T sensor's control wrench, None while
+        the sensor is switched off."""
+        return ft_sensor.control_wrench(self) if ft_sensor.enabled(self) else None
 
     def _servo_holding(self) -> bool:
         """Servo mode: the arm holds its target exactly, so a period gives the same joints again."""
@@ -604,9 +613,6 @@ class Controller:
         self.executor.queue(cmd)
         fire(self, Event.QUEUED)
         return {"cmdnum": self.executor.cmdnum}
-
-    #: The name component handler modules use for :meth:`queue`.
-    _queue = queue
 
     # torques (the dynamic model, model/dynamics.py)
     def joint_torques(self) -> np.ndarray:

@@ -33,6 +33,7 @@ from .applications import identification, trajectory
 from .box_state import EmulatorState, ModbusUserState, Schedule
 from .controller import Controller, joint_torques, tcp_matrix
 from .core import safety
+from .core.config import ConfigStore
 from .core.controller_state import ControllerState
 from .core.faults import Faults
 from .core.feedback import FeedbackQueue, feedback_queue, find_feedback_queue
@@ -51,7 +52,7 @@ from .devices.robotiq import MODELS as ROBOTIQ_MODELS
 from .devices.robotiq import RobotiqGripper
 from .devices.vacuum import VacuumGripper
 from .firmware2_report import firmware2_fields
-from .physics import contact
+from .scene import contact
 
 #: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
 THERMAL_EVERY = 250
@@ -295,8 +296,6 @@ class Emulator:
 
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
-        from .core.config import ConfigStore
-
         self._store = ConfigStore(directory, self.controller.robot_sn)
         ctl = self.controller
         ctl.hooks.on_save = self._save_config
@@ -697,7 +696,7 @@ class Emulator:
             self.linear_track.clear_error()
         ft_sensor.state_of(ctl).error = 0
 
-    # -- the F/T sensor and the contact scene (devices/ft_sensor.py, physics/contact.py) ----
+    # -- the F/T sensor and the contact scene (devices/ft_sensor.py, scene/contact.py) ----
     def attach_ft_sensor(self, *, noise: bool = True) -> None:
         """Mount the six-axis F/T sensor between flange and tool (once)."""
         self.generation += 1

@@ -71,7 +71,7 @@ from typing import Any, Protocol, cast
 from ..controller.core.interface import CommandWarning
 from ..controller.devices.linear_track import TRACK_ERRORS
 from ..controller.emulator import Emulator
-from ..controller.physics import contact
+from ..controller.scene import contact
 from ..protocol import codes
 from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS, WRENCH_FRAMES, checkpoint_name
 from . import scene_admin

@@ -46,7 +46,7 @@ from typing import Any
 
 from ..controller.devices.linear_track import DEFAULT_LENGTH, MODELS
 from ..controller.emulator import GRIPPERS, Emulator, check_firmware
-from ..controller.physics import contact
+from ..controller.scene import contact
 from ..model.calibration import Calibration, load
 from ..model.robots import MODEL_NAMES, get_model, with_calibration
 from ..protocol.admin import admin_host, derive_admin_port
@@ -76,7 +76,7 @@ class ArmSpec:
     linear_track: int | None = None  # stroke in mm of the linear track (controller/devices/linear_track.py)
     gripper: str = "xarm"  # the gripper on the tool RS-485 (controller/emulator.py GRIPPERS)
     ft_sensor: bool = False  # the six-axis F/T sensor (controller/devices/ft_sensor.py), serve --ft-sensor
-    scene: contact.Scene | None = None  # the contact scene (controller/physics/contact.py), serve --scene
+    scene: contact.Scene | None = None  # the contact scene (controller/scene/contact.py), serve --scene
     calibration: Calibration | None = None  # measured constants (model/calibration.py), serve --calibration
 
     def emulator(self, config_dir: Path | None) -> Emulator:

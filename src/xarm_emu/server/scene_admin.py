@@ -10,7 +10,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..controller.emulator import Emulator
-from ..controller.physics import contact
+from ..controller.scene import contact
 
 COMMANDS = ("scene-objects", "scene-place", "scene-reset")
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..controller.devices import ft_sensor
 from ..controller.emulator import Emulator
-from ..controller.physics import contact
+from ..controller.scene import contact
 from ..server.core import EmulatorServer
 from . import scene
 from .pendant import Pendant, describe_state

@@ -232,7 +232,7 @@ def ft_sensor_parts(model: RobotModel, q: Sequence[float] | np.ndarray, height_m
 
 
 def contact_parts(shapes: Sequence[Any]) -> list[Part]:
-    """The contact scene (controller/physics/contact.py): each plane a thin square about its point, normal
+    """The contact scene (controller/scene/contact.py): each plane a thin square about its point, normal
     along the square's z; each box as it is. Shapes are read by their fields, base frame, mm."""
     parts: list[Part] = []
     for i, s in enumerate(shapes):

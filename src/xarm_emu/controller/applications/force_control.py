@@ -26,24 +26,25 @@ must; when nothing of it can be followed the arm stops there without an error, a
 velocity control does (controller/applications/velocity.py), and moves again once pushed another way. Queued
 motion commands run as usual while an application is on; the application starts again from
 wherever they leave the arm. The wrench is the sensor's reading of the period before
-(:func:`.ft_sensor.control_wrench`), turned from the sensor's axes into the tool's by the TCP
-offset's rotation (register 35).
+(``devices/ft_sensor.control_wrench``, handed in by the core each period), turned from the sensor's
+axes into the tool's by the TCP offset's rotation (register 35).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
+from ..core.controller_protocol import Controller
+from ..core.ft_config import ft_config
 from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
-from ..devices import ft_sensor as sensor
 from . import reduced
 
 APP_OFF = 0
@@ -219,16 +220,16 @@ class ForceControl:
         self.blocked = None
 
 
-def control_of(ctl: Any) -> ForceControl:
+def control_of(ctl: Controller) -> ForceControl:
     """The force-control state of ``ctl`` (created, off, on first use)."""
-    fc = ctl.data.force_control
+    fc = cast("ForceControl | None", ctl.data.force_control)
     if fc is None:
         fc = ForceControl()
         ctl.data.force_control = fc
     return fc
 
 
-def set_app(ctl: Any, app: int) -> None:
+def set_app(ctl: Controller, app: int) -> None:
     """Register 202 (checked by the handler): 1 or 2 ends the present motion like a mode change and
     waits for the state to be set to 0; 0 stops the application where the arm is."""
     fc = control_of(ctl)
@@ -263,30 +264,39 @@ def target_pose(anchor: np.ndarray, x: np.ndarray, frame: int) -> np.ndarray:
     return T
 
 
-def runs(ctl: Any) -> bool:
+def runs(ctl: Controller) -> bool:
     """Whether an application is set, the arm is in position mode and ready, and no queued command
     is running: then :func:`step` moves the arm this period."""
-    fc = ctl.data.force_control
+    fc = cast("ForceControl | None", ctl.data.force_control)
     return (fc is not None and fc.app != APP_OFF and ctl.mode == 0
             and ctl.motion_state in (STATE_SLEEP, STATE_MOVING) and not ctl.executor.active)
 
 
-def period(ctl: Any, dt: float) -> bool:
+def period(ctl: Controller, dt: float, sensor_wrench: Callable[[], np.ndarray | None]) -> bool:
     """The core's call each control period in position mode: run the application when it
-    :func:`runs` (True: this period's motion is done), else let queued commands run (False)."""
-    fc = ctl.data.force_control
+    :func:`runs` (True: this period's motion is done), else let queued commands run (False).
+    ``sensor_wrench`` answers the sensor's control wrench (sensor frame, torques about the TCP), or
+    None while the sensor is switched off."""
+    fc = cast("ForceControl | None", ctl.data.force_control)
     if fc is None or fc.app == APP_OFF:
         return False
     if not runs(ctl):
         fc.restart()  # stopped, suspended or running a queued command: start again afterwards
         return False
-    if not sensor.enabled(ctl):  # the sensor was switched off: the application ends
+    wrench = sensor_wrench()
+    if wrench is None:  # the sensor was switched off: the application ends
         fc.app = APP_OFF
         fc.restart()
         fire(ctl, Event.SERVO_AT_TARGET)
         return True
-    step(ctl, dt, sensor_to_tool(ctl.settings.tcp_offset, sensor.control_wrench(ctl)))
+    step(ctl, dt, sensor_to_tool(ctl.settings.tcp_offset, wrench))
     return True
+
+
+def engaged(ctl: Controller) -> bool:
+    """Whether admittance or force control is set (register 202): it acts on every period's reading."""
+    fc = cast("ForceControl | None", ctl.data.force_control)
+    return fc is not None and fc.app != APP_OFF
 
 
 def sensor_to_tool(tcp_offset: Sequence[float], wrench: Any) -> np.ndarray:
@@ -299,11 +309,9 @@ def sensor_to_tool(tcp_offset: Sequence[float], wrench: Any) -> np.ndarray:
     return np.concatenate([R.T @ w[:3], R.T @ w[3:]])
 
 
-def step(ctl: Any, dt: float, wrench_tool: np.ndarray) -> None:
+def step(ctl: Controller, dt: float, wrench_tool: np.ndarray) -> None:
     """One control period of the application under ``wrench_tool`` (the sensor's compensated wrench
     in the tool frame, N and N m); moves ``ctl.q``."""
-    from ..handlers.ft_sensor import ft_config
-
     fc = control_of(ctl)
     cfg = ft_config(ctl)
     T_now = ctl.tcp_matrix()
@@ -346,7 +354,7 @@ def step(ctl: Any, dt: float, wrench_tool: np.ndarray) -> None:
     fire(ctl, Event.SERVO_MOVING if moving else Event.SERVO_AT_TARGET)
 
 
-def _follow(ctl: Any, fc: ForceControl, x_prev: np.ndarray,
+def _follow(ctl: Controller, fc: ForceControl, x_prev: np.ndarray,
             x_new: np.ndarray) -> tuple[np.ndarray, float] | None:
     """Joints that put the TCP at displacement ``x_new``, or part of the way (the fraction returned)
     when the whole step would leave the joint limits or the workspace or exceed the joint speed

@@ -8,6 +8,7 @@ import functools
 from collections.abc import Callable
 from typing import Any
 
+from ..core.controller_protocol import Controller
 from ..core.interface import Handler, Values
 from . import online, reduced, trajectory, velocity
 
@@ -38,7 +39,7 @@ MODE_ROUTES: dict[tuple[int, int], Callable[[Any, Values], dict[str, Any] | None
 }
 
 
-def extra_modes(ctl: Any) -> tuple[int, ...]:
+def extra_modes(ctl: Controller) -> tuple[int, ...]:
     """Modes 4-7 that ``ctl``'s firmware answers: 4/5 where its table has registers 81/82, 6/7 from
     firmware 2.0.0."""
     out = tuple(m for m, code in velocity.MODE_REGISTERS.items() if code in ctl.registers)
@@ -47,7 +48,7 @@ def extra_modes(ctl: Any) -> tuple[int, ...]:
     return out
 
 
-def route(ctl: Any, code: int) -> Handler | None:
+def route(ctl: Controller, code: int) -> Handler | None:
     """The handler of register ``code`` in ``ctl``'s present mode, when the mode changes it."""
     fn = MODE_ROUTES.get((ctl.mode, code))
     if fn is None:
@@ -55,7 +56,7 @@ def route(ctl: Any, code: int) -> Handler | None:
     return functools.partial(fn, ctl)
 
 
-def create_state(ctl: Any) -> None:
+def create_state(ctl: Controller) -> None:
     """Create the state behind modes 4-7 and 11, trajectories and reduced mode at construction, in
     their declared fields of ``ctl.data`` (the :class:`~.state.ControllerState`), so that a
     checkpoint (a copy of that state) always holds it."""

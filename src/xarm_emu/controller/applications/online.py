@@ -17,13 +17,14 @@ The modes are answered from firmware 2.0.0 (the SDK documents them for the 2.x c
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
 from .. import motion
+from ..core.controller_protocol import Controller
 from ..core.interface import C_JOINT_LIMIT, C_KINEMATIC, CommandError, NotReady, ParameterError, Values
 from ..core.poses import wire_pose_to_matrix
 from ..core.settings import in_range
@@ -56,19 +57,19 @@ class OnlinePlanner:
     replans: int = 0
 
 
-def planner_of(ctl: Any) -> OnlinePlanner:
-    p = ctl.data.online_planner
+def planner_of(ctl: Controller) -> OnlinePlanner:
+    p = cast("OnlinePlanner | None", ctl.data.online_planner)
     if p is None:
         p = OnlinePlanner()
         ctl.data.online_planner = p
     return p
 
 
-def available(ctl: Any) -> bool:
+def available(ctl: Controller) -> bool:
     return bool(ctl.firmware.version.at_least(SINCE))
 
 
-def _require(ctl: Any, mode: int) -> None:
+def _require(ctl: Controller, mode: int) -> None:
     if ctl.error_code or not ctl.ready or ctl.mode != mode:
         raise NotReady()
 
@@ -88,10 +89,10 @@ def _unchanged(values: Any, current: np.ndarray) -> np.ndarray:
     return out
 
 
-def joint_target(ctl: Any, v: Values) -> dict[str, Any]:
+def joint_target(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 23 (or 24) in mode 6: the joints head for this target from now on."""
     if "joints" not in v:  # register 24's one-byte form (torque or current in the reports)
-        return ctl._handlers[24](v)  # type: ignore[no-any-return]
+        return ctl.handler_of(24)(v)  # type: ignore[return-value]
     m = ctl.model
     speed, acc = _speed(v, m.max_joint_speed, m.max_joint_acc)
     _require(ctl, MODE_JOINT_ONLINE)
@@ -106,7 +107,7 @@ def joint_target(ctl: Any, v: Values) -> dict[str, Any]:
     return {"cmdnum": 0}
 
 
-def cartesian_target(ctl: Any, v: Values) -> dict[str, Any]:
+def cartesian_target(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 21 in mode 7: the TCP heads for this pose (base frame) from now on."""
     m = ctl.model
     speed, acc = _speed(v, m.max_tcp_speed, m.max_tcp_acc)
@@ -137,7 +138,7 @@ def _pose(c: np.ndarray, r_ref: np.ndarray) -> np.ndarray:
     return T
 
 
-def _replan(ctl: Any, p: OnlinePlanner) -> None:
+def _replan(ctl: Controller, p: OnlinePlanner) -> None:
     assert p.pending is not None
     target, speed, acc = p.pending
     p.pending = None
@@ -168,7 +169,7 @@ def _replan(ctl: Any, p: OnlinePlanner) -> None:
     p.replans += 1
 
 
-def step(ctl: Any, dt: float) -> None:
+def step(ctl: Controller, dt: float) -> None:
     """One control period of mode 6 or 7."""
     p = planner_of(ctl)
     fresh = p.last_step != ctl.steps - 1 or p.mode != ctl.mode

@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
+from ..core.controller_protocol import Controller
 from ..core.interface import C_JOINT_LIMIT, CommandError
 
 
@@ -34,9 +35,9 @@ class ReducedMode:
     rebound: bool = False
 
 
-def reduced_of(ctl: Any) -> ReducedMode:
+def reduced_of(ctl: Controller) -> ReducedMode:
     """The reduced-mode settings of ``ctl`` (the model's maxima and limits until set)."""
-    r = ctl.data.reduced
+    r = cast("ReducedMode | None", ctl.data.reduced)
     if r is None:
         m = ctl.model
         r = ReducedMode(tcp_speed=float(m.max_tcp_speed), joint_speed=float(m.max_joint_speed),
@@ -45,10 +46,10 @@ def reduced_of(ctl: Any) -> ReducedMode:
     return r
 
 
-def speed_caps(ctl: Any) -> tuple[float, float]:
+def speed_caps(ctl: Controller) -> tuple[float, float]:
     """(TCP mm/s, joint rad/s) speed caps of queued moves: the reduced maxima while reduced mode
     is on, else infinite."""
-    r = ctl.data.reduced
+    r = cast("ReducedMode | None", ctl.data.reduced)
     if r is None or not r.on:
         return _NO_CAPS
     return r.tcp_speed, r.joint_speed
@@ -57,19 +58,19 @@ def speed_caps(ctl: Any) -> tuple[float, float]:
 _NO_CAPS = (math.inf, math.inf)
 
 
-def joint_range(ctl: Any) -> tuple[np.ndarray, np.ndarray]:
+def joint_range(ctl: Controller) -> tuple[np.ndarray, np.ndarray]:
     """Joint limits (rad), narrowed to the reduced ranges while reduced mode is on."""
     lo, hi = ctl.model.lower.copy(), ctl.model.upper.copy()
-    r = ctl.data.reduced
+    r = cast("ReducedMode | None", ctl.data.reduced)
     if r is not None and r.on:
         rng = np.asarray(r.joint_ranges[: 2 * ctl.dof], dtype=float).reshape(-1, 2)
         lo, hi = np.maximum(lo, rng[:, 0]), np.minimum(hi, rng[:, 1])
     return lo, hi
 
 
-def check_step(ctl: Any, q_prev: np.ndarray) -> None:
+def check_step(ctl: Controller, q_prev: np.ndarray) -> None:
     """Each control period that moved the arm: stop with C23 where a joint leaves its reduced range."""
-    r = ctl.data.reduced
+    r = cast("ReducedMode | None", ctl.data.reduced)
     if r is None or not r.on:
         return
     lo, hi = joint_range(ctl)
@@ -86,9 +87,9 @@ def check_step(ctl: Any, q_prev: np.ndarray) -> None:
 CONFIG_KEY = "reduced"
 
 
-def config_of(ctl: Any) -> dict[str, Any] | None:
+def config_of(ctl: Controller) -> dict[str, Any] | None:
     """What register 40 saves of reduced mode; None while every setting has its default."""
-    r = ctl.data.reduced
+    r = cast("ReducedMode | None", ctl.data.reduced)
     if r is None:
         return None
     m = ctl.model
@@ -100,7 +101,7 @@ def config_of(ctl: Any) -> dict[str, Any] | None:
             "joint_ranges": list(r.joint_ranges), "rebound": r.rebound}
 
 
-def reduced_of_default(ctl: Any) -> list[float]:
+def reduced_of_default(ctl: Controller) -> list[float]:
     """The model's joint limits as reduced ranges (J1 min, J1 max, ... padded to 7 joints)."""
     ranges: list[float] = []
     for lo, hi in zip(ctl.model.lower, ctl.model.upper, strict=True):
@@ -108,7 +109,7 @@ def reduced_of_default(ctl: Any) -> list[float]:
     return ranges + [0.0] * (14 - len(ranges))
 
 
-def load_config(ctl: Any, data: Any) -> None:
+def load_config(ctl: Controller, data: Any) -> None:
     """Apply saved reduced-mode settings; anything of the wrong shape or out of range keeps the
     defaults."""
     ctl.data.reduced = None

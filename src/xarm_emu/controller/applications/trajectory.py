@@ -32,15 +32,14 @@ import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from ...model import kinematics as kin
 from .. import motion
-from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
-
-MODE_PLAYBACK = 11
+from ..core.controller_protocol import Controller
+from ..core.state_machine import MODE_PLAYBACK, STATE_MOVING, STATE_SLEEP, Event, ModeEvent, fire, fire_mode
 
 #: Longest recording (s of controller time); recording stops by itself after it.
 MAX_RECORD_SECONDS = 300.0
@@ -83,7 +82,7 @@ class Playback:
     origin: Any = None
 
 
-def _feedback_queue(ctl: Any) -> Any:
+def _feedback_queue(ctl: Controller) -> Any:
     """The controller's feedback queue component, if it has one."""
     for c in ctl.components:
         if all(hasattr(c, name) for name in ("capture", "start_other", "finish_other")):
@@ -91,7 +90,7 @@ def _feedback_queue(ctl: Any) -> Any:
     return None
 
 
-def _started(ctl: Any, register: int) -> Any:
+def _started(ctl: Controller, register: int) -> Any:
     """OTHER_START of a trajectory task just accepted; returns its origin for the finish."""
     fq = _feedback_queue(ctl)
     if fq is None:
@@ -101,7 +100,7 @@ def _started(ctl: Any, register: int) -> Any:
     return origin
 
 
-def _finished(ctl: Any, origin: Any, register: int, code: int) -> None:
+def _finished(ctl: Controller, origin: Any, register: int, code: int) -> None:
     fq = _feedback_queue(ctl)
     if fq is not None:
         fq.finish_other(origin, register, ctl.time, ok=code == 0)
@@ -172,16 +171,16 @@ class TrajectoryStore:
             self.on_finish(register, code)
 
 
-def store_of(ctl: Any) -> TrajectoryStore:
+def store_of(ctl: Controller) -> TrajectoryStore:
     """The trajectory store of ``ctl`` (in memory until :func:`attach` gives it a directory)."""
-    st = ctl.data.trajectory_store
+    st = cast("TrajectoryStore | None", ctl.data.trajectory_store)
     if st is None:
         st = TrajectoryStore(record_period=ctl.period)
         ctl.data.trajectory_store = st
     return st
 
 
-def attach(ctl: Any, config_dir: Path | None) -> TrajectoryStore:
+def attach(ctl: Controller, config_dir: Path | None) -> TrajectoryStore:
     """Keep ``ctl``'s trajectory files in ``config_dir/trajectories``."""
     st = store_of(ctl)
     st.directory = None if config_dir is None else Path(config_dir) / "trajectories"
@@ -189,7 +188,7 @@ def attach(ctl: Any, config_dir: Path | None) -> TrajectoryStore:
 
 
 # -- recording (register 61) --------------------------------------------------------------------
-def set_recording(ctl: Any, on: bool) -> None:
+def set_recording(ctl: Controller, on: bool) -> None:
     st = store_of(ctl)
     if on:
         st.recorded = [ctl.q.copy()]
@@ -197,10 +196,10 @@ def set_recording(ctl: Any, on: bool) -> None:
     st.recording = on
 
 
-def record_step(ctl: Any, dt: float) -> None:
+def record_step(ctl: Controller, dt: float) -> None:
     """Every control period: keep the joints while recording; a playback whose mode 11 was left
     (register 19) ends unfinished."""
-    st = ctl.data.trajectory_store
+    st = cast("TrajectoryStore | None", ctl.data.trajectory_store)
     if st is None:
         return
     if st.playback is not None and ctl.mode != MODE_PLAYBACK:
@@ -213,13 +212,13 @@ def record_step(ctl: Any, dt: float) -> None:
         st.recording = False
 
 
-def record_idle(ctl: Any) -> bool:
+def record_idle(ctl: Controller) -> bool:
     """:func:`record_step` would change nothing now: no recording, no playback left unfinished."""
-    st = ctl.data.trajectory_store
+    st = cast("TrajectoryStore | None", ctl.data.trajectory_store)
     return st is None or (not st.recording and (st.playback is None or ctl.mode == MODE_PLAYBACK))
 
 
-def save(ctl: Any, name: str) -> int:
+def save(ctl: Controller, name: str) -> int:
     """Register 62: save the recording; returns register 65's status."""
     st = store_of(ctl)
     origin = _started(ctl, 62)
@@ -236,7 +235,7 @@ def save(ctl: Any, name: str) -> int:
     return st.status
 
 
-def load(ctl: Any, name: str) -> int:
+def load(ctl: Controller, name: str) -> int:
     """Register 63: load a saved trajectory; returns register 65's status."""
     st = store_of(ctl)
     origin = _started(ctl, 63)
@@ -252,7 +251,7 @@ def load(ctl: Any, name: str) -> int:
 
 
 # -- playback (register 64, mode 11) -----------------------------------------------------------
-def start_playback(ctl: Any, times: int, factor: int) -> None:
+def start_playback(ctl: Controller, times: int, factor: int) -> None:
     """Start playing the loaded trajectory (checked by the caller)."""
     st = store_of(ctl)
     assert st.loaded is not None
@@ -265,24 +264,24 @@ def start_playback(ctl: Any, times: int, factor: int) -> None:
         lead_in = motion.plan_joint_move(ctl.q, samples[0], LEAD_IN_SPEED, min(LEAD_IN_ACC, s.joint_maxacc),
                                          s.joint_jerk)
     st.playback = Playback(samples, factor, times, lead_in, origin=_started(ctl, 64))
-    ctl.mode = MODE_PLAYBACK
+    fire_mode(ctl, ModeEvent.PLAYBACK_START)
     fire(ctl, Event.SERVO_MOVING)
 
 
-def _end_playback(ctl: Any, st: TrajectoryStore, code: int) -> None:
+def _end_playback(ctl: Controller, st: TrajectoryStore, code: int) -> None:
     if st.playback is not None:
         _finished(ctl, st.playback.origin, 64, code)
     st.playback = None
-    ctl.mode = 0
+    fire_mode(ctl, ModeEvent.PLAYBACK_END)
     st.finish(64, code)
 
 
-def playback_step(ctl: Any, dt: float) -> None:
+def playback_step(ctl: Controller, dt: float) -> None:
     """One control period of mode 11."""
     st = store_of(ctl)
     pb = st.playback
     if pb is None:
-        ctl.mode = 0
+        fire_mode(ctl, ModeEvent.PLAYBACK_END)
         return
     if ctl.motion_state not in (STATE_SLEEP, STATE_MOVING):
         _end_playback(ctl, st, 1)  # stopped (state 4) or reset: playback ends unfinished
@@ -321,7 +320,7 @@ def playback_step(ctl: Any, dt: float) -> None:
     fire(ctl, Event.SERVO_MOVING)
 
 
-def peak_speed(ctl: Any, factor: int) -> tuple[int, float]:
+def peak_speed(ctl: Controller, factor: int) -> tuple[int, float]:
     """Register 230: (joint 1-based, peak speed rad/s) of the loaded trajectory at ``factor``."""
     st = store_of(ctl)
     if st.loaded is None or len(st.loaded) < 2:

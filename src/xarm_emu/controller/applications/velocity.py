@@ -17,13 +17,14 @@ the joint limits or the workspace (no inverse kinematics solution) stops the arm
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import cast
 
 import numpy as np
 from ruckig import ControlInterface, InputParameter, Result, Ruckig, Synchronization, Trajectory
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
+from ..core.controller_protocol import Controller
 from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
 from . import reduced
 
@@ -57,9 +58,9 @@ class VelocityControl:
         self.until = None
 
 
-def control_of(ctl: Any) -> VelocityControl:
+def control_of(ctl: Controller) -> VelocityControl:
     """The velocity control state of ``ctl`` (created at rest on first use)."""
-    vc = ctl.data.velocity_control
+    vc = cast("VelocityControl | None", ctl.data.velocity_control)
     if vc is None:
         vc = VelocityControl()
         ctl.data.velocity_control = vc
@@ -79,7 +80,7 @@ def _reset(vc: VelocityControl, mode: int, dof: int) -> None:
     vc.until = None
 
 
-def command(ctl: Any, mode: int, target: np.ndarray, *, sync: bool = True, tool_frame: bool = False,
+def command(ctl: Controller, mode: int, target: np.ndarray, *, sync: bool = True, tool_frame: bool = False,
             duration: float | None = None) -> None:
     """Registers 81/82: command a velocity (already in rad/s or mm/s; checked by the caller)."""
     vc = control_of(ctl)
@@ -92,7 +93,7 @@ def command(ctl: Any, mode: int, target: np.ndarray, *, sync: bool = True, tool_
     vc.until = ctl.time + duration if duration is not None and duration > 0.0 else None
 
 
-def _limits(ctl: Any, mode: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _limits(ctl: Controller, mode: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(speed, acceleration, jerk) limits per component of the controlled velocity."""
     s = ctl.settings
     m = ctl.model
@@ -108,7 +109,7 @@ def _limits(ctl: Any, mode: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             np.array([s.tcp_jerk] * 3 + [s.joint_jerk] * 3))
 
 
-def reduced_limits(ctl: Any) -> tuple[float, float] | None:
+def reduced_limits(ctl: Controller) -> tuple[float, float] | None:
     """(TCP speed mm/s, joint speed rad/s) maxima while reduced mode is on, else None."""
     tcp, joint = reduced.speed_caps(ctl)
     return None if tcp == float("inf") else (tcp, joint)
@@ -148,7 +149,7 @@ def _ramp(vc: VelocityControl, target: np.ndarray, vmax: np.ndarray, amax: np.nd
     return np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
-def step(ctl: Any, dt: float) -> None:
+def step(ctl: Controller, dt: float) -> None:
     """One control period of mode 4 or 5 (called by the core while the mode is active)."""
     vc = control_of(ctl)
     mode = ctl.mode
@@ -182,11 +183,11 @@ def step(ctl: Any, dt: float) -> None:
     fire(ctl, Event.SERVO_MOVING if moving else Event.SERVO_AT_TARGET)
 
 
-def _joint_range(ctl: Any) -> tuple[np.ndarray, np.ndarray]:
+def _joint_range(ctl: Controller) -> tuple[np.ndarray, np.ndarray]:
     return reduced.joint_range(ctl)
 
 
-def _joint_limit_brake(ctl: Any, v: np.ndarray, amax: np.ndarray) -> np.ndarray:
+def _joint_limit_brake(ctl: Controller, v: np.ndarray, amax: np.ndarray) -> np.ndarray:
     """Slow each joint so that it can stop on its limit at the maximum acceleration."""
     lo, hi = _joint_range(ctl)
     room = np.where(v > 0.0, hi - ctl.q, ctl.q - lo)
@@ -194,7 +195,7 @@ def _joint_limit_brake(ctl: Any, v: np.ndarray, amax: np.ndarray) -> np.ndarray:
     return np.sign(v) * np.minimum(np.abs(v), allowed)
 
 
-def _cartesian_step(ctl: Any, vc: VelocityControl, v: np.ndarray, dt: float) -> np.ndarray | None:
+def _cartesian_step(ctl: Controller, vc: VelocityControl, v: np.ndarray, dt: float) -> np.ndarray | None:
     """Joints after moving the TCP by the twist ``v`` (tool or base frame) for ``dt``; None when that
     pose cannot be reached within the joint limits."""
     if not np.any(v) and not np.any(vc.velocity):

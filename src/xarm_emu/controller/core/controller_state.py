@@ -24,18 +24,13 @@ from .faults import Faults
 from .state_machine import MODE_POSITION, STATE_STOP
 
 if TYPE_CHECKING:
-    from ..applications.force_control import ForceControl
-    from ..applications.identification import Identification
-    from ..applications.online import OnlinePlanner
-    from ..applications.reduced import ReducedMode
-    from ..applications.trajectory import TrajectoryStore
-    from ..applications.velocity import VelocityControl
-    from ..devices.ft_sensor import FtSensorState
-    from ..handlers.ft_sensor import FtConfig
-    from ..handlers.service import ExtraState
     from ..motion import ServoTracker
-    from ..physics.contact import Scene
     from .commands import QueuedCommand
+
+#: The type of a part's own slot in :class:`ControllerState` (an application's, a device's, the F/T
+#: configuration's): the part declares the type and reads the slot through its accessor, which
+#: creates it on first use, so the core imports none of them. ``None`` until then.
+Slot = object
 
 T = TypeVar("T")
 C = TypeVar("C", bound=type)
@@ -106,25 +101,25 @@ class ControllerState:
     check_q: np.ndarray | None = None
     motion: PlanState = field(default_factory=PlanState)
     #: The F/T sensor (controller/devices/ft_sensor.py: mounted, switched on, wrenches, readings).
-    ft_sensor: FtSensorState | None = None
-    #: The contact scene (controller/physics/contact.py), fixed in the base frame.
-    contact_scene: Scene | None = None
+    ft_sensor: Slot = None  # FtSensorState
+    #: The contact scene (controller/scene/contact.py), fixed in the base frame.
+    contact_scene: Slot = None  # Scene
     #: The F/T configuration registers 201-208 (controller/handlers/ft_sensor.py).
-    ft_config: FtConfig | None = None
+    ft_config: Slot = None  # FtConfig
     #: Force control and impedance control (register 202, controller/applications/force_control.py).
-    force_control: ForceControl | None = None
+    force_control: Slot = None  # ForceControl
     #: Reduced mode and its limits (registers 47-52, controller/applications/reduced.py).
-    reduced: ReducedMode | None = None
+    reduced: Slot = None  # ReducedMode
     #: Velocity control (modes 4 and 5, controller/applications/velocity.py).
-    velocity_control: VelocityControl | None = None
+    velocity_control: Slot = None  # VelocityControl
     #: The online planner (modes 7 and 11, controller/applications/online.py).
-    online_planner: OnlinePlanner | None = None
+    online_planner: Slot = None  # OnlinePlanner
     #: Trajectory recording and playback (registers 61-66, controller/applications/trajectory.py).
-    trajectory_store: TrajectoryStore | None = None
+    trajectory_store: Slot = None  # TrajectoryStore
     #: The less common registers' values (controller/handlers/service.py).
-    extra_state: ExtraState | None = None
+    extra_state: Slot = None  # ExtraState
     #: The load identification of register 204 under way or last run (:mod:`.identification`).
-    identification: Identification | None = None
+    identification: Slot = None  # Identification
 
     @classmethod
     def initial(cls, dof: int) -> ControllerState:

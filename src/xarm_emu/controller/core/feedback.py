@@ -34,8 +34,9 @@ from ...protocol.feedback import Feedback, FeedbackCode, FeedbackType
 from ...protocol.frame import PROTOCOL_PRIVATE_V3, STATE_FAILED, STATE_NOT_READY
 from ...protocol.registers import Flag
 from .commands import CircleMove, Dwell, JointMove, LineMove
+from .controller_protocol import Controller
 from .controller_state import holds
-from .interface import NOT_IDLE, ControllerView, Handler
+from .interface import NOT_IDLE, Handler
 
 #: Queued task classes that move the arm (MOTION_START/MOTION_FINISH); any other queued task is a
 #: non-motion task (TRIGGER).
@@ -142,12 +143,12 @@ class FeedbackQueue:
     def handlers(self) -> dict[int, Handler]:
         return {}  # registers 253/254 live in controller/handlers/feedback.py
 
-    def step(self, dt: float, ctl: ControllerView) -> None:
+    def step(self, dt: float, ctl: Controller) -> None:
         """After each control period: report tasks that started or finished."""
         if self._tasks or self._checks:
             self._observe(ctl)
 
-    def idle_until(self, ctl: Any) -> float:
+    def idle_until(self, ctl: Controller) -> float:
         """Idle (:func:`~.base.idle_until`) while no watched task can have started or finished: the
         buffer, the running command and its chain are as the last look saw them."""
         if self._tasks or self._checks:
@@ -157,7 +158,7 @@ class FeedbackQueue:
         return math.inf
 
     # -- requests -------------------------------------------------------------------------------
-    def begin(self, ctl: Any, client: int, tid: int, protocol: int, register: int) -> None:
+    def begin(self, ctl: Controller, client: int, tid: int, protocol: int, register: int) -> None:
         """A request from ``client`` is about to be handled."""
         self._origin = (client, tid, protocol)
         self._register = register
@@ -165,7 +166,7 @@ class FeedbackQueue:
         buf = ctl.executor.buffer
         self._last_before = buf[-1] if buf else None
 
-    def end(self, ctl: Any, status: int = 0) -> None:
+    def end(self, ctl: Controller, status: int = 0) -> None:
         """The request of :meth:`begin` was handled (reply state byte ``status``): tag the tasks it
         queued, and trigger the immediate tasks the SDK waits for."""
         if self._origin is None:
@@ -192,7 +193,7 @@ class FeedbackQueue:
             self.emit(origin, FeedbackType.MOTION_FINISH, self._register, ctl.time,
                       code=FeedbackCode.DISCARDED, state=status)
 
-    def _refused_task(self, ctl: Any, status: int) -> bool:
+    def _refused_task(self, ctl: Controller, status: int) -> bool:
         """Whether the request just handled would have queued a task but was refused (a new error
         or warning, or the reply's not-ready or failed bit)."""
         reg = ctl.registers.get(self._register)
@@ -200,7 +201,7 @@ class FeedbackQueue:
             return False
         return bool(status & (STATE_NOT_READY | STATE_FAILED)) or not self._accepted(ctl)
 
-    def _accepted(self, ctl: Any) -> bool:
+    def _accepted(self, ctl: Controller) -> bool:
         """Whether the request just handled was accepted: it raised no new error or warning (a
         warning already set before it stays in the reply's state byte)."""
         error, warning = self._codes_before
@@ -221,7 +222,7 @@ class FeedbackQueue:
         self.masks[self._origin[0]] = mask & 0xFF
         return True
 
-    def check(self, ctl: Any) -> None:
+    def check(self, ctl: Controller) -> None:
         """Register 253: a MOTION_FINISH frame once every earlier task has finished."""
         origin = self.capture()
         if origin is None or not origin.wants(FeedbackType.MOTION_FINISH):
@@ -283,7 +284,7 @@ class FeedbackQueue:
         return len(self._events)
 
     # -- watching the buffer --------------------------------------------------------------------
-    def _observe(self, ctl: Any) -> None:
+    def _observe(self, ctl: Controller) -> None:
         ex = ctl.executor
         current = ex.current
         seen = (len(ex.buffer), id(current), ex.data.merged)
@@ -331,7 +332,7 @@ class FeedbackQueue:
             self._checks = left
 
 
-def feedback_queue(ctl: Any) -> FeedbackQueue:
+def feedback_queue(ctl: Controller) -> FeedbackQueue:
     """The feedback queue of controller ``ctl``, attached as a component on first use."""
     for c in ctl.components:
         if isinstance(c, FeedbackQueue):
@@ -341,7 +342,7 @@ def feedback_queue(ctl: Any) -> FeedbackQueue:
     return fq
 
 
-def find_feedback_queue(ctl: Any) -> FeedbackQueue | None:
+def find_feedback_queue(ctl: Controller) -> FeedbackQueue | None:
     """The feedback queue of ``ctl`` if one is attached (no side effect)."""
     for c in ctl.components:
         if isinstance(c, FeedbackQueue):

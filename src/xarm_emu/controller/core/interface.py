@@ -126,14 +126,6 @@ class ControllerView(Protocol):
     def raise_error(self, code: int) -> None: ...  # a component raises a control box error
 
 
-class Component(Protocol):
-    """A controller part with its own registers and its own state."""
-
-    def handlers(self) -> dict[int, Handler]: ...
-
-    def step(self, dt: float, ctl: ControllerView) -> None: ...
-
-
 #: What :func:`idle_until` answers for a component that cannot tell: never idle.
 NOT_IDLE = -math.inf
 

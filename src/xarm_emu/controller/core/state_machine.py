@@ -1,7 +1,9 @@
-"""The motion state machine (register 13, manual section 2.1.3; errors chapter 3).
+"""The motion state machine (register 13, manual section 2.1.3; errors chapter 3) and the mode
+(register 19).
 
-Everything that changes the motion state lives here: the states and modes, the events that move
-between them, the transition table and :func:`fire`, the one function that writes the state.
+Everything that changes the motion state or the mode lives here: the states and modes, the events
+that move between them, the transition tables and :func:`fire` and :func:`fire_mode`, the only
+functions that write the state and the mode.
 
 States (register 13): 1 in motion, 2 sleep (idle and ready), 3 suspend, 4 stop, 5 system reset.
 Modes (register 19): 0 position, 1 servo, 2 joint teaching, 3 Cartesian teaching (not available).
@@ -26,6 +28,8 @@ MODE_POSITION = 0
 MODE_SERVO = 1
 MODE_JOINT_TEACH = 2
 MODE_CARTESIAN_TEACH = 3
+#: Trajectory playback (register 64, firmware 2.x): the mode the box shows while it plays.
+MODE_PLAYBACK = 11
 
 #: The manual's names of the states (register 13) and modes (register 19), for logs and displays;
 #: modes 4-7 and 11 belong to firmware 2.x.
@@ -82,10 +86,54 @@ TRANSITIONS: dict[tuple[int, Event], int] = {
 }
 
 
+class ModeEvent(Enum):
+    """What can change the mode (register 19)."""
+
+    SELECT = auto()  # register 19: the mode the command names (its handler checked the firmware has it)
+    PLAYBACK_START = auto()  # register 64: trajectory playback runs in mode 11
+    PLAYBACK_END = auto()  # the playback finished or ended unfinished: position mode again
+
+
+#: In :data:`MODE_TRANSITIONS`: the mode the event names (register 19's request).
+REQUESTED = -1
+
+#: ``MODE_TRANSITIONS[(mode, event)]`` is the mode the event leads to (:data:`REQUESTED`: the one it
+#: names); absent pairs keep the mode. Register 19 selects from any mode, modes 4-7 and 11 included.
+MODE_TRANSITIONS: dict[tuple[int, ModeEvent], int] = {
+    **{(m, ModeEvent.SELECT): REQUESTED for m in MODE_NAMES},
+    (MODE_POSITION, ModeEvent.PLAYBACK_START): MODE_PLAYBACK,
+    (MODE_PLAYBACK, ModeEvent.PLAYBACK_END): MODE_POSITION,
+}
+
+
 class HasState(Protocol):
     """What holds a motion state (the controller)."""
 
     motion_state: int
+
+
+class HasMode(Protocol):
+    """What holds a mode (the controller)."""
+
+    mode: int
+
+
+def next_mode(mode: int, event: ModeEvent, requested: int | None = None) -> int:
+    """The mode ``event`` leads to from ``mode`` (the same mode when the table has no entry);
+    ``requested``: the mode a :attr:`ModeEvent.SELECT` names."""
+    new = MODE_TRANSITIONS.get((mode, event), mode)
+    if new == REQUESTED:
+        if requested is None:
+            raise ValueError(f"{event.name} names no mode")
+        return requested
+    return new
+
+
+def fire_mode(holder: HasMode, event: ModeEvent, requested: int | None = None) -> int:
+    """Apply ``event`` to ``holder``'s mode (register 19); returns the new mode."""
+    new = next_mode(holder.mode, event, requested)
+    holder.mode = new
+    return new
 
 
 def next_state(state: int, event: Event) -> int:

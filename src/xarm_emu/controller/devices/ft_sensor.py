@@ -50,7 +50,10 @@ import numpy as np
 
 from ...model import dynamics as dyn
 from ...model import kinematics as kin
+from ..core.controller_protocol import Controller
+from ..core.ft_config import ft_config
 from ..core.interface import NOT_IDLE
+from ..scene import contact
 
 #: Sensor thickness, flange to tool face (mm): the offset the SDK adds to an identified centroid.
 SENSOR_HEIGHT = 32.0
@@ -131,7 +134,7 @@ class FtSensorState:
     com_history: list[np.ndarray] = field(default_factory=list)
 
 
-def state_of(ctl: Any) -> FtSensorState:
+def state_of(ctl: Controller) -> FtSensorState:
     """The sensor state of ``ctl`` (in its :class:`~.state.ControllerState`), created on first use."""
     st = ctl.data.ft_sensor
     if not isinstance(st, FtSensorState):
@@ -140,18 +143,18 @@ def state_of(ctl: Any) -> FtSensorState:
     return st
 
 
-def attach(ctl: Any, *, noise: bool = True) -> None:
+def attach(ctl: Controller, *, noise: bool = True) -> None:
     """Mount the sensor (``Emulator(ft_sensor=True)``); it starts switched off, as after power-on."""
     st = state_of(ctl)
     st.attached, st.noise = True, bool(noise)
 
 
-def attached(ctl: Any) -> bool:
+def attached(ctl: Controller) -> bool:
     """A sensor is mounted between flange and tool."""
     return state_of(ctl).attached
 
 
-def enabled(ctl: Any) -> bool:
+def enabled(ctl: Controller) -> bool:
     """The sensor is mounted and register 201 switched it on. A box of a firmware without register
     201 (below 1.8.3, where the SDK reads the sensor through register 150 alone) has no switch:
     a mounted sensor always reads there."""
@@ -159,7 +162,7 @@ def enabled(ctl: Any) -> bool:
     return st.attached and (st.enabled or 201 not in ctl.registers)
 
 
-def set_noise(ctl: Any, on: bool) -> None:
+def set_noise(ctl: Controller, on: bool) -> None:
     """Switch the sensor's noise and drift on or off (off: deterministic readings)."""
     st = state_of(ctl)
     if on and not st.noise:
@@ -167,13 +170,13 @@ def set_noise(ctl: Any, on: bool) -> None:
     st.noise = bool(on)
 
 
-def error_register(ctl: Any) -> int:
+def error_register(ctl: Controller) -> int:
     """What servo register 0x0010 of axis 8 holds: the sensor's error, or 27 when there is none."""
     err = state_of(ctl).error
     return err if err else NO_SENSOR_ERROR
 
 
-def inject_error(ctl: Any, code: int) -> None:
+def inject_error(ctl: Controller, code: int) -> None:
     """The sensor reports error ``code`` (1..255; 0 clears it), as get_ft_sensor_error reads it.
     While the sensor is switched on the box also raises C50 (F/T sensor read failure)."""
     if not 0 <= int(code) <= 255 or int(code) == NO_SENSOR_ERROR:
@@ -189,7 +192,7 @@ def inject_error(ctl: Any, code: int) -> None:
 class FtSensorComponent:
     """The controller component that steps the sensor each control period."""
 
-    def __init__(self, ctl: Any) -> None:
+    def __init__(self, ctl: Controller) -> None:
         self.ctl = ctl
 
     def handlers(self) -> dict[int, Any]:
@@ -207,21 +210,17 @@ class FtSensorComponent:
 CONFIG_KEY = "ft_sensor"
 
 
-def config_of(ctl: Any) -> dict[str, Any] | None:
+def config_of(ctl: Controller) -> dict[str, Any] | None:
     """What register 40 saves of the sensor: register 205's load and the zero (205/206); None
     while they are all zero."""
-    from ..handlers.ft_sensor import ft_config
-
     cfg = ft_config(ctl)
     if cfg.mass == 0 and not any(cfg.centroid) and not any(cfg.offsets):
         return None
     return {"mass": cfg.mass, "centroid": list(cfg.centroid), "offsets": list(cfg.offsets)}
 
 
-def load_config(ctl: Any, data: Any) -> None:
+def load_config(ctl: Controller, data: Any) -> None:
     """Apply a saved load and zero; anything of the wrong shape or not finite is ignored."""
-    from ..handlers.ft_sensor import ft_config
-
     if not isinstance(data, dict):
         return
     try:
@@ -238,7 +237,7 @@ def load_config(ctl: Any, data: Any) -> None:
 
 
 # -- geometry ---------------------------------------------------------------------------------
-def _gravity(ctl: Any) -> np.ndarray:
+def _gravity(ctl: Controller) -> np.ndarray:
     try:
         return dyn.gravity_from_direction(ctl.settings.gravity_direction)
     except ValueError:
@@ -258,7 +257,7 @@ def cross(a: Any, b: Any) -> np.ndarray:
 _POSE_CACHE: dict[int, tuple[Any, bytes, tuple[np.ndarray, np.ndarray]]] = {}
 
 
-def _sensor_pose(ctl: Any, q: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _sensor_pose(ctl: Controller, q: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Rotation (sensor axes in the base frame) and origin (mm, base frame) of the sensor frame; the
     present joints' pose is computed once per joint vector (a period asks for it several times)."""
     if q is None:
@@ -275,13 +274,13 @@ def _sensor_pose(ctl: Any, q: np.ndarray | None = None) -> tuple[np.ndarray, np.
     return R, T[:3, 3] + R[:, 2] * SENSOR_HEIGHT
 
 
-def tcp_in_sensor(ctl: Any) -> np.ndarray:
+def tcp_in_sensor(ctl: Controller) -> np.ndarray:
     """The TCP point (mm) in the sensor frame: register 35's offset less the sensor's height."""
     off = ctl.settings.tcp_offset
     return np.array([off[0], off[1], off[2] - SENSOR_HEIGHT], dtype=float)
 
 
-def load_below(ctl: Any) -> tuple[float, np.ndarray]:
+def load_below(ctl: Controller) -> tuple[float, np.ndarray]:
     """The load below the gauge: mass (kg) and centre of mass (mm, sensor frame).
 
     A payload declared from outside (:func:`set_payload`) is the truth. Otherwise register 36's TCP
@@ -303,7 +302,7 @@ def load_below(ctl: Any) -> tuple[float, np.ndarray]:
     return float(m), c - np.array([0.0, 0.0, SENSOR_HEIGHT])
 
 
-def set_payload(ctl: Any, mass: float, com: Sequence[float]) -> None:
+def set_payload(ctl: Controller, mass: float, com: Sequence[float]) -> None:
     """Declare the physical payload below the sensor (kg, centre of mass mm in the flange frame)."""
     c = tuple(float(x) for x in com)
     if len(c) != 3 or not all(math.isfinite(x) for x in (mass, *c)) or mass < 0:
@@ -311,7 +310,7 @@ def set_payload(ctl: Any, mass: float, com: Sequence[float]) -> None:
     state_of(ctl).payload = (float(mass), (c[0], c[1], c[2]))
 
 
-def physical_tcp_load(ctl: Any) -> tuple[float, np.ndarray]:
+def physical_tcp_load(ctl: Controller) -> tuple[float, np.ndarray]:
     """Everything on the flange, as the joints feel it: mass (kg) and centre of mass (mm, flange
     frame): the load below the gauge plus the sensor when it is mounted."""
     m, c = load_below(ctl)
@@ -337,7 +336,7 @@ def _shift(w: np.ndarray, r_mm: np.ndarray) -> np.ndarray:
 
 
 # -- external wrenches -------------------------------------------------------------------------
-def apply_wrench(ctl: Any, wrench: Sequence[float], frame: str = "tool", ramp_s: float = 0.0,
+def apply_wrench(ctl: Controller, wrench: Sequence[float], frame: str = "tool", ramp_s: float = 0.0,
                  duration_s: float | None = None) -> None:
     """Act on the TCP with ``wrench`` (Fx, Fy, Fz N, Tx, Ty, Tz N m about the TCP point) in the tool
     (sensor axes) or base frame, reached linearly over ``ramp_s`` and held for ``duration_s`` (or
@@ -358,12 +357,12 @@ def apply_wrench(ctl: Any, wrench: Sequence[float], frame: str = "tool", ramp_s:
     state_of(ctl).wrenches.append(AppliedWrench(w, frame, now, float(ramp_s), until))
 
 
-def clear_wrench(ctl: Any) -> None:
+def clear_wrench(ctl: Controller) -> None:
     """Remove every wrench played with :func:`apply_wrench`."""
     state_of(ctl).wrenches.clear()
 
 
-def external_wrench(ctl: Any) -> np.ndarray:
+def external_wrench(ctl: Controller) -> np.ndarray:
     """The sum of every external wrench on the TCP (applied wrenches and the contact scene): base
     frame, N and N m about the TCP point, shape (6,)."""
     st = state_of(ctl)
@@ -375,14 +374,12 @@ def external_wrench(ctl: Any) -> np.ndarray:
         if w.frame == "tool":
             v = np.concatenate([R @ v[:3], R @ v[3:]])
         total += v
-    from ..physics import contact
-
     total += contact.scene_wrench(ctl)
     return total
 
 
 # -- the measurement ---------------------------------------------------------------------------
-def _measure(ctl: Any, q: np.ndarray | None = None, acc: np.ndarray | None = None,
+def _measure(ctl: Controller, q: np.ndarray | None = None, acc: np.ndarray | None = None,
              external: np.ndarray | None = None) -> np.ndarray:
     """The noiseless reading at joints ``q`` (default: the present ones), sensor frame."""
     R, _ = _sensor_pose(ctl, q)
@@ -393,7 +390,7 @@ def _measure(ctl: Any, q: np.ndarray | None = None, acc: np.ndarray | None = Non
     return w + _shift(ext_s, tcp_in_sensor(ctl))
 
 
-def _load_acceleration(ctl: Any, st: FtSensorState) -> np.ndarray:
+def _load_acceleration(ctl: Controller, st: FtSensorState) -> np.ndarray:
     """The acceleration (m/s^2, base frame) of the load's centre of mass over the last periods."""
     p = _load_point(ctl)
     hist = st.com_history
@@ -457,7 +454,7 @@ def drift(seed: int, t: float) -> np.ndarray:
     return np.minimum(np.maximum(value, _DRIFT_LO), _DRIFT_HI)
 
 
-def _noise(ctl: Any, st: FtSensorState) -> np.ndarray:
+def _noise(ctl: Controller, st: FtSensorState) -> np.ndarray:
     """Noise and drift of the present control period (zeros with the noise off)."""
     if not st.noise:
         return np.zeros(6)
@@ -465,30 +462,27 @@ def _noise(ctl: Any, st: FtSensorState) -> np.ndarray:
     return drift(st.seed, float(d.time) - st.noise_since) + white_noise(st.seed, int(d.steps))
 
 
-def _load_point(ctl: Any) -> np.ndarray:
+def _load_point(ctl: Controller) -> np.ndarray:
     """The load's centre of mass (m, base frame) at the present joints."""
     R, origin = _sensor_pose(ctl)
     _, com = load_below(ctl)
     return (origin + R @ com) / 1000.0
 
 
-def idle_until(ctl: Any) -> float:
-    """Controller time up to which the sensor is idle (:func:`~.base.idle_until`): while no force or
-    admittance application is set (register 202, the only reader of the sensor inside a period)
-    and, switched on, the load's centre of mass has stood still over the last periods (its
-    acceleration is zero), up to the end of the first played wrench that ends (:func:`step` removes
-    it then). With the arm at rest the reading is a function of the clock alone: the noise and the
-    drift (pure functions of the period and the time) and the played wrenches (a ramp is one of the
-    time), which the period that runs in full computes afresh."""
+def idle_until(ctl: Controller) -> float:
+    """Controller time up to which the sensor is idle (:func:`~.base.idle_until`): while no
+    application reads it every period (``ctl.ft_sensor_in_use()``: admittance or force control,
+    register 202) and, switched on, the load's centre of mass has stood still over the last periods
+    (its acceleration is zero), up to the end of the first played wrench that ends (:func:`step`
+    removes it then). With the arm at rest the reading is a function of the clock alone:
+    the noise and the drift (pure functions of the period and the time) and the played wrenches (a
+    ramp is one of the time), which the period that runs in full computes afresh."""
     st = state_of(ctl)
     horizon = math.inf
     for w in st.wrenches:
         if w.until is not None:
             horizon = min(horizon, w.until - 1e-9)
-    from ..applications import force_control
-
-    fc = ctl.data.force_control
-    if fc is not None and fc.app != force_control.APP_OFF:
+    if ctl.ft_sensor_in_use():
         return NOT_IDLE
     hist = st.com_history
     if not enabled(ctl):
@@ -499,7 +493,7 @@ def idle_until(ctl: Any) -> float:
     return horizon if all(np.array_equal(h, p) for h in hist) else NOT_IDLE
 
 
-def step(ctl: Any, dt: float) -> None:
+def step(ctl: Controller, dt: float) -> None:
     """One control period of the sensor: a new raw reading when it is mounted and switched on."""
     st = state_of(ctl)
     now = float(ctl.data.time)
@@ -512,11 +506,9 @@ def step(ctl: Any, dt: float) -> None:
     st.raw = _measure(ctl, acc=acc) + _noise(ctl, st)
 
 
-def compensation(ctl: Any) -> np.ndarray:
+def compensation(ctl: Controller) -> np.ndarray:
     """What the box takes off the raw reading: register 205's offsets (or 206's zero) and the gravity
     of register 205's load at the present pose (sensor frame)."""
-    from ..handlers.ft_sensor import ft_config
-
     cfg = ft_config(ctl)
     out = np.asarray(cfg.offsets, dtype=float).copy()
     if cfg.mass > 0:
@@ -525,12 +517,12 @@ def compensation(ctl: Any) -> np.ndarray:
     return out
 
 
-def raw_reading(ctl: Any) -> np.ndarray:
+def raw_reading(ctl: Controller) -> np.ndarray:
     """Register 200 ``[01]`` and the report's raw field: zeros unless mounted and switched on."""
     return state_of(ctl).raw.copy() if enabled(ctl) else np.zeros(6)
 
 
-def reading(ctl: Any) -> np.ndarray:
+def reading(ctl: Controller) -> np.ndarray:
     """Registers 150/200 and the report's external field: the raw reading after the zero and the
     load compensation of registers 205/206 (sensor frame, torques about the sensor origin)."""
     if not enabled(ctl):
@@ -538,22 +530,20 @@ def reading(ctl: Any) -> np.ndarray:
     return state_of(ctl).raw - compensation(ctl)
 
 
-def control_wrench(ctl: Any) -> np.ndarray:
+def control_wrench(ctl: Controller) -> np.ndarray:
     """What force and admittance control act on: :func:`reading` with its torques moved to the TCP
     point, sensor (tool) frame, shape (6,). With an exact calibration and no noise it equals
     :func:`external_wrench` rotated into the sensor frame."""
     return _shift(reading(ctl), -tcp_in_sensor(ctl))
 
 
-def set_zero(ctl: Any) -> None:
+def set_zero(ctl: Controller) -> None:
     """Register 206: the present reading becomes the zero (stored as register 205's offsets)."""
-    from ..handlers.ft_sensor import ft_config
-
     cfg = ft_config(ctl)
     cfg.offsets = tuple(float(x) for x in (np.asarray(cfg.offsets) + reading(ctl)))
 
 
-def iden_poses(ctl: Any, q0: np.ndarray) -> list[np.ndarray]:
+def iden_poses(ctl: Controller, q0: np.ndarray) -> list[np.ndarray]:
     """The joints the load identification reads at: :data:`IDEN_POSES` (J5, J6 offsets) around
     ``q0`` (on a five-axis arm J4 turns for both)."""
     out = []
@@ -568,7 +558,7 @@ def iden_poses(ctl: Any, q0: np.ndarray) -> list[np.ndarray]:
     return out
 
 
-def iden_reading(ctl: Any, index: int, q: np.ndarray | None = None) -> np.ndarray:
+def iden_reading(ctl: Controller, index: int, q: np.ndarray | None = None) -> np.ndarray:
     """Register 204 ``[00]``'s reading at joints ``q`` (the present ones by default; pose ``index``
     of the sequence): the
     mean of :data:`IDEN_SAMPLES` sensor samples, with the sensor's noise and drift."""
@@ -583,7 +573,7 @@ def iden_reading(ctl: Any, index: int, q: np.ndarray | None = None) -> np.ndarra
     return np.asarray(np.mean([_measure(ctl, q, external=ext) + n for n in noise], axis=0))
 
 
-def solve_ft_load(ctl: Any, samples: list[tuple[np.ndarray, np.ndarray]]) -> tuple[float, ...]:
+def solve_ft_load(ctl: Controller, samples: list[tuple[np.ndarray, np.ndarray]]) -> tuple[float, ...]:
     """Mass (kg), centre of mass (m, sensor frame) and the six offsets from sensor readings taken
     at several wrist orientations, ``samples`` = [(joints, wrench)]: least squares over gravity's
     direction in the sensor frame."""
@@ -608,7 +598,7 @@ def solve_ft_load(ctl: Any, samples: list[tuple[np.ndarray, np.ndarray]]) -> tup
     return (m, *(float(x) for x in c), *(float(x) for x in bias_f), *(float(x) for x in sol_t[3:]))
 
 
-def identify(ctl: Any) -> tuple[float, ...]:
+def identify(ctl: Controller) -> tuple[float, ...]:
     """Register 204 ``[00]`` at once, without moving (:func:`solve_ft_load` over readings computed
     at the sequence's poses): the instant form, for tests and tools; the register runs the moving
     sequence of :mod:`.identification`."""
@@ -619,7 +609,7 @@ def identify(ctl: Any) -> tuple[float, ...]:
     return solve_ft_load(ctl, samples)
 
 
-def iden_torques(ctl: Any, q: np.ndarray | None = None) -> np.ndarray:
+def iden_torques(ctl: Controller, q: np.ndarray | None = None) -> np.ndarray:
     """Register 204 ``[01]``'s reading at joints ``q`` (the present ones by default): the static
     joint torques the load adds (the emulator's dynamic model: with the load less without it)."""
     model = ctl.model
@@ -630,7 +620,7 @@ def iden_torques(ctl: Any, q: np.ndarray | None = None) -> np.ndarray:
                       - dyn.gravity_torques(model, q, g))
 
 
-def solve_tcp_load(ctl: Any,
+def solve_tcp_load(ctl: Controller,
                    samples: list[tuple[np.ndarray, np.ndarray]]) -> tuple[float, float, float, float]:
     """The flange load (kg, centre of mass mm in the flange frame) from the load's joint torques
     at several wrist poses, ``samples`` = [(joints, torques)]: least squares on the static torques."""
@@ -655,7 +645,7 @@ def solve_tcp_load(ctl: Any,
     return (m, float(c[0]), float(c[1]), float(c[2]))
 
 
-def identify_tcp_load(ctl: Any) -> tuple[float, float, float, float]:
+def identify_tcp_load(ctl: Controller) -> tuple[float, float, float, float]:
     """Register 204 ``[01]`` at once, without moving (:func:`solve_tcp_load` over the torques at
     the sequence's poses)."""
     q0 = np.asarray(ctl.data.q, dtype=float)

@@ -59,6 +59,7 @@ from ...protocol import codes, rtu
 from ...protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from ..core.controller_state import holds
 from ..core.interface import NOT_IDLE, ControllerView, Handler, ParameterError, idle_until
+from .io import BAUD_RATES
 
 GRIPPER_ID = 8  # section 2.1.4 "Gripper ID 0x08"
 GRIPPER_BAUD_INDEX = 11  # 2,000,000 bps (register 127 baud table)
@@ -344,8 +345,6 @@ def crc16_modbus(data: bytes) -> bytes:
 
 
 def _baud(index: int) -> int:
-    from .io import BAUD_RATES
-
     return BAUD_RATES[index] if 0 <= index < len(BAUD_RATES) else BAUD_RATES[-1]
 
 

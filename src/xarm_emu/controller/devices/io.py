@@ -42,6 +42,7 @@ from typing import Any
 
 from ...protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
 from ...protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
+from ..core.controller_protocol import Controller, queue_behind_moves
 from ..core.controller_state import holds
 from ..core.interface import C_DELAYED_IO, NOT_IDLE, CommandError, ControllerView, Handler, ParameterError
 from ..core.state_machine import STATE_STOP
@@ -345,7 +346,7 @@ class IOModule:
         #: The firmware reads the sync byte of registers 127/134/135/136 (>= 2.4.101).
         self.sync_io = False
 
-    def attach(self, ctl: Any) -> None:
+    def attach(self, ctl: Controller) -> None:
         """Queue through ``ctl``'s command buffer: IO sent with sync byte 1 (profiles that read it)
         and position triggers (144, 145, 147) sent while moves are queued wait their turn there."""
         self._ctl = weakref.ref(ctl)
@@ -357,8 +358,6 @@ class IOModule:
         ctl = self._ctl() if self._ctl is not None else None
         if ctl is None:
             return None
-        from ..handlers.service import queue_behind_moves
-
         return functools.partial(queue_behind_moves, ctl)
 
     def _in_turn(self, register: int, run: Callable[[], None], queued: bool = True) -> None:

@@ -14,10 +14,11 @@ other way.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping
 
-from ..core.interface import Handler, Values
+from ..applications.modes import create_state
+from ..core.controller_protocol import Controller, CtlHandler
+from ..core.interface import Handler
 from . import (
     feedback,
     force_control,
@@ -32,14 +33,7 @@ from . import (
     trajectory,
 )
 
-if TYPE_CHECKING:
-    from ..controller import Controller
-
-#: A register handler: the controller and the request values decoded by the register table in,
-#: the reply values (or ``None`` for an empty reply) out. It refuses by raising
-#: :class:`~xarm_emu.controller.core.interface.CommandWarning` or
-#: :class:`~xarm_emu.controller.core.interface.CommandError`.
-CtlHandler = Callable[["Any", Values], "dict[str, Any] | None"]
+__all__ = ["TABLES", "CtlHandler", "bind"]
 
 #: Every handler table of this package, in the order they bind (a later table never rebinds a code:
 #: :func:`bind` refuses duplicates).
@@ -62,8 +56,6 @@ def bind(ctl: Controller,
          tables: tuple[Mapping[int, CtlHandler], ...] | None = None) -> dict[int, Handler]:
     """The dispatch table of ``ctl``: each handler of ``tables`` (default :data:`TABLES`) with the
     controller bound as its first argument, for the registers of ``ctl``'s firmware only."""
-    from ..applications.modes import create_state
-
     create_state(ctl)  # the state behind these handlers exists from construction (checkpoints)
     service.extra_state(ctl)
     ft_sensor.ft_config(ctl)

@@ -29,6 +29,7 @@ from ...model import rotations as rot
 from .. import motion
 from ..core import safety
 from ..core.commands import CircleMove, Dwell, JointMove, LineMove
+from ..core.controller_protocol import Controller, CtlHandler
 from ..core.executor import keep_unchanged_joints, line_target
 from ..core.interface import (
     C_BOUNDARY,
@@ -46,8 +47,7 @@ from ..core.settings import in_range
 from .settings import report_tau_or_i
 
 if TYPE_CHECKING:
-    from ..controller import Controller
-    from . import CtlHandler
+    from ..core.controller_protocol import CtlHandler
 
 #: Joint positions sampled along the straight joint path of an only-check move.
 CHECK_SAMPLES = 24

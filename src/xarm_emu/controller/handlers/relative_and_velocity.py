@@ -20,7 +20,8 @@ import numpy as np
 from ...model import kinematics as kin
 from ..applications import velocity
 from ..core.commands import JointMove, LineMove
-from ..core.interface import C_JOINT_LIMIT, CommandError, ParameterError, Values
+from ..core.controller_protocol import Controller
+from ..core.interface import C_JOINT_LIMIT, CommandError, NotReady, ParameterError, Values
 from ..core.poses import resolve_line_target
 from ..core.settings import in_range
 from . import motion
@@ -36,7 +37,7 @@ def _unchanged_as_zero(values: Any) -> tuple[float, ...]:
     return tuple(0.0 if math.isinf(x) and x > 0 else float(x) for x in values)
 
 
-def move_relative(ctl: Any, v: Values) -> dict[str, Any]:
+def move_relative(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 83: a relative TCP (is_joint_motion 0) or joint (1) move, queued; or only checked
     (``only_check_type`` 1-3, as the common forms of registers 21 and 23 check)."""
     deltas = _unchanged_as_zero(v["deltas"])
@@ -70,14 +71,14 @@ def move_relative(ctl: Any, v: Values) -> dict[str, Any]:
     return {"cmdnum": ctl.executor.cmdnum, "check_result": 0}
 
 
-def _checked(ctl: Any, check: int, end: np.ndarray | None, result: int) -> dict[str, Any]:
+def _checked(ctl: Controller, check: int, end: np.ndarray | None, result: int) -> dict[str, Any]:
     """Keep the intermediate state of an only-check (types 1 and 3: where it ended; type 2: back to
     the actual joints) and reply its result (0, or the error code the move would raise)."""
     ctl.data.check_q = None if check == 2 or end is None else end
     return {"cmdnum": ctl.executor.cmdnum, "check_result": result}
 
 
-def _duration(ctl: Any, v: Values) -> float | None:
+def _duration(ctl: Controller, v: Values) -> float | None:
     d = v.get("duration")
     if d is None or not ctl.firmware.velocity_duration:
         return None
@@ -86,14 +87,12 @@ def _duration(ctl: Any, v: Values) -> float | None:
     return float(d)
 
 
-def _require_mode(ctl: Any, mode: int) -> None:
-    from ..controller import NotReady
-
+def _require_mode(ctl: Controller, mode: int) -> None:
     if ctl.error_code or not ctl.ready or ctl.mode != mode:
         raise NotReady()
 
 
-def set_joint_velocity(ctl: Any, v: Values) -> None:
+def set_joint_velocity(ctl: Controller, v: Values) -> None:
     """Register 81 (mode 4): joint velocities (rad/s), ``is_sync`` 1 ramps all joints together."""
     speeds = np.asarray(v["speeds"][: ctl.dof], dtype=float)
     sync = int(v["is_sync"])
@@ -107,7 +106,7 @@ def set_joint_velocity(ctl: Any, v: Values) -> None:
     return None
 
 
-def set_cartesian_velocity(ctl: Any, v: Values) -> None:
+def set_cartesian_velocity(ctl: Controller, v: Values) -> None:
     """Register 82 (mode 5): TCP velocity (vx, vy, vz mm/s; wx, wy, wz rad/s), base or tool frame."""
     speeds = np.asarray(v["speeds"], dtype=float)
     tool = int(v["is_tool_coord"])

@@ -18,10 +18,10 @@ import numpy as np
 from ...model import kinematics as kin
 from ...model import rotations as rot
 from ...protocol import registers as regs
-from ..core.commands import Task
+from ..core.controller_protocol import Controller, queue_behind_moves
 from ..core.interface import ParameterError, Values
 from ..core.poses import wire_pose_to_matrix
-from ..core.state_machine import MODE_POSITION, STATE_MOVING
+from ..core.state_machine import STATE_MOVING
 from ..devices import ft_sensor
 
 #: Register 3: 0 means "verified" (the SDK's check_verification); an emulated box is always verified.
@@ -75,7 +75,7 @@ class ExtraState:
     safe_level: int = 0  # registers 56/57
 
 
-def extra_state(ctl: Any) -> ExtraState:
+def extra_state(ctl: Controller) -> ExtraState:
     """The :class:`ExtraState` of ``ctl``, created on first use."""
     st = ctl.data.extra_state
     if not isinstance(st, ExtraState):
@@ -86,28 +86,18 @@ def extra_state(ctl: Any) -> ExtraState:
     return st
 
 
-def queue_behind_moves(ctl: Any, register: int, run: Callable[[], None]) -> None:
-    """Run a non-motion task in its turn in the command buffer: at once when nothing is queued or
-    moving (or the arm is not in position mode), otherwise when the buffer reaches it."""
-    ex = ctl.executor
-    if ctl.mode == MODE_POSITION and ex.active and not ex.stopping and ctl.error_code == 0:
-        ctl._queue(Task(register, run))
-    else:
-        run()
-
-
 # ---- 3, 4, 6, 7, 66, 69, 80 -----------------------------------------------------------------------
-def check_verify(ctl: Any, v: Values) -> dict[str, Any]:
+def check_verify(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 3: the verification status (0 verified)."""
     return {"result": VERIFIED}
 
 
-def reload_dynamics(ctl: Any, v: Values) -> None:
+def reload_dynamics(ctl: Controller, v: Values) -> None:
     """Register 4: the emulator's dynamics model is fixed; nothing to reload."""
     return None
 
 
-def tcp_rotation_radius(ctl: Any, v: Values) -> dict[str, Any]:
+def tcp_rotation_radius(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 6: the distance (mm) of the TCP from the axis of joint ``joint`` (1..dof)."""
     j = int(v["joint"])
     if not 1 <= j <= ctl.dof:
@@ -126,28 +116,28 @@ def _switch(v: Values) -> bool:
     return bool(on)
 
 
-def get_approx_motion(ctl: Any, v: Values) -> dict[str, Any]:
+def get_approx_motion(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 7: whether approximate motion is allowed (register 66)."""
     return {"on": int(extra_state(ctl).approx_motion)}
 
 
-def set_approx_motion(ctl: Any, v: Values) -> None:
+def set_approx_motion(ctl: Controller, v: Values) -> None:
     """Register 66: allow approximate motion near singularities."""
     extra_state(ctl).approx_motion = _switch(v)
 
 
-def get_movement(ctl: Any, v: Values) -> dict[str, Any]:
+def get_movement(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 69: 1 while the arm moves."""
     return {"moving": int(ctl.state == STATE_MOVING)}
 
 
-def set_cartesian_velocity_continuous(ctl: Any, v: Values) -> None:
+def set_cartesian_velocity_continuous(ctl: Controller, v: Values) -> None:
     """Register 80: Cartesian velocity control (mode 5) keeps its velocity across commands."""
     extra_state(ctl).cartesian_velocity_continuous = _switch(v)
 
 
 # ---- 46 -------------------------------------------------------------------------------------------
-def is_tcp_limit(ctl: Any, v: Values) -> dict[str, Any]:
+def is_tcp_limit(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 46: 1 when a TCP pose is outside the Cartesian range (manual 4.1), outside the safety
     boundary while it is on (register 52/59), or has no inverse kinematics solution."""
     pose = [float(x) for x in v["pose"]]
@@ -166,38 +156,38 @@ def is_tcp_limit(ctl: Any, v: Values) -> dict[str, Any]:
 
 
 # ---- 74/75 the counter ----------------------------------------------------------------------------
-def _set_counter(ctl: Any, value: int) -> None:
+def _set_counter(ctl: Controller, value: int) -> None:
     ctl.user_counter = value & 0xFFFFFFFF
 
 
-def counter_reset(ctl: Any, v: Values) -> None:
+def counter_reset(ctl: Controller, v: Values) -> None:
     """Register 74: reset the counter (rich report bytes 285-288) to 0, in its turn in the buffer."""
     queue_behind_moves(ctl, 74, lambda: _set_counter(ctl, 0))
 
 
-def counter_increase(ctl: Any, v: Values) -> None:
+def counter_increase(ctl: Controller, v: Values) -> None:
     """Register 75: add one to the counter, in its turn in the buffer."""
     queue_behind_moves(ctl, 75, lambda: _set_counter(ctl, ctl.user_counter + 1))
 
 
 # ---- 56/57 safety level ---------------------------------------------------------------------------
-def set_safe_level(ctl: Any, v: Values) -> None:
+def set_safe_level(ctl: Controller, v: Values) -> None:
     """Register 56: the safety level (only the SDK's core sends it); read back through 57."""
     extra_state(ctl).safe_level = int(v["level"])
 
 
-def get_safe_level(ctl: Any, v: Values) -> dict[str, Any]:
+def get_safe_level(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 57: the safety level of register 56."""
     return {"level": extra_state(ctl).safe_level}
 
 
 # ---- 67/68 D-H parameters -------------------------------------------------------------------------
-def get_dh(ctl: Any, v: Values) -> dict[str, Any]:
+def get_dh(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 67: 4 fp32 per joint (d, alpha, a, offset), 7 joints."""
     return {"dh": tuple(extra_state(ctl).dh)}
 
 
-def set_dh(ctl: Any, v: Values) -> dict[str, Any]:
+def set_dh(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 68: store D-H parameters (flag 0-4). The emulator's kinematics keep the model's
     nominal geometry; register 67 reads back what was set. Reply 0 = accepted."""
     flag = int(v["flag"])
@@ -208,24 +198,24 @@ def set_dh(ctl: Any, v: Values) -> dict[str, Any]:
 
 
 # ---- 71/72 timers ---------------------------------------------------------------------------------
-def set_timer(ctl: Any, v: Values) -> None:
+def set_timer(ctl: Controller, v: Values) -> None:
     """Register 71 (sent only internally): remember a timer by its first parameter, its id."""
     params = tuple(int(x) for x in v["params"])
     extra_state(ctl).timers[params[0]] = params
 
 
-def cancel_timer(ctl: Any, v: Values) -> None:
+def cancel_timer(ctl: Controller, v: Values) -> None:
     """Register 72: forget a timer."""
     extra_state(ctl).timers.pop(int(v["timer_id"]), None)
 
 
 # ---- 101-107 servo registers ----------------------------------------------------------------------
-def _servo_axis(ctl: Any, axis: int, ft: bool = True) -> None:
+def _servo_axis(ctl: Controller, axis: int, ft: bool = True) -> None:
     if not (1 <= axis <= ctl.dof or (ft and axis == 8)):
         raise ParameterError(f"servo axis {axis}")
 
 
-def servo_read(ctl: Any, v: Values) -> dict[str, Any]:
+def servo_read(ctl: Controller, v: Values) -> dict[str, Any]:
     """Registers 102/104/107: a servo register as s32 BE. Versions (0x0801-0x0803) and the harmonic
     drive type (0x081F); what 101/103 wrote; 0 otherwise (axis 8, the F/T sensor, is absent)."""
     axis, addr = int(v["axis"]), int(v["addr"])
@@ -242,26 +232,26 @@ def servo_read(ctl: Any, v: Values) -> dict[str, Any]:
     return {"value": 0}
 
 
-def servo_error_read(ctl: Any, v: Values) -> dict[str, Any]:
+def servo_error_read(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 107: as 102, the value in the high half (the SDK shifts it right by 16)."""
     value = int(servo_read(ctl, v)["value"])
     return {"value": (value << 16) if abs(value) < 0x8000 else value}
 
 
-def servo_write(ctl: Any, v: Values) -> None:
+def servo_write(ctl: Controller, v: Values) -> None:
     """Registers 101/103 (sent only internally): store a servo register value (joints 1..dof)."""
     axis = int(v["axis"])
     _servo_axis(ctl, axis, ft=False)
     extra_state(ctl).servo_registers[(axis, int(v["addr"]))] = float(v["value"])
 
 
-def servo_zero(ctl: Any, v: Values) -> None:
+def servo_zero(ctl: Controller, v: Values) -> None:
     """Register 105 (internal): set a servo's zero. The emulated encoders are exact: no effect."""
     _servo_axis(ctl, int(v["axis"]), ft=False)
 
 
 # ---- 111-115 calibration and identification -------------------------------------------------------
-def cali_tcp_pose(ctl: Any, v: Values) -> dict[str, Any]:
+def cali_tcp_pose(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 111: the TCP position offset (mm, flange frame) from four flange poses that touch
     one point, by least squares: R_i p + t_i equal for all i."""
     poses = np.asarray(v["poses"], dtype=float).reshape(4, 6)
@@ -278,7 +268,7 @@ def cali_tcp_pose(ctl: Any, v: Values) -> dict[str, Any]:
     return {"result": tuple(float(x) for x in p)}
 
 
-def cali_tcp_orient(ctl: Any, v: Values) -> dict[str, Any]:
+def cali_tcp_orient(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 112: the TCP orientation offset (roll, pitch, yaw) from the flange orientation
     ``rpy_be`` and the wanted tool orientation ``rpy_bt``, both in the base frame."""
     r_be = rot.rpy_to_matrix(*[float(x) for x in v["rpy_be"]])
@@ -286,7 +276,7 @@ def cali_tcp_orient(ctl: Any, v: Values) -> dict[str, Any]:
     return {"result": tuple(float(x) for x in rot.matrix_to_rpy(r_be.T @ r_bt))}
 
 
-def cali_user_orient(ctl: Any, v: Values) -> dict[str, Any]:
+def cali_user_orient(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 113: the user frame orientation (roll, pitch, yaw) from three TCP points: the
     origin, a point on the x axis and a point in the xy plane (``mode``, ``trust_ind`` accepted)."""
     pts = np.asarray(v["poses"], dtype=float).reshape(3, 6)[:, :3]
@@ -300,7 +290,7 @@ def cali_user_orient(ctl: Any, v: Values) -> dict[str, Any]:
     return {"result": tuple(float(a) for a in rot.matrix_to_rpy(R))}
 
 
-def cali_user_pose(ctl: Any, v: Values) -> dict[str, Any]:
+def cali_user_pose(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 114: the user frame origin offset: the TCP point ``xyz`` expressed along the user
     frame's orientation ``rpy_ub`` (what register 73 takes as x, y, z)."""
     R = rot.rpy_to_matrix(*[float(x) for x in v["rpy_ub"]])
@@ -308,7 +298,7 @@ def cali_user_pose(ctl: Any, v: Values) -> dict[str, Any]:
     return {"result": tuple(float(x) for x in R.T @ p)}
 
 
-def iden_friction(ctl: Any, v: Values) -> dict[str, Any]:
+def iden_friction(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 115: joint friction identification; 0.0 when the robot SN sent is this arm's, else
     -1.0 (failure). The emulated joints have no friction to identify."""
     sn = str(v["robot_sn"]).rstrip("\0")
@@ -316,25 +306,25 @@ def iden_friction(ctl: Any, v: Values) -> dict[str, Any]:
 
 
 # ---- 140, 141 -------------------------------------------------------------------------------------
-def power_version(ctl: Any, v: Values) -> dict[str, Any]:
+def power_version(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 140 (internal): the power board version, 6 bytes."""
     return {"version": POWER_BOARD_VERSION}
 
 
-def hd_types(ctl: Any, v: Values) -> dict[str, Any]:
+def hd_types(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 141: hardware types, 2 bytes."""
     return {"types": HD_TYPES}
 
 
 # ---- 231 (230 belongs to the trajectory store, handlers/trajectory.py) ---------------------------
-def max_joint_velocity(ctl: Any, v: Values) -> dict[str, Any]:
+def max_joint_velocity(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 231 (internal): the largest joint speed asked, bounded by the model's limit."""
     speeds = [abs(float(x)) for x in v["speeds"][1: 1 + ctl.dof]]
     return {"velocity": min(max(speeds, default=0.0), float(ctl.model.max_joint_speed))}
 
 
 # ---- 232-234 generic parameters and information ---------------------------------------------------
-def _timeout_of(ctl: Any, param: int) -> int | None:
+def _timeout_of(ctl: Controller, param: int) -> int | None:
     gripper = _gripper(ctl)
     if gripper is None:
         return None
@@ -345,14 +335,14 @@ def _timeout_of(ctl: Any, param: int) -> int | None:
     return None
 
 
-def _gripper(ctl: Any) -> Any:
+def _gripper(ctl: Controller) -> Any:
     for c in getattr(ctl, "components", ()):
         if hasattr(c, "modbus_timeout_ms"):
             return c
     return None
 
 
-def set_common_param(ctl: Any, v: Values) -> None:
+def set_common_param(ctl: Controller, v: Values) -> None:
     """Register 232: ``[type]`` and the value by type (:data:`~.registers.COMMON_PARAM_LAYOUTS`);
     read back through 233."""
     ptype, data = int(v["type"]), bytes(v["data"])
@@ -376,7 +366,7 @@ def _u32be(*values: int) -> bytes:
     return b"".join((int(x) & 0xFFFFFFFF).to_bytes(4, "big") for x in values)
 
 
-def get_common_param(ctl: Any, v: Values) -> dict[str, Any]:
+def get_common_param(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 233: a generic parameter. fp32 LE for type 1, 6 fp32 for 6/12/14, 14 fp32 for 7,
     the raw 4 bytes for 26, u32 BE integers otherwise (both SDKs read them big-endian)."""
     ptype = int(v["type"])
@@ -402,7 +392,7 @@ def get_common_param(ctl: Any, v: Values) -> dict[str, Any]:
 _INFO_SIZES = {1: 1, 2: 1, 50: 4, 101: 9, 102: 5, 103: 29, 104: 5, 105: 8, 106: 29, 107: 9}
 
 
-def get_common_info(ctl: Any, v: Values) -> dict[str, Any]:
+def get_common_info(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 234: generic information by type (see :data:`_INFO_SIZES`)."""
     itype = int(v["type"])
     size = _INFO_SIZES.get(itype)

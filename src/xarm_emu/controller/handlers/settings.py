@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from ...model import collision
+from ..core.controller_protocol import Controller, CtlHandler
 from ..core.interface import ParameterError, Values
 from ..core.settings import (
     COLLISION_SENSITIVITY_RANGE,
@@ -20,8 +21,7 @@ from ..core.settings import (
 from ..core.state_machine import Event, fire
 
 if TYPE_CHECKING:
-    from ..controller import Controller
-    from . import CtlHandler
+    from ..core.controller_protocol import CtlHandler
 
 
 def motion_limit(ctl: Controller, v: Values, *, name: str, key: str) -> dict[str, Any]:

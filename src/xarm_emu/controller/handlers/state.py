@@ -7,6 +7,8 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from ...protocol import codes
+from ..applications.modes import extra_modes
+from ..core.controller_protocol import Controller, CtlHandler
 from ..core.interface import ParameterError, Values
 from ..core.state_machine import (
     MODE_JOINT_TEACH,
@@ -17,12 +19,13 @@ from ..core.state_machine import (
     STATE_STOP,
     STATE_SUSPEND,
     Event,
+    ModeEvent,
     fire,
+    fire_mode,
 )
 
 if TYPE_CHECKING:
-    from ..controller import Controller
-    from . import CtlHandler
+    from ..core.controller_protocol import CtlHandler
 
 
 def needs_power_on(code: int) -> bool:
@@ -131,12 +134,10 @@ def set_mode(ctl: Controller, v: Values) -> None:
     """Register 19: motion mode 0, 1 or 2 (3, Cartesian teaching, is not available), and the modes
     4-7 of the firmware (:func:`~xarm_emu.controller.applications.modes.extra_modes`); a system reset.
     The detection parameter byte SDKs append for firmware >= 1.10.0 is accepted and has no effect."""
-    from ..applications.modes import extra_modes
-
     mode = v["mode"]
     if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH) + extra_modes(ctl):
         raise ParameterError(f"mode {mode} not available")
-    ctl.mode = mode
+    fire_mode(ctl, ModeEvent.SELECT, mode)
     ctl.system_reset()
     return None
 

@@ -1,6 +1,6 @@
-"""Objects, grasps and contacts: the physics world of a scene with ``[[object]]`` tables.
+"""Objects, grasps and contacts: the physics world of a scene with ``[[object]]`` tables (their
+declaration is controller/scene/objects.py).
 
-- ``objects.py``: the ``[[object]]`` tables (pure data, no engine).
 - ``hands.py``: the end tools as bodies (finger pads, housing), in the flange frame.
 - ``mjcf.py``: the engine's model document from the project's own tables (joint frames, link
   capsules, inertials, hand, fixtures, objects).
@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from ...model.robots import RobotModel
+    from ..scene.contact import Scene
     from .component import PhysicsComponent
-    from .contact import Scene
 
 #: What to install when the engine is missing.
 INSTALL_HINT = "objects in a scene need the physics engine: pip install 'xarm-emu[physics]'"

@@ -27,9 +27,10 @@ import numpy as np
 from ...model import kinematics as kin
 from ...model.robots import VACUUM_WIRING
 from ..core import safety
+from ..core.controller_protocol import Controller
 from ..core.interface import C_COLLISION, NOT_IDLE, Handler
 from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
-from . import contact
+from ..scene import contact
 from .driven import driven
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
@@ -95,7 +96,7 @@ class PhysicsComponent:
         else:
             f.part(touching)
 
-    def _vacuum(self, ctl: Any) -> None:
+    def _vacuum(self, ctl: Controller) -> None:
         """The cup seals on a flat face under it (the pressure input then rises as the pump runs) and
         holds that object while the pump runs; the pump stopped, it lets go."""
         v, w = self.vacuum, self.world
@@ -128,7 +129,7 @@ class PhysicsComponent:
             return target
         return ramp + math.copysign(step, target - ramp)
 
-    def external_torques(self, ctl: Any) -> np.ndarray | None:
+    def external_torques(self, ctl: Controller) -> np.ndarray | None:
         """The joint torques (N m) of the scene's fixtures pressing on the TCP: ``J^T f``; None when
         the TCP touches none of them."""
         q = ctl.data.q
@@ -145,7 +146,7 @@ class PhysicsComponent:
         J = kin.jacobian(ctl.model, q)  # flange: linear (mm/rad) over angular rows
         return np.asarray(J[:3].T @ f * 0.001 + J[3:].T @ np.cross(r, f))
 
-    def _collision(self, ctl: Any) -> None:
+    def _collision(self, ctl: Controller) -> None:
         sens = ctl.settings.collision_sensitivity
         if not sens or ctl.error_code or not all(ctl.enabled):
             return
@@ -158,7 +159,7 @@ class PhysicsComponent:
         if tau is not None and tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
             ctl.raise_error(C_COLLISION)
 
-    def step(self, dt: float, ctl: Any) -> None:
+    def step(self, dt: float, ctl: Controller) -> None:
         self._collision(ctl)
         w = self.world
         ramp = self._ramp(dt)
@@ -182,7 +183,7 @@ class PhysicsComponent:
         else:
             g.position = measured / XARM_MM_PER_PULSE
 
-    def idle_until(self, ctl: Any) -> float:
+    def idle_until(self, ctl: Controller) -> float:
         """Idle while the world is settled and neither the arm nor the finger command would move."""
         if not self.world.state.settled:
             return NOT_IDLE

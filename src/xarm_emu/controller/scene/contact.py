@@ -25,7 +25,7 @@ at most ``mu`` times that force. The scene is declared in a TOML file (``serve -
 or through the admin channel as the same tables (:func:`parse_scene`). A file with errors raises
 ``ValueError`` with one line naming the shape and the key.
 
-``[[object]]`` tables add loose objects (:mod:`.physics.objects`): a scene with objects runs the
+``[[object]]`` tables add loose objects (:mod:`.objects`): a scene with objects runs the
 physics engine (:mod:`.physics`), in which the planes and boxes are fixed bodies too.
 """
 
@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from ...model import kinematics as kin
+from ..core.controller_protocol import Controller
 from .objects import ObjectSpec, parse_objects
 
 
@@ -188,18 +189,18 @@ def load_scene(path: str | Path) -> Scene:
         raise ValueError(f"scene file {p}: {e}") from None
 
 
-def scene_of(ctl: Any) -> Scene:
+def scene_of(ctl: Controller) -> Scene:
     """The contact scene of ``ctl`` (in its controller state); empty unless one was set."""
     sc = ctl.data.contact_scene
     return sc if isinstance(sc, Scene) else Scene()
 
 
-def set_scene(ctl: Any, scene: Scene) -> None:
+def set_scene(ctl: Controller, scene: Scene) -> None:
     """Make ``scene`` the contact scene of ``ctl``."""
     ctl.data.contact_scene = scene
 
 
-def _tcp_point_velocity(ctl: Any) -> tuple[np.ndarray, np.ndarray]:
+def _tcp_point_velocity(ctl: Controller) -> tuple[np.ndarray, np.ndarray]:
     """The TCP point (mm, base frame) and its velocity (mm/s) from the joints and their rates."""
     model, d = ctl.model, ctl.data
     off = np.asarray(ctl.settings.tcp_offset[:3], dtype=float)
@@ -228,7 +229,7 @@ def shape_force(shape: Shape, p: np.ndarray, v: np.ndarray) -> np.ndarray:
     return f
 
 
-def scene_wrench(ctl: Any) -> np.ndarray:
+def scene_wrench(ctl: Controller) -> np.ndarray:
     """The wrench (base frame, N and N m about the TCP point) of the scene on the TCP."""
     scene = scene_of(ctl)
     if not scene.shapes:
