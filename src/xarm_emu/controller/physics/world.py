@@ -198,8 +198,6 @@ class World:
             return
         last = d.qpos[self._q].copy()
         moving_arm = last.tolist() != qa.tolist()
-        # an arm moving where nothing is near it lets the objects settle all the same
-        far = (moving_arm or self.fingers) and self._far(qa)
         d.qvel[self._v] = (qa - last) / dt
         if self.fingers:
             d.ctrl[:] = ramp / 2.0 * MM
@@ -211,7 +209,11 @@ class World:
             self._carry(qa)
         s.inputs = inputs
         s.settled = False
-        still = (far or not moving_arm) and not self.touching_arm()
+        # an arm moving where nothing is near it lets the objects settle all the same (asked only
+        # when nothing of the arm touches an object: then the world cannot settle anyway)
+        still = not self.touching_arm()
+        far = still and (moving_arm or self.fingers) and self._far(qa)
+        still = still and (far or not moving_arm)
         if still and (self._free_v.size or (self._finger_v and not far)):
             qvel = d.qvel.tolist()
             still = all(abs(qvel[v]) < STILL_SPEED for v in self._free_list)
