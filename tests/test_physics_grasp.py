@@ -161,8 +161,8 @@ def speeds(repeats: int) -> tuple[float, float]:
 
 def test_speed_against_the_same_moves_without_objects() -> None:
     """The engine steps one 4 ms step a period only while something is near an object, so the
-    pick-and-place costs a few times the controller alone (some 3x on a busy 2-core machine: 35-45x
-    real time against 100-130x; stepping twice every period it was some 10x)."""
+    pick-and-place costs some 3x the controller alone (on a busy 2-core machine 27-40x real time
+    against 82-132x; with two steps every period it cost 7x: 12x against 87x)."""
     with_objects, bare = speeds(3)
     print(f"pick-and-place: {with_objects:.0f}x real time (without objects {bare:.0f}x)")
     assert with_objects > bare / 5.0

@@ -381,12 +381,14 @@ class World:
             kind, objects = self._kinds, self._object_geoms
             # the world's geoms have no margins: every contact of the engine touches
             for k, (a, b) in enumerate(c.geom[:n].tolist()):
-                if not (kind[a] or kind[b]):
+                ka, kb = kind[a], kind[b]
+                if not (ka or kb):
                     continue
                 rows.append((k, a, b))
-                for pad, other in ((a, b), (b, a)):
-                    if kind[pad] == 2 and other in objects:
-                        pads.setdefault(objects[other], set()).add(pad)
+                if ka == 2 and b in objects:
+                    pads.setdefault(objects[b], set()).add(a)
+                elif kb == 2 and a in objects:
+                    pads.setdefault(objects[a], set()).add(b)
         self._rows, self._pad_map = rows, pads
         return rows
 
