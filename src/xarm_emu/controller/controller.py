@@ -1,5 +1,6 @@
-"""The control box core: state, readiness, poses, dispatch through the register table, the
-control step and the safety checks.
+"""The :class:`Controller`, which assembles the rooms: readiness, poses, dispatch through the
+binding table, the control step and the safety checks, over the state of ``core/``. Handlers, devices
+and applications see it through the protocol of ``core/controller_protocol.py``.
 
 Pure and deterministic: no sockets, no wall clock. The server calls :meth:`handle` for every
 request and :meth:`step` once per control period (:data:`~xarm_emu.controller.core.interface.PERIOD`).
