@@ -167,3 +167,13 @@ def test_only_the_state_machine_writes_the_mode(path: Path) -> None:
         assert writes, "fire_mode writes the mode"
     else:
         assert writes == []
+
+
+def test_controller_functions_fit_on_a_screen() -> None:
+    """No function of the controller is longer than 80 lines (long ones are named steps)."""
+    long = [f"{p.relative_to(SRC)}:{n.lineno} {n.name} ({n.end_lineno - n.lineno + 1} lines)"
+            for p in CONTROLLER.rglob("*.py")
+            for n in ast.walk(ast.parse(p.read_text(encoding="utf-8")))
+            if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef) and n.end_lineno is not None
+            and n.end_lineno - n.lineno + 1 > 80]
+    assert long == []

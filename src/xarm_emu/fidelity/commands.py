@@ -1,4 +1,4 @@
-"""The fidelity commands of ``xarm-emu``: ``proxy``, ``compare`` and ``calibrate`` (registered by cli.py)."""
+"""The fidelity commands of ``xarm-emu``: ``proxy``, ``compare`` and ``calibrate`` (registered by cli/)."""
 
 from __future__ import annotations
 

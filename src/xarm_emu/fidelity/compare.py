@@ -34,7 +34,7 @@ from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..server import xrec
 from ..server.command_port import PURE_READS
-from ..tomlfile import read_toml
+from ..tomlfile import check_keys, load_toml
 
 #: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
 DEFAULT_TOLERANCES: dict[str, float] = {
@@ -119,14 +119,16 @@ def load_tolerances(path: Path | None) -> dict[str, float]:
     tol = dict(DEFAULT_TOLERANCES)
     if path is None:
         return tol
-    data = read_toml(path, CompareError)
-    for k, v in data.items():
-        if k not in tol:
-            raise CompareError(f"{path}: unknown tolerance {k!r} (known: {', '.join(tol)})")
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
-            raise CompareError(f"{path}: {k} must be a number >= 0")
-        tol[k] = float(v)
-    return tol
+
+    def parse(data: dict[str, Any]) -> dict[str, float]:
+        check_keys(data, tol, error=CompareError)
+        for k, v in data.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+                raise CompareError(f"{k} must be a number >= 0")
+            tol[k] = float(v)
+        return tol
+
+    return load_toml(path, "tolerances file", parse, CompareError)
 
 
 def model_of(version: str) -> RobotModel:
@@ -287,92 +289,111 @@ def compare(path: Path, calibration: Calibration | None = None,
     session = read_session(Path(path))
     base = model_of(session.version)
     model = with_calibration(base, calibration)
-    dof = model.dof
     firmware = str(session.profile.version)
     result = Comparison(base.key, firmware)
-    spans = _controller_times(session)
-    times = [t for t, _, _ in spans]
-    rec_samples = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
-    rep_samples: list[Sample] = []
-    nan = np.full(dof, np.nan)
+    rec_samples = [_rt_sample(ts, f, model.dof) for _, ts, f in session.realtime]
     started = _time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="xarm-emu-compare-") as cdir:
         emu = Emulator(model, config_dir=Path(cdir), firmware=firmware)
-        server = EmulatorServer(emu, ServerConfig(stepped=True, port=0))
-        cmd_at: list[tuple[float, int]] = []
-        pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float]] = []  # reads to try again
-
-        def advance(to: float) -> None:
-            while pending and to > emu.time + 1e-9:  # a period at a time while reads wait
-                server.advance(min(PERIOD, to - emu.time))
-                retry()
-            if to > emu.time + 1e-9:
-                server.advance(to - emu.time)
-            retry()
-
-        def retry() -> None:
-            for item in list(pending):
-                c, req, rep, hi = item
-                if emu.time > hi + 1e-9:
-                    pending.remove(item)
-                    continue
-                frame = server.answer(req.tid, req.protocol, req.register, req.params)
-                if bytes(frame[6:]) == rep.frame[6:]:
-                    c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
-                    pending.remove(item)
-
-        j = 0
-
-        def sample_until(limit: float) -> None:
-            """Take the replayed state at every recorded frame before ``limit``."""
-            nonlocal j
-            while j < len(rec_samples) and rec_samples[j].t < limit - 1e-9:
-                st = rec_samples[j]
-                advance(st.t)
-                ctl = emu.controller
-                if j % TORQUE_EVERY == 0:
-                    tau, cur = ctl.joint_torques()[:dof].copy(), ctl.joint_currents()[:dof].copy()
-                else:
-                    tau = cur = nan
-                rep_samples.append(Sample(st.t, ctl.data.motion_state, ctl.data.q[:dof].copy(),
-                                          ctl.tcp_matrix()[:3, 3].copy(), tau, cur,
-                                          ctl.data.qd[:dof].copy()))
-                j += 1
-
-        previous = 0.0
-        for i, (req, rep) in enumerate(session.requests):
-            t_est, hi, lo = spans[i]
-            lower = max(previous, lo - LEAD_PERIODS * PERIOD)
-            sample_until(lower)  # no command can come before its lower bound
-            read = _pure_read(req)
-            if read:
-                t = max(lower, emu.time)
-            elif _is_queued(req.register):
-                t = _best_time(server, emu, session, [max(x, lower) for x in times], spans, rec_samples, i, j)
-            else:  # the earliest its bounds allow, so that a queued command after it can be placed
-                t = max(lo, lower)
-            previous = t
-            sample_until(t)
-            advance(t)
-            if not read and pending:  # a command may change what a read shows: look ahead first
-                cp = emu.checkpoint()
-                advance(max(hi_read for *_, hi_read in pending))
-                emu.restore(cp)
-                pending.clear()
-            frame = server.answer(req.tid, req.protocol, req.register, req.params)
-            c = CommandResult(i, t, req.register, req.name)
-            if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
-                c.reply_differs = True
-                c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
-                if read:
-                    pending.append((c, req, rep, hi))
-            result.commands.append(c)
-            cmd_at.append((t, j))
-        sample_until(math.inf)
+        replay = _Replay(emu, EmulatorServer(emu, ServerConfig(stepped=True, port=0)), rec_samples, model.dof)
+        cmd_at = _replay_commands(replay, session, result)
+        replay.sample_until(math.inf)
         result.replay_seconds = _time.perf_counter() - started
-    result.recorded, result.replayed = rec_samples, rep_samples
+    result.recorded, result.replayed = rec_samples, replay.samples
     _measure(result, cmd_at, tol, session)
     return result
+
+
+class _Replay:
+    """One recording replayed on a stepped emulator: its clock, the replayed state sampled at the
+    recorded frames' times, and the reads whose replies may still match a period later."""
+
+    def __init__(self, emu: Any, server: Any, rec_samples: list[Sample], dof: int) -> None:
+        self.emu, self.server, self.rec_samples, self.dof = emu, server, rec_samples, dof
+        self.samples: list[Sample] = []
+        self.pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float]] = []  # reads to try again
+        self.j = 0  # the next recorded frame to sample at
+        self._nan = np.full(dof, np.nan)
+
+    def advance(self, to: float) -> None:
+        emu, server = self.emu, self.server
+        while self.pending and to > emu.time + 1e-9:  # a period at a time while reads wait
+            server.advance(min(PERIOD, to - emu.time))
+            self.retry()
+        if to > emu.time + 1e-9:
+            server.advance(to - emu.time)
+        self.retry()
+
+    def retry(self) -> None:
+        for item in list(self.pending):
+            c, req, rep, hi = item
+            if self.emu.time > hi + 1e-9:
+                self.pending.remove(item)
+                continue
+            frame = self.server.answer(req.tid, req.protocol, req.register, req.params)
+            if bytes(frame[6:]) == rep.frame[6:]:
+                c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
+                self.pending.remove(item)
+
+    def sample_until(self, limit: float) -> None:
+        """Take the replayed state at every recorded frame before ``limit``."""
+        dof, rec = self.dof, self.rec_samples
+        while self.j < len(rec) and rec[self.j].t < limit - 1e-9:
+            st = rec[self.j]
+            self.advance(st.t)
+            ctl = self.emu.controller
+            if self.j % TORQUE_EVERY == 0:
+                tau, cur = ctl.joint_torques()[:dof].copy(), ctl.joint_currents()[:dof].copy()
+            else:
+                tau = cur = self._nan
+            self.samples.append(Sample(st.t, ctl.data.motion_state, ctl.data.q[:dof].copy(),
+                                       ctl.tcp_matrix()[:3, 3].copy(), tau, cur, ctl.data.qd[:dof].copy()))
+            self.j += 1
+
+    def command(self, i: int, t: float, req: xrec.Req, rep: xrec.Rep | None, read: bool,
+                hi: float) -> CommandResult:
+        """Send the ``i``-th recorded request at ``t`` and compare its reply with the recorded one."""
+        if not read and self.pending:  # a command may change what a read shows: look ahead first
+            cp = self.emu.checkpoint()
+            self.advance(max(hi_read for *_, hi_read in self.pending))
+            self.emu.restore(cp)
+            self.pending.clear()
+        frame = self.server.answer(req.tid, req.protocol, req.register, req.params)
+        c = CommandResult(i, t, req.register, req.name)
+        if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
+            c.reply_differs = True
+            c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
+            if read:
+                self.pending.append((c, req, rep, hi))
+        return c
+
+
+def _replay_commands(replay: _Replay, session: Session, result: Comparison) -> list[tuple[float, int]]:
+    """Send every recorded request at the controller time it most likely came (module docstring);
+    returns each one's time and the recorded frame it came before."""
+    emu, server = replay.emu, replay.server
+    spans = _controller_times(session)
+    times = [t for t, _, _ in spans]
+    cmd_at: list[tuple[float, int]] = []
+    previous = 0.0
+    for i, (req, rep) in enumerate(session.requests):
+        t_est, hi, lo = spans[i]
+        lower = max(previous, lo - LEAD_PERIODS * PERIOD)
+        replay.sample_until(lower)  # no command can come before its lower bound
+        read = _pure_read(req)
+        if read:
+            t = max(lower, emu.time)
+        elif _is_queued(req.register):
+            t = _best_time(server, emu, session, [max(x, lower) for x in times], spans, replay.rec_samples,
+                           i, replay.j)
+        else:  # the earliest its bounds allow, so that a queued command after it can be placed
+            t = max(lo, lower)
+        previous = t
+        replay.sample_until(t)
+        replay.advance(t)
+        result.commands.append(replay.command(i, t, req, rep, read, hi))
+        cmd_at.append((t, replay.j))
+    return cmd_at
 
 
 def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str, float],

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..tomlfile import read_toml
+from ..tomlfile import check_keys, load_toml
 
 #: Version of the calibration file format.
 FORMAT = 1
@@ -99,10 +99,7 @@ def from_dict(data: dict[str, Any]) -> Calibration:
     fmt = data.get("format", FORMAT)
     if fmt != FORMAT:
         raise CalibrationError(f"calibration format {fmt!r} is not supported (this version reads {FORMAT})")
-    known = set(CONSTANTS) | {"format", "model", "uncertainty", "source"}
-    unknown = sorted(set(data) - known)
-    if unknown:
-        raise CalibrationError(f"unknown calibration key {unknown[0]!r} (known: {', '.join(CONSTANTS)})")
+    check_keys(data, ("format", "model", "source", "uncertainty", *CONSTANTS), error=CalibrationError)
     model = data.get("model", "")
     if not isinstance(model, str):
         raise CalibrationError("model must be a string such as \"6\" or \"lite6\"")
@@ -115,9 +112,9 @@ def from_dict(data: dict[str, Any]) -> Calibration:
 
 
 def load(path: Path | str) -> Calibration:
-    """Read a calibration file; ``CalibrationError`` with a one-line reason on any problem."""
-    data = read_toml(path, CalibrationError)
-    return from_dict(data)
+    """Read a calibration file; ``CalibrationError`` with a one-line reason naming the file on any
+    problem (the TOML files' one format, xarm_emu.tomlfile)."""
+    return load_toml(path, "calibration file", from_dict, CalibrationError)
 
 
 def _list(vals: tuple[float, ...]) -> str:

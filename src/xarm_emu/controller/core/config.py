@@ -37,6 +37,15 @@ from concurrent.futures import Future
 from pathlib import Path
 from typing import IO, Any
 
+from ...protocol.admin_token import (  # noqa: F401  (kept importable here)
+    ADMIN_TOKEN_ENV,
+    ADMIN_TOKEN_NAME,
+    APP_DIR_NAME,
+    admin_token_path,
+    default_config_dir,
+    read_admin_token,
+)
+
 try:
     import fcntl
 except ImportError:  # Windows: no advisory locks, one emulator per directory is up to the user
@@ -46,42 +55,8 @@ log = logging.getLogger(__name__)
 
 FORMAT_NAME = "xarm-emu-config"
 FORMAT_VERSION = 1
-APP_DIR_NAME = "xarm-emu"
 
 _SAFE_SN = re.compile(r"[^A-Za-z0-9_.-]")
-
-
-def default_config_dir() -> Path:
-    """Per-user configuration directory: ``$XDG_CONFIG_HOME/xarm-emu``, else ``~/.config/xarm-emu``
-    (``%APPDATA%\\xarm-emu`` on Windows)."""
-    if os.name == "nt" and os.environ.get("APPDATA"):
-        return Path(os.environ["APPDATA"]) / APP_DIR_NAME
-    xdg = os.environ.get("XDG_CONFIG_HOME", "")
-    if xdg and os.path.isabs(xdg):
-        return Path(xdg) / APP_DIR_NAME
-    return Path.home() / ".config" / APP_DIR_NAME
-
-
-#: File of the admin channel's token in the per-user configuration directory (owner-only permissions);
-#: ``$XARM_EMU_ADMIN_TOKEN_FILE`` names another one for server and clients alike.
-ADMIN_TOKEN_NAME = "admin-token"
-ADMIN_TOKEN_ENV = "XARM_EMU_ADMIN_TOKEN_FILE"
-
-
-def admin_token_path() -> Path:
-    """Where the admin token is: ``$XARM_EMU_ADMIN_TOKEN_FILE``, else ``admin-token`` in
-    :func:`default_config_dir`."""
-    env = os.environ.get(ADMIN_TOKEN_ENV, "")
-    return Path(env) if env else default_config_dir() / ADMIN_TOKEN_NAME
-
-
-def read_admin_token(path: Path | None = None) -> str | None:
-    """The admin token in ``path`` (default :func:`admin_token_path`), or ``None`` without one."""
-    try:
-        text = (path or admin_token_path()).read_text(encoding="ascii").strip()
-    except (OSError, UnicodeDecodeError):
-        return None
-    return text or None
 
 
 def load_or_create_admin_token(path: Path | None = None) -> str:

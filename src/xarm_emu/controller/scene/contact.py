@@ -1,6 +1,6 @@
 """The contact scene: planes and boxes the TCP can press into, each a spring-damper (stiffness
 N/mm, damping N s/mm) with optional Coulomb friction, so that force control and the F/T sensor
-(:mod:`.ft_sensor`) feel a table or a part.
+(:mod:`..devices.ft_sensor`) feel a table or a part.
 
 Shapes are fixed in the robot's base frame (mm). A plane is a point and an outward normal (the solid
 is on the other side); a box is its two opposite corners, axis-aligned. While the TCP point is inside
@@ -26,13 +26,12 @@ or through the admin channel as the same tables (:func:`parse_scene`). A file wi
 ``ValueError`` with one line naming the shape and the key.
 
 ``[[object]]`` tables add loose objects (:mod:`.objects`): a scene with objects runs the
-physics engine (:mod:`.physics`), in which the planes and boxes are fixed bodies too.
+physics engine (:mod:`..physics`), in which the planes and boxes are fixed bodies too.
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from ...model import kinematics as kin
+from ...tomlfile import check_keys, load_toml
 from ..core.controller_protocol import Controller
 from .objects import ObjectSpec, parse_objects
 
@@ -133,9 +133,7 @@ def _shape(kind: str, i: int, t: Any) -> Shape:
         raise ValueError(f"{label}: a table of keys expected")
     label = f"{kind} {t.get('name', i + 1)!s}"
     keys = _COMMON | ({"point", "normal"} if kind == "plane" else {"min", "max"})
-    unknown = sorted(set(t) - keys)
-    if unknown:
-        raise ValueError(f"{label}: unknown key {unknown[0]!r} (known: {', '.join(sorted(keys))})")
+    check_keys(t, sorted(keys), label)
     for need in sorted(keys - {"name", "damping", "friction"}):
         if need not in t:
             raise ValueError(f"{label}: missing {need!r}")
@@ -162,9 +160,7 @@ def parse_scene(tables: Mapping[str, Any]) -> Scene:
     ValueError on anything else (one line naming the shape and the key)."""
     if not isinstance(tables, Mapping):
         raise ValueError("a scene is a table with 'plane', 'box' and 'object' lists")
-    unknown = sorted(set(tables) - {"plane", "box", "object"})
-    if unknown:
-        raise ValueError(f"unknown scene entry {unknown[0]!r} (known: plane, box, object)")
+    check_keys(tables, ("plane", "box", "object"))
     shapes: list[Shape] = []
     for kind in ("plane", "box"):
         items = tables.get(kind, [])
@@ -175,18 +171,9 @@ def parse_scene(tables: Mapping[str, Any]) -> Scene:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read a scene file; ValueError (one line, with the file name) if it cannot be used."""
-    p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except OSError as e:
-        raise ValueError(f"scene file {p}: {e.strerror or e}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"scene file {p}: not TOML: {e}") from None
-    try:
-        return parse_scene(data)
-    except ValueError as e:
-        raise ValueError(f"scene file {p}: {e}") from None
+    """Read a scene file; ValueError if it cannot be used (one line naming the file, the TOML
+    files' one format: xarm_emu.tomlfile)."""
+    return load_toml(path, "scene file", parse_scene)
 
 
 def scene_of(ctl: Controller) -> Scene:

@@ -23,6 +23,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ...tomlfile import check_keys
+
 #: The shapes an object may have and how many sizes each takes (mm).
 SHAPES = {"box": 3, "cylinder": 2, "sphere": 1}
 #: The size keys of each shape, for messages.
@@ -85,9 +87,7 @@ def parse_object(i: int, t: Any) -> ObjectSpec:
     if not isinstance(t, Mapping):
         raise ValueError(f"object {i + 1}: a table of keys expected")
     label = f"object {t.get('name', i + 1)!s}"
-    unknown = sorted(set(t) - _KEYS)
-    if unknown:
-        raise ValueError(f"{label}: unknown key {unknown[0]!r} (known: {', '.join(sorted(_KEYS))})")
+    check_keys(t, sorted(_KEYS), label)
     for need in ("shape", "size", "mass", "position"):
         if need not in t:
             raise ValueError(f"{label}: missing {need!r}")
