@@ -1,5 +1,6 @@
-"""The control box core: state, readiness, poses, dispatch through the register table, the
-control step and the safety checks.
+"""The :class:`Controller`, which assembles the rooms: readiness, poses, dispatch through the
+binding table, the control step and the safety checks, over the state of ``core/``. Handlers, devices
+and applications see it through the protocol of ``core/controller_protocol.py``.
 
 Pure and deterministic: no sockets, no wall clock. The server calls :meth:`handle` for every
 request and :meth:`step` once per control period (:data:`~xarm_emu.controller.core.interface.PERIOD`).
@@ -33,7 +34,7 @@ from ..protocol.layouts import LayoutError, all_within
 from . import handlers, motion
 from .applications import force_control, reduced
 from .applications.modes import EVERY_STEP, EVERY_STEP_IDLE, MODE_STEPS
-from .core import safety
+from .core import controller_protocol, safety
 from .core.commands import QueuedCommand
 from .core.controller_protocol import Component
 from .core.controller_state import ControllerState, StateField
@@ -426,7 +427,7 @@ class Controller:
                 state = d.motion_state
                 mode = d.mode
                 if mode == MODE_POSITION and state in _POSITION_STATES:
-                    if not force_control.period(self, dt, self._ft_control_wrench):  # register 202
+                    if not force_control.period(self, dt, _ft_control_wrench):  # register 202
                         self._step_position(dt)
                 elif mode == MODE_SERVO and d.servo_target is not None and state in _SERVO_STATES:
                     tracker = self._tracker()
@@ -509,11 +510,6 @@ class Controller:
         """Whether an application reads the F/T sensor every period: admittance or force control
         (register 202) is set."""
         return force_control.engaged(self)
-
-    def _ft_control_wrench(self) -> np.ndarray | None:
-        """What admittance and force control act on: the F/T sensor's control wrench, None while
-        the sensor is switched off."""
-        return ft_sensor.control_wrench(self) if ft_sensor.enabled(self) else None
 
     def _servo_holding(self) -> bool:
         """Servo mode: the arm holds its target exactly, so a period gives the same joints again."""
@@ -648,6 +644,12 @@ class Controller:
         t = self.reported_torques()
         return tuple(float(x) for x in t) + (0.0,) * (7 - self.dof)
 
+
+
+def _ft_control_wrench(ctl: controller_protocol.Controller) -> np.ndarray | None:
+    """What admittance and force control act on: the F/T sensor's control wrench, None while the
+    sensor is switched off."""
+    return ft_sensor.control_wrench(ctl) if ft_sensor.enabled(ctl) else None
 
 
 def _never_idle(ctl: Controller) -> bool:

@@ -272,10 +272,10 @@ def runs(ctl: Controller) -> bool:
             and ctl.motion_state in (STATE_SLEEP, STATE_MOVING) and not ctl.executor.active)
 
 
-def period(ctl: Controller, dt: float, sensor_wrench: Callable[[], np.ndarray | None]) -> bool:
+def period(ctl: Controller, dt: float, sensor_wrench: Callable[[Controller], np.ndarray | None]) -> bool:
     """The core's call each control period in position mode: run the application when it
     :func:`runs` (True: this period's motion is done), else let queued commands run (False).
-    ``sensor_wrench`` answers the sensor's control wrench (sensor frame, torques about the TCP), or
+    ``sensor_wrench(ctl)`` answers the sensor's control wrench (sensor frame, torques about the TCP), or
     None while the sensor is switched off."""
     fc = cast("ForceControl | None", ctl.data.force_control)
     if fc is None or fc.app == APP_OFF:
@@ -283,7 +283,7 @@ def period(ctl: Controller, dt: float, sensor_wrench: Callable[[], np.ndarray | 
     if not runs(ctl):
         fc.restart()  # stopped, suspended or running a queued command: start again afterwards
         return False
-    wrench = sensor_wrench()
+    wrench = sensor_wrench(ctl)
     if wrench is None:  # the sensor was switched off: the application ends
         fc.app = APP_OFF
         fc.restart()
