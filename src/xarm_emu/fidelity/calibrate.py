@@ -9,8 +9,9 @@ same path. Then, per joint, by linear least squares:
 - the torque offset, viscous and Coulomb friction: the recorded torques less the model's,
   ``offset + viscous * speed + coulomb * sign(speed)``; the friction terms only for a joint that moved
   both ways over enough samples (else they cannot be told from the offset and are left out);
-- the thermal constants are fitted only where the rich report's temperatures changed during the
-  recording; a session of minutes at room temperature leaves them as they are.
+- the thermal constants (time constant, idle rise, rise per A^2) where the rich report's temperatures
+  changed during the recording, by nonlinear least squares on the emulator's thermal model
+  (:mod:`.thermal_fit`); a session of minutes at room temperature leaves them as they are.
 
 Each value comes with its standard deviation, ``sqrt(s^2 (A^T A)^-1)`` of the fit, ``s^2`` the residual
 variance. Collision thresholds are not fitted: the SDK sets the collision sensitivity, a setting.
@@ -24,7 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..controller.base import PERIOD
+from ..controller.emulator import THERMAL_EVERY
+from ..controller.thermal import AMBIENT_C, thermal_params
 from ..model.calibration import Calibration
+from ..model.robots import get_model
+from . import thermal_fit
 from .compare import Comparison, compare
 
 #: Samples a joint needs in each direction of motion before friction is fitted for it.
@@ -95,17 +101,67 @@ def fit(comparison: Comparison) -> Fit:
             off[j], off_sd[j] = x[0], sd[0]
             notes.append(f"joint {j + 1}: friction not fitted (it did not move both ways over "
                          f"{MIN_MOVING} frames each)")
-    notes.append("thermal constants not fitted: fitting them needs temperatures that change over the "
-                 "recording (a long session from a cold start)")
     values: dict[str, tuple[float, ...]] = {"torque_constants": tuple(kt.tolist()),
                                             "torque_offsets": tuple(off.tolist())}
     unc = [("torque_constants", tuple(kt_sd.tolist())), ("torque_offsets", tuple(off_sd.tolist()))]
+    _thermal(comparison, values, unc, notes)
     if friction_any:
         values["viscous_friction"] = tuple(max(0.0, x) for x in visc.tolist())
         values["coulomb_friction"] = tuple(max(0.0, x) for x in coul.tolist())
         unc += [("viscous_friction", tuple(visc_sd.tolist())), ("coulomb_friction", tuple(coul_sd.tolist()))]
     cal = Calibration(model=comparison.model, uncertainties=tuple(unc), **values)  # type: ignore[arg-type]
     return Fit(cal, notes, len(rec))
+
+
+THERMAL_NAMES = ("thermal_time_constants", "thermal_idle_rise", "thermal_rise_per_amp2")
+
+
+def _thermal(comparison: Comparison, values: dict[str, tuple[float, ...]],
+             unc: list[tuple[str, tuple[float, ...]]], notes: list[str]) -> None:
+    """Add the thermal constants of the joints whose temperatures changed (:mod:`.thermal_fit`); a
+    joint not fitted keeps the emulator's values, written with an infinite uncertainty."""
+    session = comparison.session
+    rich = [f for f in session.status if f.temperatures is not None] if session is not None else []
+    if session is None or len(rich) < 8 or not comparison.recorded:
+        notes.append("thermal constants not fitted: the recording has no rich report (port 30002) "
+                     "with joint temperatures")
+        return
+    dt = THERMAL_EVERY * PERIOD
+    defaults = thermal_params(get_model(comparison.model))
+    dof = len(defaults)
+    obs_t = session.controller_times([f.t for f in rich])
+    temps = np.array([list(f.temperatures or ())[:dof] for f in rich], dtype=float)
+    cur_t = np.array([s.t for s in comparison.recorded])
+    cur = np.abs(np.array([s.currents for s in comparison.recorded]))
+    i2, idx, keep = thermal_fit.step_inputs(obs_t, cur_t, cur, dt)
+    idx, temps = idx[keep], temps[keep]
+    _, first = np.unique(idx, return_index=True)  # one observation per step: they repeat between steps
+    idx, temps = idx[first], temps[first]
+    fitted = [thermal_fit.fit_joint(idx, temps[:, j], i2[:, j], AMBIENT_C, dt, defaults[j].rise_per_amp2)
+              for j in range(dof)]
+    if not any(fitted):
+        notes.append(f"thermal constants not fitted: no joint's temperature changed by "
+                     f"{thermal_fit.MIN_CHANGE:g} C or more over the recording (a long session from a "
+                     "cold start shows them)")
+        return
+    inf = math.inf
+    tau = [f.time_constant if f else d.time_constant for f, d in zip(fitted, defaults, strict=True)]
+    idle = [f.idle_rise if f else d.idle_rise for f, d in zip(fitted, defaults, strict=True)]
+    rise = [f.rise_per_amp2 if f else d.rise_per_amp2 for f, d in zip(fitted, defaults, strict=True)]
+    sd = [f.sd if f else (inf, inf, inf) for f in fitted]
+    for j, f in enumerate(fitted):
+        if f is None:
+            notes.append(f"joint {j + 1}: thermal constants not fitted (its temperature changed by less "
+                         f"than {thermal_fit.MIN_CHANGE:g} C); the emulator's are kept")
+        elif not f.fitted_rise:
+            notes.append(f"joint {j + 1}: thermal rise per A^2 not fitted (its current hardly varied); "
+                         "the emulator's is kept")
+    values["thermal_time_constants"] = tuple(tau)
+    values["thermal_idle_rise"] = tuple(idle)
+    values["thermal_rise_per_amp2"] = tuple(max(0.0, r) for r in rise)
+    unc += [("thermal_time_constants", tuple(s[0] for s in sd)),
+            ("thermal_idle_rise", tuple(s[1] for s in sd)),
+            ("thermal_rise_per_amp2", tuple(inf if math.isnan(s[2]) else s[2] for s in sd))]
 
 
 def calibrate(path: Path) -> Fit:

@@ -107,6 +107,7 @@ class Comparison:
     recorded: list[Sample] = field(default_factory=list, repr=False)
     replayed: list[Sample] = field(default_factory=list, repr=False)
     replay_seconds: float = 0.0
+    session: Session | None = field(default=None, repr=False)
 
     def to_json(self) -> dict[str, Any]:
         return {"model": self.model, "firmware": self.firmware, "totals": self.totals,
@@ -141,6 +142,18 @@ def model_of(version: str) -> RobotModel:
     raise CompareError(f"no emulated arm has axis {axis} and type {rtype}")
 
 
+@dataclass(frozen=True)
+class StatusFrame:
+    """What a normal or rich report frame (ports 30001, 30002; manual 2.1.6) showed: the error and
+    warning codes (bytes 89, 90) and, in a rich frame, the joint temperatures (bytes 246-252)."""
+
+    t: float  # proxy time
+    port: int
+    error: int
+    warning: int
+    temperatures: tuple[int, ...] | None
+
+
 @dataclass
 class Session:
     """A recording read for replay: the box, its requests and replies, its report frames."""
@@ -150,6 +163,24 @@ class Session:
     requests: list[tuple[xrec.Req, xrec.Rep | None]]
     realtime: list[tuple[float, float, reports.ReportSnapshot]]  # (proxy time, controller time, frame)
     frames: dict[int, list[float]]  # report port -> proxy times
+    status: list[StatusFrame] = field(default_factory=list)
+
+    def controller_times(self, proxy_times: np.ndarray | list[float]) -> np.ndarray:
+        """Controller times of moments on the proxy's clock: read from the real-time frames around
+        them (their timestamps are the box's clock), or, in a recording of the command port only, the
+        proxy's clock moved so that the first request falls one control period after the start."""
+        t = np.asarray(proxy_times, dtype=float)
+        if not self.realtime:
+            t0 = self.requests[0][0].t if self.requests else 0.0
+            return t - t0 + PERIOD
+        recv = np.array([r[0] for r in self.realtime])
+        ts = np.array([r[1] for r in self.realtime])
+        out = np.interp(t, recv, ts)
+        return np.where(t < recv[0], t - recv[0] + ts[0], np.where(t > recv[-1], t - recv[-1] + ts[-1], out))
+
+
+_STATUS_DECODERS = {reports.NORMAL_SIZE: reports.decode_normal, reports.RICH_SIZE: reports.decode_rich,
+                    reports.RICH2_SIZE: reports.decode_rich2}
 
 
 def read_session(path: Path) -> Session:
@@ -159,6 +190,7 @@ def read_session(path: Path) -> Session:
     waiting: dict[tuple[int, int], int] = {}
     realtime: list[tuple[float, float, reports.ReportSnapshot]] = []
     frames: dict[int, list[float]] = {}
+    status: list[StatusFrame] = []
     try:
         for rec in xrec.read(path):
             if isinstance(rec, xrec.Req) and rec.protocol != 1:
@@ -173,7 +205,15 @@ def read_session(path: Path) -> Session:
                     profile = xrec.firmware_of(version) or profile
             elif isinstance(rec, xrec.Rpt):
                 frames.setdefault(rec.port, []).append(rec.t)
-                if rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
+                decode = _STATUS_DECODERS.get(len(rec.frame))
+                if rec.port in (reports.NORMAL_PORT, reports.RICH_PORT) and decode is not None:
+                    try:
+                        st = decode(rec.frame)
+                    except reports.ReportError:
+                        continue
+                    temps = tuple(st.temperatures) if len(rec.frame) != reports.NORMAL_SIZE else None
+                    status.append(StatusFrame(rec.t, rec.port, st.error, st.warning, temps))
+                elif rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
                     snap = reports.decode_realtime(rec.frame)
                     ts = snap.timestamp_us / 1e6
                     if not realtime or ts > realtime[-1][1]:  # a frame sent again shows nothing new
@@ -186,7 +226,7 @@ def read_session(path: Path) -> Session:
     if not realtime:
         raise CompareError(f"{path} has no real-time report frames (port 30000): open the real-time "
                            "report through the proxy while recording (docs/real-arms.md)")
-    return Session(version, profile, requests, realtime, frames)
+    return Session(version, profile, requests, realtime, frames, status)
 
 
 def _controller_times(session: Session) -> list[tuple[float, float, float]]:
@@ -289,7 +329,7 @@ def compare(path: Path, calibration: Calibration | None = None,
     model = with_calibration(base, calibration)
     dof = model.dof
     firmware = str(session.profile.version)
-    result = Comparison(base.key, firmware)
+    result = Comparison(base.key, firmware, session=session)
     spans = _controller_times(session)
     times = [t for t, _, _ in spans]
     rec_samples = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
