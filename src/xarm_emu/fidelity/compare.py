@@ -46,10 +46,14 @@ DEFAULT_TOLERANCES: dict[str, float] = {
     "torque_max": 0.05,  # N.m
     "current_rms": 0.01,  # A
     "current_max": 0.02,  # A
-    "code_differences": 0,  # error or warning codes seen in one only
+    "code_differences": 0,  # error or warning codes seen in one only, register 15 replies that differ
+    "code_timing_s": 0.2 + 1e-9,  # when a code is first seen, recorded against replayed (one report period)
     "report_rate_rel": 0.2,  # relative difference of a report rate from the emulator's
 }
 
+
+#: get_err_warn_code (manual 2.1.3): its reply carries the error and the warning code.
+ERR_WARN_REGISTER = 15
 
 #: Joint torques and currents are compared on every this many real-time frames (25 Hz of the 250 Hz
 #: report): the dynamic model is the replay's costliest part, and torques change slowly against it.
@@ -90,6 +94,8 @@ class CommandResult:
     current_rms: float = 0.0
     current_max: float = 0.0
     samples: tuple[int, int] = (0, 0)  # sample index range [start, end)
+    #: A register 15 (get_err_warn_code) reply's codes: recorded error, warning, replayed error, warning.
+    reply_codes: tuple[int, int, int, int] | None = None
 
 
 @dataclass
@@ -101,16 +107,18 @@ class Comparison:
     commands: list[CommandResult] = field(default_factory=list)
     totals: dict[str, float] = field(default_factory=dict)
     per_joint: dict[str, list[float]] = field(default_factory=dict)
-    codes: dict[str, list[list[float]]] = field(default_factory=dict)
+    codes: dict[str, list[Any]] = field(default_factory=dict)  # see _codes
     rates: dict[str, list[float]] = field(default_factory=dict)  # port -> recorded, emulator's
     failures: list[str] = field(default_factory=list)
     recorded: list[Sample] = field(default_factory=list, repr=False)
     replayed: list[Sample] = field(default_factory=list, repr=False)
     replay_seconds: float = 0.0
     session: Session | None = field(default=None, repr=False)
+    #: What this comparison could not measure and why (a recording without some report stream).
+    notes: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
-        return {"model": self.model, "firmware": self.firmware, "totals": self.totals,
+        return {"model": self.model, "firmware": self.firmware, "notes": self.notes, "totals": self.totals,
                 "per_joint": self.per_joint, "codes": self.codes, "rates": self.rates,
                 "failures": self.failures, "commands": [asdict(c) for c in self.commands]}
 
@@ -340,6 +348,7 @@ def compare(path: Path, calibration: Calibration | None = None,
         emu = Emulator(model, config_dir=Path(cdir), firmware=firmware)
         server = EmulatorServer(emu, ServerConfig(stepped=True, port=0))
         cmd_at: list[tuple[float, int]] = []
+        emu_codes: list[tuple[int, int]] = [(0, 0)] * len(session.status)
         pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float]] = []  # reads to try again
 
         def advance(to: float) -> None:
@@ -359,14 +368,32 @@ def compare(path: Path, calibration: Calibration | None = None,
                 frame = server.answer(req.tid, req.protocol, req.register, req.params)
                 if bytes(frame[6:]) == rep.frame[6:]:
                     c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
+                    if c.reply_codes is not None:
+                        c.reply_codes = (*c.reply_codes[:2], *c.reply_codes[:2])
                     pending.remove(item)
 
         j = 0
+        status = session.status
+        st_times = session.controller_times([f.t for f in status]).tolist() if status else []
+        st_order = sorted(range(len(status)), key=lambda n: st_times[n])
+        k = 0
 
         def sample_until(limit: float) -> None:
-            """Take the replayed state at every recorded frame before ``limit``."""
-            nonlocal j
-            while j < len(rec_samples) and rec_samples[j].t < limit - 1e-9:
+            """Take the replayed state at every recorded frame before ``limit``: the joints, torques
+            and currents at the real-time frames, the error and warning codes at the normal and rich
+            frames."""
+            nonlocal j, k
+            while True:
+                t_rt = rec_samples[j].t if j < len(rec_samples) else math.inf
+                t_st = st_times[st_order[k]] if k < len(st_order) else math.inf
+                if not min(t_rt, t_st) < limit - 1e-9:
+                    return
+                if t_st <= t_rt:
+                    advance(t_st)
+                    ctl = emu.controller
+                    emu_codes[st_order[k]] = (ctl.error_code, ctl.warning_code)
+                    k += 1
+                    continue
                 st = rec_samples[j]
                 advance(st.t)
                 ctl = emu.controller
@@ -401,6 +428,8 @@ def compare(path: Path, calibration: Calibration | None = None,
                 pending.clear()
             frame = server.answer(req.tid, req.protocol, req.register, req.params)
             c = CommandResult(i, t, req.register, req.name)
+            if req.register == ERR_WARN_REGISTER and rep is not None and min(len(rep.frame), len(frame)) > 9:
+                c.reply_codes = (rep.frame[8], rep.frame[9], frame[8], frame[9])
             if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
                 c.reply_differs = True
                 c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
@@ -411,12 +440,12 @@ def compare(path: Path, calibration: Calibration | None = None,
         sample_until(math.inf)
         result.replay_seconds = _time.perf_counter() - started
     result.recorded, result.replayed = rec_samples, rep_samples
-    _measure(result, cmd_at, tol, session)
+    _measure(result, cmd_at, tol, session, emu_codes)
     return result
 
 
 def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str, float],
-             session: Session) -> None:
+             session: Session, emu_codes: list[tuple[int, int]]) -> None:
     rec, rep = result.recorded, result.replayed
     pos_r, pos_p = np.array([s.pos for s in rec]), np.array([s.pos for s in rep])
     q_r = np.degrees(np.array([s.joints for s in rec]))
@@ -462,8 +491,7 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
         result.per_joint = {"torque_rms": jt.tolist(), "current_rms": jc.tolist(),
                             "torque_mean": dtau[has].mean(axis=0).tolist(),
                             "current_mean": dcur[has].mean(axis=0).tolist()}
-    _codes(result, session)
-    t["code_differences"] = float(sum(len(v) for v in result.codes.values()))
+    t["code_differences"], t["code_timing_s"] = _codes(result, session, emu_codes)
     nominal = reports.rates_for(session.profile)
     worst_rate = 0.0
     for port, stamps in sorted(session.frames.items()):
@@ -477,16 +505,78 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
             result.failures.append(f"{key} {t[key]:.6g} > {limit:.6g}")
 
 
-def _codes(result: Comparison, session: Session) -> None:
-    """Error and warning codes of the replies' state bits, per command: which side had them."""
-    only: list[list[float]] = []
+def _code_name(kind: int, code: int) -> str:
+    return f"{'EW'[kind]}{code}"
+
+
+def _codes(result: Comparison, session: Session, emu_codes: list[tuple[int, int]]) -> tuple[float, float]:
+    """The error and warning codes (manual 3.2) the box showed against the emulator's at the same
+    instants, into ``result.codes``; returns (differences, the largest difference in the time a code
+    was first seen, s).
+
+    - ``reports``: every normal and rich report frame (bytes 89 and 90, manual 2.1.6) whose codes
+      differ from the emulator's at its controller time, one row per run of frames alike:
+      ``{t, port, frames, recorded: [error, warning], emulator: [error, warning]}``;
+    - ``replies``: replies to register 15 (get_err_warn_code) that differ, with both codes;
+    - ``state_bits``: replies whose error or warning bits (state byte 0x40, 0x20) differ;
+    - ``first_seen``: each code either side showed, with the controller time it first showed it in
+      a report frame or a register 15 reply (``None``: never).
+
+    Differences: the codes seen on one side only, the register 15 replies and the state bits that
+    differ (a run of differing report frames is counted through its codes).
+    """
+    codes: dict[str, list[Any]] = {}
+    seen: dict[str, list[float | None]] = {}
+
+    def saw(name: str, side: int, t: float) -> None:
+        first = seen.setdefault(name, [None, None])
+        if first[side] is None or t < first[side]:  # type: ignore[operator]
+            first[side] = t
+
+    st_times = session.controller_times([f.t for f in session.status]).tolist() if session.status else []
+    runs: list[dict[str, Any]] = []
+    last: dict[int, tuple[int, int, int, int]] = {}
+    for f, t, emu in zip(session.status, st_times, emu_codes, strict=True):
+        rec = (f.error, f.warning)
+        for side, pair in ((0, rec), (1, emu)):
+            for kind, code in enumerate(pair):
+                if code:
+                    saw(_code_name(kind, code), side, t)
+        key = (*rec, *emu)
+        if rec != emu:
+            if last.get(f.port) == key:
+                runs[-1]["frames"] += 1
+            else:
+                runs.append({"t": t, "port": f.port, "frames": 1, "recorded": list(rec),
+                             "emulator": list(emu)})
+        last[f.port] = key
+    if runs:
+        codes["reports"] = runs
+    replies, bits = [], []
     for c in result.commands:
+        if c.reply_codes is not None:
+            for kind in (0, 1):
+                for side in (0, 1):
+                    if c.reply_codes[2 * side + kind]:
+                        saw(_code_name(kind, c.reply_codes[2 * side + kind]), side, c.t)
+            if c.reply_codes[:2] != c.reply_codes[2:]:
+                replies.append({"t": c.t, "request": c.index, "recorded": list(c.reply_codes[:2]),
+                                "emulator": list(c.reply_codes[2:])})
         if c.reply_differs and c.recorded_reply and c.replayed_reply:
             rs, ps = int(c.recorded_reply[2:4], 16), int(c.replayed_reply[2:4], 16)
             if (rs ^ ps) & 0x60:
-                only.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])
-    if only:
-        result.codes["state_bits"] = only
+                bits.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])
+    if replies:
+        codes["replies"] = replies
+    if bits:
+        codes["state_bits"] = bits
+    if seen:
+        codes["first_seen"] = [{"code": name, "recorded": r, "emulator": e}
+                               for name, (r, e) in sorted(seen.items())]
+    result.codes = codes
+    one_side = sum((r is None) != (e is None) for r, e in seen.values())
+    timing = max((abs(r - e) for r, e in seen.values() if r is not None and e is not None), default=0.0)
+    return float(one_side + len(replies) + len(bits)), float(timing)
 
 
 #: Periods by which a real-time frame's timestamp may lead the controller time of the commands
@@ -533,6 +623,20 @@ def _best_time(server: Any, emu: Any, session: Session, times: list[float],
     return cands[best] if math.isfinite(scores[best]) else times[i]
 
 
+def code_lines(result: Comparison) -> list[str]:
+    """One line per error or warning code either side showed: when, recorded against the emulator."""
+    out = []
+    for row in result.codes.get("first_seen", []):
+        r, e = row["recorded"], row["emulator"]
+        rec = "never" if r is None else f"{r:.3f} s"
+        emu = "never" if e is None else f"{e:.3f} s"
+        out.append(f"code {row['code']}: first seen recorded {rec}, emulator {emu}")
+    for row in result.codes.get("replies", []):
+        out.append(f"get_err_warn_code at {row['t']:.3f} s: recorded error {row['recorded'][0]} warning "
+                   f"{row['recorded'][1]}, emulator error {row['emulator'][0]} warning {row['emulator'][1]}")
+    return out
+
+
 def worst_commands(result: Comparison, n: int = 3) -> list[CommandResult]:
     """The ``n`` commands with the largest differences (torque, then path), for the plots."""
     with_samples = [c for c in result.commands if c.samples[1] > c.samples[0]]
@@ -558,6 +662,17 @@ def html_report(result: Comparison, path: Path) -> None:
              "<table border='1'><tr><th>measure</th><th>value</th></tr>"]
     parts += [f"<tr><td>{html.escape(k)}</td><td>{v:.6g}</td></tr>" for k, v in result.totals.items()]
     parts.append("</table>")
+    parts += [f"<p>note: {html.escape(n)}</p>" for n in result.notes]
+    runs = result.codes.get("reports", [])
+    if result.codes.get("first_seen") or runs:
+        parts.append("<h2>Error and warning codes</h2><ul>")
+        parts += [f"<li>{html.escape(line)}</li>" for line in code_lines(result)]
+        parts.append("</ul><table border='1'><tr><th>controller time (s)</th><th>report port</th>"
+                     "<th>frames</th><th>recorded error, warning</th><th>emulator error, warning</th></tr>")
+        parts += [f"<tr><td>{r['t']:.3f}</td><td>{r['port']}</td><td>{r['frames']}</td>"
+                  f"<td>{r['recorded'][0]}, {r['recorded'][1]}</td><td>{r['emulator'][0]}, "
+                  f"{r['emulator'][1]}</td></tr>" for r in runs]
+        parts.append("</table>")
     rec, rep = result.recorded, result.replayed
     for c in worst_commands(result):
         a, b = c.samples
