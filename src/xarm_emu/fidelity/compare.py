@@ -231,9 +231,8 @@ def read_session(path: Path) -> Session:
     if not version:
         raise CompareError(f"{path} has no register 1 reply: the box's arm and firmware are unknown "
                            "(the SDK asks for it on connecting; record from the program's start)")
-    if not realtime:
-        raise CompareError(f"{path} has no real-time report frames (port 30000): open the real-time "
-                           "report through the proxy while recording (docs/real-arms.md)")
+    if not realtime and not requests:
+        raise CompareError(f"{path} has neither requests nor real-time report frames: nothing to compare")
     return Session(version, profile, requests, realtime, frames, status)
 
 
@@ -248,7 +247,13 @@ def _controller_times(session: Session) -> list[tuple[float, float, float]]:
     earliest time: ``compare`` tries it again at each later period up to its upper bound, the time
     a round trip through a busy network or computer leaves open. Returns (time, upper bound, lower
     bound); a frame's timestamp may lead the box's clock by up to :data:`LEAD_PERIODS` periods, which
-    ``compare`` allows below the lower bound."""
+    ``compare`` allows below the lower bound.
+
+    Without real-time frames the bounds are the request's and the reply's arrival on the proxy's
+    clock, moved as :meth:`Session.controller_times` says, and a command's time is its request's on
+    the period grid."""
+    if not session.realtime:
+        return _proxy_times(session)
     recv = [r[0] for r in session.realtime]
     ts = [r[1] for r in session.realtime]
     bounds = []
@@ -271,6 +276,74 @@ def _controller_times(session: Session) -> list[tuple[float, float, float]]:
         else:
             t = min(max(lo, lo + round((req.t + offset - lo) / PERIOD) * PERIOD), hi)
         last = max(last, t)  # in the order the box received them
+        out.append((last, max(last, hi), lo))
+    return out
+
+
+#: What a recording without the real-time report (port 30000) cannot show, said with its comparison.
+COMMAND_PORT_ONLY = (
+    "no real-time report (port 30000) in the recording: the requests are placed on the controller's clock "
+    "by the proxy's (the first at the first control period), so a request's period is known only to "
+    "within its round trip and the clock's phase",
+    "path deviation is measured only at the program's own reads of the TCP pose (register 41) and the "
+    "joints (register 42), as the distance of each recorded answer from the replayed path over the "
+    "periods its round trip leaves open; such a read counts as a differing reply only beyond path_mm or "
+    "path_deg",
+    "not compared: move durations, joint torques and currents (they need the real-time report)",
+)
+#: Pure reads whose answers lie on the path: compared by distance without the real-time report.
+PATH_READS = {41: "pose", 42: "joints"}
+
+
+def _read_distance(c: CommandResult, rep: xrec.Rep, tries: list[bytes], cmd_only: bool,
+                   tol: dict[str, float]) -> None:
+    """For a pose or joint read still differing after its window (register 41 or 42): the distance
+    of the recorded answer from the polyline of the replayed answers (mm for the pose's position,
+    degrees for the joints). Without the real-time report, a read within the path tolerance is
+    equal: the clock's phase is unknown there (:data:`COMMAND_PORT_ONLY`)."""
+    key = PATH_READS.get(rep.register)
+    reg = regs.get(rep.register)
+    if key is None or reg is None or not c.reply_differs or not tries:
+        return
+    try:
+        got = np.array(reg.reply.decode(rep.frame[8:])[key], dtype=float)
+        path = np.array([reg.reply.decode(f[8:])[key] for f in tries], dtype=float)
+    except (ValueError, KeyError, TypeError):
+        return
+    if key == "pose":
+        d = float(np.linalg.norm(got[:3] - path[0, :3])) if len(path) == 1 else \
+            float(min(_point_seg(got[:3], path[n, :3], path[n + 1, :3]) for n in range(len(path) - 1)))
+        c.path_mm = d
+        within = d <= tol.get("path_mm", 0.0)
+    else:
+        q, qs = np.degrees(got), np.degrees(path)
+        d = float(np.linalg.norm(q - qs[0])) if len(qs) == 1 else \
+            float(min(_point_seg(q, qs[n], qs[n + 1]) for n in range(len(qs) - 1)))
+        c.path_deg = d
+        within = d <= tol.get("path_deg", 0.0)
+    if cmd_only and within:
+        c.reply_differs = False
+
+
+def _point_seg(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance of point ``p`` from the segment ``a``-``b``."""
+    ab = b - a
+    den = float(ab @ ab)
+    u = 0.0 if den == 0 else min(1.0, max(0.0, float((p - a) @ ab) / den))
+    return float(np.linalg.norm(p - (a + u * ab)))
+
+
+def _proxy_times(session: Session) -> list[tuple[float, float, float]]:
+    """:func:`_controller_times` of a recording of the command port only."""
+    out: list[tuple[float, float, float]] = []
+    last = 0.0
+    for req, rep in session.requests:
+        lo, hi = session.controller_times([req.t, rep.t if rep is not None else math.inf]).tolist()
+        if _pure_read(req):  # the period it arrived in
+            t, hi = math.floor(lo / PERIOD + 1e-9) * PERIOD, hi + LEAD_PERIODS * PERIOD
+        else:
+            t = max(PERIOD, round(lo / PERIOD) * PERIOD)
+        last = max(last, t)
         out.append((last, max(last, hi), lo))
     return out
 
@@ -339,6 +412,9 @@ def compare(path: Path, calibration: Calibration | None = None,
     firmware = str(session.profile.version)
     result = Comparison(base.key, firmware, session=session)
     spans = _controller_times(session)
+    cmd_only = not session.realtime
+    if cmd_only:
+        result.notes = list(COMMAND_PORT_ONLY)
     times = [t for t, _, _ in spans]
     rec_samples = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
     rep_samples: list[Sample] = []
@@ -349,23 +425,28 @@ def compare(path: Path, calibration: Calibration | None = None,
         server = EmulatorServer(emu, ServerConfig(stepped=True, port=0))
         cmd_at: list[tuple[float, int]] = []
         emu_codes: list[tuple[int, int]] = [(0, 0)] * len(session.status)
-        pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float]] = []  # reads to try again
+        pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float, list[bytes]]] = []  # reads to try again
 
         def advance(to: float) -> None:
             while pending and to > emu.time + 1e-9:  # a period at a time while reads wait
+                before = emu.time
                 server.advance(min(PERIOD, to - emu.time))
                 retry()
+                if emu.time <= before:  # less than a period is left
+                    break
             if to > emu.time + 1e-9:
                 server.advance(to - emu.time)
             retry()
 
         def retry() -> None:
             for item in list(pending):
-                c, req, rep, hi = item
+                c, req, rep, hi, tries = item
                 if emu.time > hi + 1e-9:
                     pending.remove(item)
+                    _read_distance(c, rep, tries, cmd_only, tol)
                     continue
                 frame = server.answer(req.tid, req.protocol, req.register, req.params)
+                tries.append(bytes(frame))
                 if bytes(frame[6:]) == rep.frame[6:]:
                     c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
                     if c.reply_codes is not None:
@@ -414,6 +495,8 @@ def compare(path: Path, calibration: Calibration | None = None,
             read = _pure_read(req)
             if read:
                 t = max(lower, emu.time)
+            elif _is_queued(req.register) and not rec_samples:  # no frames to place it by
+                t = max(t_est, lower)
             elif _is_queued(req.register):
                 t = _best_time(server, emu, session, [max(x, lower) for x in times], spans, rec_samples, i, j)
             else:  # the earliest its bounds allow, so that a queued command after it can be placed
@@ -423,8 +506,10 @@ def compare(path: Path, calibration: Calibration | None = None,
             advance(t)
             if not read and pending:  # a command may change what a read shows: look ahead first
                 cp = emu.checkpoint()
-                advance(max(hi_read for *_, hi_read in pending))
+                advance(max(item[3] for item in pending))
                 emu.restore(cp)
+                for c_read, _, rep_read, _, tries in pending:
+                    _read_distance(c_read, rep_read, tries, cmd_only, tol)
                 pending.clear()
             frame = server.answer(req.tid, req.protocol, req.register, req.params)
             c = CommandResult(i, t, req.register, req.name)
@@ -434,7 +519,7 @@ def compare(path: Path, calibration: Calibration | None = None,
                 c.reply_differs = True
                 c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
                 if read:
-                    pending.append((c, req, rep, hi))
+                    pending.append((c, req, rep, hi, [bytes(frame)]))
             result.commands.append(c)
             cmd_at.append((t, j))
         sample_until(math.inf)
@@ -447,14 +532,18 @@ def compare(path: Path, calibration: Calibration | None = None,
 def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str, float],
              session: Session, emu_codes: list[tuple[int, int]]) -> None:
     rec, rep = result.recorded, result.replayed
-    pos_r, pos_p = np.array([s.pos for s in rec]), np.array([s.pos for s in rep])
-    q_r = np.degrees(np.array([s.joints for s in rec]))
-    q_p = np.degrees(np.array([s.joints for s in rep]))
-    d_mm = _seg_dist(pos_r, pos_p)
-    d_deg = _seg_dist(q_r, q_p)
-    dtau = np.array([a.torques - b.torques for a, b in zip(rec, rep, strict=True)])
-    dcur = np.array([a.currents - b.currents for a, b in zip(rec, rep, strict=True)])
-    has = ~np.isnan(dtau[:, 0]) if len(rec) else np.zeros(0, dtype=bool)
+    if rec:
+        pos_r, pos_p = np.array([s.pos for s in rec]), np.array([s.pos for s in rep])
+        q_r = np.degrees(np.array([s.joints for s in rec]))
+        q_p = np.degrees(np.array([s.joints for s in rep]))
+        d_mm = _seg_dist(pos_r, pos_p)
+        d_deg = _seg_dist(q_r, q_p)
+        dtau = np.array([a.torques - b.torques for a, b in zip(rec, rep, strict=True)])
+        dcur = np.array([a.currents - b.currents for a, b in zip(rec, rep, strict=True)])
+        has = ~np.isnan(dtau[:, 0])
+    else:  # a recording of the command port only (COMMAND_PORT_ONLY)
+        d_mm, d_deg, dtau, dcur = np.zeros(0), np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1))
+        has = np.zeros(0, dtype=bool)
     dtau, dcur = np.where(np.isnan(dtau), 0.0, dtau), np.where(np.isnan(dcur), 0.0, dcur)
     rms = _rms_where
     bounds = [j for _, j in cmd_at] + [len(rec)]
@@ -480,7 +569,9 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     t["samples"] = len(rec)
     t["reply_differences"] = sum(c.reply_differs for c in result.commands)
     t["duration_s"] = max((d if math.isfinite(d) else math.inf for d in durations), default=0.0)
-    t["path_mm"], t["path_deg"] = float(d_mm.max(initial=0.0)), float(d_deg.max(initial=0.0))
+    reads = result.commands  # a read's own distance (a recording without the real-time report)
+    t["path_mm"] = max(float(d_mm.max(initial=0.0)), max((c.path_mm for c in reads), default=0.0))
+    t["path_deg"] = max(float(d_deg.max(initial=0.0)), max((c.path_deg for c in reads), default=0.0))
     t["torque_max"] = float(np.abs(dtau).max(initial=0.0))
     t["current_max"] = float(np.abs(dcur).max(initial=0.0))
     t["torque_rms"] = t["current_rms"] = 0.0
