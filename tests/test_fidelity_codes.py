@@ -68,3 +68,12 @@ def test_codes_the_box_showed_and_the_emulator_did_not(recording: Path, tmp_path
     code, out = run_cli("compare", str(recording), "-o", str(tmp_path / "r.html"))
     assert code == 1 and "code E31: first seen recorded" in out and "emulator never" in out
     assert "Error and warning codes" in (tmp_path / "r.html").read_text()
+
+
+def test_an_error_without_torque_fits_no_collision_threshold(recording: Path, tmp_path: Path) -> None:
+    """The injected C31 came with no external torque in the recorded torques: calibrate says so and
+    leaves the thresholds, and fits the torques only where the box was on the replayed path."""
+    code, out = run_cli("calibrate", str(recording), "-o", str(tmp_path / "cal.toml"))
+    assert code == 0, out
+    assert "shows no external torque in the recorded torques" in out
+    assert "collision_thresholds" not in (tmp_path / "cal.toml").read_text()

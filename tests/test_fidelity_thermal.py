@@ -60,13 +60,15 @@ def test_calibrate_recovers_thermal_constants(recording: Path, tmp_path: Path) -
     for j in range(6):
         assert abs(tau[j] - TAU[j]) <= 3 * unc["thermal_time_constants"][j] + 0.05 * TAU[j], j
         assert unc["thermal_time_constants"][j] < 0.25 * TAU[j], j
-    # the shoulder and elbow carry currents that change by amperes from pose to pose: all three of
-    # their constants within 5 % (idle rise within 1.5 C)
+    # the shoulder and elbow carry currents that change by amperes from pose to pose: their rise per
+    # A^2 is fitted too; whole degrees on one-second steps over ten seconds know each of the three to
+    # a few percent (one standard deviation under 6 %), and the fit is within three of them
     for j in (1, 2):
-        assert abs(tau[j] / TAU[j] - 1) < 0.05, (j, tau[j])
-        assert abs(rise[j] / RISE[j] - 1) < 0.05, (j, rise[j])
-        assert abs(idle[j] - IDLE[j]) < 1.5, (j, idle[j])
-        assert unc["thermal_rise_per_amp2"][j] < 0.1 * RISE[j]
+        for name, got, want in (("thermal_time_constants", tau[j], TAU[j]),
+                                ("thermal_idle_rise", idle[j], IDLE[j]),
+                                ("thermal_rise_per_amp2", rise[j], RISE[j])):
+            sd = unc[name][j]
+            assert sd < 0.06 * want and abs(got - want) <= 3 * sd, (name, j, got, sd)
     # a joint whose current hardly varied keeps the emulator's rise per A^2, said so, with no uncertainty
     default = thermal_params(get_model(6))
     kept = [j for j in range(6) if unc["thermal_rise_per_amp2"][j] == float("inf")]

@@ -14,7 +14,8 @@ same path. Then, per joint, by linear least squares:
   (:mod:`.thermal_fit`); a session of minutes at room temperature leaves them as they are.
 
 Each value comes with its standard deviation, ``sqrt(s^2 (A^T A)^-1)`` of the fit, ``s^2`` the residual
-variance. Collision thresholds are not fitted: the SDK sets the collision sensitivity, a setting.
+variance. The collision thresholds (the external torque each collision sensitivity detects) are fitted
+where the recording holds a detected collision (:mod:`.collision_fit`), between bounds.
 """
 
 from __future__ import annotations
@@ -25,16 +26,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ..controller import safety
 from ..controller.base import PERIOD
 from ..controller.emulator import THERMAL_EVERY
 from ..controller.thermal import AMBIENT_C, thermal_params
 from ..model.calibration import Calibration
 from ..model.robots import get_model
-from . import thermal_fit
+from . import collision_fit, thermal_fit
 from .compare import Comparison, compare
 
 #: Samples a joint needs in each direction of motion before friction is fitted for it.
 MIN_MOVING = 10
+#: Joints (rad) a recorded frame may be from the replayed one for its torques to be fitted.
+SAME_PATH = 2e-4
 #: Joint speed (rad/s) above which a sample counts as moving for the friction fit.
 MOVING = 1e-3
 
@@ -68,7 +72,13 @@ def fit(comparison: Comparison) -> Fit:
     rec, rep = comparison.recorded, comparison.replayed
     if len(rec) < 10:
         raise ValueError("the recording has too few real-time report frames to fit anything")
-    use = [i for i, s in enumerate(rep) if not np.isnan(s.torques[0])]  # compare.TORQUE_EVERY
+    # where the model's torques were taken (compare.TORQUE_EVERY) and the arm was where the replay is
+    # (after an error the box stops and the replay, which never sees it, goes on)
+    rows = [i for i, s in enumerate(rep) if not np.isnan(s.torques[0])
+            and float(np.abs(s.joints - rec[i].joints).max()) < SAME_PATH]
+    use = rows
+    if len(rows) < 3:
+        raise ValueError("the recorded arm never followed the replayed path: nothing to fit")
     tau = np.array([rec[i].torques for i in use])
     cur = np.array([rec[i].currents for i in use])
     model_tau = np.array([rep[i].torques for i in use])
@@ -105,12 +115,55 @@ def fit(comparison: Comparison) -> Fit:
                                             "torque_offsets": tuple(off.tolist())}
     unc = [("torque_constants", tuple(kt_sd.tolist())), ("torque_offsets", tuple(off_sd.tolist()))]
     _thermal(comparison, values, unc, notes)
+    _collisions(comparison, rows, np.column_stack([off, visc, coul]), values, unc, notes)
     if friction_any:
         values["viscous_friction"] = tuple(max(0.0, x) for x in visc.tolist())
         values["coulomb_friction"] = tuple(max(0.0, x) for x in coul.tolist())
         unc += [("viscous_friction", tuple(visc_sd.tolist())), ("coulomb_friction", tuple(coul_sd.tolist()))]
     cal = Calibration(model=comparison.model, uncertainties=tuple(unc), **values)  # type: ignore[arg-type]
     return Fit(cal, notes, len(rec))
+
+
+def _collisions(comparison: Comparison, use: list[int], friction: np.ndarray,
+                values: dict[str, tuple[float, ...]], unc: list[tuple[str, tuple[float, ...]]],
+                notes: list[str]) -> None:
+    """Add the collision thresholds of the levels at which a collision was detected
+    (:mod:`.collision_fit`); the other levels keep the emulator's, with an infinite uncertainty."""
+    session = comparison.session
+    status = session.status if session is not None else []
+    if session is None or not any(f.error == collision_fit.C_COLLISION for f in status):
+        notes.append("collision thresholds not fitted: no collision (C31) was recorded")
+        return
+    rec, rep = comparison.recorded, comparison.replayed
+    t = np.array([s.t for s in rec])
+    tau = np.array([s.torques for s in rec])
+    speeds = np.array([s.speeds for s in rec])
+    # the model's torques between the frames they were taken at, plus the fitted offsets and friction
+    t_use = t[use]
+    model = np.column_stack([np.interp(t, t_use, [rep[i].torques[j] for i in use])
+                             for j in range(tau.shape[1])])
+    model += friction[:, 0] + friction[:, 1] * speeds + friction[:, 2] * np.sign(speeds)
+    residual = np.abs(tau - model).max(axis=1)
+    st = session.controller_times([f.t for f in status])
+    res = collision_fit.fit_thresholds(t, residual, st, np.array([f.error for f in status]),
+                                       np.array([f.sensitivity for f in status]),
+                                       np.array([s.state for s in rec]))
+    notes.extend(res.notes)
+    if not res.values:
+        notes.append("collision thresholds not fitted: no detection with frames before it at a known level")
+        return
+    defaults = safety.COLLISION_THRESHOLDS
+    vals = tuple(res.values.get(level, defaults[level]) for level in sorted(defaults))
+    sds = tuple(res.sd.get(level, math.inf) for level in sorted(defaults))
+    for level in sorted(defaults):
+        if level in res.bounds:
+            lo, hi = res.bounds[level]
+            notes.append(f"collision sensitivity {level}: threshold between {lo:.4g} and {hi:.4g} N.m")
+        else:
+            notes.append(f"collision sensitivity {level}: no detection recorded, the emulator's threshold "
+                         "is kept")
+    values["collision_thresholds"] = vals
+    unc.append(("collision_thresholds", sds))
 
 
 THERMAL_NAMES = ("thermal_time_constants", "thermal_idle_rise", "thermal_rise_per_amp2")

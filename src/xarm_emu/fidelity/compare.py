@@ -160,6 +160,7 @@ class StatusFrame:
     error: int
     warning: int
     temperatures: tuple[int, ...] | None
+    sensitivity: int = 0  # collision sensitivity (register 37), byte 131
 
 
 @dataclass
@@ -220,7 +221,8 @@ def read_session(path: Path) -> Session:
                     except reports.ReportError:
                         continue
                     temps = tuple(st.temperatures) if len(rec.frame) != reports.NORMAL_SIZE else None
-                    status.append(StatusFrame(rec.t, rec.port, st.error, st.warning, temps))
+                    status.append(StatusFrame(rec.t, rec.port, st.error, st.warning, temps,
+                                              st.collision_sensitivity))
                 elif rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
                     snap = reports.decode_realtime(rec.frame)
                     ts = snap.timestamp_us / 1e6

@@ -137,7 +137,8 @@ class PhysicsComponent:
         gripping = bool(self.device is not None and self.device.gripped) or bool(
             self.robotiq is not None and self.robotiq.gripping)
         tau = self.external_torques(ctl) + self.world.arm_torques(gripping)
-        if tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
+        if tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau))),
+                                                   safety.collision_thresholds(ctl.model)):
             ctl.raise_error(C_COLLISION)
 
     def step(self, dt: float, ctl: Any) -> None:
