@@ -17,9 +17,9 @@ from helpers import report_frames, step_both
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from xarm_emu.controller import gripper as grip
+from xarm_emu.controller.core.feedback import feedback_queue
+from xarm_emu.controller.devices import gripper as grip
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.feedback import feedback_queue
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.rtu import TOOL_HOST
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from helpers import run_cli
 
-from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.core.interface import PERIOD
 from xarm_emu.fidelity.compare import compare
 from xarm_emu.model.calibration import Calibration, CalibrationError, load, save
 from xarm_emu.model.inertials import torque_constants

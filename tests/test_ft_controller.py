@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xarm_emu.controller import contact
-from xarm_emu.controller import ft_sensor as ft
+from xarm_emu.controller.devices import ft_sensor as ft
 from xarm_emu.controller.emulator import Emulator
+from xarm_emu.controller.scene import contact
 from xarm_emu.model import kinematics as kin
 
 

@@ -118,7 +118,7 @@ def test_split_frames_keeps_a_partial_frame() -> None:
 
 
 def test_coil_142_reads_reduced_mode(srv: ServerThread, client: Any) -> None:
-    from xarm_emu.controller.reduced import reduced_of
+    from xarm_emu.controller.applications.reduced import reduced_of
 
     assert client.read_coils(142, count=1, device_id=1).bits[0] is False
     srv.call(lambda: setattr(reduced_of(srv.emulator.controller), "on", True))  # as register 50 sets it

@@ -14,8 +14,8 @@ import pytest
 
 pytest.importorskip("mujoco")
 
-from xarm_emu.controller import contact  # noqa: E402
 from xarm_emu.controller.emulator import Emulator  # noqa: E402
+from xarm_emu.controller.scene import contact  # noqa: E402
 from xarm_emu.protocol import rtu  # noqa: E402
 from xarm_emu.protocol.registers import REGISTERS  # noqa: E402
 
@@ -217,7 +217,7 @@ def test_a_cube_too_heavy_for_the_grip_slips_out_and_is_not_held() -> None:
 
 
 def test_the_ft_sensor_reads_the_tables_reaction_in_a_scene_with_objects() -> None:
-    from xarm_emu.controller import ft_sensor
+    from xarm_emu.controller.devices import ft_sensor
 
     emu = prepare(Emulator(6, scene=contact.parse_scene(SCENE), ft_sensor=True, ft_noise=False))
     call(emu, 37, sensitivity=0)

@@ -49,7 +49,7 @@ _MODES = {0: "position", 1: "servo", 2: "joint teaching", 3: "cartesian teaching
 
 
 def _default_config_dir() -> Path:
-    from .controller.config import default_config_dir
+    from .controller.core.config import default_config_dir
 
     return default_config_dir()
 
@@ -63,7 +63,7 @@ class _ServeCommand(TyperCommand):
 
 def bare_linear_track(args: list[str]) -> list[str]:
     """``--linear-track`` without a length (last, or before another option) as the default stroke."""
-    from .controller.linear_track import DEFAULT_LENGTH
+    from .controller.devices.linear_track import DEFAULT_LENGTH
 
     out = list(args)
     for i, a in enumerate(out):
@@ -108,7 +108,8 @@ def serve(
     ft_sensor: Annotated[bool, typer.Option("--ft-sensor", help="Mount the six-axis F/T sensor between "
                                                                  "flange and tool.")] = False,
     scene: Annotated[Path | None, typer.Option(help="Contact scene: planes and boxes the TCP presses "
-                                                    "into, a TOML file (controller/contact.py).")] = None,
+                                                    "into, a TOML file "
+                                                    "(controller/scene/contact.py).")] = None,
     gripper: Annotated[str | None, typer.Option(help="The gripper on the tool RS-485: xarm (the default), "
                                                      "robotiq-2f85, robotiq-2f140, bio, bio-g1 "
                                                      "(the first-generation BIO) or inspire-rh56 (the "
@@ -217,7 +218,7 @@ def serve(
         err_console.print(f"--model: {exc}")
         raise typer.Exit(2) from None
     if linear_track is not None:
-        from .controller.linear_track import TRACK_FIRMWARE, check_length
+        from .controller.devices.linear_track import TRACK_FIRMWARE, check_length
 
         try:
             check_length(linear_track)
@@ -376,8 +377,8 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
     """The servers to run (one, or a fleet file's arms) with their fault schedules scheduled and the
     3D view attached where asked; raises ValueError (FleetError, FaultScheduleError) before any
     port opens. Returns them and the configuration directory they use."""
-    from .controller.contact import load_scene
     from .controller.emulator import Emulator
+    from .controller.scene.contact import load_scene
     from .server.app import EmulatorServer
     from .server.faults import schedule_file
     from .server.fleet import load_fleet
@@ -401,7 +402,7 @@ def _compose_servers(cfg: ServerConfig, fleet: Path | None, model: RobotModel, v
         arm_cfg.limits = cfg.limits
         arm_cfg.report_priority = cfg.report_priority  # one report sender per process
         store = getattr(emu, "_store", None)
-        if store is not None:  # one running box per saved configuration (controller/config.py)
+        if store is not None:  # one running box per saved configuration (controller/core/config.py)
             store.lock()
         srv = EmulatorServer(emu, arm_cfg)
         schedule_file(srv, arm_cfg.faults)
@@ -518,7 +519,7 @@ def _serve_fleet_workers(fleet: Path, cfg: ServerConfig, cdir: Path, workers: in
 def _check_fleet(fleet: Path, cdir: Path) -> tuple[Any, Path]:
     """Load and check a fleet file for worker processes: hosts, fault schedules (against a throwaway
     box of each arm's model) and that no saved configuration is in use; raises ValueError."""
-    from .controller.config import ConfigStore
+    from .controller.core.config import ConfigStore
     from .controller.emulator import Emulator
     from .server.app import EmulatorServer
     from .server.faults import schedule_file

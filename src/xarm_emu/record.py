@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .client import ReportStream
-from .controller.states import MODE_NAMES, STATE_NAMES
+from .controller.core.state_machine import MODE_NAMES, STATE_NAMES
 from .protocol import codes
 from .protocol.registers import REGISTERS as MANUAL_REGISTERS
 from .protocol.registers import Register

@@ -12,7 +12,7 @@ import json
 import socket
 from typing import Any
 
-from ..controller.config import admin_token_path, read_admin_token
+from ..controller.core.config import admin_token_path, read_admin_token
 from ..protocol.admin import ADMIN_PORT_OFFSET, derive_admin_port
 from .common import ClientError
 

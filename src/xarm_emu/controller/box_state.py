@@ -27,18 +27,18 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from ..protocol.modbus import POINTS
-from .bio_gripper import BioGripperState
-from .feedback import FeedbackState
-from .gripper import ToolBusState, XArmGripperState
-from .inspire_hand import HandState
-from .io import IOState
-from .linear_track import LinearTrackState
-from .lite6_gripper import Lite6GripperState
-from .robotiq import RobotiqState
-from .settings import Settings
-from .state import ControllerState
-from .thermal import ThermalState
-from .vacuum import VacuumState
+from .core.controller_state import ControllerState
+from .core.feedback import FeedbackState
+from .core.settings import Settings
+from .core.thermal import ThermalState
+from .devices.bio_gripper import BioGripperState
+from .devices.gripper import ToolBusState, XArmGripperState
+from .devices.inspire_hand import HandState
+from .devices.io import IOState
+from .devices.linear_track import LinearTrackState
+from .devices.lite6_gripper import Lite6GripperState
+from .devices.robotiq import RobotiqState
+from .devices.vacuum import VacuumState
 
 if TYPE_CHECKING:  # the physics world imports its engine (an extra) only for a scene with objects
     from .physics.world import PhysicsState

@@ -28,26 +28,31 @@ from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
-from . import contact, ft_sensor, identification, physics, safety, trajectory
-from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
-from .bio_gripper import BioGripper
-from .bio_gripper_g1 import BioGripperG1
+from . import physics
+from .applications import identification, trajectory
 from .box_state import EmulatorState, ModbusUserState, Schedule
-from .core import Controller, joint_torques, tcp_matrix
-from .faults import Faults
-from .feedback import FeedbackQueue, feedback_queue, find_feedback_queue
+from .controller import Controller, joint_torques, tcp_matrix
+from .core import safety
+from .core.config import ConfigStore
+from .core.controller_state import ControllerState
+from .core.faults import Faults
+from .core.feedback import FeedbackQueue, feedback_queue, find_feedback_queue
+from .core.interface import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
+from .core.settings import Settings
+from .core.thermal import ThermalModel
+from .devices import ft_sensor
+from .devices.bio_gripper import BioGripper
+from .devices.bio_gripper_g1 import BioGripperG1
+from .devices.gripper import GripperModule, ToolDevice
+from .devices.inspire_hand import InspireHand
+from .devices.io import IOModule
+from .devices.linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
+from .devices.lite6_gripper import Lite6Gripper
+from .devices.robotiq import MODELS as ROBOTIQ_MODELS
+from .devices.robotiq import RobotiqGripper
+from .devices.vacuum import VacuumGripper
 from .firmware2_report import firmware2_fields
-from .gripper import GripperModule, ToolDevice
-from .inspire_hand import InspireHand
-from .io import IOModule
-from .linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
-from .lite6_gripper import Lite6Gripper
-from .robotiq import MODELS as ROBOTIQ_MODELS
-from .robotiq import RobotiqGripper
-from .settings import Settings
-from .state import ControllerState
-from .thermal import ThermalModel
-from .vacuum import VacuumGripper
+from .scene import contact
 
 #: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
 THERMAL_EVERY = 250
@@ -57,8 +62,8 @@ JUMP_CHUNK = 64
 log = logging.getLogger("xarm_emu.emulator")
 
 #: The end grippers that can be attached on the tool RS-485 (``Emulator(gripper=...)``,
-#: ``serve --gripper``): the xArm gripper (controller/gripper.py), the Robotiq 2F-85 and 2F-140
-#: (controller/robotiq.py) and the BIO gripper (controller/bio_gripper.py).
+#: ``serve --gripper``): the xArm gripper (controller/devices/gripper.py), the Robotiq 2F-85 and 2F-140
+#: (controller/devices/robotiq.py) and the BIO gripper (controller/devices/bio_gripper.py).
 GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio", "bio-g1", "inspire-rh56")
 
 
@@ -222,17 +227,18 @@ class Emulator:
         self.io.attach(self.controller)
         self.controller.add_component(self.gripper)
         self.controller.hooks.tool_error = self._tool_error
-        #: The vacuum gripper's pressure switch on TI0 (controller/vacuum.py), when attached.
+        #: The vacuum gripper's pressure switch on TI0 (controller/devices/vacuum.py), when attached.
         self.vacuum: VacuumGripper | None = None
         if vacuum:
             self.vacuum = VacuumGripper(self.io.tool)
             self.controller.add_component(self.vacuum)
-        #: The Lite 6 gripper's jaws on TO0/TO1 (controller/lite6_gripper.py), on the arms wired for it.
+        #: The Lite 6 gripper's jaws on TO0/TO1 (controller/devices/lite6_gripper.py), on the arms
+        #: wired for it.
         self.lite6_gripper: Lite6Gripper | None = None
         if self.model.tool_io.gripper is not None:
             self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
             self.controller.add_component(self.lite6_gripper)
-        #: The linear track on the control box RS-485 (controller/linear_track.py), ``linear_track``
+        #: The linear track on the control box RS-485 (controller/devices/linear_track.py), ``linear_track``
         #: mm long, when attached.
         self.linear_track: LinearTrack | None = None
         if linear_track is not None:
@@ -253,7 +259,7 @@ class Emulator:
         self.generation = 0
         #: ``step()`` calls in which nothing changed but the clock (:attr:`revision`).
         self._quiet_calls = 0
-        if ft_sensor:  # the six-axis F/T sensor between flange and tool (controller/ft_sensor.py)
+        if ft_sensor:  # the six-axis F/T sensor between flange and tool (controller/devices/ft_sensor.py)
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
             contact.set_scene(self.controller, scene)
@@ -290,8 +296,6 @@ class Emulator:
 
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
-        from .config import ConfigStore
-
         self._store = ConfigStore(directory, self.controller.robot_sn)
         ctl = self.controller
         ctl.hooks.on_save = self._save_config
@@ -693,7 +697,7 @@ class Emulator:
             self.linear_track.clear_error()
         ft_sensor.state_of(ctl).error = 0
 
-    # -- the F/T sensor and the contact scene (controller/ft_sensor.py, controller/contact.py) ----
+    # -- the F/T sensor and the contact scene (devices/ft_sensor.py, scene/contact.py) ----
     def attach_ft_sensor(self, *, noise: bool = True) -> None:
         """Mount the six-axis F/T sensor between flange and tool (once)."""
         self.generation += 1

@@ -21,8 +21,15 @@ from ..protocol import modbus
 from ..protocol import registers as regs
 from ..protocol.modbus import ILLEGAL_DATA_VALUE, ModbusError, Point
 from ..protocol.reports import ReportSnapshot, volts_to_counts
-from .io import ADDR_TOOL_AI, ADDR_TOOL_DI, ADDR_TOOL_DO, ADDR_TOOL_DO_READ, TOOL_AI_FULL_SCALE, TOOL_HOST
-from .reduced import reduced_of
+from .applications.reduced import reduced_of
+from .devices.io import (
+    ADDR_TOOL_AI,
+    ADDR_TOOL_DI,
+    ADDR_TOOL_DO,
+    ADDR_TOOL_DO_READ,
+    TOOL_AI_FULL_SCALE,
+    TOOL_HOST,
+)
 
 if TYPE_CHECKING:
     from .emulator import Emulator

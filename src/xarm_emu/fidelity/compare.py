@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..controller.base import PERIOD
+from ..controller.core.interface import PERIOD
 from ..model.calibration import Calibration
 from ..model.robots import ROBOT_MODELS, RobotModel, with_calibration
 from ..protocol import registers as regs

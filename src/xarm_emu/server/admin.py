@@ -68,10 +68,10 @@ import math
 from collections.abc import Callable
 from typing import Any, Protocol, cast
 
-from ..controller import contact
-from ..controller.base import CommandWarning
+from ..controller.core.interface import CommandWarning
+from ..controller.devices.linear_track import TRACK_ERRORS
 from ..controller.emulator import Emulator
-from ..controller.linear_track import TRACK_ERRORS
+from ..controller.scene import contact
 from ..protocol import codes
 from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS, WRENCH_FRAMES, checkpoint_name
 from . import scene_admin
@@ -399,7 +399,7 @@ def _checkpoint(server: AdminTarget, cmd: str, request: dict[str, Any]) -> Calla
 
 def _ft_status(emu: Emulator) -> dict[str, Any]:
     """The F/T sensor in ``status``: switched on, its error, the compensated and raw readings."""
-    from ..controller import ft_sensor as ft
+    from ..controller.devices import ft_sensor as ft
 
     ctl = emu.controller
     return {"enabled": ft.enabled(ctl), "error": ft.state_of(ctl).error,

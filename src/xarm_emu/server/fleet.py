@@ -44,9 +44,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from ..controller import contact
+from ..controller.devices.linear_track import DEFAULT_LENGTH, MODELS
 from ..controller.emulator import GRIPPERS, Emulator, check_firmware
-from ..controller.linear_track import DEFAULT_LENGTH, MODELS
+from ..controller.scene import contact
 from ..model.calibration import Calibration, load
 from ..model.robots import MODEL_NAMES, get_model, with_calibration
 from ..protocol.admin import admin_host, derive_admin_port
@@ -71,12 +71,12 @@ class ArmSpec:
     model: int | str  # as the file gives it: 5, 6, 7 or a name of model.robots.MODEL_NAMES
     robot_sn: str
     server: ServerConfig = field(default_factory=ServerConfig)
-    vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
+    vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/devices/vacuum.py)
     firmware: FirmwareProfile = field(default_factory=lambda: profile_for(SERVE_VERSION))  # serve --firmware
-    linear_track: int | None = None  # stroke in mm of the linear track (controller/linear_track.py)
+    linear_track: int | None = None  # stroke in mm of the linear track (controller/devices/linear_track.py)
     gripper: str = "xarm"  # the gripper on the tool RS-485 (controller/emulator.py GRIPPERS)
-    ft_sensor: bool = False  # the six-axis F/T sensor (controller/ft_sensor.py), serve --ft-sensor
-    scene: contact.Scene | None = None  # the contact scene (controller/contact.py), serve --scene
+    ft_sensor: bool = False  # the six-axis F/T sensor (controller/devices/ft_sensor.py), serve --ft-sensor
+    scene: contact.Scene | None = None  # the contact scene (controller/scene/contact.py), serve --scene
     calibration: Calibration | None = None  # measured constants (model/calibration.py), serve --calibration
 
     def emulator(self, config_dir: Path | None) -> Emulator:

@@ -9,8 +9,8 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from ..controller import contact
 from ..controller.emulator import Emulator
+from ..controller.scene import contact
 
 COMMANDS = ("scene-objects", "scene-place", "scene-reset")
 

@@ -1,8 +1,8 @@
 """The ``.xrec`` recording of a session through ``xarm-emu proxy``: what a program and a control box said.
 
-Format 1. A file is one zstandard stream (frames written as the session goes, so a killed proxy
-leaves every record flushed so far readable) of records, each its length (u32 big-endian) and a
-MessagePack map tagged by ``k``:
+Format 1. A file is one gzip stream (flushed to a byte boundary every second as the session goes,
+so a killed proxy leaves every record flushed so far readable) of records, each its length (u32
+big-endian) and a MessagePack map tagged by ``k``:
 
 - ``header``: ``format`` (1), ``created`` (Unix time), ``target`` (the box's address), ``ports``
   (standard port -> the box's port the proxy forwarded to).
@@ -31,12 +31,12 @@ from __future__ import annotations
 import queue
 import threading
 import time
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import msgspec
-import zstandard
 
 from ..protocol import registers as regs
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, VersionError, profile_for
@@ -46,8 +46,10 @@ from ..protocol.layouts import LayoutError
 from .trace import _plain
 
 FORMAT = 1
-#: Seconds between two flushes of whole zstd frames to the file (what a killed proxy can lose).
+#: Seconds between two full flushes of the compressed stream to the file (what a killed proxy can lose).
 FLUSH_EVERY = 1.0
+#: zlib's window bits for a gzip container (16 + 15), and for reading either gzip or zlib (32 + 15).
+_GZIP_WBITS, _READ_WBITS = 31, 47
 COMMAND_PORT = _COMMAND_PORT
 TO_BOX, TO_PROGRAM = 0, 1
 
@@ -160,13 +162,13 @@ class RecordWriter:
     """Writes records on a thread of its own: the proxy only queues the bytes it forwarded
     (:meth:`data`), so cutting frames, decoding and compressing never delay a byte on the wire."""
 
-    def __init__(self, path: Path | str, target: str, ports: dict[int, int], level: int = 3) -> None:
+    def __init__(self, path: Path | str, target: str, ports: dict[int, int], level: int = 6) -> None:
         self.path = Path(path)
         try:
             self._file = open(self.path, "wb")  # noqa: SIM115  (closed by close())
         except OSError as exc:
             raise RecordingError(f"cannot write {self.path}: {exc.strerror or exc}") from None
-        self._zw = zstandard.ZstdCompressor(level=level).stream_writer(self._file)
+        self._zw = zlib.compressobj(level, zlib.DEFLATED, _GZIP_WBITS)
         self._enc = msgspec.msgpack.Encoder()
         self._q: queue.SimpleQueue[tuple[Any, ...] | None] = queue.SimpleQueue()
         self._t0 = time.perf_counter()
@@ -204,7 +206,7 @@ class RecordWriter:
     # --- the writer thread ---
     def _put(self, record: Record) -> None:
         payload = self._enc.encode(record)
-        self._zw.write(len(payload).to_bytes(4, "big") + payload)
+        self._file.write(self._zw.compress(len(payload).to_bytes(4, "big") + payload))
         self.records += 1
 
     def _run(self) -> None:
@@ -219,15 +221,16 @@ class RecordWriter:
                     break
                 if item:
                     self._handle(item)
-                if time.monotonic() - last >= FLUSH_EVERY:  # a whole zstd frame on disk
-                    self._zw.flush(zstandard.FLUSH_FRAME)
+                if time.monotonic() - last >= FLUSH_EVERY:  # every record so far decodable on disk
+                    self._file.write(self._zw.flush(zlib.Z_FULL_FLUSH))
+                    self._file.flush()
                     last = time.monotonic()
-            self._zw.flush(zstandard.FLUSH_FRAME)
+            self._file.write(self._zw.flush(zlib.Z_FINISH))
         except OSError as exc:
             self.error = f"cannot write {self.path}: {exc.strerror or exc}"
         finally:
             try:
-                self._zw.close()
+                self._file.close()
             except OSError:
                 pass
 
@@ -319,17 +322,18 @@ def read(path: Path | str) -> Iterator[Record]:
     except OSError as exc:
         raise RecordingError(f"cannot read {path}: {exc.strerror or exc}") from None
     with f:
-        reader = zstandard.ZstdDecompressor().stream_reader(f, read_across_frames=True)
+        inflate = zlib.decompressobj(_READ_WBITS)
         unpacker = _Unpacker()
         first = True
-        while True:
+        while not inflate.eof:
+            data = f.read(1 << 20)
+            if not data:
+                return  # a stream cut short ends at its last whole record
             try:
-                chunk = reader.read(1 << 20)
-            except zstandard.ZstdError as exc:
+                chunk = inflate.decompress(data)
+            except zlib.error as exc:
                 if first:
                     raise RecordingError(f"{path} is not an xarm-emu recording (.xrec): {exc}") from None
-                return
-            if not chunk:
                 return
             for rec in unpacker.feed(chunk):
                 if first:

@@ -18,8 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from ..controller import contact, ft_sensor
+from ..controller.devices import ft_sensor
 from ..controller.emulator import Emulator
+from ..controller.scene import contact
 from ..server.core import EmulatorServer
 from . import scene
 from .pendant import Pendant, describe_state

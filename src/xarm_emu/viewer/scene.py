@@ -212,7 +212,7 @@ def track_parts(length: float, position: float) -> list[Part]:
             Part("track_carriage", "box", (0.0, 0.0, z_carriage), identity, half=CARRIAGE_HALF)]
 
 
-#: The drawn F/T sensor: a disc of the sensor's height (controller/ft_sensor.py) on the flange.
+#: The drawn F/T sensor: a disc of the sensor's height (controller/devices/ft_sensor.py) on the flange.
 FT_SENSOR_RADIUS = 0.04  # m
 #: Half the side of the square drawn for a contact plane, and its drawn thickness (m).
 PLANE_HALF = 0.4
@@ -230,7 +230,7 @@ def ft_sensor_parts(model: RobotModel, q: Sequence[float] | np.ndarray, height_m
 
 
 def contact_parts(shapes: Sequence[Any]) -> list[Part]:
-    """The contact scene (controller/contact.py): each plane a thin square about its point, normal
+    """The contact scene (controller/scene/contact.py): each plane a thin square about its point, normal
     along the square's z; each box as it is. Shapes are read by their fields, base frame, mm."""
     parts: list[Part] = []
     for i, s in enumerate(shapes):

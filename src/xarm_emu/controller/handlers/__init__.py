@@ -4,7 +4,7 @@ Each module of this package holds the handlers of one group of registers, as the
 (section 2.1.3), and ends in a ``HANDLERS`` mapping from register code to a function
 ``handler(ctl, values) -> reply values | None``. :data:`TABLES` lists those mappings; :func:`bind`
 turns them into the controller's dispatch table. Components (IO, grippers, sensors) add theirs
-through :meth:`~xarm_emu.controller.base.Component.handlers`.
+through :meth:`~xarm_emu.controller.core.interface.Component.handlers`.
 
 Where one function serves several registers, the table binds the register code with
 :func:`functools.partial` (``partial(move, register=21)``); no handler learns its register any
@@ -14,31 +14,26 @@ other way.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping
 
-from ..base import Handler, Values
+from ..applications.modes import create_state
+from ..core.controller_protocol import Controller, CtlHandler
+from ..core.interface import Handler
 from . import (
-    extras,
     feedback,
     force_control,
     ft_sensor,
     kinematics,
     motion,
-    motion2,
     reduced,
+    relative_and_velocity,
+    service,
     settings,
     state,
     trajectory,
 )
 
-if TYPE_CHECKING:
-    from ..core import Controller
-
-#: A register handler: the controller and the request values decoded by the register table in,
-#: the reply values (or ``None`` for an empty reply) out. It refuses by raising
-#: :class:`~xarm_emu.controller.base.CommandWarning` or :class:`~xarm_emu.controller.base.CommandError`.
-CtlHandler = Callable[["Any", Values], "dict[str, Any] | None"]
+__all__ = ["TABLES", "CtlHandler", "bind"]
 
 #: Every handler table of this package, in the order they bind (a later table never rebinds a code:
 #: :func:`bind` refuses duplicates).
@@ -48,10 +43,10 @@ TABLES: tuple[Mapping[int, CtlHandler], ...] = (
     settings.HANDLERS,
     kinematics.HANDLERS,
     feedback.HANDLERS,
-    motion2.HANDLERS,
+    relative_and_velocity.HANDLERS,
     reduced.HANDLERS,
     trajectory.HANDLERS,
-    extras.HANDLERS,
+    service.HANDLERS,
     ft_sensor.HANDLERS,
     force_control.HANDLERS,
 )
@@ -61,10 +56,8 @@ def bind(ctl: Controller,
          tables: tuple[Mapping[int, CtlHandler], ...] | None = None) -> dict[int, Handler]:
     """The dispatch table of ``ctl``: each handler of ``tables`` (default :data:`TABLES`) with the
     controller bound as its first argument, for the registers of ``ctl``'s firmware only."""
-    from ..mode_steps import create_state
-
     create_state(ctl)  # the state behind these handlers exists from construction (checkpoints)
-    extras.extra_state(ctl)
+    service.extra_state(ctl)
     ft_sensor.ft_config(ctl)
     force_control.create_state(ctl)
     out: dict[int, Handler] = {}

@@ -9,12 +9,12 @@ import numpy as np
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
-from ..base import WARN_NO_SOLUTION, CommandWarning, Values
-from ..poses import wire_pose_to_matrix
+from ..core.controller_protocol import Controller, CtlHandler
+from ..core.interface import WARN_NO_SOLUTION, CommandWarning, Values
+from ..core.poses import wire_pose_to_matrix
 
 if TYPE_CHECKING:
-    from ..core import Controller
-    from . import CtlHandler
+    from ..core.controller_protocol import CtlHandler
 
 
 def kinematics_params(ctl: Controller, v: Values) -> dict[str, Any]:

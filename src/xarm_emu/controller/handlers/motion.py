@@ -26,8 +26,12 @@ import numpy as np
 from ...model import collision
 from ...model import kinematics as kin
 from ...model import rotations as rot
-from .. import motion, safety
-from ..base import (
+from .. import motion
+from ..core import safety
+from ..core.commands import CircleMove, Dwell, JointMove, LineMove
+from ..core.controller_protocol import Controller, CtlHandler
+from ..core.executor import keep_unchanged_joints, line_target
+from ..core.interface import (
     C_BOUNDARY,
     C_JOINT_LIMIT,
     C_KINEMATIC,
@@ -38,15 +42,12 @@ from ..base import (
     ParameterError,
     Values,
 )
-from ..commands import CircleMove, Dwell, JointMove, LineMove
-from ..executor import keep_unchanged_joints, line_target
-from ..poses import apply_offset, wire_pose_to_matrix
-from ..settings import in_range
+from ..core.poses import apply_offset, wire_pose_to_matrix
+from ..core.settings import in_range
 from .settings import report_tau_or_i
 
 if TYPE_CHECKING:
-    from ..core import Controller
-    from . import CtlHandler
+    from ..core.controller_protocol import CtlHandler
 
 #: Joint positions sampled along the straight joint path of an only-check move.
 CHECK_SAMPLES = 24

@@ -7,8 +7,9 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from ...model import collision
-from ..base import ParameterError, Values
-from ..settings import (
+from ..core.controller_protocol import Controller, CtlHandler
+from ..core.interface import ParameterError, Values
+from ..core.settings import (
     COLLISION_SENSITIVITY_RANGE,
     MOTION_LIMITS,
     TEACH_SENSITIVITY_RANGE,
@@ -17,11 +18,10 @@ from ..settings import (
     gravity_ok,
     in_range,
 )
-from ..states import Event, fire
+from ..core.state_machine import Event, fire
 
 if TYPE_CHECKING:
-    from ..core import Controller
-    from . import CtlHandler
+    from ..core.controller_protocol import CtlHandler
 
 
 def motion_limit(ctl: Controller, v: Values, *, name: str, key: str) -> dict[str, Any]:

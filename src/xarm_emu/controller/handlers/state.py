@@ -7,8 +7,10 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from ...protocol import codes
-from ..base import ParameterError, Values
-from ..states import (
+from ..applications.modes import extra_modes
+from ..core.controller_protocol import Controller, CtlHandler
+from ..core.interface import ParameterError, Values
+from ..core.state_machine import (
     MODE_JOINT_TEACH,
     MODE_POSITION,
     MODE_SERVO,
@@ -17,12 +19,13 @@ from ..states import (
     STATE_STOP,
     STATE_SUSPEND,
     Event,
+    ModeEvent,
     fire,
+    fire_mode,
 )
 
 if TYPE_CHECKING:
-    from ..core import Controller
-    from . import CtlHandler
+    from ..core.controller_protocol import CtlHandler
 
 
 def needs_power_on(code: int) -> bool:
@@ -129,14 +132,12 @@ def clean_warning(ctl: Controller, v: Values) -> None:
 
 def set_mode(ctl: Controller, v: Values) -> None:
     """Register 19: motion mode 0, 1 or 2 (3, Cartesian teaching, is not available), and the modes
-    4-7 of the firmware (:func:`~xarm_emu.controller.mode_steps.extra_modes`); a system reset.
+    4-7 of the firmware (:func:`~xarm_emu.controller.applications.modes.extra_modes`); a system reset.
     The detection parameter byte SDKs append for firmware >= 1.10.0 is accepted and has no effect."""
-    from ..mode_steps import extra_modes
-
     mode = v["mode"]
     if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH) + extra_modes(ctl):
         raise ParameterError(f"mode {mode} not available")
-    ctl.mode = mode
+    fire_mode(ctl, ModeEvent.SELECT, mode)
     ctl.system_reset()
     return None
 

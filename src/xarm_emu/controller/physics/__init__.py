@@ -1,6 +1,6 @@
-"""Objects, grasps and contacts: the physics world of a scene with ``[[object]]`` tables.
+"""Objects, grasps and contacts: the physics world of a scene with ``[[object]]`` tables (their
+declaration is controller/scene/objects.py).
 
-- ``objects.py``: the ``[[object]]`` tables (pure data, no engine).
 - ``hands.py``: the end tools as bodies (finger pads, housing), in the flange frame.
 - ``mjcf.py``: the engine's model document from the project's own tables (joint frames, link
   capsules, inertials, hand, fixtures, objects).
@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from ...model.robots import RobotModel
-    from ..contact import Scene
+    from ..scene.contact import Scene
     from .component import PhysicsComponent
 
 #: What to install when the engine is missing.

@@ -1,7 +1,7 @@
 """The physics world as a controller component: stepped once a control period after the gripper
 (so it sees this period's joints and finger command), it tells the gripper where its fingers stopped.
 
-The finger drive: the gripper's own model (controller/gripper.py) says where the fingers are told to
+The finger drive: the gripper's own model (controller/devices/gripper.py) says where the fingers are told to
 go and how fast; here that command (:attr:`PhysicsState.ramp`, mm of opening) runs toward the target
 at the gripper's speed and the engine's force-limited finger drives follow it. Where a pad meets an
 object the fingers stop and the drive presses with the hand's force; the gripper's reported position
@@ -26,10 +26,12 @@ import numpy as np
 
 from ...model import kinematics as kin
 from ...model.robots import VACUUM_WIRING
-from .. import contact, safety
-from ..base import C_COLLISION, NOT_IDLE, Handler
-from ..gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
-from ..robotiq import OBJ_MOVING, RobotiqGripper
+from ..core import safety
+from ..core.controller_protocol import Controller
+from ..core.interface import C_COLLISION, NOT_IDLE, Handler
+from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
+from ..devices.robotiq import OBJ_MOVING, RobotiqGripper
+from ..scene import contact
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
 from .world import World
@@ -43,7 +45,7 @@ class PhysicsComponent:
 
     def __init__(self, world: World, device: Any, vacuum: Any = None) -> None:
         self.world = world
-        #: The vacuum gripper (controller/vacuum.py), when it is the hand.
+        #: The vacuum gripper (controller/devices/vacuum.py), when it is the hand.
         self.vacuum = vacuum
         self.device = device if isinstance(device, XArmGripper) else None
         if self.device is not None:
@@ -84,7 +86,7 @@ class PhysicsComponent:
         elif r.object_mm is not None and not gripping and not r.gripping and r.gOBJ == OBJ_MOVING:
             r.object_mm = None  # opening away from it: nothing between the fingers any more
 
-    def _vacuum(self, ctl: Any) -> None:
+    def _vacuum(self, ctl: Controller) -> None:
         """The cup seals on a flat face under it (the pressure input then rises as the pump runs) and
         holds that object while the pump runs; the pump stopped, it lets go."""
         v, w = self.vacuum, self.world
@@ -117,7 +119,7 @@ class PhysicsComponent:
             return target
         return ramp + math.copysign(step, target - ramp)
 
-    def external_torques(self, ctl: Any) -> np.ndarray:
+    def external_torques(self, ctl: Controller) -> np.ndarray:
         """The joint torques (N m) of the scene's fixtures pressing on the TCP: ``J^T f``."""
         q = ctl.data.q
         T = kin.fk(ctl.model, q)
@@ -130,7 +132,7 @@ class PhysicsComponent:
         J = kin.jacobian(ctl.model, q)  # flange: linear (mm/rad) over angular rows
         return np.asarray(J[:3].T @ f * 0.001 + J[3:].T @ np.cross(r, f))
 
-    def _collision(self, ctl: Any) -> None:
+    def _collision(self, ctl: Controller) -> None:
         sens = ctl.settings.collision_sensitivity
         if not sens or ctl.error_code or not all(ctl.enabled):
             return
@@ -141,7 +143,7 @@ class PhysicsComponent:
                                                    safety.collision_thresholds(ctl.model)):
             ctl.raise_error(C_COLLISION)
 
-    def step(self, dt: float, ctl: Any) -> None:
+    def step(self, dt: float, ctl: Controller) -> None:
         self._collision(ctl)
         w = self.world
         ramp = self._ramp(dt)
@@ -165,6 +167,6 @@ class PhysicsComponent:
         else:
             g.position = measured / XARM_MM_PER_PULSE
 
-    def idle_until(self, ctl: Any) -> float:
+    def idle_until(self, ctl: Controller) -> float:
         """Idle while the world is settled and neither the arm nor the finger command would move."""
         return math.inf if self.world.idle(ctl.data.q, self._ramp(ctl.period)) else NOT_IDLE

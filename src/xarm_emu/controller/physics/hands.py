@@ -46,7 +46,7 @@ XARM_HAND = Hand("xArm Gripper", stroke=85.0, pad_half=(10.0, 4.0, 20.0), tip=BU
 XARM_MM_PER_PULSE = XARM_HAND.stroke / 850.0
 
 #: The Robotiq 2F-85: its 85 mm stroke, fingertips at its 174 mm tool length; the force is set per
-#: grip by its rFR register (controller/robotiq.py), this is the most.
+#: grip by its rFR register (controller/devices/robotiq.py), this is the most.
 ROBOTIQ_2F85_HAND = Hand("Robotiq 2F-85", stroke=85.0, pad_half=(11.0, 4.0, 19.0), tip=BUILTIN_TOOLS[4][2],
                          housing=(55.0, (35.0, 60.0, 55.0)), force=235.0)
 

@@ -24,9 +24,9 @@ from ...model.collision import _link_capsules
 from ...model.inertials import get_inertials
 from ...model.robots import RobotModel
 from ...model.rotations import quat_from_matrix, rpy_to_matrix
-from ..contact import Box, Plane, Scene
+from ..scene.contact import Box, Plane, Scene
+from ..scene.objects import ObjectSpec
 from .hands import Hand
-from .objects import ObjectSpec
 
 MM = 0.001
 #: The engine's time step (s): two per control period of 4 ms.

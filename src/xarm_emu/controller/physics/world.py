@@ -25,7 +25,7 @@ import numpy as np
 from ...model import kinematics as kin
 from ...model.robots import RobotModel
 from ...model.rotations import matrix_to_rpy, quat_from_matrix, rpy_to_matrix
-from ..contact import Scene
+from ..scene.contact import Scene
 from .hands import Hand
 from .mjcf import MM, NEAR, TIMESTEP, world_xml
 
