@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from helpers import run_cli
 
-from xarm_emu.controller.base import PERIOD
-from xarm_emu.controller.safety import COLLISION_THRESHOLDS
+from xarm_emu.controller.core.interface import PERIOD
+from xarm_emu.controller.core.safety import COLLISION_THRESHOLDS
 from xarm_emu.fidelity.collision_fit import fit_thresholds
 from xarm_emu.model.calibration import Calibration, CalibrationError, load, save
 from xarm_emu.model.robots import get_model, with_calibration

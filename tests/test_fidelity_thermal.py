@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from helpers import run_cli
 
-from xarm_emu.controller.thermal import thermal_params
+from xarm_emu.controller.core.thermal import thermal_params
 from xarm_emu.model.calibration import Calibration, load
 from xarm_emu.model.robots import get_model, with_calibration
 from xarm_emu.protocol.firmware import SERVE_VERSION

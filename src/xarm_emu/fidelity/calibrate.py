@@ -26,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..controller import safety
-from ..controller.base import PERIOD
+from ..controller.core import safety
+from ..controller.core.interface import PERIOD
+from ..controller.core.thermal import AMBIENT_C, thermal_params
 from ..controller.emulator import THERMAL_EVERY
-from ..controller.thermal import AMBIENT_C, thermal_params
 from ..model.calibration import Calibration
 from ..model.robots import get_model
 from . import collision_fit, thermal_fit

@@ -1,6 +1,6 @@
 """The joints' thermal constants fitted to the temperatures of a recording (``xarm-emu calibrate``).
 
-The model is the emulator's (:mod:`xarm_emu.controller.thermal`): each joint tends to
+The model is the emulator's (:mod:`xarm_emu.controller.core.thermal`): each joint tends to
 ``ambient + idle_rise + rise_per_amp2 * I^2`` with ``time_constant``, advanced once a second of
 controller time with the motor current of that instant (the real-time report's currents, manual
 2.1.6). The rich report (port 30002) carries the temperatures as whole degrees, five times a second.

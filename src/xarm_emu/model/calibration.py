@@ -10,9 +10,9 @@ overridden:
   the joint torques of the dynamic model, ``offset + viscous * qd + coulomb * sign(qd)`` (the emulator's
   defaults are zero: no friction);
 - ``thermal_time_constants`` (s), ``thermal_rise_per_amp2`` (C/A^2) and ``thermal_idle_rise`` (C): the
-  first-order thermal model of the joints (``controller.thermal``);
+  first-order thermal model of the joints (``controller.core.thermal``);
 - ``collision_thresholds`` (N.m): the external joint torque that collision sensitivity 1..5 (register
-  37) detects as a collision (error C31), five values, one per level (``controller.safety``).
+  37) detects as a collision (error C31), five values, one per level (``controller.core.safety``).
 
 A field left ``None`` keeps the emulator's own value. A calibration is frozen and hashable; applying it
 (``robots.with_calibration``) gives a new ``RobotModel``, as models never change. ``uncertainties``
