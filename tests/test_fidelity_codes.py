@@ -11,38 +11,25 @@ from pathlib import Path
 
 import pytest
 from helpers import run_cli
+from proxy_session import sdk_through_proxy
 
 from xarm_emu.fidelity.compare import compare
-from xarm_emu.protocol.firmware import SERVE_VERSION
-from xarm_emu.testing import reading_reports, running_emulator, running_proxy, sdk_pointed_at
 
 WARNING = 24  # an arbitrary warning code the program did not cause
 
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from xarm.wrapper import XArmAPI
-
     path = tmp_path_factory.mktemp("codes") / "codes.xrec"
-    with running_emulator(firmware=SERVE_VERSION) as st, running_proxy(st, path) as px, \
-            sdk_pointed_at(px), reading_reports(px, ("realtime", "rich")):  # type: ignore[arg-type]
-        time.sleep(0.05)
-        arm = XArmAPI("127.0.0.1", is_radian=False)
-        try:
-            arm.motion_enable(True)
-            arm.set_mode(0)
-            arm.set_state(0)
-            assert arm.set_servo_angle(angle=[20, -10, -5, 0, 15, 0], speed=80, wait=True) == 0
-            assert arm.get_err_warn_code()[1] == [0, 0]
-            st.call(lambda: st.emulator.inject_warning(WARNING))
-            time.sleep(0.5)
-            assert arm.get_err_warn_code()[1] == [0, WARNING]
-            st.call(lambda: st.emulator.inject_error(31))
-            time.sleep(0.5)
-            assert arm.get_err_warn_code()[1] == [31, WARNING]
-        finally:
-            arm.disconnect()
-            time.sleep(0.05)
+    with sdk_through_proxy(path, reports=("realtime", "rich")) as (st, arm):
+        assert arm.set_servo_angle(angle=[20, -10, -5, 0, 15, 0], speed=80, wait=True) == 0
+        assert arm.get_err_warn_code()[1] == [0, 0]
+        st.call(lambda: st.emulator.inject_warning(WARNING))
+        time.sleep(0.5)
+        assert arm.get_err_warn_code()[1] == [0, WARNING]
+        st.call(lambda: st.emulator.inject_error(31))
+        time.sleep(0.5)
+        assert arm.get_err_warn_code()[1] == [31, WARNING]
     return path
 
 

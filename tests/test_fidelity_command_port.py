@@ -10,35 +10,23 @@ from pathlib import Path
 
 import pytest
 from helpers import run_cli
+from proxy_session import sdk_through_proxy
 
 from xarm_emu.fidelity.compare import COMMAND_PORT_ONLY, compare
-from xarm_emu.protocol.firmware import SERVE_VERSION
-from xarm_emu.testing import running_emulator, running_proxy, sdk_pointed_at
 
 
 def record(path: Path, stop_midway: bool) -> None:
     """A move polled by get_position and get_servo_angle while it runs; with ``stop_midway`` the
     "real arm" raises an error (C31) a moment into the move, which the recorded commands do not cause."""
-    from xarm.wrapper import XArmAPI
-
-    with running_emulator(firmware=SERVE_VERSION) as st, running_proxy(st, path) as px, \
-            sdk_pointed_at(px):  # type: ignore[arg-type]
-        arm = XArmAPI("127.0.0.1", is_radian=False)
-        try:
-            arm.motion_enable(True)
-            arm.set_mode(0)
-            arm.set_state(0)
-            assert arm.set_servo_angle(angle=[30, -10, -5, 0, 15, 0], speed=40, wait=False) == 0
-            for n in range(40):
-                if stop_midway and n == 10:
-                    st.call(lambda: st.emulator.inject_error(31))
-                arm.get_position()
-                arm.get_servo_angle()
-                time.sleep(0.02)
-            arm.get_err_warn_code()
-        finally:
-            arm.disconnect()
-            time.sleep(0.05)
+    with sdk_through_proxy(path, reports=()) as (st, arm):
+        assert arm.set_servo_angle(angle=[30, -10, -5, 0, 15, 0], speed=40, wait=False) == 0
+        for n in range(40):
+            if stop_midway and n == 10:
+                st.call(lambda: st.emulator.inject_error(31))
+            arm.get_position()
+            arm.get_servo_angle()
+            time.sleep(0.02)
+        arm.get_err_warn_code()
 
 
 @pytest.fixture(scope="module")

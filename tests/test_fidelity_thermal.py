@@ -10,12 +10,11 @@ from pathlib import Path
 
 import pytest
 from helpers import run_cli
+from proxy_session import sdk_through_proxy
 
 from xarm_emu.controller.core.thermal import thermal_params
 from xarm_emu.model.calibration import Calibration, load
 from xarm_emu.model.robots import get_model, with_calibration
-from xarm_emu.protocol.firmware import SERVE_VERSION
-from xarm_emu.testing import reading_reports, running_emulator, running_proxy, sdk_pointed_at
 
 #: Time constants of seconds (the emulator's are minutes) and idle rises of tens of degrees.
 TAU = (4.0, 5.0, 3.0, 6.0, 4.0, 5.0)
@@ -26,24 +25,11 @@ MOVED = Calibration(model="6", thermal_time_constants=TAU, thermal_idle_rise=IDL
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from xarm.wrapper import XArmAPI
-
     path = tmp_path_factory.mktemp("thermal") / "thermal.xrec"
-    with running_emulator(firmware=SERVE_VERSION, calibration=MOVED) as st, \
-            running_proxy(st, path) as px, sdk_pointed_at(px), \
-            reading_reports(px, ("realtime", "rich")):  # type: ignore[arg-type]
-        time.sleep(0.05)
-        arm = XArmAPI("127.0.0.1", is_radian=False)
-        try:
-            arm.motion_enable(True)
-            arm.set_mode(0)
-            arm.set_state(0)
-            for angles in ([0, -60, -20, 0, 60, 0], [0, 30, -100, 0, 30, 0], [40, -10, -5, 0, 15, 0]):
-                assert arm.set_servo_angle(angle=angles, speed=100, wait=True) == 0
-                time.sleep(2.0)  # the temperatures settle towards the pose's currents
-        finally:
-            arm.disconnect()
-            time.sleep(0.05)
+    with sdk_through_proxy(path, MOVED, ("realtime", "rich")) as (_, arm):
+        for angles in ([0, -60, -20, 0, 60, 0], [0, 30, -100, 0, 30, 0], [40, -10, -5, 0, 15, 0]):
+            assert arm.set_servo_angle(angle=angles, speed=100, wait=True) == 0
+            time.sleep(2.5)  # the temperatures settle towards the pose's currents
     return path
 
 
@@ -61,14 +47,14 @@ def test_calibrate_recovers_thermal_constants(recording: Path, tmp_path: Path) -
         assert abs(tau[j] - TAU[j]) <= 3 * unc["thermal_time_constants"][j] + 0.05 * TAU[j], j
         assert unc["thermal_time_constants"][j] < 0.25 * TAU[j], j
     # the shoulder and elbow carry currents that change by amperes from pose to pose: their rise per
-    # A^2 is fitted too; whole degrees on one-second steps over ten seconds know each of the three to
-    # a few percent (one standard deviation under 6 %), and the fit is within three of them
+    # A^2 is fitted too; whole degrees on one-second steps over twelve seconds know each of the three to
+    # a few percent (one standard deviation under 10 %), and the fit is within three of them
     for j in (1, 2):
         for name, got, want in (("thermal_time_constants", tau[j], TAU[j]),
                                 ("thermal_idle_rise", idle[j], IDLE[j]),
                                 ("thermal_rise_per_amp2", rise[j], RISE[j])):
             sd = unc[name][j]
-            assert sd < 0.06 * want and abs(got - want) <= 3 * sd, (name, j, got, sd)
+            assert sd < 0.1 * want and abs(got - want) <= 3 * sd, (name, j, got, sd)
     # a joint whose current hardly varied keeps the emulator's rise per A^2, said so, with no uncertainty
     default = thermal_params(get_model(6))
     kept = [j for j in range(6) if unc["thermal_rise_per_amp2"][j] == float("inf")]
