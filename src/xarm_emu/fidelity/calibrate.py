@@ -37,8 +37,10 @@ from .compare import Comparison, compare
 
 #: Samples a joint needs in each direction of motion before friction is fitted for it.
 MIN_MOVING = 10
-#: Joints (rad) a recorded frame may be from the replayed one for its torques to be fitted.
-SAME_PATH = 2e-4
+#: Joints (rad, about half a degree) a recorded frame may be from the replayed one for its torques to
+#: be fitted: more than a real arm's tracking error, less than an arm that stopped on an error while
+#: the replay goes on shows within a few periods.
+SAME_PATH = 0.01
 #: Joint speed (rad/s) above which a sample counts as moving for the friction fit.
 MOVING = 1e-3
 
