@@ -15,7 +15,9 @@ second of lag for an arm that warms continuously. The rounding to whole degrees 
 A joint is fitted only when its temperature changed by :data:`MIN_CHANGE` degrees or more; the rise
 per A^2 only when the squared current varied enough to move the temperature by :data:`MIN_CURRENT_EFFECT`
 degrees (else it keeps the emulator's value, and the idle rise takes up the small rest). Each value
-comes with its standard deviation, ``sqrt(s^2 (J^T J)^-1)``.
+comes with its standard deviation, ``sqrt(s^2 (J^T J)^-1)``, which treats the readings' rounding as
+independent: for a slowly warming joint, whose consecutive readings share their rounding, it is
+optimistic.
 """
 
 from __future__ import annotations
