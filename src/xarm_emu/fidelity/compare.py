@@ -525,6 +525,11 @@ def compare(path: Path, calibration: Calibration | None = None,
             result.commands.append(c)
             cmd_at.append((t, j))
         sample_until(math.inf)
+        if pending:  # reads after the last frame (or in a recording without frames): their periods
+            advance(max(item[3] for item in pending) + PERIOD)
+            for c_read, _, rep_read, _, tries in pending:
+                _read_distance(c_read, rep_read, tries, cmd_only, tol)
+            pending.clear()
         result.replay_seconds = _time.perf_counter() - started
     result.recorded, result.replayed = rec_samples, rep_samples
     _measure(result, cmd_at, tol, session, emu_codes)
