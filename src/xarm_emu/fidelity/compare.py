@@ -11,8 +11,11 @@ reply shows the state after the command, at the period it was answered in.
 Reported per command and in total: replies that differ (state byte or parameters); move durations
 (from the command to the first report at rest after it moved); the path deviation (the distance of each
 recorded TCP position from the replayed path, mm, and of the joints, degrees); joint torque and current
-differences (RMS and maximum); error and warning codes seen in one and not the other; report rates.
-The TCP offset, load and settings come from the recorded commands themselves, as they are replayed.
+differences (RMS and maximum); the error and warning codes of every normal and rich report frame and
+of every register 15 reply against the emulator's at the same controller time (:func:`_codes`);
+report rates. The TCP offset, load and settings come from the recorded commands themselves, as they
+are replayed. A recording without the real-time report is compared on what the command port shows
+(:data:`COMMAND_PORT_ONLY` says what that leaves out).
 """
 
 from __future__ import annotations
