@@ -7,6 +7,7 @@ import math
 import re
 import struct
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -146,11 +147,15 @@ def test_no_register_the_sdk_can_send_answers_warning_13() -> None:
     assert unknown == []
 
 
+def _codes(*modules: Any) -> set[int]:
+    """The register codes the handler modules bind."""
+    return {row.code for m in modules for row in m.BINDINGS}
+
+
 def test_the_registers_of_this_part_answer_their_reply_length_without_a_warning(box: Emulator) -> None:
     table = registers_for(NEWEST_PROFILE)
     refuse = {201, 202, 204, 206}  # they need the F/T sensor
-    codes = sorted(set(service.HANDLERS) | set(ft_sensor.HANDLERS) | set(force_control.HANDLERS)
-                   | {123, 125, 129, 130, 240, 241})
+    codes = sorted(_codes(service, ft_sensor, force_control) | {123, 125, 129, 130, 240, 241})
     for code in codes:
         if code in refuse:
             continue
@@ -407,8 +412,7 @@ def test_restore_puts_the_counter_and_settings_back(box: Emulator) -> None:
 # --- bad input --------------------------------------------------------------------------------------
 
 _TABLE2 = registers_for(NEWEST_PROFILE)
-_MINE = sorted(set(service.HANDLERS) | set(ft_sensor.HANDLERS)
-               | {123, 125, 127, 129, 130, 134, 135, 136, 144, 145, 147, 240, 241})
+_MINE = sorted(_codes(service, ft_sensor) | {123, 125, 127, 129, 130, 134, 135, 136, 144, 145, 147, 240, 241})
 
 
 def test_random_requests_get_a_clear_answer() -> None:

@@ -56,6 +56,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Controller", "box_sn"): FIXED,
     ("Controller", "registers"): FIXED,  # the register table of the firmware and attached devices
     ("Controller", "_handlers"): FIXED,
+    ("Controller", "_routes"): FIXED,  # the mode routes of the binding table, for this firmware
     ("Controller", "_float_checked"): FIXED,
     ("Controller", "_inf_unchanged"): FIXED,
     ("Controller", "components"): WIRING,

@@ -759,6 +759,10 @@ def registers(
             console.print(f"  flags:   {', '.join(flags)}")
         if reg.doc:
             console.print(f"  {reg.doc}")
+        from .controller.handlers import handled_by
+
+        for line in handled_by(code):
+            console.print(f"  {line}", soft_wrap=True)
         return
     # Plain lines (one per register), easy to grep: code, name, title; request -> reply.
     print("# command port registers: fp32/int32 little-endian, u16 big-endian (manual 2.1.2)")

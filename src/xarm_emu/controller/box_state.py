@@ -1,9 +1,9 @@
 """The whole mutable state of one emulated control box as one tree of dataclasses.
 
 :class:`EmulatorState` has one field per part of the box: the controller's
-:class:`~.state.ControllerState` (joints, motion state and mode, faults, command buffer and plan,
-servo target, F/T sensor and contact scene, reduced mode, force, velocity and online control,
-trajectories, the less common registers), its :class:`~.settings.Settings` (registers 31-79), and
+:class:`~.core.controller_state.ControllerState` (joints, motion state and mode, faults, command
+buffer and plan, servo target, F/T sensor and contact scene, reduced mode, force, velocity and online control,
+trajectories, the less common registers), its :class:`~.core.settings.Settings` (registers 31-79), and
 one state object per component (IO, the tool RS-485 bridge's timeouts, the xArm gripper, the
 device on the tool bus, vacuum and Lite 6 grippers, linear track, thermal model), the Modbus-TCP
 user storage, the feedback queue of firmware 2.x and the pending scheduled actions. Everything
@@ -16,7 +16,7 @@ component as a whole (:meth:`~.emulator.Emulator.restore`), like MuJoCo's ``mjDa
 constant ``mjModel``.
 
 Adding a component's state is one step: declare its dataclass beside the component, decorate the
-component with :func:`~.state.holds`, and give :class:`EmulatorState` a field for it (``None``
+component with :func:`~.core.controller_state.holds`, and give :class:`EmulatorState` a field for it (``None``
 when the component is optional); :meth:`~.emulator.Emulator.state` and ``_adopt`` name the field.
 """
 

@@ -4,8 +4,8 @@ control step and the safety checks.
 Pure and deterministic: no sockets, no wall clock. The server calls :meth:`handle` for every
 request and :meth:`step` once per control period (:data:`~xarm_emu.controller.core.interface.PERIOD`).
 Register handlers are plain functions in :mod:`.handlers`, bound in one table; the mutable state is
-one :class:`~.state.ControllerState` (:attr:`Controller.data`), beside the constant robot model
-and the :class:`~.settings.Settings`.
+one :class:`~.core.controller_state.ControllerState` (:attr:`Controller.data`), beside the constant
+robot model and the :class:`~.core.settings.Settings`.
 
 States (register 13, manual section 2.1.3): 1 in motion, 2 sleep (idle and ready), 3 suspend,
 4 stop, 5 system reset. Modes (register 19): 0 position, 1 servo, 2 joint teaching, 3 Cartesian
@@ -32,7 +32,7 @@ from ..protocol.frame import STATE_ERROR, STATE_FAILED, STATE_NOT_READY, STATE_W
 from ..protocol.layouts import LayoutError, all_within
 from . import handlers, motion
 from .applications import force_control, reduced
-from .applications.modes import EVERY_STEP, EVERY_STEP_IDLE, MODE_STEPS, route
+from .applications.modes import EVERY_STEP, EVERY_STEP_IDLE, MODE_STEPS
 from .core import safety
 from .core.commands import QueuedCommand
 from .core.controller_protocol import Component
@@ -54,6 +54,7 @@ from .core.interface import (
     Hooks,
     NotReady,
     ParameterError,
+    bind_component,
 )
 from .core.settings import Settings
 from .core.state_machine import (
@@ -117,7 +118,7 @@ def tcp_matrix(model: RobotModel, q: np.ndarray, settings: Settings) -> np.ndarr
 
 class Controller:
     """One emulated control box with its arm: dispatch, readiness, poses and the control step over
-    one :class:`~.state.ControllerState`."""
+    one :class:`~.core.controller_state.ControllerState`."""
 
     def __init__(self, model: RobotModel, *, robot_sn: str = "XI1300", box_sn: str = "AC1300",
                  period: float = PERIOD, firmware: FirmwareProfile = DEFAULT_PROFILE) -> None:
@@ -132,7 +133,7 @@ class Controller:
         self.period = period
         self.robot_sn = robot_sn
         self.box_sn = box_sn
-        #: Every mutable value of the box (:class:`~.state.ControllerState`).
+        #: Every mutable value of the box (:class:`~.core.controller_state.ControllerState`).
         self.data = ControllerState.initial(self.dof)
         self.settings = Settings.for_model(self.model)
         #: Calls outside the controller; the emulator wires them up.
@@ -146,13 +147,18 @@ class Controller:
         #: accelerations exactly +0, so a period that leaves these very arrays alone keeps them.
         self._still: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._dt_vec = (period, np.full(self.dof, period))  # the period, and it once per joint
-        self._handlers: dict[int, Handler] = self.register_handlers()
+        #: Handlers by register code, and the modes that route a code elsewhere (code -> mode ->
+        #: handler): the rows of the one binding table (:data:`.handlers.TABLE`) this box answers.
+        self._handlers: dict[int, Handler]
+        self._routes: dict[int, dict[int, Handler]]
+        self._handlers, self._routes = self.register_handlers()
         #: Tests set this: unexpected exceptions in handlers or steps propagate instead of being
         #: logged and answered with warning 12 / error C29 (what a running server does).
         self.strict = False
 
-    def register_handlers(self) -> dict[int, Handler]:
-        """Handlers by register code: the tables of :mod:`.handlers`, bound to this controller."""
+    def register_handlers(self) -> tuple[dict[int, Handler], dict[int, dict[int, Handler]]]:
+        """Handlers and mode routes by register code: the controller's rows of the binding table
+        (:data:`.handlers.TABLE`), bound to this controller."""
         return handlers.bind(self)
 
     def adopt(self, data: ControllerState, settings: Settings) -> None:
@@ -164,7 +170,7 @@ class Controller:
         self._torque_cache = self._pose_cache = self._limits_cache = self._still = None
 
     # -- the state's values (ControllerState), by the names the handlers and components use ---
-    #: Motion state (register 13); only :func:`.states.fire` changes it.
+    #: Motion state (register 13); only :func:`.core.state_machine.fire` changes it.
     motion_state = StateField[int]()
     steps = StateField[int]()
     q = StateField[np.ndarray]()
@@ -250,8 +256,11 @@ class Controller:
     def add_component(self, component: Component) -> None:
         """Plug in a component: it steps with the controller, and its handlers answer the registers
         of this box's firmware (a register its table lacks stays unknown, warning 13)."""
+        bound = bind_component(component, handlers.TABLE.values())
+        for code in bound.keys() & self._handlers.keys():
+            raise ValueError(f"register {code} of {type(component).__name__} is bound already")
         self.components.append(component)
-        self._handlers.update({code: h for code, h in component.handlers().items() if code in self.registers})
+        self._handlers.update({code: h for code, h in bound.items() if code in self.registers})
 
     def answer_also(self, code: int) -> None:
         """Answer register ``code`` although this firmware's table lacks it: an accessory that brings
@@ -265,8 +274,7 @@ class Controller:
         self._float_checked = regs.float_checked(self.registers)
         self._inf_unchanged = regs.inf_unchanged(self.registers)
         self._per_joint = regs.per_joint_fields(self.registers)
-        fn = next(t[code] for t in handlers.TABLES if code in t)
-        self._handlers[code] = functools.partial(fn, self)
+        self._handlers[code] = functools.partial(handlers.TABLE[code].handler, self)
 
     # -- ControllerView ------------------------------------------------------------------------
     @property
@@ -353,7 +361,8 @@ class Controller:
     def handle(self, code: int, params: bytes) -> tuple[int, bytes]:
         """Handle one command; returns (reply state byte, reply parameter bytes)."""
         reg = self.registers.get(code)
-        handler = route(self, code) or self._handlers.get(code)
+        routes = self._routes.get(code)
+        handler = (routes.get(self.data.mode) if routes else None) or self._handlers.get(code)
         if reg is None or handler is None:
             log.info("register %d is unknown to firmware %s: warning 13", code, self.firmware)
             self.raise_warning(WARN_UNKNOWN_COMMAND)
@@ -466,7 +475,7 @@ class Controller:
         """Whether a control period now would change nothing of the controller but its clock (time
         and period count): the joints rest (speeds and accelerations exactly +0), no motion runs or
         is due in the present state and mode (the branches of :meth:`step`), and every per-period
-        hook is idle. Components answer for themselves (:func:`~.base.idle_until`).
+        hook is idle. Components answer for themselves (:func:`~.core.interface.idle_until`).
 
         Servo mode holding its target counts only when ``settled`` (the caller knows that nothing
         has changed the box since the last period ran in full): its period re-checks the boundary
@@ -544,7 +553,7 @@ class Controller:
 
     def limits(self) -> Limits:
         """The motion limits of the settings (registers 31-34) and the model (Table 1.2); the same
-        object again while they stay (nothing changes a :class:`~.executor.Limits` once made)."""
+        object again while they stay (nothing changes a :class:`~.core.executor.Limits` once made)."""
         s = self.settings
         tcp_cap, joint_cap = reduced.speed_caps(self)
         key = (s.tcp_jerk, s.tcp_maxacc, s.joint_jerk, s.joint_maxacc, self.model.max_joint_speed,

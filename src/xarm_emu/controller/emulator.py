@@ -218,37 +218,8 @@ class Emulator:
         check_firmware(self.model, self.firmware)
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD,
                                      firmware=self.firmware)
-        box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
-        # Control boxes with SN >= 1300 have 16 digital IO, as the SDK expects.
-        self.io = IOModule(n_digital=16 if box_number >= 1300 else 8,
-                           tool_ti2=self.model.tool_io.ti2_address is not None)
-        self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9], device=device)
-        self.controller.add_component(self.io)
-        self.io.attach(self.controller)
-        self.controller.add_component(self.gripper)
-        self.controller.hooks.tool_error = self._tool_error
-        #: The vacuum gripper's pressure switch on TI0 (controller/devices/vacuum.py), when attached.
-        self.vacuum: VacuumGripper | None = None
-        if vacuum:
-            self.vacuum = VacuumGripper(self.io.tool)
-            self.controller.add_component(self.vacuum)
-        #: The Lite 6 gripper's jaws on TO0/TO1 (controller/devices/lite6_gripper.py), on the arms
-        #: wired for it.
-        self.lite6_gripper: Lite6Gripper | None = None
-        if self.model.tool_io.gripper is not None:
-            self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
-            self.controller.add_component(self.lite6_gripper)
-        #: The linear track on the control box RS-485 (controller/devices/linear_track.py), ``linear_track``
-        #: mm long, when attached.
-        self.linear_track: LinearTrack | None = None
-        if linear_track is not None:
-            if not self.firmware.version.at_least(TRACK_FIRMWARE):
-                raise ValueError(f"the linear track needs firmware {TRACK_FIRMWARE} or later, not "
-                                 f"{self.firmware}: choose a later --firmware")
-            self.linear_track = track = LinearTrack(linear_track)
-            self.controller.add_component(track)
-            self.gripper.box_devices = lambda: (
-                {TRACK_ID: track} if self.io.tool.baud_index[CONTROL_BOX_HOST] == TRACK_BAUD_INDEX else {})
+        self._plug_io_and_tools(box_sn, device, vacuum)
+        self._plug_linear_track(linear_track)
         #: The feedback queue of firmware 2.x (registers 253/254, 0xFF frames), part of the box
         #: from the start so that every checkpoint holds it.
         self.feedback: FeedbackQueue | None = (feedback_queue(self.controller) if self.firmware.feedback
@@ -287,6 +258,44 @@ class Emulator:
         self._store: Any = None
         if config_dir is not None:
             self._attach_store(Path(config_dir), load_config)
+
+    def _plug_io_and_tools(self, box_sn: str, device: ToolDevice | None, vacuum: bool) -> None:
+        """The IO, the tool RS-485 bus with ``device`` on it, and the end tools on the tool IO (the
+        vacuum gripper when ``vacuum``, the Lite 6 gripper on the arms wired for it)."""
+        box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
+        # Control boxes with SN >= 1300 have 16 digital IO, as the SDK expects.
+        self.io = IOModule(n_digital=16 if box_number >= 1300 else 8,
+                           tool_ti2=self.model.tool_io.ti2_address is not None)
+        self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9], device=device)
+        self.controller.add_component(self.io)
+        self.io.attach(self.controller)
+        self.controller.add_component(self.gripper)
+        self.controller.hooks.tool_error = self._tool_error
+        #: The vacuum gripper's pressure switch on TI0 (controller/devices/vacuum.py), when attached.
+        self.vacuum: VacuumGripper | None = None
+        if vacuum:
+            self.vacuum = VacuumGripper(self.io.tool)
+            self.controller.add_component(self.vacuum)
+        #: The Lite 6 gripper's jaws on TO0/TO1 (controller/devices/lite6_gripper.py), on the arms
+        #: wired for it.
+        self.lite6_gripper: Lite6Gripper | None = None
+        if self.model.tool_io.gripper is not None:
+            self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
+            self.controller.add_component(self.lite6_gripper)
+
+    def _plug_linear_track(self, linear_track: int | None) -> None:
+        """The linear track of ``linear_track`` mm on the control box RS-485, when given."""
+        #: The linear track on the control box RS-485 (controller/devices/linear_track.py), ``linear_track``
+        #: mm long, when attached.
+        self.linear_track: LinearTrack | None = None
+        if linear_track is not None:
+            if not self.firmware.version.at_least(TRACK_FIRMWARE):
+                raise ValueError(f"the linear track needs firmware {TRACK_FIRMWARE} or later, not "
+                                 f"{self.firmware}: choose a later --firmware")
+            self.linear_track = track = LinearTrack(linear_track)
+            self.controller.add_component(track)
+            self.gripper.box_devices = lambda: (
+                {TRACK_ID: track} if self.io.tool.baud_index[CONTROL_BOX_HOST] == TRACK_BAUD_INDEX else {})
 
     def _tool_error(self) -> int:
         """The end tool's error code (register 106): the xArm gripper's, which the box knows; a
@@ -381,7 +390,7 @@ class Emulator:
         """How many control periods from now would, stepped in any calls, change nothing but the
         clock (:attr:`revision` unchanged) unless something outside changes the box: 0 unless
         :meth:`_quiet_now`; else up to the period before the next thermal step, component time
-        (:func:`~.base.idle_until`) or scheduled action. A lower bound (one period short of each
+        (:func:`~.core.interface.idle_until`) or scheduled action. A lower bound (one period short of each
         event's own period). ``settled``: as :meth:`Controller.at_rest` takes it (``None``: nothing
         has changed the box since the last :meth:`step` call); :meth:`step` asks it of its last
         period."""
@@ -408,7 +417,7 @@ class Emulator:
 
     def _jump(self, most: int) -> int:
         """Jump over at most ``most`` control periods while the controller is at rest
-        (:meth:`Controller.at_rest`), each component idle (:func:`~.base.idle_until`) and no
+        (:meth:`Controller.at_rest`), each component idle (:func:`~.core.interface.idle_until`) and no
         scheduled action due; returns the number of periods jumped.
 
         Nothing changes in such a period but the clock and, every :data:`THERMAL_EVERY` periods, the
@@ -712,7 +721,8 @@ class Emulator:
 
     def apply_wrench(self, wrench: Any, frame: str = "tool", ramp_s: float = 0.0,
                      duration_s: float | None = None) -> None:
-        """An external wrench on the TCP (:func:`.ft_sensor.apply_wrench`); ValueError if not finite."""
+        """An external wrench on the TCP (:func:`.devices.ft_sensor.apply_wrench`); ValueError if not
+        finite."""
         self.generation += 1
         ft_sensor.apply_wrench(self.controller, wrench, frame, ramp_s, duration_s)
 

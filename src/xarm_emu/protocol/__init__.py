@@ -8,6 +8,7 @@
 - :mod:`.reports`: the report snapshot and the report frames of ports 30000-30003 (section 2.1.6).
 - :mod:`.codes`: error, warning, servo and gripper codes (chapter 3).
 - :mod:`.rtu`: Modbus-RTU PDUs of the tool and control box RS-485 (section 2.1.4).
+- :mod:`.regmap`: register maps of Modbus-RTU slaves, served in the manner of a Modbus datastore.
 - :mod:`.modbus`: the standard Modbus-TCP map (protocol id 0).
 - :mod:`.admin`: the admin channel's JSON-lines wire.
 - :mod:`.modbus_pdu`: standard Modbus PDUs decoded for the trace (function, address, count, values,
@@ -15,4 +16,4 @@
 """
 
 __all__ = ["admin", "codes", "feedback", "firmware", "frame", "layouts", "modbus", "modbus_pdu",
-           "registers", "reports", "rtu"]
+           "registers", "regmap", "reports", "rtu"]

@@ -25,16 +25,15 @@ from .commands import QueuedCommand, Task
 from .controller_state import ControllerState
 from .executor import Executor, Limits
 from .faults import Faults
-from .interface import Handler, Hooks, Values
+from .interface import Handler, Hooks
 from .settings import Settings
 from .state_machine import MODE_POSITION
 
 
 class Component(Protocol):
-    """A controller part with its own registers and its own state, stepped after each control
-    period with the controller."""
-
-    def handlers(self) -> dict[int, Handler]: ...
+    """A controller part with its own state that steps with the controller after each control
+    period. Its registers, if any, are rows of the binding table naming its class
+    (:class:`~.interface.Binding`)."""
 
     def step(self, dt: float, ctl: Controller) -> None: ...
 
@@ -144,12 +143,6 @@ class Controller(Protocol):
     def enter_stop(self) -> None: ...
 
     def ft_sensor_in_use(self) -> bool: ...
-
-
-#: A register handler as the handler tables hold it: the controller and the request values decoded
-#: by the register table in, the reply values (or ``None`` for an empty reply) out. It refuses by
-#: raising :class:`~.interface.CommandWarning` or :class:`~.interface.CommandError`.
-CtlHandler = Callable[[Controller, Values], "dict[str, Any] | None"]
 
 
 def queue_behind_moves(ctl: Controller, register: int, run: Callable[[], None]) -> None:

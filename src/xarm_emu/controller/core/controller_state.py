@@ -83,7 +83,7 @@ class ControllerState:
     q: np.ndarray = field(default_factory=lambda: np.zeros(0))  # joints, rad
     qd: np.ndarray = field(default_factory=lambda: np.zeros(0))  # rad/s
     qdd: np.ndarray = field(default_factory=lambda: np.zeros(0))  # rad/s^2
-    #: Motion state (register 13); only :func:`.states.fire` changes it.
+    #: Motion state (register 13); only :func:`.state_machine.fire` changes it.
     motion_state: int = STATE_STOP
     mode: int = MODE_POSITION  # register 19
     enabled: list[bool] = field(default_factory=list)  # register 11, per joint
@@ -118,7 +118,7 @@ class ControllerState:
     trajectory_store: Slot = None  # TrajectoryStore
     #: The less common registers' values (controller/handlers/service.py).
     extra_state: Slot = None  # ExtraState
-    #: The load identification of register 204 under way or last run (:mod:`.identification`).
+    #: The load identification of register 204 under way or last run (:mod:`..applications.identification`).
     identification: Slot = None  # Identification
 
     @classmethod

@@ -4,7 +4,7 @@ current state and samples the plan every control period.
 Suspend (state 3) and stop (state 4) slow the *path time* down with a smooth
 ramp, so the arm stays on the planned path and a resumed move continues the
 same path (manual register 12). The buffer and the plan live in a
-:class:`~.state.PlanState`, part of the controller's :class:`~.state.ControllerState`.
+:class:`~.controller_state.PlanState`, part of the controller's :class:`~.controller_state.ControllerState`.
 
 From firmware 2.4.101 a +inf value of a pose (register 21) or joint target (23) keeps
 that component where the move starts (:func:`keep_unchanged_pose`,
@@ -312,7 +312,7 @@ class Executor:
         #: The model's lower and upper joint limits as floats, for the per-period check.
         self._bounds = (tuple(float(j.lower) for j in model.joints),
                         tuple(float(j.upper) for j in model.joints))
-        #: The buffer and plan state; part of the controller's :class:`~.state.ControllerState`.
+        #: The buffer and plan state; part of the controller's :class:`~.controller_state.ControllerState`.
         self.data = PlanState() if data is None else data
 
     @property

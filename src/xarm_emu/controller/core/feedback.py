@@ -36,7 +36,7 @@ from ...protocol.registers import Flag
 from .commands import CircleMove, Dwell, JointMove, LineMove
 from .controller_protocol import Controller
 from .controller_state import holds
-from .interface import NOT_IDLE, Handler
+from .interface import NOT_IDLE
 
 #: Queued task classes that move the arm (MOTION_START/MOTION_FINISH); any other queued task is a
 #: non-motion task (TRIGGER).
@@ -140,16 +140,13 @@ class FeedbackQueue:
         self.dropped = 0
 
     # -- the component interface ---------------------------------------------------------------
-    def handlers(self) -> dict[int, Handler]:
-        return {}  # registers 253/254 live in controller/handlers/feedback.py
-
     def step(self, dt: float, ctl: Controller) -> None:
         """After each control period: report tasks that started or finished."""
         if self._tasks or self._checks:
             self._observe(ctl)
 
     def idle_until(self, ctl: Controller) -> float:
-        """Idle (:func:`~.base.idle_until`) while no watched task can have started or finished: the
+        """Idle (:func:`~.interface.idle_until`) while no watched task can have started or finished: the
         buffer, the running command and its chain are as the last look saw them."""
         if self._tasks or self._checks:
             ex = ctl.executor

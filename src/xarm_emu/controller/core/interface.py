@@ -1,7 +1,8 @@
 """Shared pieces of the controller: the control period, command outcomes and
 the interface controller components (IO, gripper, ...) plug in through.
 
-A component contributes register handlers. A handler gets the request values
+Every register handler, the controller's and a component's, is bound by one
+row of the binding table (:class:`Binding`). A handler gets the request values
 decoded by the register table and returns the reply values (or ``None`` for an
 empty reply). It signals a refusal by raising :class:`CommandWarning` (the
 manual's warning codes, section 3.2.2) or :class:`CommandError` (a control box
@@ -10,9 +11,10 @@ error code, section 3.2.1).
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 #: Control period in seconds: the controller advances in steps of 4 ms (250 Hz,
@@ -49,6 +51,60 @@ WARN_NO_SOLUTION = 14
 
 Values = Mapping[str, Any]
 Handler = Callable[[Values], "dict[str, Any] | None"]
+
+
+@dataclass(frozen=True, slots=True)
+class Binding:
+    """One row of the register binding table: register ``code`` (manual section 2.1.3) is answered
+    by ``handler(owner, values)``, a plain function (or a :func:`functools.partial` of one) that
+    returns the reply values or ``None`` for an empty reply.
+
+    ``owner`` is the controller when ``component`` is ``None``; otherwise the plugged-in component of
+    that class (IO, the tool RS-485 bus), and the code answers only while such a component is
+    plugged in. ``mode_route`` names the modes (register 19) in which another handler, taking the
+    controller, answers the code instead (a joint or linear move in online planning, modes 6/7)."""
+
+    code: int
+    handler: Callable[..., Any]
+    component: type | None = None
+    mode_route: Mapping[int, Callable[..., Any]] = field(default_factory=dict)
+
+    @property
+    def where(self) -> str:
+        """The handler's module and function name (:func:`function_name`)."""
+        return function_name(self.handler)
+
+
+def function_name(fn: Callable[..., Any]) -> str:
+    """``module.function`` of a handler, with a partial's bound arguments (``move_line(register=21)``);
+    a lambda or a function defined inside another has no such name: :class:`ValueError`."""
+    args = ""
+    if isinstance(fn, functools.partial):
+        args = "(" + ", ".join(f"{k}={v!r}" for k, v in fn.keywords.items()) + ")"
+        fn = fn.func
+    name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}"
+    if "<lambda>" in name or "<locals>" in name or "?" in name:
+        raise ValueError(f"handler {name} is not a plain function: it cannot be named")
+    return name + args
+
+
+def binding_table(rows: Iterable[Binding]) -> dict[int, Binding]:
+    """The rows by register code, checked: every handler (and mode route) is a plain function, and a
+    code bound twice is a :class:`ValueError` naming both handlers."""
+    out: dict[int, Binding] = {}
+    for row in rows:
+        for fn in (row.handler, *row.mode_route.values()):
+            function_name(fn)
+        if (first := out.get(row.code)) is not None:
+            raise ValueError(f"register {row.code} is bound twice: {first.where} and {row.where}")
+        out[row.code] = row
+    return out
+
+
+def bind_component(component: object, rows: Iterable[Binding]) -> dict[int, Handler]:
+    """The handlers of ``rows`` that ``component`` answers (its class's rows), bound to it."""
+    return {r.code: functools.partial(r.handler, component) for r in rows
+            if r.component is not None and isinstance(component, r.component)}
 
 
 class CommandWarning(Exception):

@@ -48,10 +48,10 @@ version and serial number are the emulator's choices where the public material g
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-from ...protocol import codes, rtu
+from ...protocol import codes, regmap, rtu
 from ..core.controller_state import holds
 from ..core.interface import NOT_IDLE, ControllerView
 
@@ -105,10 +105,6 @@ def mm_to_pulses(mm: float) -> float:
 
 def pulses_to_mm(pulses: float) -> float:
     return (pulses + PULSE_OFFSET) / MM_TO_PULSE
-
-
-def _const(value: int) -> Callable[[], int]:
-    return lambda: value
 
 
 def _refuse() -> rtu.RtuError:
@@ -215,23 +211,12 @@ class BioGripper:
     # --- commands ----------------------------------------------------------------------------------
 
     def _set_enable(self, on: int) -> None:
-        if on not in (0, 1):
-            raise _refuse()
+        """Register 0x0100 (0 or 1, the map checks): enabling takes :data:`ENABLE_TIME`."""
         if on and self.enable == ENABLE_OFF:
             self.enable, self.enable_left = ENABLE_ENABLING, ENABLE_TIME
         elif not on:
             self.enable = ENABLE_OFF
             self.moving = False
-
-    def _set_speed(self, v: int) -> None:
-        if not SPEED_MIN <= v <= SPEED_MAX:
-            raise _refuse()
-        self.speed = v
-
-    def _set_force(self, v: int) -> None:
-        if not FORCE_MIN <= v <= FORCE_MAX:
-            raise _refuse()
-        self.force = v
 
     def _goal_pulses(self, raw: int) -> float:
         """The goal (pulses) of target ``raw``, clamped to the stroke (module docstring)."""
@@ -255,68 +240,11 @@ class BioGripper:
 
     # --- Modbus slave ------------------------------------------------------------------------------
 
-    def _getter(self, addr: int) -> Callable[[], int] | None:
-        pos, tgt = rtu.s32_words(int(round(self.position))), rtu.s32_words(self.target_raw)
-        table: dict[int, Callable[[], int]] = {
-            REG_STATUS: lambda: self.status, REG_ERROR: lambda: self.code,
-            REG_ENABLE: lambda: int(self.enable != ENABLE_OFF), REG_MODE: lambda: self.mode,
-            REG_SPEED: lambda: self.speed, REG_FORCE: lambda: self.force,
-            REG_TARGET: lambda: tgt[0], REG_TARGET + 1: lambda: tgt[1],
-            REG_POSITION: lambda: pos[0], REG_POSITION + 1: lambda: pos[1],
-        }
-        for i, v in enumerate(VERSION):
-            table[REG_VERSION + i] = _const(v)
-        if REG_SN <= addr < REG_SN + SN_REGS:
-            i = addr - REG_SN
-            return lambda: ord(SERIAL[i]) if i < len(SERIAL) else 0
-        return table.get(addr)
-
     def read_registers(self, address: int, count: int) -> list[int]:
-        out = []
-        for a in range(address, address + count):
-            getter = self._getter(a)
-            if getter is None:
-                raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-            out.append(getter() & 0xFFFF)
-        return out
+        return regmap.read_registers(self.register_map, self, address, count)
 
     def write_registers(self, address: int, values: Sequence[int]) -> None:
-        n = len(values)
-        if address == REG_MOVE and n == MOVE_REGS:
-            op, speed, force, hi, lo = values
-            if op != 1:
-                raise _refuse()
-            self._goal_pulses(rtu.words_s32(hi, lo))  # check everything before changing anything
-            if not (SPEED_MIN <= speed <= SPEED_MAX and FORCE_MIN <= force <= FORCE_MAX):
-                raise _refuse()
-            self.speed, self.force = speed, force
-            self._move(rtu.words_s32(hi, lo))
-            return
-        if address == REG_TARGET and n == 2:
-            self._move(rtu.words_s32(*values))
-            return
-        if n != 1:
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        v = values[0]
-        if address == REG_ENABLE:
-            self._set_enable(v)
-        elif address == REG_SPEED:
-            self._set_speed(v)
-        elif address == REG_FORCE:
-            self._set_force(v)
-        elif address == REG_ERROR:
-            if v != 0:
-                raise _refuse()
-            self.clear_error()
-        elif address == REG_MODE_SET:
-            if v not in (0, 1):
-                raise _refuse()
-            self.next_mode = v
-        elif address == REG_REBOOT:
-            if v == 1:
-                self._reboot()
-        else:
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
+        regmap.write_registers(self.register_map, self, address, values)
 
     # --- motion ------------------------------------------------------------------------------------
 
@@ -329,7 +257,7 @@ class BioGripper:
         return self.speed * SPEED_TO_PULSES
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while the motor is not being enabled and the fingers do
+        """Idle (:func:`~..core.interface.idle_until`) while the motor is not being enabled and the fingers do
         not move: then :meth:`step` changes nothing until a command, an object or an error comes."""
         return NOT_IDLE if self.enable == ENABLE_ENABLING or self.moving else math.inf
 
@@ -354,3 +282,54 @@ class BioGripper:
         self.position = stop
         self.moving = False
         self.detected = contact
+
+    def _write_move(self, values: tuple[int, ...]) -> None:
+        """The one-shot move block (0x0C00, five registers): op 1, speed, force, target (s32); every
+        value is checked before anything changes."""
+        op, speed, force, hi, lo = values
+        if op != 1:
+            raise _refuse()
+        self._goal_pulses(rtu.words_s32(hi, lo))  # check everything before changing anything
+        if not (SPEED_MIN <= speed <= SPEED_MAX and FORCE_MIN <= force <= FORCE_MAX):
+            raise _refuse()
+        self.speed, self.force = speed, force
+        self._move(rtu.words_s32(hi, lo))
+
+    def _write_target(self, words: tuple[int, ...]) -> None:
+        """The target (0x0700, both registers at once)."""
+        self._move(rtu.words_s32(*words))
+
+    def _reboot_on_one(self, value: int) -> None:
+        if value == 1:
+            self._reboot()
+
+    def _clear_on_zero(self, value: int) -> None:
+        self.clear_error()  # the map accepts 0 only
+
+    def _enable_read(self) -> int:
+        return int(self.enable != ENABLE_OFF)
+
+    #: The registers this gripper answers (:data:`REGISTER_MAP`; the G1 has its own).
+    @property
+    def register_map(self) -> regmap.RegisterMap:
+        return REGISTER_MAP
+
+
+#: The BIO gripper's registers (module docstring): a write that covers any other address, or only part
+#: of the target or the move block, is exception 2; a value outside a range is exception 3.
+REGISTER_MAP: dict[int, regmap.Reg] = {
+    REG_STATUS: regmap.Reg("status"),
+    REG_ERROR: regmap.Reg("code", "rw", put=BioGripper._clear_on_zero, range=(0, 0)),
+    REG_ENABLE: regmap.Reg("enable", "rw", get=BioGripper._enable_read, put=BioGripper._set_enable,
+                           range=(0, 1)),
+    REG_MODE: regmap.Reg("mode"),
+    REG_MODE_SET: regmap.Reg("next_mode", "w", range=(0, 1)),
+    REG_SPEED: regmap.Reg("speed", "rw", range=(SPEED_MIN, SPEED_MAX)),
+    REG_FORCE: regmap.Reg("force", "rw", range=(FORCE_MIN, FORCE_MAX)),
+    REG_REBOOT: regmap.Reg("reboot", "w", put=BioGripper._reboot_on_one),
+    **regmap.s32(REG_TARGET, "target_raw", access="rw", put=BioGripper._write_target, whole=True),
+    **regmap.s32(REG_POSITION, "position", unit="pulse"),
+    **regmap.constants(REG_VERSION, "version", VERSION),
+    **regmap.constants(REG_SN, "serial", [ord(c) for c in SERIAL] + [0] * (SN_REGS - len(SERIAL))),
+    REG_MOVE: regmap.Reg("move", "w", put=BioGripper._write_move, block=MOVE_REGS),
+}

@@ -29,16 +29,15 @@ the fingers cross the stroke in about a second (:data:`SPEED_TO_UNITS`, the emul
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-
-from ...protocol import rtu
+from ...protocol import regmap, rtu
 from .bio_gripper import (
-    ENABLE_OFF,
     REG_ENABLE,
     REG_ERROR,
     REG_SPEED,
     REG_STATUS,
     REG_TARGET,
+    SPEED_MAX,
+    SPEED_MIN,
     BioGripper,
 )
 
@@ -46,16 +45,6 @@ OPEN = 130
 CLOSED = 50
 #: Position units per second per unit of speed: speed 2000 crosses the 80-unit stroke in 1 s.
 SPEED_TO_UNITS = 0.04
-
-#: address -> (field, access): the G1's registers as a plain table.
-REGISTER_MAP: dict[int, tuple[str, str]] = {
-    REG_STATUS: ("status", "r"),
-    REG_ERROR: ("error", "rw"),
-    REG_ENABLE: ("enable", "rw"),
-    REG_SPEED: ("speed", "rw"),
-    REG_TARGET: ("position_hi", "rw"),
-    REG_TARGET + 1: ("position_lo", "rw"),
-}
 
 
 class BioGripperG1(BioGripper):
@@ -79,24 +68,24 @@ class BioGripperG1(BioGripper):
             raise rtu.RtuError(rtu.ILLEGAL_VALUE)
         return float(raw)
 
-    def _getter(self, addr: int) -> Callable[[], int] | None:
-        pos = rtu.s32_words(int(round(self.position)))
-        table: dict[int, Callable[[], int]] = {
-            REG_STATUS: lambda: self.status, REG_ERROR: lambda: self.code,
-            REG_ENABLE: lambda: int(self.enable != ENABLE_OFF), REG_SPEED: lambda: self.speed,
-            REG_TARGET: lambda: pos[0], REG_TARGET + 1: lambda: pos[1],
-        }
-        return table.get(addr)
-
-    def write_registers(self, address: int, values: Sequence[int]) -> None:
-        if address not in REGISTER_MAP or REGISTER_MAP[address][1] != "rw" or address == REG_TARGET + 1:
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        if address == REG_TARGET and len(values) != 2:
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        super().write_registers(address, values)
+    @property
+    def register_map(self) -> regmap.RegisterMap:
+        return REGISTER_MAP
 
     def _object_position(self, width_mm: float) -> float:
         return float(width_mm)  # objects are given in the G1's own units
 
     def _rate(self) -> float:
         return self.speed * SPEED_TO_UNITS
+
+
+#: The G1's registers (the table of the module docstring): 0x0700 takes the target, both registers
+#: at once, and reads back the present position.
+REGISTER_MAP: dict[int, regmap.Reg] = {
+    REG_STATUS: regmap.Reg("status"),
+    REG_ERROR: regmap.Reg("code", "rw", put=BioGripper._clear_on_zero, range=(0, 0)),
+    REG_ENABLE: regmap.Reg("enable", "rw", get=BioGripper._enable_read, put=BioGripper._set_enable,
+                           range=(0, 1)),
+    REG_SPEED: regmap.Reg("speed", "rw", range=(SPEED_MIN, SPEED_MAX)),
+    **regmap.s32(REG_TARGET, "position", access="rw", put=BioGripper._write_target, whole=True),
+}

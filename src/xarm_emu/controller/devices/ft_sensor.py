@@ -8,7 +8,7 @@ What it measures, every control period while it is attached and switched on (reg
   mass's acceleration, from the joint motion of the period);
 - :func:`external_wrench`: every wrench from outside acting at the TCP (held or ramped wrenches
   from the admin channel, the CLI or a fault schedule, and the contact scene of
-  :mod:`.contact`);
+  :mod:`..scene.contact`);
 - a slow drift and white noise, as on a real sensor (switchable off: ``Emulator(ft_noise=False)``
   or :func:`set_noise`).
 
@@ -135,7 +135,8 @@ class FtSensorState:
 
 
 def state_of(ctl: Controller) -> FtSensorState:
-    """The sensor state of ``ctl`` (in its :class:`~.state.ControllerState`), created on first use."""
+    """The sensor state of ``ctl`` (in its :class:`~..core.controller_state.ControllerState`),
+    created on first use."""
     st = ctl.data.ft_sensor
     if not isinstance(st, FtSensorState):
         st = FtSensorState()
@@ -195,14 +196,11 @@ class FtSensorComponent:
     def __init__(self, ctl: Controller) -> None:
         self.ctl = ctl
 
-    def handlers(self) -> dict[int, Any]:
-        return {}
-
     def step(self, dt: float, view: Any) -> None:
         step(self.ctl, dt)
 
     def idle_until(self, view: Any) -> float:
-        """Idle as :func:`idle_until` says (:func:`~.base.idle_until`)."""
+        """Idle as :func:`idle_until` says (:func:`~..core.interface.idle_until`)."""
         return idle_until(self.ctl)
 
 
@@ -470,7 +468,7 @@ def _load_point(ctl: Controller) -> np.ndarray:
 
 
 def idle_until(ctl: Controller) -> float:
-    """Controller time up to which the sensor is idle (:func:`~.base.idle_until`): while no
+    """Controller time up to which the sensor is idle (:func:`~..core.interface.idle_until`): while no
     application reads it every period (``ctl.ft_sensor_in_use()``: admittance or force control,
     register 202) and, switched on, the load's centre of mass has stood still over the last periods
     (its acceleration is zero), up to the end of the first played wrench that ends (:func:`step`
@@ -601,7 +599,7 @@ def solve_ft_load(ctl: Controller, samples: list[tuple[np.ndarray, np.ndarray]])
 def identify(ctl: Controller) -> tuple[float, ...]:
     """Register 204 ``[00]`` at once, without moving (:func:`solve_ft_load` over readings computed
     at the sequence's poses): the instant form, for tests and tools; the register runs the moving
-    sequence of :mod:`.identification`."""
+    sequence of :mod:`..applications.identification`."""
     q0 = np.asarray(ctl.data.q, dtype=float)
     samples = []
     for i, q in enumerate(iden_poses(ctl, q0)):

@@ -55,10 +55,18 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from ...protocol import codes, rtu
+from ...protocol import codes, regmap, rtu
 from ...protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from ..core.controller_state import holds
-from ..core.interface import NOT_IDLE, ControllerView, Handler, ParameterError, idle_until
+from ..core.interface import (
+    NOT_IDLE,
+    Binding,
+    ControllerView,
+    Handler,
+    ParameterError,
+    bind_component,
+    idle_until,
+)
 from .io import BAUD_RATES
 
 GRIPPER_ID = 8  # section 2.1.4 "Gripper ID 0x08"
@@ -120,7 +128,8 @@ class ToolDevice(rtu.RegisterDevice, Protocol):
 
     slave_id: int
     baud_index: int
-    #: Every mutable value of the device, one dataclass (:func:`~.state.holds`; a checkpoint holds it).
+    #: Every mutable value of the device, one dataclass (:func:`~..core.controller_state.holds`; a
+    #: checkpoint holds it).
     data: Any
 
     @property
@@ -251,55 +260,11 @@ class XArmGripper:
 
     # --- Modbus slave ------------------------------------------------------------------------------
 
-    def _read(self, addr: int) -> int:
-        pos_words = rtu.s32_words(self.position_pulses)
-        tgt_words = rtu.s32_words(self.target)
-        table: dict[int, Callable[[], int]] = {
-            REG_STATUS: lambda: self.status,
-            REG_ERROR: lambda: self.error,
-            REG_ENABLE: lambda: int(self.enabled),
-            REG_MODE: lambda: self.mode,
-            REG_SPEED: lambda: self.speed,
-            REG_TARGET: lambda: tgt_words[0],
-            REG_TARGET + 1: lambda: tgt_words[1],
-            REG_POSITION: lambda: pos_words[0],
-            REG_POSITION + 1: lambda: pos_words[1],
-            REG_VERSION: lambda: self.version[0],
-            REG_VERSION + 1: lambda: self.version[1],
-            REG_VERSION + 2: lambda: self.version[2],
-        }
-        getter = table.get(addr)
-        if getter is None:
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        return getter() & 0xFFFF
-
     def read_registers(self, address: int, count: int) -> list[int]:
-        return [self._read(a) for a in range(address, address + count)]
+        return regmap.read_registers(REGISTER_MAP, self, address, count)
 
     def write_registers(self, address: int, values: Sequence[int]) -> None:
-        writable = {REG_ENABLE, REG_MODE, REG_CLEAR, REG_SPEED, REG_TARGET, REG_TARGET + 1, REG_ZERO}
-        addrs = range(address, address + len(values))
-        if any(a not in writable for a in addrs):
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        target_written = False
-        for a, v in zip(addrs, values, strict=True):
-            if a == REG_ENABLE:
-                self.set_enable(v)
-            elif a == REG_MODE:
-                self.set_mode(v)
-            elif a == REG_CLEAR:
-                if v == 1:
-                    self.clear_error()
-            elif a == REG_SPEED:
-                self.set_speed(v)
-            elif a == REG_ZERO:
-                if v == 1:
-                    self.set_zero()
-            else:
-                self._target_words[a - REG_TARGET] = v
-                target_written = True
-        if target_written:
-            self.set_target(rtu.words_s32(*self._target_words))
+        regmap.write_registers(REGISTER_MAP, self, address, values)
 
     # --- motion ------------------------------------------------------------------------------------
 
@@ -313,6 +278,43 @@ class XArmGripper:
             self.position = float(self.target)
         else:
             self.position += max_step if delta > 0 else -max_step
+
+
+def _put_target_word(g: XArmGripper, value: int, *, word: int) -> None:
+    g._target_words[word] = value
+
+
+def _commit_target(g: XArmGripper) -> None:
+    """Both target registers written by one request (or one of them with the other's last value)."""
+    g.set_target(rtu.words_s32(*g._target_words))
+
+
+def _clear_error(g: XArmGripper, value: int) -> None:
+    if value == 1:
+        g.clear_error()
+
+
+def _set_zero(g: XArmGripper, value: int) -> None:
+    if value == 1:
+        g.set_zero()
+
+
+#: The xArm gripper's registers (the table of the module docstring); :func:`~xarm_emu.protocol.regmap.
+#: write_registers` refuses a request that reaches any other address before it changes anything.
+REGISTER_MAP: dict[int, regmap.Reg] = {
+    REG_STATUS: regmap.Reg("status"),
+    REG_ERROR: regmap.Reg("error"),
+    REG_ENABLE: regmap.Reg("enabled", "rw", put=XArmGripper.set_enable, range=(0, 1)),
+    REG_MODE: regmap.Reg("mode", "rw", put=XArmGripper.set_mode, range=(0, 1)),
+    REG_CLEAR: regmap.Reg("clear_error", "w", put=_clear_error),
+    # 1..10000 accepted; outside it the gripper raises G12 itself (set_speed), no exception.
+    REG_SPEED: regmap.Reg("speed", "rw", put=XArmGripper.set_speed, unit="r/min"),
+    **regmap.s32(REG_TARGET, "target", access="rw", put=_put_target_word, commit=_commit_target,
+                 unit="pulse"),
+    **regmap.s32(REG_POSITION, "position", unit="pulse"),
+    **regmap.items(REG_VERSION, "version", 3),
+    REG_ZERO: regmap.Reg("set_zero", "w", put=_set_zero),
+}
 
 
 #: The gripper's turnaround, ms: from the end of a request to the start of its reply. The public
@@ -430,7 +432,7 @@ class GripperModule:
         self.device.step(dt)
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while the xArm gripper's fingers do not move; another
+        """Idle (:func:`~..core.interface.idle_until`) while the xArm gripper's fingers do not move; another
         device on the tool bus is idle only as far as it says so itself (never, without a method)."""
         if self.device is not self.gripper:
             return idle_until(self.device, ctl)
@@ -438,7 +440,8 @@ class GripperModule:
 
     # --- register table adapter --------------------------------------------------------------------
 
-    def _handle_124(self, values: Any) -> dict[str, Any]:
+    def rs485_rtu(self, values: Any) -> dict[str, Any]:
+        """Register 124: one Modbus-RTU request to the RS-485 of host 9 (tool) or 11 (control box)."""
         host = int(values["host"])
         return {"host": host, "rtu": self.rtu(host, bytes(values["rtu"]))}
 
@@ -449,15 +452,15 @@ class GripperModule:
             raise ParameterError(f"timeout {ms} ms")
         return ms
 
-    def _handle_123(self, values: Any) -> None:
+    def set_modbus_timeout(self, values: Any) -> None:
         """Register 123: the tool RS-485 Modbus bridge's timeout (ms)."""
         self.modbus_timeout_ms = self._timeout(values)
 
-    def _handle_240(self, values: Any) -> None:
+    def set_transparent_timeout(self, values: Any) -> None:
         """Register 240: the transparent transfer's timeout (ms)."""
         self.transparent_timeout_ms = self._timeout(values)
 
-    def _handle_241(self, values: Any) -> dict[str, Any]:
+    def transparent_transfer(self, values: Any) -> dict[str, Any]:
         host = int(values["host"])
         return {"host": host, "data": self.transparent(host, bytes(values["data"]))}
 
@@ -468,11 +471,11 @@ class GripperModule:
             raise ParameterError("the old gripper path drives the xArm gripper, which is not attached")
         return self.gripper
 
-    def _handle_125(self, values: Any) -> dict[str, Any]:
+    def old_gripper_error(self, values: Any) -> dict[str, Any]:
         """Register 125: the gripper error code (old path): the second byte carries it."""
         return {"error": 0, "code": self.gripper.error & 0xFF}
 
-    def _handle_129(self, values: Any) -> None:
+    def old_gripper_write(self, values: Any) -> None:
         """Register 129 (old path): write a 32-bit gripper register (enable, speed, target)."""
         g = self._old_path(values)
         raw = float(values["value"])
@@ -491,7 +494,7 @@ class GripperModule:
         else:
             raise ParameterError(f"gripper address {addr:#06x} is not writable on the old path")
 
-    def _handle_130(self, values: Any) -> dict[str, Any]:
+    def old_gripper_read(self, values: Any) -> dict[str, Any]:
         """Register 130 (old path): read a 32-bit gripper register (position, target, speed)."""
         g = self._old_path(values)
         addr = int(values["addr"])
@@ -502,6 +505,17 @@ class GripperModule:
         return {"value": int(table[addr])}
 
     def handlers(self) -> dict[int, Handler]:
-        return {123: self._handle_123, 124: self._handle_124, 125: self._handle_125,
-                129: self._handle_129, 130: self._handle_130, 240: self._handle_240,
-                241: self._handle_241}
+        """This component's registers (:data:`BINDINGS`), bound to it."""
+        return bind_component(self, BINDINGS)
+
+
+#: The registers of the tool RS-485 bus component (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(123, GripperModule.set_modbus_timeout, GripperModule),
+    Binding(124, GripperModule.rs485_rtu, GripperModule),
+    Binding(125, GripperModule.old_gripper_error, GripperModule),
+    Binding(129, GripperModule.old_gripper_write, GripperModule),
+    Binding(130, GripperModule.old_gripper_read, GripperModule),
+    Binding(240, GripperModule.set_transparent_timeout, GripperModule),
+    Binding(241, GripperModule.transparent_transfer, GripperModule),
+)

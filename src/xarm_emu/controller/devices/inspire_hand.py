@@ -30,11 +30,13 @@ emulator's choice). The mutable values are one :class:`HandState`.
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Sequence
+import operator
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from ...protocol import rtu
+from ...protocol import regmap
 from ..core.interface import NOT_IDLE, ControllerView
 
 HAND_SLAVE = 1
@@ -55,20 +57,6 @@ STATUS = 1612
 SPEED_TO_UNITS = 1.25  # units/s per unit of speed
 
 STATUS_OPENING, STATUS_CLOSING, STATUS_REACHED, STATUS_FAULT = 0, 1, 2, 7
-
-#: address -> (field, access) of every register the hand answers.
-REGISTER_MAP: dict[int, tuple[str, str]] = {
-    REG_ID: ("hand_id", "r"), REG_CLEAR: ("clear_error", "w"),
-    **{ANGLE_SET + 2 * i: (f"angle_set[{i}]", "rw") for i in range(DOF)},
-    **{FORCE_SET + 2 * i: (f"force_set[{i}]", "rw") for i in range(DOF)},
-    **{SPEED_SET + 2 * i: (f"speed_set[{i}]", "rw") for i in range(DOF)},
-    **{ANGLE_ACT + 2 * i: (f"angle_act[{i}]", "r") for i in range(DOF)},
-    **{FORCE_ACT + 2 * i: (f"force_act[{i}]", "r") for i in range(DOF)},
-    **{ERROR + 2 * i: (f"error[{2 * i}:{2 * i + 2}]", "r") for i in range(DOF // 2)},
-    **{STATUS + 2 * i: (f"status[{2 * i}:{2 * i + 2}]", "r") for i in range(DOF // 2)},
-}
-_BLOCKS = {ANGLE_SET: "angle_set", FORCE_SET: "force_set", SPEED_SET: "speed_set"}
-
 
 @dataclass
 class HandState:
@@ -120,44 +108,11 @@ class InspireHand:
             return STATUS_REACHED
         return STATUS_CLOSING if st.angle_set[i] < st.angle[i] else STATUS_OPENING
 
-    def _value(self, addr: int) -> int:
-        st = self.data
-        if addr == REG_ID:
-            return self.slave_id
-        for base, name in _BLOCKS.items():
-            if base <= addr < base + 2 * DOF and (addr - base) % 2 == 0:
-                return int(getattr(st, name)[(addr - base) // 2])
-        if ANGLE_ACT <= addr < ANGLE_ACT + 2 * DOF and (addr - ANGLE_ACT) % 2 == 0:
-            return int(round(st.angle[(addr - ANGLE_ACT) // 2]))
-        if FORCE_ACT <= addr < FORCE_ACT + 2 * DOF and (addr - FORCE_ACT) % 2 == 0:
-            return 0
-        if ERROR <= addr < ERROR + DOF and (addr - ERROR) % 2 == 0:
-            i = addr - ERROR
-            return st.errors[i] | st.errors[i + 1] << 8
-        if STATUS <= addr < STATUS + DOF and (addr - STATUS) % 2 == 0:
-            i = addr - STATUS
-            return self._status(i) | self._status(i + 1) << 8
-        raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-
     def read_registers(self, address: int, count: int) -> list[int]:
-        return [self._value(address + 2 * k) & 0xFFFF for k in range(count)]
+        return regmap.read_registers(REGISTER_MAP, self, address, count, stride=2)
 
     def write_registers(self, address: int, values: Sequence[int]) -> None:
-        addrs = [address + 2 * k for k in range(len(values))]
-        for a, v in zip(addrs, values, strict=True):  # check everything before changing anything
-            access = REGISTER_MAP.get(a, ("", ""))[1]
-            if "w" not in access:
-                raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-            if a != REG_CLEAR and v != KEEP and not 0 <= v <= FULL:
-                raise rtu.RtuError(rtu.ILLEGAL_VALUE)
-        for a, v in zip(addrs, values, strict=True):
-            if a == REG_CLEAR:
-                if v == 1:
-                    self.clear_error()
-                continue
-            for base, name in _BLOCKS.items():
-                if base <= a < base + 2 * DOF and v != KEEP:
-                    getattr(self.data, name)[(a - base) // 2] = v
+        regmap.write_registers(REGISTER_MAP, self, address, values, stride=2, atomic=True)
 
     # --- motion -----------------------------------------------------------------------------------
     def idle_until(self, ctl: ControllerView) -> float:
@@ -174,3 +129,51 @@ class InspireHand:
             max_step = st.speed_set[i] * SPEED_TO_UNITS * dt
             st.angle[i] = float(st.angle_set[i]) if abs(delta) <= max_step else \
                 st.angle[i] + math.copysign(max_step, delta)
+
+
+# --- the hand's registers ----------------------------------------------------------------------------
+
+
+def _clear_on_one(hand: InspireHand, value: int) -> None:
+    if value == 1:
+        hand.clear_error()
+
+
+def _angle(hand: InspireHand, *, index: int) -> int:
+    return int(round(hand.data.angle[index]))
+
+
+def _no_force(hand: InspireHand, *, index: int) -> int:
+    return 0  # no object: no grip force
+
+
+def _error_pair(hand: InspireHand, *, index: int) -> int:
+    errors = hand.data.errors
+    return errors[index] | errors[index + 1] << 8
+
+
+def _status_pair(hand: InspireHand, *, index: int) -> int:
+    return hand._status(index) | hand._status(index + 1) << 8
+
+
+def _fingers(address: int, field: str, get: Callable[..., int], count: int = DOF,
+             step: int = 1) -> dict[int, regmap.Reg]:
+    """Read-only registers, one per finger (or per pair of fingers, ``step`` 2), two addresses apart."""
+    return {address + 2 * k: regmap.Reg(f"{field}[{k * step}]", get=functools.partial(get, index=k * step))
+            for k in range(count)}
+
+
+#: Every register the hand answers (the table of the module docstring); the map numbers bytes, so
+#: registers are two addresses apart. Targets, force limits and speeds take 0..1000, or 0xFFFF to
+#: keep the value.
+REGISTER_MAP: dict[int, regmap.Reg] = {
+    REG_ID: regmap.Reg("hand_id", get=operator.attrgetter("slave_id")),
+    REG_CLEAR: regmap.Reg("clear_error", "w", put=_clear_on_one),
+    **regmap.items(ANGLE_SET, "data.angle_set", DOF, access="rw", stride=2, range=(0, FULL), keep=KEEP),
+    **regmap.items(FORCE_SET, "data.force_set", DOF, access="rw", stride=2, range=(0, FULL), keep=KEEP),
+    **regmap.items(SPEED_SET, "data.speed_set", DOF, access="rw", stride=2, range=(0, FULL), keep=KEEP),
+    **_fingers(ANGLE_ACT, "angle_act", _angle),
+    **_fingers(FORCE_ACT, "force_act", _no_force),
+    **_fingers(ERROR, "error", _error_pair, DOF // 2, 2),
+    **_fingers(STATUS, "status", _status_pair, DOF // 2, 2),
+}

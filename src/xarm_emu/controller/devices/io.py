@@ -44,7 +44,17 @@ from ...protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volt
 from ...protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from ..core.controller_protocol import Controller, queue_behind_moves
 from ..core.controller_state import holds
-from ..core.interface import C_DELAYED_IO, NOT_IDLE, CommandError, ControllerView, Handler, ParameterError
+from ..core.interface import (
+    C_DELAYED_IO,
+    NOT_IDLE,
+    Binding,
+    CommandError,
+    ControllerView,
+    Handler,
+    ParameterError,
+    Values,
+    bind_component,
+)
 from ..core.state_machine import STATE_STOP
 
 # Tool board addresses (registers 127/128).
@@ -576,7 +586,7 @@ class IOModule:
         self.cgpio.update_functions(ctl)
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) until the first delayed output is due, once a step has
+        """Idle (:func:`~..core.interface.idle_until`) until the first delayed output is due, once a step has
         seen the present motion state; a position trigger the last step did not fire cannot fire
         while the TCP rests where that step saw it."""
         if self._last_state != ctl.state:
@@ -592,66 +602,111 @@ class IOModule:
     # --- register table adapter -------------------------------------------------------------------
 
     def handlers(self) -> dict[int, Handler]:
-        # The handlers read self.cgpio / self.tool at call time: a restored checkpoint replaces them.
-        def r127(v: Any) -> None:
-            args = (int(v["host"]), int(v["addr"]), float(v["value"]))
-            if not self._synced(v):
-                self.tool.write(*args)
-                return
-            copy.deepcopy(self.tool).write(*args)  # refuse bad values now, apply in turn
-            self._in_turn(127, lambda: self.tool.write(*args))
-
-        def r128(v: Any) -> dict[str, Any]:
-            return {"value": self.tool.read(int(v["host"]), int(v["addr"]))}
-
-        def r134(v: Any) -> None:
-            words = [int(v["digital"])]
-            if "digital_hi" in v:
-                words.append(int(v["digital_hi"]))
-            if not self._synced(v):
-                self.cgpio_set_digital(words)
-                return
-            copy.deepcopy(self.cgpio).apply_word(words[0], high=False)
-            self._in_turn(134, lambda: self.cgpio_set_digital(words))
-
-        def analog_out(i: int) -> Handler:
-            def h(v: Any) -> None:
-                raw = int(v["analog"])
-                if not self._synced(v):
-                    self.cgpio.set_analog_output(i, raw)
-                    return
-                copy.deepcopy(self.cgpio).set_analog_output(i, raw)
-                self._in_turn(135 + i, lambda: self.cgpio.set_analog_output(i, raw))
-            return h
-
-        def r146(v: Any) -> dict[str, Any]:
-            self.set_reset_on_stop(int(v["io_type"]), int(v["on"]))
-            return {"cmdnum": int(v["on"])}  # the manual's reply echoes the switch (0x0001 for on)
-
-        return {
-            127: r127,
-            128: r128,
-            131: lambda v: {"digital": self.cgpio.digital_inputs},
-            132: lambda v: {"analog": self.cgpio.analog_inputs[0]},
-            133: lambda v: {"analog": self.cgpio.analog_inputs[1]},
-            134: r134,
-            135: analog_out(0),
-            136: analog_out(1),
-            137: lambda v: self.cgpio.set_function(False, int(v["ionum"]), int(v["fun"])),
-            138: lambda v: self.cgpio.set_function(True, int(v["ionum"]), int(v["fun"])),
-            139: lambda v: self.cgpio.state_values(),
-            142: lambda v: self.delayed_digital("cgpio", int(v["ionum"]), int(v["on"]), float(v["delay"])),
-            143: lambda v: self.delayed_digital("tgpio", int(v["ionum"]), int(v["on"]), float(v["delay"])),
-            144: lambda v: self._position_in_turn(144, "cgpio", int(v["ionum"]), int(v["on"]), v["xyz"],
-                                                  float(v["tol_r"])),
-            145: lambda v: self._position_in_turn(145, "tgpio", int(v["ionum"]), int(v["on"]), v["xyz"],
-                                                  float(v["tol_r"])),
-            146: r146,
-            147: lambda v: self._position_in_turn(147, "analog", int(v["ionum"]), int(v["value"]), v["xyz"],
-                                                  float(v["tol_r"])),
-        }
+        """This component's registers (:data:`BINDINGS`), bound to it."""
+        return bind_component(self, BINDINGS)
 
     def cgpio_set_digital(self, words: Sequence[int]) -> None:
         """Register 134: one word for IO 0-7, or ``[word 0-7, word 8-15]``."""
         for i, w in enumerate(words[:2]):
             self.cgpio.apply_word(w, high=bool(i))
+
+
+# --- the registers of the IO component (manual section 2.1.3, registers 127-147) -----------------
+# Each handler reads ``io.cgpio`` / ``io.tool`` at call time: a restored checkpoint replaces them.
+
+
+def tool_write(io: IOModule, v: Values) -> None:
+    """Register 127: write a tool board register (tool IO, baud rate, ...)."""
+    args = (int(v["host"]), int(v["addr"]), float(v["value"]))
+    if not io._synced(v):
+        io.tool.write(*args)
+        return
+    copy.deepcopy(io.tool).write(*args)  # refuse bad values now, apply in turn
+    io._in_turn(127, lambda: io.tool.write(*args))
+
+
+def tool_read(io: IOModule, v: Values) -> dict[str, Any]:
+    """Register 128: read a tool board register."""
+    return {"value": io.tool.read(int(v["host"]), int(v["addr"]))}
+
+
+def cgpio_digital_inputs(io: IOModule, v: Values) -> dict[str, Any]:
+    """Register 131: the control box digital inputs."""
+    return {"digital": io.cgpio.digital_inputs}
+
+
+def cgpio_analog_input(io: IOModule, v: Values, *, index: int) -> dict[str, Any]:
+    """Registers 132/133: control box analog input 0/1."""
+    return {"analog": io.cgpio.analog_inputs[index]}
+
+
+def cgpio_digital_outputs(io: IOModule, v: Values) -> None:
+    """Register 134: the control box digital outputs, one word or two (IO 8-15)."""
+    words = [int(v["digital"])]
+    if "digital_hi" in v:
+        words.append(int(v["digital_hi"]))
+    if not io._synced(v):
+        io.cgpio_set_digital(words)
+        return
+    copy.deepcopy(io.cgpio).apply_word(words[0], high=False)
+    io._in_turn(134, lambda: io.cgpio_set_digital(words))
+
+
+def cgpio_analog_output(io: IOModule, v: Values, *, index: int) -> None:
+    """Registers 135/136: control box analog output 0/1."""
+    raw = int(v["analog"])
+    if not io._synced(v):
+        io.cgpio.set_analog_output(index, raw)
+        return
+    copy.deepcopy(io.cgpio).set_analog_output(index, raw)
+    io._in_turn(135 + index, lambda: io.cgpio.set_analog_output(index, raw))
+
+
+def cgpio_function(io: IOModule, v: Values, *, output: bool) -> None:
+    """Registers 137/138: the function of a control box digital input / output."""
+    io.cgpio.set_function(output, int(v["ionum"]), int(v["fun"]))
+
+
+def cgpio_states(io: IOModule, v: Values) -> dict[str, Any]:
+    """Register 139: every control box IO value and function."""
+    return io.cgpio.state_values()
+
+
+def delayed_digital(io: IOModule, v: Values, *, target: str) -> None:
+    """Registers 142/143: a control box / tool digital output set after a delay."""
+    io.delayed_digital(target, int(v["ionum"]), int(v["on"]), float(v["delay"]))
+
+
+def position_output(io: IOModule, v: Values, *, register: int, target: str) -> None:
+    """Registers 144/145/147: a control box digital, tool digital or analog output set when the TCP
+    reaches a position."""
+    value = int(v["value"] if target == "analog" else v["on"])
+    io._position_in_turn(register, target, int(v["ionum"]), value, v["xyz"], float(v["tol_r"]))
+
+
+def reset_on_stop(io: IOModule, v: Values) -> dict[str, Any]:
+    """Register 146: reset the outputs when the arm stops; the manual's reply echoes the switch."""
+    io.set_reset_on_stop(int(v["io_type"]), int(v["on"]))
+    return {"cmdnum": int(v["on"])}
+
+
+#: The registers of the IO component (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(127, tool_write, IOModule),
+    Binding(128, tool_read, IOModule),
+    Binding(131, cgpio_digital_inputs, IOModule),
+    Binding(132, functools.partial(cgpio_analog_input, index=0), IOModule),
+    Binding(133, functools.partial(cgpio_analog_input, index=1), IOModule),
+    Binding(134, cgpio_digital_outputs, IOModule),
+    Binding(135, functools.partial(cgpio_analog_output, index=0), IOModule),
+    Binding(136, functools.partial(cgpio_analog_output, index=1), IOModule),
+    Binding(137, functools.partial(cgpio_function, output=False), IOModule),
+    Binding(138, functools.partial(cgpio_function, output=True), IOModule),
+    Binding(139, cgpio_states, IOModule),
+    Binding(142, functools.partial(delayed_digital, target="cgpio"), IOModule),
+    Binding(143, functools.partial(delayed_digital, target="tgpio"), IOModule),
+    Binding(144, functools.partial(position_output, register=144, target="cgpio"), IOModule),
+    Binding(145, functools.partial(position_output, register=145, target="tgpio"), IOModule),
+    Binding(146, reset_on_stop, IOModule),
+    Binding(147, functools.partial(position_output, register=147, target="analog"), IOModule),
+)

@@ -56,13 +56,14 @@ carriage: the SDK reads the track position only through these registers and neve
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from ...protocol import rtu
+from ...protocol import regmap, rtu
 from ..core.controller_state import holds
-from ..core.interface import C_ESTOP, NOT_IDLE, ControllerView, Handler
+from ..core.interface import C_ESTOP, NOT_IDLE, ControllerView
 
 TRACK_ID = 1  # the SDK's linear motor slave id on the control box RS-485
 TRACK_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default baud for the track
@@ -350,67 +351,11 @@ class LinearTrack:
 
     # --- Modbus slave ------------------------------------------------------------------------------
 
-    def _read(self, addr: int) -> int:
-        pos = rtu.s32_words(self.position_pulses)
-        tgt = rtu.s32_words(int(round(self.target * PULSES_PER_MM)))
-        table: dict[int, Callable[[], int]] = {
-            REG_ENABLE: lambda: int(self.enabled),
-            REG_SPEED: lambda: self.speed_value,
-            REG_TARGET: lambda: tgt[0], REG_TARGET + 1: lambda: tgt[1],
-            REG_POSITION: lambda: pos[0], REG_POSITION + 1: lambda: pos[1],
-            REG_STATUS: lambda: self.status,
-            REG_ERROR: lambda: self.error,
-            REG_ENABLED: lambda: int(self.enabled),
-            REG_ON_ZERO: lambda: int(self.on_zero),
-            REG_SCI: lambda: (self.sci & 1) << 1,
-            REG_SCO: lambda: (self.sco[0] & 1) | (self.sco[1] & 1) << 1,
-        }
-        if REG_VERSION <= addr < REG_VERSION + 3:
-            return self.version[addr - REG_VERSION] & 0xFFFF
-        if REG_SN <= addr < REG_SN + SN_LENGTH:
-            return ord(self.sn[addr - REG_SN])
-        if addr in self.parameters:
-            return self.parameters[addr] & 0xFFFF
-        getter = table.get(addr)
-        if getter is None:
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        return getter() & 0xFFFF
-
     def read_registers(self, address: int, count: int) -> list[int]:
-        return [self._read(a) for a in range(address, address + count)]
+        return regmap.read_registers(REGISTER_MAP, self, address, count)
 
     def write_registers(self, address: int, values: Sequence[int]) -> None:
-        commands = {REG_ENABLE, REG_CLEAR, REG_SPEED, REG_TARGET, REG_TARGET + 1, REG_BACK_ORIGIN,
-                    REG_STOP}
-        addrs = range(address, address + len(values))
-        sn_writes = range(REG_SN_WRITE, REG_SN_WRITE + SN_LENGTH)
-        if any(a not in commands and a not in self.parameters and a not in sn_writes for a in addrs):
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        target_written = False
-        for a, v in zip(addrs, values, strict=True):
-            if a == REG_ENABLE:
-                self.set_enable(v)
-            elif a == REG_CLEAR:
-                if v == 1:
-                    self.clear_error()
-            elif a == REG_SPEED:
-                self.set_speed(v)
-            elif a == REG_BACK_ORIGIN:
-                if v == 1:
-                    self.back_origin()
-            elif a == REG_STOP:
-                if v == 1:
-                    self.stop()
-            elif a in (REG_TARGET, REG_TARGET + 1):
-                self.target_words[a - REG_TARGET] = v
-                target_written = True
-            elif a in sn_writes:
-                i = a - REG_SN_WRITE
-                self.sn = self.sn[:i] + chr(v & 0x7F) + self.sn[i + 1:]
-            else:
-                self.parameters[a] = v
-        if target_written:
-            self.set_target(rtu.words_s32(*self.target_words))
+        regmap.write_registers(REGISTER_MAP, self, address, values)
 
     # --- motion ------------------------------------------------------------------------------------
 
@@ -457,12 +402,70 @@ class LinearTrack:
             self.target = 0.0
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while the carriage rests: no move, no homing, and no
+        """Idle (:func:`~..core.interface.idle_until`) while the carriage rests: no move, no homing, and no
         emergency stop left to cut the drive."""
         if self.moving or self.velocity != 0.0 or (ctl.error_code == C_ESTOP and self.enabled):
             return NOT_IDLE
         return math.inf
 
-    def handlers(self) -> dict[int, Handler]:
-        """No register of its own: the track answers through register 124 (host 11)."""
-        return {}
+
+# --- the drive's registers ---------------------------------------------------------------------------
+
+
+def _on_one(t: LinearTrack, value: int, *, action: str) -> None:
+    """A command register: writing 1 runs the action, any other value does nothing."""
+    if value == 1:
+        getattr(t, action)()
+
+
+def _put_target_word(t: LinearTrack, value: int, *, word: int) -> None:
+    t.target_words[word] = value
+
+
+def _commit_target(t: LinearTrack) -> None:
+    """The target registers written by one request (a word not written keeps its last value)."""
+    t.set_target(rtu.words_s32(*t.target_words))
+
+
+def _sci(t: LinearTrack) -> int:
+    return (t.sci & 1) << 1
+
+
+def _sco(t: LinearTrack) -> int:
+    return (t.sco[0] & 1) | (t.sco[1] & 1) << 1
+
+
+def _sn_char(t: LinearTrack, *, index: int) -> int:
+    return ord(t.sn[index])
+
+
+def _write_sn_char(t: LinearTrack, value: int, *, index: int) -> None:
+    t.sn = t.sn[:index] + chr(value & 0x7F) + t.sn[index + 1:]
+
+
+#: The drive's registers (module docstring): commands, state, version, serial number (read at 0x0B10,
+#: written at 0x1B10) and the stored drive parameters (:data:`PARAMETERS`).
+REGISTER_MAP: dict[int, regmap.Reg] = {
+    REG_ENABLE: regmap.Reg("enabled", "rw", put=LinearTrack.set_enable, range=(0, 1)),
+    REG_CLEAR: regmap.Reg("clear_error", "w", put=functools.partial(_on_one, action="clear_error")),
+    # Outside 1..SPEED_VALUE_MAX the drive raises its speed error itself (set_speed), no exception.
+    REG_SPEED: regmap.Reg("speed_value", "rw", put=LinearTrack.set_speed, scale=1 / SPEED_UNITS,
+                          unit="mm/s"),
+    **regmap.s32(REG_TARGET, "target", counts=PULSES_PER_MM, unit="mm", access="rw",
+                 put=_put_target_word, commit=_commit_target),
+    **regmap.items(REG_VERSION, "version", 3),
+    REG_BACK_ORIGIN: regmap.Reg("back_origin", "w", put=functools.partial(_on_one, action="back_origin")),
+    REG_STOP: regmap.Reg("stop", "w", put=functools.partial(_on_one, action="stop")),
+    **regmap.s32(REG_POSITION, "position", counts=PULSES_PER_MM, unit="mm"),
+    REG_STATUS: regmap.Reg("status"),
+    REG_ERROR: regmap.Reg("error"),
+    REG_ENABLED: regmap.Reg("enabled"),
+    REG_ON_ZERO: regmap.Reg("on_zero"),
+    REG_SCI: regmap.Reg("sci", get=_sci),
+    REG_SCO: regmap.Reg("sco", get=_sco),
+    **{REG_SN + i: regmap.Reg(f"sn[{i}]", get=functools.partial(_sn_char, index=i))
+       for i in range(SN_LENGTH)},
+    **{REG_SN_WRITE + i: regmap.Reg(f"sn[{i}]", "w", put=functools.partial(_write_sn_char, index=i))
+       for i in range(SN_LENGTH)},
+    **regmap.entries("parameters", PARAMETERS, access="rw"),
+}

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from ...model.robots import PneumaticGripper
 from ..core.controller_state import holds
-from ..core.interface import NOT_IDLE, ControllerView, Handler
+from ..core.interface import NOT_IDLE, ControllerView
 from .io import ToolIO
 
 TRAVEL_TIME = 0.3  # s for a full stroke, either way
@@ -64,9 +64,6 @@ class Lite6Gripper:
             return JAW_CLOSED if self.command != "open" else JAW_OPENING
         return {"open": JAW_OPENING, "close": JAW_CLOSING}.get(self.command or "", JAW_STOPPED)
 
-    def handlers(self) -> dict[int, Handler]:
-        return {}
-
     def step(self, dt: float, ctl: ControllerView) -> None:
         cmd = self.command
         rate = dt / TRAVEL_TIME
@@ -78,7 +75,7 @@ class Lite6Gripper:
         self.opening = 0.0 if self.opening < 1e-9 else 1.0 if self.opening > 1.0 - 1e-9 else self.opening
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while the jaws rest: at the end the command drives them
+        """Idle (:func:`~..core.interface.idle_until`) while the jaws rest: at the end the command drives them
         to, or held between the ends."""
         o, cmd = self.opening, self.command
         if cmd == "open":

@@ -42,11 +42,12 @@ material gives none.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from ...protocol import codes, rtu
+from ...protocol import codes, regmap
 from ..core.controller_state import holds
 from ..core.interface import NOT_IDLE, ControllerView
 
@@ -266,23 +267,10 @@ class RobotiqGripper:
     # --- Modbus slave ------------------------------------------------------------------------------
 
     def read_registers(self, address: int, count: int) -> list[int]:
-        if REG_INPUT <= address and address + count <= REG_INPUT + N_REGS:
-            data = self.status_bytes
-            base = address - REG_INPUT
-        elif REG_OUTPUT <= address and address + count <= REG_OUTPUT + N_REGS:
-            data = self.output
-            base = address - REG_OUTPUT
-        else:
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        return [(data[2 * i] << 8) | data[2 * i + 1] for i in range(base, base + count)]
+        return regmap.read_registers(REGISTER_MAP, self, address, count)
 
     def write_registers(self, address: int, values: Sequence[int]) -> None:
-        if not (REG_OUTPUT <= address and address + len(values) <= REG_OUTPUT + N_REGS):
-            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
-        for i, v in enumerate(values, start=address - REG_OUTPUT):
-            self.output[2 * i], self.output[2 * i + 1] = (v >> 8) & 0xFF, v & 0xFF
-        if address == REG_OUTPUT:  # the ACTION REQUEST byte was written
-            self._apply_action()
+        regmap.write_registers(REGISTER_MAP, self, address, values)
 
     # --- motion ------------------------------------------------------------------------------------
 
@@ -296,7 +284,7 @@ class RobotiqGripper:
         return None
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while neither the activation runs nor the fingers move:
+        """Idle (:func:`~..core.interface.idle_until`) while neither the activation runs nor the fingers move:
         then :meth:`step` changes nothing until a request, an object or a fault comes from outside."""
         return NOT_IDLE if self.gSTA == STA_ACTIVATING or self.moving else math.inf
 
@@ -333,3 +321,30 @@ class RobotiqGripper:
         else:
             self.gripping = True
             self.gOBJ = OBJ_CLOSING_CONTACT if closing else OBJ_OPENING_CONTACT
+
+
+# --- the gripper's registers -------------------------------------------------------------------------
+
+
+def _bytes(r: RobotiqGripper, *, block: str, index: int) -> int:
+    """Register ``index`` of the output or input block: two bytes, high byte first."""
+    data = r.output if block == "output" else r.status_bytes
+    return (data[2 * index] << 8) | data[2 * index + 1]
+
+
+def _put_bytes(r: RobotiqGripper, value: int, *, index: int) -> None:
+    r.output[2 * index], r.output[2 * index + 1] = (value >> 8) & 0xFF, value & 0xFF
+
+
+#: Robot output (0x03E8-, written and read back) and robot input (0x07D0-, read), two bytes a register
+#: (module docstring). A write that starts at the ACTION REQUEST register applies it afterwards.
+REGISTER_MAP: dict[int, regmap.Reg] = {
+    **{REG_OUTPUT + i: regmap.Reg(f"output[{2 * i}:{2 * i + 2}]", "rw",
+                                  get=functools.partial(_bytes, block="output", index=i),
+                                  put=functools.partial(_put_bytes, index=i),
+                                  commit=RobotiqGripper._apply_action if i == 0 else None)
+       for i in range(N_REGS)},
+    **{REG_INPUT + i: regmap.Reg(f"input[{2 * i}:{2 * i + 2}]",
+                                 get=functools.partial(_bytes, block="input", index=i))
+       for i in range(N_REGS)},
+}

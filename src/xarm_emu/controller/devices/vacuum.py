@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 from ...model.robots import VACUUM_WIRING, VacuumWiring
 from ..core.controller_state import holds
-from ..core.interface import NOT_IDLE, ControllerView, Handler
+from ..core.interface import NOT_IDLE, ControllerView
 from .io import ToolIO
 
 PRESSURE_BUILD = 0.3  # s from pump on (object present) to the pressure input = 1
@@ -82,9 +82,6 @@ class VacuumGripper:
         """TI0 (hardware version 1) reads "pressure normal"."""
         return self.pressure_on(1)
 
-    def handlers(self) -> dict[int, Handler]:
-        return {}
-
     def _step_wiring(self, version: int, w: VacuumWiring, dt: float) -> None:
         want = self.pumping_on(version) and self.object_present
         if want == self.pressure_on(version):
@@ -101,7 +98,7 @@ class VacuumGripper:
             self._step_wiring(version, w, dt)
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~.base.idle_until`) while every wiring's pressure input reads what its pump
+        """Idle (:func:`~..core.interface.idle_until`) while every wiring's pressure input reads what its pump
         and the object give."""
         for version in VACUUM_WIRING:
             want = self.pumping_on(version) and self.object_present

@@ -11,9 +11,9 @@ The frames themselves come from :class:`~xarm_emu.controller.core.feedback.Feedb
 
 from __future__ import annotations
 
-from ..core.controller_protocol import Controller, CtlHandler
+from ..core.controller_protocol import Controller
 from ..core.feedback import feedback_queue
-from ..core.interface import Values
+from ..core.interface import Binding, Values
 
 
 def set_feedback_type(ctl: Controller, v: Values) -> None:
@@ -28,7 +28,8 @@ def feedback_check(ctl: Controller, v: Values) -> None:
     return None
 
 
-HANDLERS: dict[int, CtlHandler] = {
-    253: feedback_check,
-    254: set_feedback_type,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(253, feedback_check),
+    Binding(254, set_feedback_type),
+)

@@ -11,13 +11,12 @@ carried out (reply bit 0x08, the SDK's code 10) and the application stays off.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 from ..applications import force_control as fc
 from ..core.controller_protocol import Controller
 from ..core.ft_config import ft_config
-from ..core.interface import CommandFailed, ParameterError, Values
+from ..core.interface import Binding, CommandFailed, ParameterError, Values
 from ..devices import ft_sensor as sensor
 
 
@@ -98,15 +97,16 @@ def admittance_frame(ctl: Controller, v: Values) -> None:
     cfg.imp_coord, cfg.imp_c_axis = _coord_axes(v)
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    202: set_mode,
-    203: get_mode,
-    207: admittance_config,
-    208: force_pid,
-    209: force_config,
-    210: admittance_mkb,
-    211: admittance_frame,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(202, set_mode),
+    Binding(203, get_mode),
+    Binding(207, admittance_config),
+    Binding(208, force_pid),
+    Binding(209, force_config),
+    Binding(210, admittance_mkb),
+    Binding(211, admittance_frame),
+)
 
 
 def create_state(ctl: Controller) -> None:

@@ -3,7 +3,7 @@
 With no sensor mounted the box answers as one without it: readings are zeros, the configuration
 registers store what they are sent and register 212 reads it back, and what needs the sensor itself
 (switching it on, zeroing, identifying its load) is refused with warning 12 (parameter abnormal,
-manual 3.2.2). With the sensor mounted (``Emulator(ft_sensor=True)``, :mod:`..ft_sensor`) it must
+manual 3.2.2). With the sensor mounted (``Emulator(ft_sensor=True)``, :mod:`..devices.ft_sensor`) it must
 also be switched on (register 201) before it reads, zeroes or identifies, as on the real box.
 Register 204 with type 1 (``iden_tcp_load``) needs no sensor: it identifies the flange load from
 the joint torques on every arm. The reply lengths are the ones the SDK reads.
@@ -11,13 +11,12 @@ the joint torques on every arm. The reply lengths are the ones the SDK reads.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 from ..applications import force_control, identification
 from ..core.controller_protocol import Controller
 from ..core.ft_config import ZEROS6, ft_config
-from ..core.interface import ParameterError, Values
+from ..core.interface import Binding, ParameterError, Values
 from ..devices import ft_sensor as ft
 
 NO_SENSOR = "no F/T sensor attached"
@@ -65,7 +64,7 @@ def identify_load(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 204: type 1 identifies the flange load from the joint torques (4 fp32: kg, mm),
     on any arm; type 0 the load below the F/T sensor from its readings (10 fp32: kg, centre of
     mass in m, six offsets), which needs the sensor switched on. Either turns the wrist through
-    the identification sequence (:mod:`..identification`): the arm must be able to move, and the
+    the identification sequence (:mod:`..applications.identification`): the arm must be able to move, and the
     reply (which the server holds until the sequence ends) carries the result."""
     kind = int(v["iden_type"])
     if kind not in (0, 1):
@@ -108,12 +107,13 @@ def get_config(ctl: Controller, v: Values) -> dict[str, Any]:
             **cfg.pid}
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    150: get_data,
-    200: get_data,
-    201: enable,
-    204: identify_load,
-    205: set_load_offset,
-    206: set_zero,
-    212: get_config,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(150, get_data),
+    Binding(200, get_data),
+    Binding(201, enable),
+    Binding(204, identify_load),
+    Binding(205, set_load_offset),
+    Binding(206, set_zero),
+    Binding(212, get_config),
+)

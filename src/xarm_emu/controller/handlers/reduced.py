@@ -4,12 +4,11 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
 from ..applications.reduced import reduced_of
 from ..core.controller_protocol import Controller
-from ..core.interface import ParameterError, Values
+from ..core.interface import Binding, ParameterError, Values
 
 
 def _switch(v: Values, name: str = "on") -> bool:
@@ -79,12 +78,13 @@ def set_rebound(ctl: Controller, v: Values) -> None:
     return None
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    47: set_tcp_speed,
-    48: set_joint_speed,
-    49: get_mode,
-    50: set_mode,
-    53: get_state,
-    58: set_joint_ranges,
-    60: set_rebound,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(47, set_tcp_speed),
+    Binding(48, set_joint_speed),
+    Binding(49, get_mode),
+    Binding(50, set_mode),
+    Binding(53, get_state),
+    Binding(58, set_joint_ranges),
+    Binding(60, set_rebound),
+)

@@ -12,7 +12,6 @@ reply's third byte, as registers 21 and 23 do (0, or the error code the move wou
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -21,7 +20,7 @@ from ...model import kinematics as kin
 from ..applications import velocity
 from ..core.commands import JointMove, LineMove
 from ..core.controller_protocol import Controller
-from ..core.interface import C_JOINT_LIMIT, CommandError, NotReady, ParameterError, Values
+from ..core.interface import C_JOINT_LIMIT, Binding, CommandError, NotReady, ParameterError, Values
 from ..core.poses import resolve_line_target
 from ..core.settings import in_range
 from . import motion
@@ -122,8 +121,9 @@ def set_cartesian_velocity(ctl: Controller, v: Values) -> None:
     return None
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    81: set_joint_velocity,
-    82: set_cartesian_velocity,
-    83: move_relative,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(81, set_joint_velocity),
+    Binding(82, set_cartesian_velocity),
+    Binding(83, move_relative),
+)

@@ -9,7 +9,6 @@ material leaves a value open, the emulator's choice is stated at the constant th
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,7 +18,7 @@ from ...model import kinematics as kin
 from ...model import rotations as rot
 from ...protocol import registers as regs
 from ..core.controller_protocol import Controller, queue_behind_moves
-from ..core.interface import ParameterError, Values
+from ..core.interface import Binding, ParameterError, Values
 from ..core.poses import wire_pose_to_matrix
 from ..core.state_machine import STATE_MOVING
 from ..devices import ft_sensor
@@ -343,8 +342,8 @@ def _gripper(ctl: Controller) -> Any:
 
 
 def set_common_param(ctl: Controller, v: Values) -> None:
-    """Register 232: ``[type]`` and the value by type (:data:`~.registers.COMMON_PARAM_LAYOUTS`);
-    read back through 233."""
+    """Register 232: ``[type]`` and the value by type
+    (:data:`~xarm_emu.protocol.registers.COMMON_PARAM_LAYOUTS`); read back through 233."""
     ptype, data = int(v["type"]), bytes(v["data"])
     layout = regs.COMMON_PARAM_LAYOUTS.get(ptype)
     if layout is None:
@@ -404,38 +403,39 @@ def get_common_info(ctl: Controller, v: Values) -> dict[str, Any]:
     return {"data": bytes(size)}
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    3: check_verify,
-    4: reload_dynamics,
-    6: tcp_rotation_radius,
-    7: get_approx_motion,
-    46: is_tcp_limit,
-    56: set_safe_level,
-    57: get_safe_level,
-    66: set_approx_motion,
-    67: get_dh,
-    68: set_dh,
-    69: get_movement,
-    71: set_timer,
-    72: cancel_timer,
-    74: counter_reset,
-    75: counter_increase,
-    80: set_cartesian_velocity_continuous,
-    101: servo_write,
-    102: servo_read,
-    103: servo_write,
-    104: servo_read,
-    105: servo_zero,
-    107: servo_error_read,
-    111: cali_tcp_pose,
-    112: cali_tcp_orient,
-    113: cali_user_orient,
-    114: cali_user_pose,
-    115: iden_friction,
-    140: power_version,
-    141: hd_types,
-    231: max_joint_velocity,
-    232: set_common_param,
-    233: get_common_param,
-    234: get_common_info,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(3, check_verify),
+    Binding(4, reload_dynamics),
+    Binding(6, tcp_rotation_radius),
+    Binding(7, get_approx_motion),
+    Binding(46, is_tcp_limit),
+    Binding(56, set_safe_level),
+    Binding(57, get_safe_level),
+    Binding(66, set_approx_motion),
+    Binding(67, get_dh),
+    Binding(68, set_dh),
+    Binding(69, get_movement),
+    Binding(71, set_timer),
+    Binding(72, cancel_timer),
+    Binding(74, counter_reset),
+    Binding(75, counter_increase),
+    Binding(80, set_cartesian_velocity_continuous),
+    Binding(101, servo_write),
+    Binding(102, servo_read),
+    Binding(103, servo_write),
+    Binding(104, servo_read),
+    Binding(105, servo_zero),
+    Binding(107, servo_error_read),
+    Binding(111, cali_tcp_pose),
+    Binding(112, cali_tcp_orient),
+    Binding(113, cali_user_orient),
+    Binding(114, cali_user_pose),
+    Binding(115, iden_friction),
+    Binding(140, power_version),
+    Binding(141, hd_types),
+    Binding(231, max_joint_velocity),
+    Binding(232, set_common_param),
+    Binding(233, get_common_param),
+    Binding(234, get_common_info),
+)

@@ -3,12 +3,11 @@ The mechanism is :mod:`xarm_emu.controller.applications.trajectory`."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 from ..applications import trajectory as traj
 from ..core.controller_protocol import Controller
-from ..core.interface import CommandWarning, NotReady, ParameterError, Values
+from ..core.interface import Binding, CommandWarning, NotReady, ParameterError, Values
 from ..core.state_machine import STATE_SLEEP
 
 
@@ -76,11 +75,12 @@ def speeding(ctl: Controller, v: Values) -> dict[str, Any]:
     return {"result": 1 if over else 0, "servo_id": joint if over else 0, "speed": speed}
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    61: set_record,
-    62: save,
-    63: load,
-    64: play,
-    65: rw_status,
-    230: speeding,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(61, set_record),
+    Binding(62, save),
+    Binding(63, load),
+    Binding(64, play),
+    Binding(65, rw_status),
+    Binding(230, speeding),
+)

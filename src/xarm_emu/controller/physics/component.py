@@ -10,10 +10,10 @@ object (motion bits 2, what the SDK's wait for a grip reads as done). Free finge
 itself, so a gripper that closes on nothing moves exactly as without the engine.
 
 Collision detection (C31, manual 3.2.1, at the sensitivity of register 37): the force of the scene's
-planes and boxes on the TCP (their spring-damper, :func:`.contact.scene_wrench`) and the engine's
+planes and boxes on the TCP (their spring-damper, :func:`..scene.contact.scene_wrench`) and the engine's
 contact forces of objects on the arm and hand (:meth:`.world.World.arm_torques`) enter the joint
 torques as ``J^T f``; the largest external joint torque is checked against the sensitivity's
-threshold every period (:func:`.safety.collision_detected`), so pushing the tool into the table
+threshold every period (:func:`..core.safety.collision_detected`), so pushing the tool into the table
 raises C31 as a real push would; sensitivity 0 never does.
 """
 
@@ -28,7 +28,7 @@ from ...model import kinematics as kin
 from ...model.robots import VACUUM_WIRING
 from ..core import safety
 from ..core.controller_protocol import Controller
-from ..core.interface import C_COLLISION, NOT_IDLE, Handler
+from ..core.interface import C_COLLISION, NOT_IDLE
 from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
 from ..devices.robotiq import OBJ_MOVING, RobotiqGripper
 from ..scene import contact
@@ -56,9 +56,6 @@ class PhysicsComponent:
         #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
         #: (The drive holds finger a, half the opening, and presses with the force of both pads.)
         self.squeeze = (2 * (2 * hand.force / FINGER_KP) / 0.001 + 1.0) if hand is not None else 0.0
-
-    def handlers(self) -> dict[int, Handler]:
-        return {}
 
     def _robotiq_ramp(self) -> float:
         """The Robotiq's command: its own fingers' opening (its model moves them and stops them at the

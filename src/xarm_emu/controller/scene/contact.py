@@ -1,6 +1,6 @@
 """The contact scene: planes and boxes the TCP can press into, each a spring-damper (stiffness
 N/mm, damping N s/mm) with optional Coulomb friction, so that force control and the F/T sensor
-(:mod:`.ft_sensor`) feel a table or a part.
+(:mod:`..devices.ft_sensor`) feel a table or a part.
 
 Shapes are fixed in the robot's base frame (mm). A plane is a point and an outward normal (the solid
 is on the other side); a box is its two opposite corners, axis-aligned. While the TCP point is inside
@@ -26,7 +26,7 @@ or through the admin channel as the same tables (:func:`parse_scene`). A file wi
 ``ValueError`` with one line naming the shape and the key.
 
 ``[[object]]`` tables add loose objects (:mod:`.objects`): a scene with objects runs the
-physics engine (:mod:`.physics`), in which the planes and boxes are fixed bodies too.
+physics engine (:mod:`..physics`), in which the planes and boxes are fixed bodies too.
 """
 
 from __future__ import annotations
