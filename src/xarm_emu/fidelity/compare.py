@@ -474,8 +474,8 @@ def compare(path: Path, calibration: Calibration | None = None,
                 t_st = st_times[st_order[k]] if k < len(st_order) else math.inf
                 if not min(t_rt, t_st) < limit - 1e-9:
                     return
-                if t_st <= t_rt:
-                    advance(t_st)
+                if t_st <= t_rt:  # the state of the last period begun by then (never one further)
+                    advance(math.floor(t_st / PERIOD + 1e-9) * PERIOD)
                     ctl = emu.controller
                     emu_codes[st_order[k]] = (ctl.error_code, ctl.warning_code)
                     k += 1
