@@ -748,7 +748,7 @@ class Emulator:
         """An external ``torque`` (N m) on ``joint`` (1-based), as a collision would apply.
 
         Detected (error C31, manual 3.2.1) when the joints are enabled and the torque reaches the
-        threshold of the collision sensitivity (register 37; ``safety.COLLISION_THRESHOLDS``);
+        threshold of the collision sensitivity (register 37; ``safety.collision_thresholds``);
         sensitivity 0 switches detection off. Returns whether it was detected.
         """
         self.generation += 1
@@ -759,7 +759,8 @@ class Emulator:
             raise ValueError(f"torque must be finite, got {torque!r}")
         if ctl.error_code or not all(ctl.enabled):
             return False
-        if not safety.collision_detected(ctl.settings.collision_sensitivity, torque):
+        if not safety.collision_detected(ctl.settings.collision_sensitivity, torque,
+                                         safety.collision_thresholds(ctl.model)):
             return False
         ctl.raise_error(C_COLLISION)
         return True

@@ -153,7 +153,8 @@ class PhysicsComponent:
         if self.world.touching_arm():
             arm = self.world.arm_torques(gripping)
             tau = arm if tau is None else tau + arm
-        if tau is not None and tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
+        if tau is not None and tau.any() and safety.collision_detected(
+                sens, float(np.max(np.abs(tau))), safety.collision_thresholds(ctl.model)):
             ctl.raise_error(C_COLLISION)
 
     def step(self, dt: float, ctl: Controller) -> None:
