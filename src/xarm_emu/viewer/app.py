@@ -180,11 +180,14 @@ def _new_viser(host: str, port: int) -> Any:
     if not 0 <= port <= 65535:
         raise ValueError(f"--view-port must be 0..65535, got {port}")
     vs = viser.ViserServer(host=host, port=port, label="xarm-emu", verbose=False)
-    # Lit by viser's default lights and a hemisphere light, without its default image-based lighting:
-    # that HDR environment map is pre-filtered in the browser on the first frame with a lit mesh,
-    # tens of seconds of a software-rendering browser's main thread during which the status panel
-    # and every later picture (the red arm of an error) wait. The flat colours need no reflections.
+    # Lit by viser's default lights and a hemisphere light, without its default image-based lighting
+    # and shadow maps. That HDR environment map is pre-filtered in the browser on the first frame
+    # with a lit mesh: tens of seconds of a software-rendering browser's main thread during which
+    # every later picture (the red arm of an error) waits. The shadow maps (three cascades drawn
+    # before each frame) hold the first paint of the page, the status panel's too, about 0.6 s
+    # longer. The flat colours need neither.
     vs.scene.configure_environment_map(hdri=None)
+    vs.scene.configure_default_lights(enabled=True, cast_shadow=False)
     vs.scene.add_light_hemisphere("/light", sky_color=(255, 255, 255), ground_color=(120, 120, 130),
                                   intensity=HEMISPHERE_LIGHT)
     return vs
