@@ -52,7 +52,7 @@ class EmulatorDatastore:
 
     def __init__(self, emu: Emulator) -> None:
         self.emu = emu
-        self._snap: tuple[int, ReportSnapshot] | None = None
+        self._snap: tuple[tuple[int, int], ReportSnapshot] | None = None
 
     @property
     def triggered(self) -> list[tuple[str, str]]:
@@ -61,9 +61,10 @@ class EmulatorDatastore:
 
     # -- the emulator's public surface ------------------------------------------------------------
     def snapshot(self) -> ReportSnapshot:
-        gen = self.emu.generation
-        if self._snap is None or self._snap[0] != gen:
-            self._snap = (gen, self.emu.snapshot())
+        emu = self.emu
+        key = (emu.generation, emu.controller.data.steps)  # the snapshot carries the clock
+        if self._snap is None or self._snap[0] != key:
+            self._snap = (key, emu.snapshot())
         return self._snap[1]
 
     def _call(self, code: int, values: dict[str, Any]) -> bytes:

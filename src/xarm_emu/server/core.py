@@ -253,7 +253,8 @@ class EmulatorServer:
         #: loop for commands, admin requests and its catch-ups; the report sender for each frame).
         self.lock = threading.RLock()
         self.reports = ReportStreams(lambda: emulator.snapshot(), self.reports_paused, rates, profile,
-                                     lambda: emulator.revision, instant=self.report_instant, lock=self.lock)
+                                     (emulator.mark, emulator.unchanged), instant=self.report_instant,
+                                     lock=self.lock)
         #: The controller's feedback events (firmware >= 2.0.102), else ``None``.
         self.feedback: FeedbackQueue | None = (feedback_queue(emulator.controller) if profile.feedback
                                                else None)

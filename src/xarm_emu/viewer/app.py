@@ -33,7 +33,7 @@ GHOST_COLOR = (120, 170, 255)
 TOOL_COLOR = (255, 170, 60)
 TRACK_COLOR = (90, 95, 105)
 CONTACT_COLOR = (120, 160, 220)  # the contact scene's planes and boxes
-OBJECT_COLOR = (208, 64, 32)  # the scene's loose objects (controller/physics/)
+OBJECT_COLOR = (208, 64, 32)  # the scene's loose objects (controller/physics/) without a colour of their own
 
 
 class _Redrawing:
@@ -125,7 +125,7 @@ class Viewer(_Redrawing):
         self._draw("contact", scene.contact_parts(contact.scene_of(ctl).shapes), CONTACT_COLOR, 0.4, True)
         if self.emulator.physics is not None:
             objs = self.emulator.physics.world.scene.objects
-            self._draw("objects", scene.object_parts([(o.name, o.shape, o.size) for o in objs],
+            self._draw("objects", scene.object_parts([(o.name, o.shape, o.size, o.color) for o in objs],
                                                      self.emulator.scene_objects()), OBJECT_COLOR, 1.0, True)
         if self.pendant is not None and self.updates % PANEL_EVERY == 0:
             self.pendant.update()
@@ -153,7 +153,7 @@ class Viewer(_Redrawing):
             key = f"{self._root}/{group}/{part.name}"
             seen.add(key)
             handle = self._handles.get(key)
-            tint = TOOL_COLOR if "tool" in part.name else color
+            tint = part.color or (TOOL_COLOR if "tool" in part.name else color)
             size = (part.radius, part.length, part.half)
             if handle is None or self._sizes.get(key) != size:
                 if handle is not None:

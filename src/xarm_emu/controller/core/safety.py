@@ -16,7 +16,8 @@ at, found on the step from ``q_prev`` to ``q_next`` (joints interpolated linearl
 
 Collision detection (register 37, manual 1.5 and C31 of 3.2.1): an external torque on a joint, which
 only fault injection can apply here, is detected when it reaches the threshold of the collision
-sensitivity (:func:`collision_detected`). Level 0 switches detection off.
+sensitivity (:func:`collision_detected`), the emulator's table or a calibrated model's measured one
+(:func:`collision_thresholds`). Level 0 switches detection off.
 """
 
 from __future__ import annotations
@@ -37,9 +38,19 @@ from .interface import C_BOUNDARY, C_SELF_COLLISION
 COLLISION_THRESHOLDS = {1: 60.0, 2: 45.0, 3: 30.0, 4: 20.0, 5: 10.0}
 
 
-def collision_detected(sensitivity: int, torque: float) -> bool:
-    """Whether an external ``torque`` (N m, either sign) trips collision detection at ``sensitivity``."""
-    threshold = COLLISION_THRESHOLDS.get(int(sensitivity))
+def collision_thresholds(model: RobotModel) -> dict[int, float]:
+    """The thresholds (N m) of ``model`` by sensitivity level: the emulator's, or those its
+    calibration measured (``Calibration.collision_thresholds``)."""
+    cal = model.calibration
+    if cal is None or cal.collision_thresholds is None:
+        return COLLISION_THRESHOLDS
+    return {level: cal.collision_thresholds[level - 1] for level in COLLISION_THRESHOLDS}
+
+
+def collision_detected(sensitivity: int, torque: float, thresholds: dict[int, float] | None = None) -> bool:
+    """Whether an external ``torque`` (N m, either sign) trips collision detection at ``sensitivity``
+    (``thresholds`` by level, :data:`COLLISION_THRESHOLDS` when not given)."""
+    threshold = (COLLISION_THRESHOLDS if thresholds is None else thresholds).get(int(sensitivity))
     return threshold is not None and abs(torque) >= threshold
 
 COLLISION_MARGIN = 1.0  # mm, minimum gap kept between links (module docstring)

@@ -92,8 +92,9 @@ class ThermalModel:
         return self._temps.copy()
 
     def celsius_u8(self) -> list[int]:
-        """Temperatures as the report's whole degrees, clamped to 0..255."""
-        return [int(min(255, max(0, round(t)))) for t in self._temps]
+        """Temperatures as the report's whole degrees, clamped to 0..127: the rich report carries
+        them as signed bytes (as the SDK reads them), so a hotter joint shows 127, never a wrap."""
+        return [int(min(127, max(0, round(t)))) for t in self._temps]
 
 
 def thermal_params(model: RobotModel) -> list[JointThermal]:

@@ -329,7 +329,10 @@ class IOState:
     pending: list[PendingIO] = field(default_factory=list)
     cgpio_reset_on_stop: bool = False
     tgpio_reset_on_stop: bool = False
-    now: float = 0.0  # controller time of the last step, s
+    #: Time of the last step, s, kept only while the module is not attached to a controller (an
+    #: attached module reads the controller's clock, :meth:`IOModule.time`, so a period jumped
+    #: over at rest leaves nothing of it behind).
+    now: float = 0.0
     _last_tcp: tuple[float, float, float] | None = None
     _last_state: int | None = None
 
@@ -490,7 +493,13 @@ class IOModule:
         self._check_target(target, index, on)
         if not math.isfinite(delay) or delay < 0:
             raise ParameterError(f"delay {delay}")
-        self._add_pending(PendingIO(target, index, on, due=self.now + delay))
+        self._add_pending(PendingIO(target, index, on, due=self.time() + delay))
+
+    def time(self) -> float:
+        """Controller time now, s (the end of the period that ran last); unattached, the time of
+        this module's last step."""
+        ctl = self._ctl() if self._ctl is not None else None
+        return self.now if ctl is None else float(ctl.time)
 
     def position_output(self, target: str, index: int, value: int,
                         xyz: Sequence[float], radius: float) -> None:
@@ -512,7 +521,7 @@ class IOModule:
         if len(xyz) != 3 or not all(math.isfinite(c) for c in xyz) or not math.isfinite(radius) or radius < 0:
             raise ParameterError("trigger point or tolerance radius")
         point = tuple(float(c) for c in xyz)
-        defer(register, lambda: self.position_output(target, index, value, point, radius))
+        defer(register, functools.partial(self.position_output, target, index, value, point, radius))
 
     def set_reset_on_stop(self, io_type: int, on: int) -> None:
         """Register 146: io_type 0 control box, 1 tool."""
@@ -548,7 +557,9 @@ class IOModule:
 
     def step(self, dt: float, ctl: ControllerView) -> None:
         d = self.data  # written through directly: this runs every period
-        d.now = ctl.time
+        if self._ctl is None:
+            d.now = ctl.time
+        now = ctl.time
         state = ctl.state
         if state == STATE_STOP and d._last_state not in (None, STATE_STOP):
             d.pending.clear()
@@ -572,7 +583,7 @@ class IOModule:
             keep: list[PendingIO] = []
             for p in self.pending:
                 if p.due is not None:
-                    hit = self.now >= p.due - 1e-9
+                    hit = now >= p.due - 1e-9
                 else:
                     assert tcp3 is not None
                     hit = self._reached(p, self._last_tcp, tcp3)
@@ -622,7 +633,7 @@ def tool_write(io: IOModule, v: Values) -> None:
         io.tool.write(*args)
         return
     copy.deepcopy(io.tool).write(*args)  # refuse bad values now, apply in turn
-    io._in_turn(127, lambda: io.tool.write(*args))
+    io._in_turn(127, functools.partial(io.tool.write, *args))
 
 
 def tool_read(io: IOModule, v: Values) -> dict[str, Any]:
@@ -649,7 +660,7 @@ def cgpio_digital_outputs(io: IOModule, v: Values) -> None:
         io.cgpio_set_digital(words)
         return
     copy.deepcopy(io.cgpio).apply_word(words[0], high=False)
-    io._in_turn(134, lambda: io.cgpio_set_digital(words))
+    io._in_turn(134, functools.partial(io.cgpio_set_digital, words))
 
 
 def cgpio_analog_output(io: IOModule, v: Values, *, index: int) -> None:
@@ -659,7 +670,7 @@ def cgpio_analog_output(io: IOModule, v: Values, *, index: int) -> None:
         io.cgpio.set_analog_output(index, raw)
         return
     copy.deepcopy(io.cgpio).set_analog_output(index, raw)
-    io._in_turn(135 + index, lambda: io.cgpio.set_analog_output(index, raw))
+    io._in_turn(135 + index, functools.partial(io.cgpio.set_analog_output, index, raw))
 
 
 def cgpio_function(io: IOModule, v: Values, *, output: bool) -> None:

@@ -8,6 +8,7 @@ material leaves a value open, the emulator's choice is stated at the constant th
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -161,12 +162,16 @@ def _set_counter(ctl: Controller, value: int) -> None:
 
 def counter_reset(ctl: Controller, v: Values) -> None:
     """Register 74: reset the counter (rich report bytes 285-288) to 0, in its turn in the buffer."""
-    queue_behind_moves(ctl, 74, lambda: _set_counter(ctl, 0))
+    queue_behind_moves(ctl, 74, functools.partial(_set_counter, ctl, 0))
 
 
 def counter_increase(ctl: Controller, v: Values) -> None:
     """Register 75: add one to the counter, in its turn in the buffer."""
-    queue_behind_moves(ctl, 75, lambda: _set_counter(ctl, ctl.user_counter + 1))
+    queue_behind_moves(ctl, 75, functools.partial(_increase_counter, ctl))
+
+
+def _increase_counter(ctl: Controller) -> None:
+    _set_counter(ctl, ctl.user_counter + 1)
 
 
 # ---- 56/57 safety level ---------------------------------------------------------------------------
