@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 SERVE_STAMP := $(VENV)/.serve-installed
 STAMP := $(VENV)/.installed
 
-.PHONY: install serve sdk test bench lint clean fuzz stress image image-test browser sdk-examples
+.PHONY: install serve sdk test bench lint clean fuzz stress image image-test browser sdk-examples bytecode
 
 $(SERVE_STAMP): pyproject.toml
 	@echo "== make serve: creating $(VENV) and installing what xarm-emu serve needs"
@@ -22,7 +22,13 @@ $(STAMP): $(SERVE_STAMP)
 
 install: $(STAMP)
 
-serve: $(SERVE_STAMP)
+# The package's byte code, written once where the environment says not to write it on import
+# (PYTHONDONTWRITEBYTECODE): every `xarm-emu` process then starts without compiling ~130 modules
+# (about 1.4 s on a busy machine). Only changed sources are compiled again.
+bytecode:
+	@$(PY) -m compileall -q src
+
+serve: $(SERVE_STAMP) bytecode
 	$(VENV)/bin/xarm-emu serve $(ARGS)
 
 # The official SDK (UFACTORY's xarm-python-sdk, the version the tests pin) for the README's program.
@@ -31,7 +37,7 @@ sdk: $(SERVE_STAMP)
 	@$(PY) -c "import xarm" >/dev/null 2>&1 && echo "== xarm-python-sdk is installed in $(VENV)" || \
 		$(PY) -m pip install --disable-pip-version-check xarm-python-sdk==$(SDK_VERSION)
 
-test: $(STAMP)
+test: $(STAMP) bytecode
 	$(PY) -m pytest $(PYTEST_ARGS)
 
 # What some tests need from outside Python; without it they skip, naming the target.

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from bench.bench_clock import _program
-from xarm_emu.controller import executor as ex
+from xarm_emu.controller.core import executor as ex
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.model.kinematics import POS_TOL, ROT_TOL, fk, ik
 from xarm_emu.model.robots import XARM6, XARM7, RobotModel

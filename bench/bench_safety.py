@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from xarm_emu.controller.safety import check_path_step
+from xarm_emu.controller.core.safety import check_path_step
 from xarm_emu.model.collision import Capsule, collision_pairs, link_shapes, self_collision, tool_model
 from xarm_emu.model.kinematics import joint_frames
 from xarm_emu.model.robots import XARM6, XARM7, RobotModel

@@ -9,8 +9,8 @@ import struct
 import pytest
 from helpers import FakeView as View
 
-from xarm_emu.controller.base import PERIOD
-from xarm_emu.controller.bio_gripper import (
+from xarm_emu.controller.core.interface import PERIOD
+from xarm_emu.controller.devices.bio_gripper import (
     ENABLE_TIME,
     PULSE_MAX,
     SERIAL,
@@ -19,8 +19,8 @@ from xarm_emu.controller.bio_gripper import (
     BioGripper,
     mm_to_pulses,
 )
+from xarm_emu.controller.devices.gripper import GripperModule
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.gripper import GripperModule
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.registers import REGISTERS
 

@@ -13,8 +13,8 @@ import pytest
 from helpers import FakeView  # noqa: F401  (the helpers module sets up the test path)
 from test_robotiq_sdk import MODBUS_ERR_LENG, run_sdk_example, sdk_arm_with
 
-from xarm_emu.controller.bio_gripper_g1 import CLOSED, OPEN, REGISTER_MAP, BioGripperG1
-from xarm_emu.controller.gripper import GripperModule
+from xarm_emu.controller.devices.bio_gripper_g1 import CLOSED, OPEN, REGISTER_MAP, BioGripperG1
+from xarm_emu.controller.devices.gripper import GripperModule
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.registers import REGISTERS
 from xarm_emu.server.app import ServerThread

@@ -13,7 +13,7 @@ import pytest
 from helpers import run_cli
 from test_robotiq_sdk import MODBUS_ERR_LENG, addr, run_sdk_example, sdk_arm_with
 
-from xarm_emu.controller.bio_gripper import PULSE_MAX, BioGripper, mm_to_pulses
+from xarm_emu.controller.devices.bio_gripper import PULSE_MAX, BioGripper, mm_to_pulses
 from xarm_emu.server.app import ServerThread
 from xarm_emu.testing import running_emulator
 

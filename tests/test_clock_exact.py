@@ -17,9 +17,9 @@ from helpers import report_frames, step_both
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from xarm_emu.controller import gripper as grip
+from xarm_emu.controller.core.feedback import feedback_queue
+from xarm_emu.controller.devices import gripper as grip
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.feedback import feedback_queue
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.rtu import TOOL_HOST
 
@@ -59,7 +59,7 @@ def observe(emu: Emulator) -> tuple[Any, ...]:
     tool = tuple(send(emu, 128, host=TOOL_HOST, addr=a) for a in TOOL_READS)
     pulses = rtu_call(emu, rtu.read_request(grip.GRIPPER_ID, grip.REG_POSITION, 2))
     return (frames, replies, tool, pulses, emu.time.hex(), emu.controller.steps,
-            emu.thermal.temperatures.tobytes(), emu.io.now.hex())
+            emu.thermal.temperatures.tobytes(), emu.io.time().hex())
 
 
 def run_both(firmware: str, script: dict[int, list[Action]], total: int, pattern: tuple[int, ...],
@@ -188,13 +188,14 @@ def test_servo_hold_identical(firmware: str) -> None:
 
 
 def test_exact_steps_switch_steps_every_period() -> None:
-    """``exact_steps`` runs every period; without it an idle arm jumps all but the last of a batch."""
+    """``exact_steps`` runs every period; without it an idle arm jumps every period of a batch that
+    comes before ``next_event()``, the last one too."""
     exact, fast = Emulator(6, exact_steps=True), Emulator(6)
     for emu in (exact, fast):
         emu.step(1)  # the first period at power-on runs: the IO has yet to see the motion state
         emu.step(25)
     assert exact.periods_jumped == 0
-    assert fast.periods_jumped == 24 and fast.controller.steps == 26
+    assert fast.periods_jumped == 25 and fast.controller.steps == 26
 
 
 def test_component_without_idle_method_is_stepped_every_period() -> None:

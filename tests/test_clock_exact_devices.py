@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 from helpers import report_frames, step_both
 
-from xarm_emu.controller import bio_gripper as bio
-from xarm_emu.controller import ft_sensor as ft
-from xarm_emu.controller import robotiq
-from xarm_emu.controller.base import NOT_IDLE, idle_until
+from xarm_emu.controller.core.interface import NOT_IDLE, idle_until
+from xarm_emu.controller.devices import bio_gripper as bio
+from xarm_emu.controller.devices import ft_sensor as ft
+from xarm_emu.controller.devices import robotiq
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.rtu import TOOL_HOST
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from xarm_emu.controller.config import ConfigStore, default_config_dir, file_name_for
+from xarm_emu.controller.core.config import ConfigStore, default_config_dir, file_name_for
 
 SN = "XS1305A0123456"
 
@@ -49,7 +49,7 @@ make_values = _ns["make_values"]
 
 WRITER = VALUES_SRC + textwrap.dedent("""
     import sys
-    from xarm_emu.controller.config import ConfigStore
+    from xarm_emu.controller.core.config import ConfigStore
     store = ConfigStore(sys.argv[1], sys.argv[2])
     gen = int(sys.argv[3])
     store.save(make_values(gen))

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from xarm_emu.controller.base import C_JOINT_LIMIT, C_SELF_COLLISION
+from xarm_emu.controller.core.interface import C_JOINT_LIMIT, C_SELF_COLLISION
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.model import rotations as rot
 from xarm_emu.protocol.frame import STATE_WARNING

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from helpers import bits, call, count_calls, joints7, ready
 
-from xarm_emu.controller import core as controller_core
+from xarm_emu.controller import controller as controller_core
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.model import kinematics as kin
 from xarm_emu.model import rotations as rot

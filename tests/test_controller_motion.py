@@ -10,7 +10,7 @@ import pytest
 import ruckig
 from helpers import bits, call, joints7, ready
 
-from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.core.interface import PERIOD
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol import reports
 

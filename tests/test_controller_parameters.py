@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 from helpers import bits, call, joints7, ready
 
-from xarm_emu.controller.base import PARAMETER_LIMIT
-from xarm_emu.controller.config import ConfigStore
+from xarm_emu.controller.core.config import ConfigStore
+from xarm_emu.controller.core.interface import PARAMETER_LIMIT
+from xarm_emu.controller.core.settings import Settings
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.settings import Settings
 from xarm_emu.model.robots import MODELS
 from xarm_emu.protocol import reports
 from xarm_emu.protocol.layouts import Layout, LayoutError, fp32

@@ -8,9 +8,8 @@ from helpers import call, joints7, ready
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from xarm_emu.controller import safety
-from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.safety import (
+from xarm_emu.controller.core import safety
+from xarm_emu.controller.core.safety import (
     BOUNDARY_TOL,
     C_BOUNDARY,
     C_SELF_COLLISION,
@@ -20,6 +19,7 @@ from xarm_emu.controller.safety import (
     first_boundary_crossing,
     tcp_position,
 )
+from xarm_emu.controller.emulator import Emulator
 from xarm_emu.model.collision import self_collision, tool_model
 from xarm_emu.model.robots import XARM6, XARM7
 

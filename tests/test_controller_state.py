@@ -8,8 +8,8 @@ import struct
 
 import numpy as np
 
+from xarm_emu.controller.core.controller_state import ControllerState
 from xarm_emu.controller.emulator import Emulator, report_snapshot
-from xarm_emu.controller.state import ControllerState
 
 
 def _moving() -> Emulator:

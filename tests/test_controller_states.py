@@ -1,4 +1,4 @@
-"""The motion state machine (controller/states.py) against the manual: register 12/13 of section
+"""The motion state machine (controller/core/state_machine.py) against the manual: register 12/13 of section
 2.1.3 and the error handling of chapter 3."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from xarm_emu.controller import states
+from xarm_emu.controller.core import state_machine
+from xarm_emu.controller.core.state_machine import Event
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.states import Event
 from xarm_emu.protocol.frame import STATE_NOT_READY
 
 M, SL, SU, ST, RS = 1, 2, 3, 4, 5  # in motion, sleep, suspend, stop, system reset (register 13)
@@ -45,22 +45,22 @@ def test_every_event_has_an_expectation() -> None:
     assert set(EXPECTED) == set(Event)
 
 
-@pytest.mark.parametrize(("state", "event"), list(itertools.product(states.STATES, Event)))
+@pytest.mark.parametrize(("state", "event"), list(itertools.product(state_machine.STATES, Event)))
 def test_every_pair_goes_where_the_manual_says(state: int, event: Event) -> None:
     class Holder:
         motion_state = state
 
     h = Holder()
     want = EXPECTED[event].get(state, state)
-    assert states.fire(h, event) == want
+    assert state_machine.fire(h, event) == want
     assert h.motion_state == want
-    assert states.next_state(state, event) == want
+    assert state_machine.next_state(state, event) == want
 
 
 def test_only_the_state_machine_writes_the_state() -> None:
-    root = Path(states.__file__).parent
+    root = Path(state_machine.__file__).parents[1]  # the whole controller package
     writes = re.compile(r"\.motion_state\s*(=|\+=|-=)(?!=)|\b_state\s*=(?!=)")
-    offenders = [f"{p.relative_to(root)}:{n}" for p in root.rglob("*.py") if p.name != "states.py"
+    offenders = [f"{p.relative_to(root)}:{n}" for p in root.rglob("*.py") if p.name != "state_machine.py"
                  for n, line in enumerate(p.read_text().splitlines(), 1) if writes.search(line)]
     assert offenders == []
 
@@ -96,3 +96,20 @@ def test_not_ready_keeps_the_warning() -> None:
     assert status & STATE_NOT_READY
     assert emu.controller.warning_code == 11
     assert emu.controller.executor.cmdnum == 0
+
+
+def test_the_mode_changes_through_its_table() -> None:
+    """Register 19 selects the mode it names from any mode; playback (register 64) takes position
+    mode to 11 and back; an event the table lacks keeps the mode."""
+    ME = state_machine.ModeEvent
+    for mode in state_machine.MODE_NAMES:
+        assert state_machine.next_mode(mode, ME.SELECT, 1) == 1
+    assert state_machine.next_mode(0, ME.PLAYBACK_START) == state_machine.MODE_PLAYBACK == 11
+    assert state_machine.next_mode(11, ME.PLAYBACK_END) == 0
+    assert state_machine.next_mode(1, ME.PLAYBACK_START) == 1
+    assert state_machine.next_mode(2, ME.PLAYBACK_END) == 2
+    with pytest.raises(ValueError):
+        state_machine.next_mode(0, ME.SELECT)
+    emu = _ready()
+    emu.handle(19, bytes([1]))
+    assert emu.controller.mode == 1

@@ -1,7 +1,7 @@
 """The Kubernetes fleet manifests (deploy/kubernetes) and the container recipe around them: rendered
 for 3 arms as kustomize would, validated offline against the schemas of a current Kubernetes
 release, and checked for names, the standard ports (manual 2.1 command port 502, 2.2 report ports
-30001-30003), probes through ``xarm-emu status``, a volume per arm and no admin channel."""
+30001-30003), probes through the client's readiness probe, a volume per arm and no admin channel."""
 
 from __future__ import annotations
 
@@ -84,11 +84,12 @@ def test_three_arms_have_stable_names_on_a_headless_service_with_the_standard_po
     assert {p["targetPort"] for p in svc["spec"]["ports"]} == set(ports)
 
 
-def test_probes_go_through_xarm_emu_status_on_the_pod() -> None:
+def test_probes_go_through_the_readiness_probe_on_the_pod() -> None:
     (container,) = by_kind(render(3), "StatefulSet")["spec"]["template"]["spec"]["containers"]
+    venv_python = str(Path(dockerfile_entrypoint()[0]).with_name("python"))
     for probe in ("readinessProbe", "livenessProbe"):
         cmd = container[probe]["exec"]["command"]
-        assert cmd[:2] == [dockerfile_entrypoint()[0], "status"]
+        assert cmd[:3] == [venv_python, "-m", "xarm_emu.client.ready"]
         assert cmd[cmd.index("--host") + 1] == "127.0.0.1"
         assert float(cmd[cmd.index("--wait") + 1]) < container[probe]["timeoutSeconds"]
 
@@ -182,7 +183,7 @@ def test_the_memory_request_covers_an_arm_and_its_probe() -> None:
 
 def _health_args(tmp_path: Path, env: dict[str, str], cmdline: list[str] | None = None) -> list[str]:
     """What the image's health script runs, with a stand-in xarm-emu and process 1's command line."""
-    fake = tmp_path / "xarm-emu"
+    fake = tmp_path / "python"
     fake.write_text('#!/bin/sh\necho "$@" > "$0.args"\n')
     fake.chmod(0o755)
     proc1 = tmp_path / "cmdline"
@@ -190,7 +191,7 @@ def _health_args(tmp_path: Path, env: dict[str, str], cmdline: list[str] | None 
     proc1.write_bytes(b"".join(a.encode() + b"\0" for a in argv))
     env = {"PATH": f"{tmp_path}:/usr/bin:/bin", "XARM_EMU_HEALTH_CMDLINE": str(proc1), **env}
     subprocess.run([str(ROOT / "scripts" / "container-health")], env=env, check=True)
-    return (tmp_path / "xarm-emu.args").read_text().split()
+    return (tmp_path / "python.args").read_text().split()
 
 
 def test_the_health_script_probes_what_serve_was_given_by_argument(tmp_path: Path) -> None:
@@ -198,11 +199,11 @@ def test_the_health_script_probes_what_serve_was_given_by_argument(tmp_path: Pat
                         ["/opt/xarm-emu/bin/xarm-emu", "serve", "--host", "127.0.0.5", "--port=5020",
                          "--develop-port", "31003", "--config-dir", "a b"])
     assert args[args.index("--host") + 1] == "127.0.0.5"  # the argument wins, as in serve itself
-    assert args[args.index("--port") + 1] == "5020" and args[args.index("--report-port") + 1] == "31003"
+    assert args[args.index("--port") + 1] == "5020"
 
 
 def test_the_health_script_probes_loopback_for_a_wildcard_address(tmp_path: Path) -> None:
     env = {"XARM_EMU_SERVE_HOST": "0.0.0.0", "XARM_EMU_SERVE_PORT": "5020"}
     args = _health_args(tmp_path, env)
-    assert args[:2] == ["status", "--json"]
+    assert args[:3] == ["-m", "xarm_emu.client.ready", "--wait"]
     assert args[args.index("--host") + 1] == "127.0.0.1" and args[args.index("--port") + 1] == "5020"

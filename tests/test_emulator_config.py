@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 from helpers import call
 
+from xarm_emu.controller.core.settings import Settings
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.settings import Settings
 
 
 def configure(emu: Emulator) -> None:

@@ -5,19 +5,17 @@ program through the proxy."""
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
 import pytest
 from helpers import run_cli
+from proxy_session import sdk_through_proxy
 
-from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.core.interface import PERIOD
 from xarm_emu.fidelity.compare import compare
 from xarm_emu.model.calibration import Calibration, CalibrationError, load, save
 from xarm_emu.model.inertials import torque_constants
 from xarm_emu.model.robots import get_model, with_calibration
-from xarm_emu.protocol.firmware import SERVE_VERSION
-from xarm_emu.testing import reading_reports, running_emulator, running_proxy, sdk_pointed_at
 
 KT = tuple(float(x) for x in torque_constants(get_model(6)))
 #: The "real arm": torque constants 10 % above the emulator's, torque offsets and friction on J1.
@@ -29,23 +27,11 @@ MOVED = Calibration(model="6", torque_constants=tuple(k * 1.1 for k in KT),
 
 def record(path: Path, calibration: Calibration | None) -> None:
     """An SDK program through the proxy, with the real-time report read through it too."""
-    from xarm.wrapper import XArmAPI
-
-    with running_emulator(firmware=SERVE_VERSION, calibration=calibration) as st, \
-            running_proxy(st, path) as px, sdk_pointed_at(px), reading_reports(px):  # type: ignore[arg-type]
-        time.sleep(0.05)
-        arm = XArmAPI("127.0.0.1", is_radian=False)
-        try:
-            arm.motion_enable(True)
-            arm.set_mode(0)
-            arm.set_state(0)
-            assert arm.set_servo_angle(angle=[40, -10, -5, 0, 15, 0], speed=80, wait=True) == 0
-            assert arm.set_position(x=300, y=50, z=200, roll=180, pitch=0, yaw=0, speed=200, wait=True) == 0
-            assert arm.set_servo_angle(angle=[-40, 10, -20, 10, 30, 20], speed=80, wait=True) == 0
-            arm.set_cgpio_digital(1, 1)
-        finally:
-            arm.disconnect()
-            time.sleep(0.05)
+    with sdk_through_proxy(path, calibration) as (_, arm):
+        assert arm.set_servo_angle(angle=[40, -10, -5, 0, 15, 0], speed=80, wait=True) == 0
+        assert arm.set_position(x=300, y=50, z=200, roll=180, pitch=0, yaw=0, speed=200, wait=True) == 0
+        assert arm.set_servo_angle(angle=[-40, 10, -20, 10, 30, 20], speed=80, wait=True) == 0
+        arm.set_cgpio_digital(1, 1)
 
 
 @pytest.fixture(scope="module")

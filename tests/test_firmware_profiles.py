@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from xarm_emu.controller.base import WARN_UNKNOWN_COMMAND
+from xarm_emu.controller.core.interface import WARN_UNKNOWN_COMMAND
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol import registers as regs
 from xarm_emu.protocol.firmware import SERVE_VERSION, SUPPORTED_VERSIONS, profile_for

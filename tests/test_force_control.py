@@ -11,10 +11,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from xarm_emu.controller import force_control as fc
-from xarm_emu.controller.base import PERIOD, WARN_PARAMETER
-from xarm_emu.controller.contact import Plane, Scene
+from xarm_emu.controller.applications import force_control as fc
+from xarm_emu.controller.core.interface import PERIOD, WARN_PARAMETER
 from xarm_emu.controller.emulator import Emulator
+from xarm_emu.controller.scene.contact import Plane, Scene
 from xarm_emu.protocol.firmware import profile_for
 from xarm_emu.protocol.frame import STATE_FAILED, STATE_WARNING
 from xarm_emu.protocol.registers import registers_for

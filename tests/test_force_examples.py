@@ -24,9 +24,9 @@ import numpy as np
 import pytest
 from helpers import SDK_EXAMPLES_MISSING, sdk_examples
 
-from xarm_emu.controller import force_control as fc
-from xarm_emu.controller.contact import Plane, Scene
+from xarm_emu.controller.applications import force_control as fc
 from xarm_emu.controller.emulator import Emulator
+from xarm_emu.controller.scene.contact import Plane, Scene
 from xarm_emu.server.app import ServerThread
 from xarm_emu.testing import sdk_pointed_at
 

@@ -1,4 +1,4 @@
-"""The control laws of admittance and force control (controller/force_control.py) on their own:
+"""The control laws of admittance and force control (controller/applications/force_control.py) on their own:
 the mass-spring-damper integrated period by period against its closed-form solution, the force PID
 against a spring, and the vendor's parameter ranges."""
 
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from xarm_emu.controller import force_control as fc
+from xarm_emu.controller.applications import force_control as fc
 
 DT = 0.004
 Z = [0, 0, 1, 0, 0, 0]

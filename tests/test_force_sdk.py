@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from helpers import sdk_ready
 
-from xarm_emu.controller.contact import Plane, Scene
 from xarm_emu.controller.emulator import Emulator
+from xarm_emu.controller.scene.contact import Plane, Scene
 from xarm_emu.server.app import ServerThread
 from xarm_emu.testing import sdk_pointed_at
 

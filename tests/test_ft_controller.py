@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xarm_emu.controller import contact
-from xarm_emu.controller import ft_sensor as ft
+from xarm_emu.controller.devices import ft_sensor as ft
 from xarm_emu.controller.emulator import Emulator
+from xarm_emu.controller.scene import contact
 from xarm_emu.model import kinematics as kin
 
 
@@ -201,9 +201,9 @@ def test_scene_file_read_and_refused(tmp_path: Path) -> None:
         ('[[plane]]\npoint = [0, 0, 0]\nnormal = [0, 0, 0]\nstiffness = 1\n', "normal"),
         ('[[plane]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\nstiffness = -1\n', "stiffness"),
         ('[[box]]\nmin = [0, 0, 0]\nmax = [1, -1, 1]\nstiffness = 1\n', "min must be below max"),
-        ('[[sphere]]\n', "unknown scene entry"),
+        ('[[sphere]]\n', "unknown key 'sphere'; known: plane, box, object"),
         ('[[plane]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\nstiffness = 1\ncolour = 1\n', "unknown key"),
-        ('[[plane]\n', "not TOML"),
+        ('[[plane]\n', r"^scene file \S+bad\.toml, line 1, column \d+: not valid TOML: "),
     ]:
         bad = tmp_path / "bad.toml"
         bad.write_text(text)

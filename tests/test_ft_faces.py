@@ -13,8 +13,8 @@ import pytest
 from helpers import run_cli
 
 from xarm_emu.client.admin import AdminClient, AdminRefused
-from xarm_emu.controller import contact
-from xarm_emu.controller import ft_sensor as ft
+from xarm_emu.controller.devices import ft_sensor as ft
+from xarm_emu.controller.scene import contact
 from xarm_emu.server.fleet import FleetError, parse_fleet
 from xarm_emu.testing import running_emulator
 

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from helpers import sdk_ready, wait_for
 
-from xarm_emu.controller import contact
-from xarm_emu.controller import ft_sensor as ft
+from xarm_emu.controller.devices import ft_sensor as ft
 from xarm_emu.controller.emulator import Emulator
+from xarm_emu.controller.scene import contact
 from xarm_emu.model import kinematics as kin
 from xarm_emu.protocol.firmware import FirmwareProfile
 

@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 from helpers import SDK_EXAMPLES_MISSING, sdk_examples
 
-from xarm_emu.controller import ft_sensor as ft
+from xarm_emu.controller.devices import ft_sensor as ft
 from xarm_emu.testing import running_emulator
 
 _ROOT = sdk_examples()

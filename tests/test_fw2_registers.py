@@ -7,16 +7,17 @@ import math
 import re
 import struct
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from xarm_emu.controller.base import WARN_PARAMETER, WARN_UNKNOWN_COMMAND
+from xarm_emu.controller.core.interface import WARN_PARAMETER, WARN_UNKNOWN_COMMAND
+from xarm_emu.controller.devices.gripper import GRIPPER_ID, crc16_modbus
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.gripper import GRIPPER_ID, crc16_modbus
-from xarm_emu.controller.handlers import extras, force_control, ft_sensor
+from xarm_emu.controller.handlers import force_control, ft_sensor, service
 from xarm_emu.model import rotations as rot
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.firmware import NEWEST_PROFILE
@@ -146,11 +147,15 @@ def test_no_register_the_sdk_can_send_answers_warning_13() -> None:
     assert unknown == []
 
 
+def _codes(*modules: Any) -> set[int]:
+    """The register codes the handler modules bind."""
+    return {row.code for m in modules for row in m.BINDINGS}
+
+
 def test_the_registers_of_this_part_answer_their_reply_length_without_a_warning(box: Emulator) -> None:
     table = registers_for(NEWEST_PROFILE)
     refuse = {201, 202, 204, 206}  # they need the F/T sensor
-    codes = sorted(set(extras.HANDLERS) | set(ft_sensor.HANDLERS) | set(force_control.HANDLERS)
-                   | {123, 125, 129, 130, 240, 241})
+    codes = sorted(_codes(service, ft_sensor, force_control) | {123, 125, 129, 130, 240, 241})
     for code in codes:
         if code in refuse:
             continue
@@ -194,7 +199,7 @@ def test_approx_motion_switch_reads_back(box: Emulator) -> None:
     assert call(box, 7) == b"\x01"
     assert refused(box, 66, b"\x02") == WARN_PARAMETER
     call(box, 80, b"\x01")
-    from xarm_emu.controller.handlers.extras import extra_state
+    from xarm_emu.controller.handlers.service import extra_state
 
     assert extra_state(box.controller).cartesian_velocity_continuous
 
@@ -216,7 +221,7 @@ def test_is_tcp_limit(box: Emulator) -> None:
 
 
 def test_servo_version_and_harmonic_type_registers(box: Emulator) -> None:
-    from xarm_emu.controller.handlers.extras import HARMONIC_TYPE, SERVO_VERSION
+    from xarm_emu.controller.handlers.service import HARMONIC_TYPE, SERVO_VERSION
 
     got = [struct.unpack(">i", call(box, 102, bytes([2, 0x08, a])))[0] for a in (1, 2, 3)]
     assert tuple(got) == SERVO_VERSION
@@ -407,8 +412,7 @@ def test_restore_puts_the_counter_and_settings_back(box: Emulator) -> None:
 # --- bad input --------------------------------------------------------------------------------------
 
 _TABLE2 = registers_for(NEWEST_PROFILE)
-_MINE = sorted(set(extras.HANDLERS) | set(ft_sensor.HANDLERS)
-               | {123, 125, 127, 129, 130, 134, 135, 136, 144, 145, 147, 240, 241})
+_MINE = sorted(_codes(service, ft_sensor) | {123, 125, 127, 129, 130, 134, 135, 136, 144, 145, 147, 240, 241})
 
 
 def test_random_requests_get_a_clear_answer() -> None:

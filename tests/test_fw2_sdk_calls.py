@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 from helpers import sdk_ready, wait_for
 
-from xarm_emu.controller.handlers.extras import HARMONIC_TYPE, SERVO_VERSION, extra_state
+from xarm_emu.controller.handlers.service import HARMONIC_TYPE, SERVO_VERSION, extra_state
 from xarm_emu.server.app import ServerThread
 from xarm_emu.testing import running_emulator, sdk_pointed_at
 

@@ -162,7 +162,7 @@ def test_vc_set_cartesian_velocity_moves_the_tcp(fw_server: ServerThread, sdk_ar
 
 
 def _tcp_speed(ctl: Any) -> np.ndarray:
-    from xarm_emu.controller import velocity
+    from xarm_emu.controller.applications import velocity
 
     return np.asarray(velocity.control_of(ctl).velocity[:3])
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.core.interface import PERIOD
 from xarm_emu.protocol.feedback import FeedbackType, decode_feedback
 from xarm_emu.server.thread import ServerThread
 from xarm_emu.testing import running_emulator

@@ -177,7 +177,7 @@ def test_register_230_checks_the_speed_of_the_loaded_trajectory(tmp_path: Path) 
 
 
 def test_recording_stops_at_its_longest(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from xarm_emu.controller import trajectory
+    from xarm_emu.controller.applications import trajectory
 
     monkeypatch.setattr(trajectory, "MAX_RECORD_SECONDS", 0.2)
     emu = _emu(tmp_path)

@@ -305,8 +305,8 @@ def test_a_client_that_never_reads_does_not_slow_the_others(fw2: ServerThread) -
 def test_feedback_events_fall_on_the_control_periods_of_the_move() -> None:
     """In process: the start is stamped with the first control period of the move, the finish with
     the period it reaches its target, both in microseconds of controller time."""
+    from xarm_emu.controller.core.feedback import feedback_queue
     from xarm_emu.controller.emulator import Emulator
-    from xarm_emu.controller.feedback import feedback_queue
 
     emu = Emulator(6, firmware=FW2)
     ctl = emu.controller

@@ -12,8 +12,8 @@ import struct
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from xarm_emu.controller.core.feedback import feedback_queue
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.feedback import feedback_queue
 from xarm_emu.protocol.feedback import FEEDBACK_SIZE, FeedbackType, decode_feedback, is_feedback
 from xarm_emu.protocol.frame import HEADER, encode_request
 from xarm_emu.testing import running_emulator

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from helpers import sdk_ready
 
-from xarm_emu.controller import identification
+from xarm_emu.controller.applications import identification
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import STATE_NOT_READY
 
@@ -142,7 +142,7 @@ def test_the_reply_waits_for_the_sequence_on_the_stepped_clock(make_server: Any,
 def test_the_sequence_sends_no_task_feedback(tmp_path: Any) -> None:
     """The moves are the box's own: a connection whose register 254 mask asks for every task frame
     gets none for them (its wait is for the reply)."""
-    from xarm_emu.controller.feedback import feedback_queue
+    from xarm_emu.controller.core.feedback import feedback_queue
 
     emu = Emulator(6, config_dir=tmp_path, firmware=FW2)
     ctl = emu.controller

@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 from test_robotiq_sdk import sdk_arm_with, sdk_example_source
 
-from xarm_emu.controller.inspire_hand import ANGLE_ACT, ANGLE_SET, DOF, STATUS, InspireHand
+from xarm_emu.controller.devices.inspire_hand import ANGLE_ACT, ANGLE_SET, DOF, STATUS, InspireHand
 from xarm_emu.server.app import ServerThread
 
 

@@ -12,9 +12,9 @@ import pytest
 from helpers import run_cli as run
 
 from xarm_emu import cli
-from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.core.interface import PERIOD
+from xarm_emu.controller.devices.linear_track import HOME_LATCH, LinearTrack, plan_move
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.linear_track import HOME_LATCH, LinearTrack, plan_move
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.firmware import SERVE_VERSION
 from xarm_emu.server.admin import AdminError, prepare

@@ -12,8 +12,8 @@ import pytest
 from helpers import SDK_EXAMPLES_MISSING, sdk_example, wait_for
 from helpers import sdk_ready as ready
 
+from xarm_emu.controller.devices.linear_track import HOME_LATCH
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.linear_track import HOME_LATCH
 from xarm_emu.protocol.firmware import SERVE_VERSION
 from xarm_emu.server.app import ServerThread
 

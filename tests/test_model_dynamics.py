@@ -270,7 +270,7 @@ def test_currents_use_torque_constants_and_speed():
 
 
 def test_thermal_model_heats_with_current_squared_and_settles():
-    from xarm_emu.controller.thermal import AMBIENT_C, THERMAL_BY_SIZE, ThermalModel
+    from xarm_emu.controller.core.thermal import AMBIENT_C, THERMAL_BY_SIZE, ThermalModel
 
     amps = np.abs(torques_to_currents(XARM6, gravity_torques(XARM6, np.zeros(6), payload_mass=1.0)))
     model = ThermalModel(6)

@@ -1,5 +1,5 @@
 """A Cartesian plan samples its path for the next control periods at once while the path rate is
-steady (controller/executor.py ``_CartesianPlan.sample``): every period still puts the TCP on the
+steady (controller/core/executor.py ``_CartesianPlan.sample``): every period still puts the TCP on the
 path at its own path time, whatever happens to the rate (suspend and resume, register 12 state 3;
 a stop, state 4), with TCP and user coordinate offsets (registers 35, 73), along lines, blended
 lines (22) and circles (27)."""
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from helpers import ready
 
-from xarm_emu.controller import executor as ex
+from xarm_emu.controller.core import executor as ex
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.model import kinematics as kin
 from xarm_emu.model import rotations as rot

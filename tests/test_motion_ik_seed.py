@@ -1,4 +1,4 @@
-"""The Cartesian plan's IK seed (controller/executor.py): each control period of a linear move
+"""The Cartesian plan's IK seed (controller/core/executor.py): each control period of a linear move
 (register 21) and an arc (register 27) starts the solver from the extrapolation of the last answers
 (the chord solve of kinematics.track, the full solve where it does not converge); the joints it
 reaches put the flange on the path within the solver's convergence tolerance (|dp| <= 1e-6 mm,
@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from xarm_emu.controller import executor as ex
-from xarm_emu.controller.base import C_KINEMATIC
+from xarm_emu.controller.core import executor as ex
+from xarm_emu.controller.core.interface import C_KINEMATIC
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.model import kinematics as kin
 from xarm_emu.model.rotations import matrix_to_axis_angle

@@ -1,5 +1,5 @@
 """A Cartesian plan follows its path with the chord solve (model/kinematics.py ``track``, called from
-controller/executor.py ``_CartesianPlan.joints``): along lines (register 21), arcs (27) and blended lines
+controller/core/executor.py ``_CartesianPlan.joints``): along lines (register 21), arcs (27) and blended lines
 (22) of the xArm6, xArm7, Lite 6 and 850 every period's joints put the flange on the path within the
 solver's convergence tolerance (|dp| <= 1e-6 mm, |d theta| <= 1e-7 rad) and agree with a full solve
 from the previous joints; a line into a singularity or a joint limit stops with the same error at the
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from helpers import count_calls, ready
 
-from xarm_emu.controller import executor as ex
-from xarm_emu.controller.base import C_KINEMATIC, C_SPEED
+from xarm_emu.controller.core import executor as ex
+from xarm_emu.controller.core.interface import C_KINEMATIC, C_SPEED
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.model import kinematics as kin
 from xarm_emu.model import rotations as rot

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import xarm_emu.controller.motion as motion_pkg
-from xarm_emu.controller import safety
+from xarm_emu.controller.core import safety
 from xarm_emu.controller.motion import _rot, paths
 from xarm_emu.model import collision, dynamics, kinematics, rotations
 from xarm_emu.model.robots import XARM5, XARM6, XARM7, RobotModel
@@ -109,7 +109,7 @@ def test_motion_package_imports_no_controller_module() -> None:
 def test_ft_sensor_pose_follows_each_models_own_geometry() -> None:
     """Two arms of one name whose upper arms differ by 40 mm give their own F/T sensor origins, each
     read right after the other (a cache keyed by the name would answer the first one's)."""
-    from xarm_emu.controller import ft_sensor
+    from xarm_emu.controller.devices import ft_sensor
     from xarm_emu.controller.emulator import Emulator
 
     x, y, z = XARM6.joints[2].origin_xyz

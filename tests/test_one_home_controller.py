@@ -8,7 +8,9 @@ from types import ModuleType
 
 import pytest
 
-from xarm_emu.controller import base, gripper, io, states
+from xarm_emu.controller.core import interface as base
+from xarm_emu.controller.core import state_machine as states
+from xarm_emu.controller.devices import gripper, io
 from xarm_emu.protocol import codes, rtu
 
 

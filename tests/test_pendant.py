@@ -118,6 +118,39 @@ def test_devices_are_drawn_when_attached(make_server, tmp_path) -> None:  # type
     assert wait_for(lambda: any(k.startswith("/devices/") and "cup" in k for k in viewer._handles))
 
 
+def test_the_scene_draws_a_falling_object_where_the_world_has_it(make_server, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A cube let go 100 mm above the table: its node follows the physics world down to the table,
+    turned as the world turns it, in the scene file's colour."""
+    pytest.importorskip("mujoco")
+    from xarm_emu.controller.scene import contact
+
+    sc = contact.parse_scene({"plane": [{"point": [0, 0, 0], "normal": [0, 0, 1], "stiffness": 10.0}],
+                              "object": [{"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1,
+                                          "position": [250, 0, 20], "color": "#2080f0"}]})
+    st = make_server(view=True, view_port=0, emulator=Emulator(6, scene=sc, config_dir=tmp_path))
+    viewer = st.server.viewer
+    st.call(lambda: st.emulator.place_object("cube", (250, 0, 120), (0, 0, 30)))
+    key = "/objects/object_cube"
+    heights = []
+
+    def seen() -> bool:
+        n = viewer.updates
+        assert wait_for(lambda: viewer.updates > n)
+        handle = st.call(lambda: viewer._handles[key])
+        heights.append(float(handle.position[2]))
+        return st.call(lambda: st.emulator.physics.world.state.settled)
+
+    assert wait_for(seen, timeout=20.0)
+    assert seen()
+    handle = st.call(lambda: viewer._handles[key])
+    pose = st.call(lambda: st.emulator.scene_objects()[0])
+    assert heights[-1] == pytest.approx(0.020, abs=1e-3)  # on the table (m)
+    assert tuple(handle.position) == pytest.approx([v / 1000 for v in pose["position"]], abs=1e-4)
+    expected = scene.object_parts([("cube", "box", (40, 40, 40))], [pose])[0].wxyz
+    assert tuple(handle.wxyz) == pytest.approx(expected, abs=1e-6)  # turned 30 degrees about z
+    assert tuple(handle.color) == (0x20, 0x80, 0xF0)
+
+
 @pytest.mark.parametrize(("extra", "expected"),
                          [((), "127.0.0.2"), (("--view-host", "127.0.0.1"), "127.0.0.1")])
 def test_the_view_follows_host_unless_view_host_says(  # type: ignore[no-untyped-def]

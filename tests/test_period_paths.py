@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from helpers import call, ready
 
-from xarm_emu.controller import reduced
+from xarm_emu.controller.applications import reduced
+from xarm_emu.controller.core.state_machine import STATES, TRANSITIONS, Event, fire, next_state
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.states import STATES, TRANSITIONS, Event, fire, next_state
 from xarm_emu.model import kinematics as kin
 from xarm_emu.model.robots import XARM6, joint_values
 

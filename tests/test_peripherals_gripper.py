@@ -11,8 +11,8 @@ from helpers import FakeView as View
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from xarm_emu.controller.base import PERIOD, ParameterError
-from xarm_emu.controller.gripper import (
+from xarm_emu.controller.core.interface import PERIOD, ParameterError
+from xarm_emu.controller.devices.gripper import (
     G_POSITION_DEVIATION,
     G_SOFT_LIMIT,
     G_SPEED_OVERLIMIT,
@@ -221,7 +221,7 @@ def test_fuzzed_rtu_always_answers(pdu: bytes) -> None:
 
 
 def test_position_without_a_speed_first_moves_at_the_power_on_speed() -> None:
-    from xarm_emu.controller.gripper import DEFAULT_SPEED, XArmGripper
+    from xarm_emu.controller.devices.gripper import DEFAULT_SPEED, XArmGripper
 
     g = XArmGripper()
     g.set_enable(1)

@@ -10,8 +10,8 @@ from typing import Any
 import pytest
 from helpers import FakeView as View
 
-from xarm_emu.controller.base import PERIOD, CommandError, ParameterError
-from xarm_emu.controller.io import IOModule
+from xarm_emu.controller.core.interface import PERIOD, CommandError, ParameterError
+from xarm_emu.controller.devices.io import IOModule
 from xarm_emu.protocol.registers import REGISTERS
 
 

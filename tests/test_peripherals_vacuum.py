@@ -1,4 +1,4 @@
-"""The xArm Vacuum Gripper model (controller/vacuum.py): TI0 follows the pump on TO0/TO1 with the
+"""The xArm Vacuum Gripper model (controller/devices/vacuum.py): TI0 follows the pump on TO0/TO1 with the
 documented delays, to the control period, and only while an object seals the cup."""
 
 from __future__ import annotations
@@ -6,9 +6,9 @@ from __future__ import annotations
 import pytest
 from helpers import ready
 
-from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.core.interface import PERIOD
+from xarm_emu.controller.devices.vacuum import PRESSURE_BUILD, PRESSURE_RELEASE
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.vacuum import PRESSURE_BUILD, PRESSURE_RELEASE
 
 
 def ti0(emu: Emulator) -> int:

@@ -14,8 +14,8 @@ import pytest
 
 pytest.importorskip("mujoco")
 
-from xarm_emu.controller import contact  # noqa: E402
 from xarm_emu.controller.emulator import Emulator  # noqa: E402
+from xarm_emu.controller.scene import contact  # noqa: E402
 from xarm_emu.protocol import rtu  # noqa: E402
 from xarm_emu.protocol.registers import REGISTERS  # noqa: E402
 
@@ -140,27 +140,32 @@ def test_an_arm_moving_without_objects_does_not_step_an_engine() -> None:
     assert emu.physics is None
 
 
-def test_speed_against_the_same_moves_without_objects() -> None:
-    """The pick-and-place on the stepped clock, timed against the same arm moves without objects
-    (measured here): the engine stepping every period near the cube costs several times the
-    controller alone (on a quiet 2-core machine some 15-20x real time against 90-130x)."""
+def speeds(repeats: int) -> tuple[float, float]:
+    """The pick-and-place with the cube in the engine, and the same moves without objects, as arm
+    seconds per second of this thread's processor time (another process on the machine does not
+    change it), the best of ``repeats`` runs of each taken in turns (also run by ``make bench``)."""
     def program(emu: Emulator) -> float:
-        t0 = time.perf_counter()
+        t0 = time.thread_time()
         pick(emu)
         line(emu, 300, -100, TZ + 115)
         place(emu)
-        return time.perf_counter() - t0
+        return emu.time / (time.thread_time() - t0)
 
-    ready()  # warm the kinematics code
-    with_objects = ready()
-    wall = program(with_objects)
-    rate = with_objects.time / wall
-    bare = prepare(Emulator(6))
-    bare_wall = program(bare)
-    bare_rate = bare.time / bare_wall
-    print(f"pick-and-place: {with_objects.time:.1f} s of arm time at {rate:.0f}x real time "
-          f"(without objects {bare_rate:.0f}x)")
-    assert rate > bare_rate / 15
+    ready()  # warm the kinematics code and the engine
+    with_objects, bare = 0.0, 0.0
+    for _ in range(repeats):
+        bare = max(bare, program(prepare(Emulator(6))))
+        with_objects = max(with_objects, program(ready()))
+    return with_objects, bare
+
+
+def test_speed_against_the_same_moves_without_objects() -> None:
+    """The engine steps one 4 ms step a period only while something is near an object, so the
+    pick-and-place costs some 3x the controller alone (on a busy 2-core machine 27-40x real time
+    against 82-132x; with two steps every period it cost 7x: 12x against 87x)."""
+    with_objects, bare = speeds(3)
+    print(f"pick-and-place: {with_objects:.0f}x real time (without objects {bare:.0f}x)")
+    assert with_objects > bare / 5.0
 
 
 @pytest.mark.parametrize("sensitivity", [3, 0])
@@ -217,7 +222,7 @@ def test_a_cube_too_heavy_for_the_grip_slips_out_and_is_not_held() -> None:
 
 
 def test_the_ft_sensor_reads_the_tables_reaction_in_a_scene_with_objects() -> None:
-    from xarm_emu.controller import ft_sensor
+    from xarm_emu.controller.devices import ft_sensor
 
     emu = prepare(Emulator(6, scene=contact.parse_scene(SCENE), ft_sensor=True, ft_noise=False))
     call(emu, 37, sensitivity=0)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from xarm_emu.controller import contact
+from xarm_emu.controller.scene import contact
 
 CUBE = {"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1, "position": [300, -100, 20]}
 
@@ -52,7 +52,7 @@ def test_a_name_used_twice_and_a_missing_key_are_refused() -> None:
 def test_no_objects_no_engine(tmp_path: Path) -> None:
     """A scene of planes and boxes runs as before: the engine is not even imported."""
     code = ("import sys\n"
-            "from xarm_emu.controller import contact\n"
+            "from xarm_emu.controller.scene import contact\n"
             "from xarm_emu.controller.emulator import Emulator\n"
             "t = {'point': [0, 0, 0], 'normal': [0, 0, 1], 'stiffness': 1}\n"
             "s = contact.parse_scene({'plane': [t]})\n"

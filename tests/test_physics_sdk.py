@@ -96,26 +96,34 @@ def test_admin_scene_commands_without_objects_are_refused() -> None:
                 a.request("scene-objects")
 
 
-def _robotiq_pick(mass: float, friction: float, force: int) -> tuple[dict, dict, int]:
-    """The same task with the Robotiq 2F-85 through the SDK's robotiq_* calls; returns the cube after
-    the close, after the lift, and gOBJ after the close."""
+def on_table(mass: float, friction: float, table_z: float) -> dict:
+    """The scene with the table top at ``table_z`` (mm) and the cube of ``mass`` and ``friction`` on it
+    at (300, -100)."""
+    cube = {**SCENE["object"][0], "mass": mass, "friction": friction, "position": [300, -100, table_z + 20]}
+    return {"plane": [{**SCENE["plane"][0], "point": [0, 0, table_z]}], "object": [cube]}
+
+
+def _robotiq_pick(mass: float, friction: float, force: int, gripper: str = "robotiq-2f85",
+                  tcp_z: float = 174.0, table_z: float = -100.0) -> tuple[dict, dict, int]:
+    """The same task with a Robotiq gripper (the 2F-85 unless told) through the SDK's robotiq_*
+    calls; returns the cube after the close, after the lift, and gOBJ after the close."""
     from xarm.wrapper import XArmAPI
 
-    scene = {**SCENE, "object": [{**SCENE["object"][0], "mass": mass, "friction": friction}]}
-    with running_emulator(6, scene=scene, speed=4.0, gripper="robotiq-2f85") as st, sdk_pointed_at(st):
+    scene = on_table(mass, friction, table_z)
+    with running_emulator(6, scene=scene, speed=4.0, gripper=gripper) as st, sdk_pointed_at(st):
         arm = XArmAPI("127.0.0.1")
         try:
-            start(arm, 174)
+            start(arm, tcp_z)
             assert arm.robotiq_reset()[0] == 0
             assert arm.robotiq_set_activate()[0] == 0
             assert arm.robotiq_open(speed=0xFF, force=force)[0] == 0
-            assert arm.set_position(300, -100, 50, **DOWN) == 0
-            assert arm.set_position(300, -100, -85, **DOWN) == 0
+            assert arm.set_position(300, -100, table_z + 150, **DOWN) == 0
+            assert arm.set_position(300, -100, table_z + 15, **DOWN) == 0
             assert arm.robotiq_close(speed=0xFF, force=force)[0] == 0
             assert arm.robotiq_get_status()[0] == 0
             gobj = arm.robotiq_status["gOBJ"]
             closed = cube(st)
-            assert arm.set_position(300, -100, 15, **DOWN) == 0
+            assert arm.set_position(300, -100, table_z + 115, **DOWN) == 0
             lifted = cube(st)
         finally:
             arm.disconnect()
@@ -124,6 +132,14 @@ def _robotiq_pick(mass: float, friction: float, force: int) -> tuple[dict, dict,
 
 def test_sdk_robotiq_2f85_grips_the_cube_by_contact() -> None:
     closed, lifted, gobj = _robotiq_pick(0.1, 1.0, 0xFF)
+    assert gobj == 2 and closed["held"]
+    assert lifted["held"] and lifted["position"][2] - closed["position"][2] == pytest.approx(100.0, abs=2.0)
+
+
+def test_sdk_robotiq_2f140_grips_the_cube_by_contact() -> None:
+    """The 2F-140 (fingertips at its 244 mm tool length, so the table 200 mm below the mounting face)
+    closes from its 140 mm stroke onto the cube: gOBJ 2 and the cube carried up 100 mm."""
+    closed, lifted, gobj = _robotiq_pick(0.1, 1.0, 0xFF, "robotiq-2f140", 244.0, table_z=-200.0)
     assert gobj == 2 and closed["held"]
     assert lifted["held"] and lifted["position"][2] - closed["position"][2] == pytest.approx(100.0, abs=2.0)
 
@@ -163,3 +179,34 @@ def test_sdk_vacuum_gripper_seals_on_the_cube_top_and_carries_it() -> None:
         end = cube(st)
         assert end["position"][:2] == pytest.approx([300, 100], abs=3.0)
         assert end["position"][2] == pytest.approx(-80.0, abs=1.0)
+
+
+def test_sdk_bio_gripper_grips_a_block_by_contact() -> None:
+    """The BIO gripper (fingertips at its 150 mm tool length, opening 71..150 mm) closes on an 80 mm
+    block: its status says "object" (motion bits 2), its reported opening is the block's width, and
+    the block rides 100 mm up with the hand."""
+    from xarm.wrapper import XArmAPI
+
+    scene = on_table(0.1, 1.0, -100.0)
+    scene["object"][0]["size"] = [40, 80, 40]  # 80 mm across the fingers (flange y)
+    with running_emulator(6, scene=scene, speed=4.0, gripper="bio", firmware="2.7.103") as st, \
+            sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1")
+        try:
+            start(arm, 150)
+            assert arm.set_bio_gripper_enable(True) == 0
+            assert arm.open_bio_gripper(speed=2000) == 0
+            assert arm.set_position(300, -100, 50, **DOWN) == 0
+            assert arm.set_position(300, -100, -85, **DOWN) == 0
+            assert arm.close_bio_gripper(speed=2000) == 0
+            code, status = arm.get_bio_gripper_status()
+            assert code == 0 and status & 0x03 == 2  # stopped on an object
+            code, opening = arm.get_bio_gripper_g2_position()
+            assert code == 0 and opening == pytest.approx(80.0, abs=2.0)
+            closed = cube(st)
+            assert closed["held"]
+            assert arm.set_position(300, -100, 15, **DOWN) == 0
+            lifted = cube(st)
+        finally:
+            arm.disconnect()
+    assert lifted["held"] and lifted["position"][2] - closed["position"][2] == pytest.approx(100.0, abs=2.0)

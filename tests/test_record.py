@@ -39,6 +39,8 @@ def read_back(path: Path) -> dict[str, dict[str, list[Any]]]:
             entry["level"] += [v[0] for v in batch.column("TextLog:level").to_pylist()]
         elif "LineStrips3D:strips" in names:
             entry["value"] += batch.column("LineStrips3D:strips").to_pylist()
+        elif "Boxes3D:centers" in names:
+            entry["value"] += batch.column("Boxes3D:centers").to_pylist()
     for entry in out.values():  # chunks come in any order
         order = sorted(range(len(entry["time"])), key=entry["time"].__getitem__)
         for key in ("time", "value", "level"):
@@ -89,6 +91,55 @@ def test_served_session_of_a_20_s_program_reads_back(tmp_path: Path) -> None:
     assert links[0] == [0.0, 0.0, 0.0] and len(links) >= 7
     tcp_x = rec["/tcp/x"]["value"][-1]
     assert links[-1][0] == pytest.approx(tcp_x, abs=60.0)  # the last frame sits near the TCP
+
+
+def test_served_pick_records_the_objects_poses(tmp_path: Path) -> None:
+    """A cube picked and lifted 100 mm through the unchanged SDK under ``serve --record``: the
+    recording has the cube where the physics world had it, on the table first, held and lifted last."""
+    pytest.importorskip("mujoco")
+    from xarm.wrapper import XArmAPI
+
+    from xarm_emu.controller.scene import contact
+    from xarm_emu.testing import sdk_pointed_at
+
+    path = tmp_path / "pick.rrd"
+    scene = contact.parse_scene({
+        "plane": [{"name": "table", "point": [0, 0, -100], "normal": [0, 0, 1], "stiffness": 10.0}],
+        "object": [{"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1,
+                    "position": [300, -100, -80]}]})
+    cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0, speed=4.0)
+    st = ServerThread(Emulator(6, config_dir=tmp_path / "config", scene=scene), cfg,
+                      compose=(lambda srv: attach_recorder(srv, path),)).start()
+    down = dict(roll=180, pitch=0, yaw=0, speed=150, mvacc=2000, wait=True)
+    try:
+        with sdk_pointed_at(st):
+            arm = XArmAPI("127.0.0.1")
+            try:
+                assert arm.set_tcp_offset([0, 0, 172, 0, 0, 0]) == 0
+                arm.motion_enable(True)
+                arm.set_mode(0)
+                arm.set_state(0)
+                assert arm.set_gripper_enable(True) == 0
+                assert arm.set_gripper_speed(3000) == 0
+                assert arm.set_gripper_position(850, wait=True) == 0
+                assert arm.set_position(300, -100, 50, **down) == 0
+                assert arm.set_position(300, -100, -85, **down) == 0
+                assert arm.set_gripper_position(0, wait=True) == 0
+                assert arm.set_position(300, -100, 15, **down) == 0
+                time.sleep(0.5)  # a few more geometry entries of the lifted cube
+            finally:
+                arm.disconnect()
+        lifted = st.call(lambda: st.emulator.scene_objects())[0]
+    finally:
+        st.stop()
+    rec = read_back(path)
+    centres = [c[0] for c in rec["/objects/cube"]["value"]]
+    assert len(centres) > 10
+    assert centres[0] == pytest.approx([300.0, -100.0, -80.0], abs=0.5)  # resting on the table
+    assert centres[-1] == pytest.approx(lifted["position"], abs=0.5)  # where the world has it
+    assert centres[-1][2] == pytest.approx(20.0, abs=3.0)  # lifted 100 mm
+    held = rec["/objects/cube/held"]["value"]
+    assert held[0] == 0.0 and held[-1] == 1.0
 
 
 def test_record_command_against_a_running_box(tmp_path: Path) -> None:

@@ -9,16 +9,16 @@ import math
 import pytest
 from helpers import FakeView as View
 
-from xarm_emu.controller.base import PERIOD
-from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.gripper import GripperModule
-from xarm_emu.controller.robotiq import (
+from xarm_emu.controller.core.interface import PERIOD
+from xarm_emu.controller.devices.gripper import GripperModule
+from xarm_emu.controller.devices.robotiq import (
     PO_CLOSED,
     PO_OPEN,
     ROBOTIQ_2F85,
     ROBOTIQ_2F140,
     RobotiqGripper,
 )
+from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol import rtu
 from xarm_emu.protocol.registers import REGISTERS
 

@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 from helpers import SDK_EXAMPLES_MISSING, run_cli, sdk_example, sdk_ready
 
-from xarm_emu.controller.robotiq import PO_CLOSED, PO_OPEN, ROBOTIQ_2F85, RobotiqGripper
+from xarm_emu.controller.devices.robotiq import PO_CLOSED, PO_OPEN, ROBOTIQ_2F85, RobotiqGripper
 from xarm_emu.server.app import ServerThread
 from xarm_emu.testing import running_emulator, sdk_pointed_at
 

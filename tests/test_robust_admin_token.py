@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from xarm_emu.client.admin import AdminClient, AdminRefused
-from xarm_emu.controller.config import admin_token_path, load_or_create_admin_token, read_admin_token
+from xarm_emu.controller.core.config import admin_token_path, load_or_create_admin_token, read_admin_token
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerConfig, ServerThread
 

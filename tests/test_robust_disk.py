@@ -21,7 +21,7 @@ import pytest
 from helpers import accepts, connect, port_args, recv_exact, report_frames_in, serve_ports, wait_for
 
 from xarm_emu.client.admin import AdminClient
-from xarm_emu.controller import config as config_mod
+from xarm_emu.controller.core import config as config_mod
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import STATE_WARNING, encode_request
 from xarm_emu.server.app import ServerConfig, ServerThread

@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 from helpers import accepts, connect, port_args, recv_exact, serve_ports, wait_for
 
-from xarm_emu.controller.config import ConfigLocked, ConfigStore
+from xarm_emu.controller.core.config import ConfigLocked, ConfigStore
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.protocol.frame import encode_request
 from xarm_emu.server.app import ServerConfig, ServerThread

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from helpers import sdk_ready as ready
 
-from xarm_emu.controller.base import C_SELF_COLLISION
+from xarm_emu.controller.core.interface import C_SELF_COLLISION
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.app import ServerThread
 

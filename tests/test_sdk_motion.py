@@ -25,7 +25,7 @@ from helpers import sdk_ready as ready
 from helpers import wait_for
 from ruckig import InputParameter, Ruckig, Trajectory
 
-from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.core.interface import PERIOD
 from xarm_emu.protocol import reports
 from xarm_emu.server.app import ServerThread
 

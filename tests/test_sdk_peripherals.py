@@ -16,7 +16,7 @@ import pytest
 from helpers import sdk_ready as ready
 from helpers import wait_for
 
-from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.core.interface import PERIOD
 from xarm_emu.server.app import ServerThread
 
 
@@ -242,8 +242,8 @@ def test_reset_outputs_when_stop(make_server, sdk_arm) -> None:
 
 def test_vacuum_gripper_through_the_sdk(make_server, sdk_arm) -> None:
     """`set_vacuum_gripper(True, wait=True)` returns once the pressure switch (TI0) reports normal."""
+    from xarm_emu.controller.devices.vacuum import PRESSURE_BUILD
     from xarm_emu.controller.emulator import Emulator
-    from xarm_emu.controller.vacuum import PRESSURE_BUILD
 
     st = make_server(emulator=Emulator(6, vacuum=True), speed=1.0)
     arm = sdk_arm(st)

@@ -86,7 +86,7 @@ def test_each_develop_frame_shows_the_controller_at_its_deadlines_control_period
     deadline (the deadlines are the multiples of 10 ms, manual 2.1.6)."""
     import numpy as np
 
-    from xarm_emu.controller.base import PERIOD
+    from xarm_emu.controller.core.interface import PERIOD
 
     srv = make_server()
     emu = srv.emulator

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from helpers import free_ports, port_args, ready, run_cli, serve_subprocess
 
-from xarm_emu.controller.base import PERIOD
+from xarm_emu.controller.core.interface import PERIOD
 from xarm_emu.controller.emulator import Emulator
 from xarm_emu.server.faults import FaultScheduleError
 

@@ -20,6 +20,8 @@ FIXED = "fixed at construction (model, firmware, wiring options, serial numbers)
 DERIVED = "derived from the state (a cache, recomputed or keyed on what it depends on)"
 WIRING = "a reference to another part of the emulator (walked in turn)"
 TRACKING = "change tracking and diagnostics of the control loop, not a value the box shows"
+ENGINE = ("the physics engine's live data: a checkpoint captures it into the tree's ``physics`` part "
+          "(World.capture) and a restore puts it back (World.restore)")
 
 #: Attributes outside the state tree, by class and name, with the reason each is not state.
 OUTSIDE: dict[tuple[str, str], str] = {
@@ -43,10 +45,47 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Emulator", "schedule"): WIRING,  # idem
     ("Emulator", "_scheduled"): WIRING,  # the schedule's heap
     ("Emulator", "generation"): TRACKING,
-    ("Emulator", "_quiet_calls"): TRACKING,
+    ("Emulator", "_next_event"): DERIVED,
     ("Emulator", "_settled"): TRACKING,
     ("Emulator", "periods_jumped"): TRACKING,
     ("Emulator", "_rest_cache"): DERIVED,
+    ("PhysicsComponent", "world"): WIRING,
+    ("PhysicsComponent", "device"): WIRING,  # the gripper on the tool bus (the tree's part)
+    ("PhysicsComponent", "driven"): WIRING,  # the adapter of a gripper whose model moves its fingers
+    ("PhysicsComponent", "vacuum"): WIRING,
+    ("PhysicsComponent", "squeeze"): FIXED,  # from the hand's force and the finger drive's gain
+    ("World", "state"): ENGINE,
+    ("World", "d"): ENGINE,
+    ("World", "m"): FIXED,  # but the finger drive's force limit, set each period from the gripper's force
+    ("World", "robot"): FIXED,
+    ("World", "scene"): FIXED,
+    ("World", "hand"): FIXED,
+    ("World", "fingers"): FIXED,
+    ("World", "objects"): FIXED,
+    ("World", "_q"): FIXED,
+    ("World", "_v"): FIXED,
+    ("World", "_fq"): FIXED,
+    ("World", "_pads"): FIXED,
+    ("World", "_arm_geoms"): FIXED,
+    ("World", "_arm_idx"): FIXED,
+    ("World", "_finger_v"): FIXED,
+    ("World", "_kind"): FIXED,
+    ("World", "_kinds"): FIXED,
+    ("World", "_object_geoms"): FIXED,
+    ("World", "_free_v"): FIXED,
+    ("World", "_free_list"): FIXED,
+    ("World", "_flange_body"): FIXED,
+    ("World", "_size"): FIXED,
+    ("World", "_initial"): FIXED,  # the objects where the scene file puts them (scene-reset)
+    ("World", "_near_m"): FIXED,  # the nearness test's model
+    ("World", "_near_d"): DERIVED,  # the nearness test's kinematics, keyed on the world and the joints
+    ("World", "_near_key"): DERIVED,
+    ("World", "_far_key"): DERIVED,
+    ("World", "_far_out"): DERIVED,
+    ("World", "_version"): DERIVED,  # counts the engine's changes, keys the contacts read below
+    ("World", "_scanned"): DERIVED,
+    ("World", "_rows"): DERIVED,
+    ("World", "_pad_map"): DERIVED,
     ("Controller", "model"): FIXED,
     ("Controller", "firmware"): FIXED,
     ("Controller", "dof"): FIXED,
@@ -56,6 +95,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Controller", "box_sn"): FIXED,
     ("Controller", "registers"): FIXED,  # the register table of the firmware and attached devices
     ("Controller", "_handlers"): FIXED,
+    ("Controller", "_routes"): FIXED,  # the mode routes of the binding table, for this firmware
     ("Controller", "_float_checked"): FIXED,
     ("Controller", "_inf_unchanged"): FIXED,
     ("Controller", "components"): WIRING,
@@ -184,6 +224,11 @@ def _outside(emu: Emulator) -> Iterator[tuple[str, object, str]]:
 
 
 def _moving_box(**kw: Any) -> Emulator:
+    if "scene" in kw:
+        pytest.importorskip("mujoco")
+        from xarm_emu.controller.scene import contact
+
+        kw = {**kw, "scene": contact.parse_scene(kw["scene"])}
     emu = Emulator(6, **kw)
     for code, params in ((11, bytes([8, 1])), (19, bytes([0])), (12, bytes([0]))):
         emu.handle(code, params)
@@ -200,6 +245,9 @@ BOXES = {
     "vacuum, track, F/T": {"vacuum": True, "linear_track": 700, "ft_sensor": True, "firmware": "2.7.103"},
     "robotiq": {"gripper": "robotiq-2f85"},
     "bio": {"gripper": "bio", "firmware": "2.7.103"},
+    "physics world": {"scene": {"plane": [{"point": [0, 0, -100], "normal": [0, 0, 1], "stiffness": 10.0}],
+                                "object": [{"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1,
+                                            "position": [300, -100, -80]}]}},
 }
 
 

@@ -59,7 +59,7 @@ def test_trajectory_list_and_delete_follow_the_saved_files(tmp_path: Any) -> Non
     try:
         def save() -> None:
             c = srv.emulator.controller
-            from xarm_emu.controller import trajectory
+            from xarm_emu.controller.applications import trajectory
 
             trajectory.store_of(c).write("a.traj", [c.q.copy()] * 250, 0.01, 6)
 

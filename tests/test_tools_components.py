@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import pytest
 
-from xarm_emu.controller.base import PERIOD, ParameterError
+from xarm_emu.controller.core.interface import PERIOD, ParameterError
+from xarm_emu.controller.devices.io import ADDR_TOOL_DO, ADDR_TOOL_DO_READ, ADDR_TOOL_TI2
+from xarm_emu.controller.devices.lite6_gripper import TRAVEL_TIME
+from xarm_emu.controller.devices.vacuum import PRESSURE_BUILD
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.controller.io import ADDR_TOOL_DO, ADDR_TOOL_DO_READ, ADDR_TOOL_TI2
-from xarm_emu.controller.lite6_gripper import TRAVEL_TIME
-from xarm_emu.controller.vacuum import PRESSURE_BUILD
 from xarm_emu.protocol.rtu import TOOL_HOST
 
 FW = "2.4.101"

@@ -11,8 +11,8 @@ from typing import Any
 import pytest
 from helpers import run_cli, sdk_ready, wait_for
 
-from xarm_emu.controller.base import ParameterError
-from xarm_emu.controller.lite6_gripper import TRAVEL_TIME
+from xarm_emu.controller.core.interface import ParameterError
+from xarm_emu.controller.devices.lite6_gripper import TRAVEL_TIME
 from xarm_emu.server.app import ServerThread
 from xarm_emu.testing import running_emulator, sdk_pointed_at
 

@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 from helpers import sdk_ready, wait_for
 
-from xarm_emu.controller.base import C_JOINT_LIMIT
+from xarm_emu.controller.core.interface import C_JOINT_LIMIT
 from xarm_emu.model.robots import get_model
 from xarm_emu.server.app import ServerThread
 from xarm_emu.testing import running_emulator, sdk_pointed_at

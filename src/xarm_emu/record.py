@@ -13,7 +13,11 @@ A recording holds, against the ``time`` timeline (seconds since the recording be
 - ``commands``: under ``serve --record``, every command-port request and its reply state byte, with
   the controller time on a second timeline, ``controller``;
 - ``arm/links``: the arm's joint origins as a line strip (forward kinematics of the model), and
-  ``arm/tcp_path`` the TCP positions so far, ten times a second.
+  ``arm/tcp_path`` the TCP positions so far, ten times a second;
+- ``objects/<name>``: under ``serve --record`` with a scene of ``[[object]]`` tables, each object as
+  the physics world has it, ten times a second: a box (``Boxes3D``), a cylinder (``Cylinders3D``) or a
+  sphere (``Ellipsoids3D``) at its centre (mm, base frame) and orientation, and ``objects/<name>/held``
+  (1 while both fingers or the vacuum cup hold it).
 
 Open it with Rerun's viewer: ``rerun session.rrd`` (the native viewer, ``pip install rerun-sdk``),
 or ``rerun --web-viewer session.rrd`` in the browser. Needs the ``record`` extra
@@ -33,7 +37,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .client import ReportStream
-from .controller.states import MODE_NAMES, STATE_NAMES
+from .controller.core.state_machine import MODE_NAMES, STATE_NAMES
 from .protocol import codes
 from .protocol.registers import REGISTERS as MANUAL_REGISTERS
 from .protocol.registers import Register
@@ -91,6 +95,10 @@ class SessionRecorder:
         self.reports = 0
         self.commands = 0
         self._closed = False
+        #: Under ``serve --record`` with objects: returns each object's declared shape and size and
+        #: its pose now, ``(name, shape, size mm, Emulator.scene_objects() entry)``.
+        self.objects: Callable[[], list[tuple[str, str, tuple[float, ...], Mapping[str, Any]]]] | None = None
+        self._last_objects = -math.inf
 
     def now(self) -> float:
         """Seconds since the recording began (the ``time`` timeline)."""
@@ -115,11 +123,20 @@ class SessionRecorder:
     def report(self, snap: ReportSnapshot, rich: bool = False, t: float | None = None) -> None:
         """One decoded report: the develop report's motion state and joints, or (``rich``) the rich
         report's error, warning and IO."""
+        # the objects are read before the recorder's lock is taken (reading them takes the server's,
+        # which the server holds while it passes a command to the recorder)
+        t = self.now() if t is None else t
+        objects = None
+        if not rich and self.objects is not None and t - self._last_objects >= GEOMETRY_PERIOD:
+            self._last_objects = t
+            objects = self.objects()
         with self._lock:
             if self._closed:
                 return
             t = self._at(t)
             self.reports += 1
+            if objects:
+                self._objects(objects)
             if rich:
                 self._rich(snap)
                 return
@@ -180,6 +197,25 @@ class SessionRecorder:
         frames = joint_frames(self.model, list(snap.joints[:self.model.dof]))
         points = [[float(v) for v in f[:3, 3]] for f in frames]
         self._rec.log("arm/links", rr.LineStrips3D([[[0.0, 0.0, 0.0], *points]], radii=8.0))
+
+    def _objects(self, objects: list[tuple[str, str, tuple[float, ...], Mapping[str, Any]]]) -> None:
+        """Each object's shape at its pose (``objects/<name>``) and whether it is held."""
+        from .model.rotations import quat_from_matrix, rpy_to_matrix
+
+        rr = self._rr
+        for name, shape, size, pose in objects:
+            w, x, y, z = quat_from_matrix(rpy_to_matrix(*(math.radians(a) for a in pose["rpy"])))
+            centre = [[float(v) for v in pose["position"]]]
+            turn = [rr.Quaternion(xyzw=[float(x), float(y), float(z), float(w)])]
+            if shape == "box":
+                item = rr.Boxes3D(centers=centre, half_sizes=[[v / 2 for v in size]], quaternions=turn)
+            elif shape == "cylinder":
+                item = rr.Cylinders3D(centers=centre, lengths=[size[1]], radii=[size[0] / 2],
+                                      quaternions=turn)
+            else:
+                item = rr.Ellipsoids3D(centers=centre, half_sizes=[[size[0] / 2] * 3], quaternions=turn)
+            self._rec.log(f"objects/{name}", item)
+            self._scalar(f"objects/{name}/held", 1.0 if pose["held"] else 0.0)
 
     def command(self, controller_time: float, peer: str, register: int, name: str | None,
                 state: int | None, t: float | None = None) -> None:
@@ -297,6 +333,19 @@ class RecordAttachment:
         self.recorder = recorder
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        if server.emulator.physics is not None:
+            recorder.objects = self._objects
+
+    def _objects(self) -> list[tuple[str, str, tuple[float, ...], Mapping[str, Any]]]:
+        """The scene's objects where the physics world has them now (under the server's lock)."""
+        emu = self.server.emulator
+        with self.server.lock:
+            physics = emu.physics
+            if physics is None:
+                return []
+            specs = physics.world.scene.objects
+            poses = emu.scene_objects()
+        return [(o.name, o.shape, o.size, p) for o, p in zip(specs, poses, strict=True)]
 
     def start(self) -> None:
         host = self.server.config.host

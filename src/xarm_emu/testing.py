@@ -26,8 +26,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from .controller import contact
 from .controller.emulator import Emulator
+from .controller.scene import contact
 from .model.calibration import Calibration
 from .model.calibration import load as load_calibration
 from .model.robots import RobotModel, get_model, with_calibration
@@ -56,7 +56,7 @@ def running_emulator(model: int | str | RobotModel = 6, *, config_dir: Path | No
     ``firmware`` 1.8.0 or later, e.g. ``"2.7.103"``).
     ``ft_sensor`` mounts the six-axis F/T sensor (as ``serve --ft-sensor``; ``ft_noise=False`` for
     deterministic readings) and ``scene`` sets a contact scene (a TOML file path, a
-    :class:`~xarm_emu.controller.contact.Scene` or its tables, as ``serve --scene``).
+    :class:`~xarm_emu.controller.scene.contact.Scene` or its tables, as ``serve --scene``).
     ``calibration`` replaces the emulator's estimated constants (a TOML file path or a
     :class:`~xarm_emu.model.calibration.Calibration`, as ``serve --calibration``).
     A ``faults`` schedule is checked and scheduled, ``view=True`` attaches

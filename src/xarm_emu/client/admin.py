@@ -12,8 +12,8 @@ import json
 import socket
 from typing import Any
 
-from ..controller.config import admin_token_path, read_admin_token
 from ..protocol.admin import ADMIN_PORT_OFFSET, derive_admin_port
+from ..protocol.admin_token import admin_token_path, read_admin_token
 from .common import ClientError
 
 __all__ = ["ADMIN_PORT_OFFSET", "AdminClient", "AdminRefused", "admin_port", "admin_token_path"]

@@ -15,14 +15,10 @@ import inspect
 import typing
 from collections.abc import Awaitable, Callable, Generator
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Generic, ParamSpec, TypeVar, overload
+from typing import Any, Generic, ParamSpec, Protocol, TypeVar, overload
 
 from ..protocol import registers as regs
 from .common import Response, method_name
-
-if TYPE_CHECKING:
-    from .aio import AsyncClient
-    from .sync import Client
 
 P = ParamSpec("P")
 T = TypeVar("T")
@@ -57,6 +53,18 @@ async def _run_async(client: Any, exchange: Exchange[T]) -> T:
             call = exchange.send(await client.call(call.register, call.raw, **call.values))
     except StopIteration as done:
         return typing.cast(T, done.value)
+
+
+class SyncCaller(Protocol):
+    """A client whose ``call`` answers at once (:class:`~.sync.Client`)."""
+
+    def call(self, register: int | str, raw: bytes | None = None, **values: Any) -> Response: ...
+
+
+class AsyncCaller(Protocol):
+    """A client whose ``call`` is a coroutine (:class:`~.aio.AsyncClient`)."""
+
+    async def call(self, register: int | str, raw: bytes | None = None, **values: Any) -> Response: ...
 
 
 class Helper(Generic[P, T]):
@@ -103,10 +111,10 @@ class Helper(Generic[P, T]):
     def __get__(self, obj: None, owner: type) -> Callable[..., Any]: ...
 
     @overload
-    def __get__(self, obj: Client, owner: type) -> Callable[P, T]: ...
+    def __get__(self, obj: SyncCaller, owner: type) -> Callable[P, T]: ...
 
     @overload
-    def __get__(self, obj: AsyncClient, owner: type) -> Callable[P, Awaitable[T]]: ...
+    def __get__(self, obj: AsyncCaller, owner: type) -> Callable[P, Awaitable[T]]: ...
 
     def __get__(self, obj: Any, owner: type) -> Any:
         fn = self.method(inspect.iscoroutinefunction(owner.call))  # type: ignore[attr-defined]

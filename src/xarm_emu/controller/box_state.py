@@ -1,9 +1,9 @@
 """The whole mutable state of one emulated control box as one tree of dataclasses.
 
 :class:`EmulatorState` has one field per part of the box: the controller's
-:class:`~.state.ControllerState` (joints, motion state and mode, faults, command buffer and plan,
-servo target, F/T sensor and contact scene, reduced mode, force, velocity and online control,
-trajectories, the less common registers), its :class:`~.settings.Settings` (registers 31-79), and
+:class:`~.core.controller_state.ControllerState` (joints, motion state and mode, faults, command
+buffer and plan, servo target, F/T sensor and contact scene, reduced mode, force, velocity and online control,
+trajectories, the less common registers), its :class:`~.core.settings.Settings` (registers 31-79), and
 one state object per component (IO, the tool RS-485 bridge's timeouts, the xArm gripper, the
 device on the tool bus, vacuum and Lite 6 grippers, linear track, thermal model), the Modbus-TCP
 user storage, the feedback queue of firmware 2.x and the pending scheduled actions. Everything
@@ -16,7 +16,7 @@ component as a whole (:meth:`~.emulator.Emulator.restore`), like MuJoCo's ``mjDa
 constant ``mjModel``.
 
 Adding a component's state is one step: declare its dataclass beside the component, decorate the
-component with :func:`~.state.holds`, and give :class:`EmulatorState` a field for it (``None``
+component with :func:`~.core.controller_state.holds`, and give :class:`EmulatorState` a field for it (``None``
 when the component is optional); :meth:`~.emulator.Emulator.state` and ``_adopt`` name the field.
 """
 
@@ -27,18 +27,18 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from ..protocol.modbus import POINTS
-from .bio_gripper import BioGripperState
-from .feedback import FeedbackState
-from .gripper import ToolBusState, XArmGripperState
-from .inspire_hand import HandState
-from .io import IOState
-from .linear_track import LinearTrackState
-from .lite6_gripper import Lite6GripperState
-from .robotiq import RobotiqState
-from .settings import Settings
-from .state import ControllerState
-from .thermal import ThermalState
-from .vacuum import VacuumState
+from .core.controller_state import ControllerState
+from .core.feedback import FeedbackState
+from .core.settings import Settings
+from .core.thermal import ThermalState
+from .devices.bio_gripper import BioGripperState
+from .devices.gripper import ToolBusState, XArmGripperState
+from .devices.inspire_hand import HandState
+from .devices.io import IOState
+from .devices.linear_track import LinearTrackState
+from .devices.lite6_gripper import Lite6GripperState
+from .devices.robotiq import RobotiqState
+from .devices.vacuum import VacuumState
 
 if TYPE_CHECKING:  # the physics world imports its engine (an extra) only for a scene with objects
     from .physics.world import PhysicsState

@@ -28,26 +28,33 @@ from ..model.robots import RobotModel, get_model
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile, profile_for
 from ..protocol.reports import ReportSnapshot
 from ..protocol.rtu import CONTROL_BOX_HOST
-from . import contact, ft_sensor, identification, physics, safety, trajectory
-from .base import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
-from .bio_gripper import BioGripper
-from .bio_gripper_g1 import BioGripperG1
+from . import physics
+from .applications import identification, trajectory
 from .box_state import EmulatorState, ModbusUserState, Schedule
-from .core import Controller, joint_torques, tcp_matrix
-from .faults import Faults
-from .feedback import FeedbackQueue, feedback_queue, find_feedback_queue
+from .controller import Controller, joint_torques, tcp_matrix
+from .core import safety, state_bytes
+from .core.config import ConfigStore
+from .core.controller_state import ControllerState
+from .core.faults import Faults
+from .core.feedback import FeedbackQueue, feedback_queue, find_feedback_queue
+from .core.interface import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
+from .core.settings import Settings
+from .core.thermal import ThermalModel
+from .devices import ft_sensor
+from .devices.bio_gripper import BioGripper
+from .devices.bio_gripper_g1 import BioGripperG1
+from .devices.ft_sensor import state_of as sensor_state_of
+from .devices.gripper import GripperModule, ToolDevice
+from .devices.inspire_hand import InspireHand
+from .devices.io import IOModule
+from .devices.linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
+from .devices.lite6_gripper import Lite6Gripper
+from .devices.robotiq import MODELS as ROBOTIQ_MODELS
+from .devices.robotiq import RobotiqGripper
+from .devices.vacuum import VacuumGripper
 from .firmware2_report import firmware2_fields
-from .gripper import GripperModule, ToolDevice
-from .inspire_hand import InspireHand
-from .io import IOModule
-from .linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
-from .lite6_gripper import Lite6Gripper
-from .robotiq import MODELS as ROBOTIQ_MODELS
-from .robotiq import RobotiqGripper
-from .settings import Settings
-from .state import ControllerState
-from .thermal import ThermalModel
-from .vacuum import VacuumGripper
+from .motion import JointTrajectory, MovingProfile
+from .scene import contact
 
 #: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
 THERMAL_EVERY = 250
@@ -57,8 +64,8 @@ JUMP_CHUNK = 64
 log = logging.getLogger("xarm_emu.emulator")
 
 #: The end grippers that can be attached on the tool RS-485 (``Emulator(gripper=...)``,
-#: ``serve --gripper``): the xArm gripper (controller/gripper.py), the Robotiq 2F-85 and 2F-140
-#: (controller/robotiq.py) and the BIO gripper (controller/bio_gripper.py).
+#: ``serve --gripper``): the xArm gripper (controller/devices/gripper.py), the Robotiq 2F-85 and 2F-140
+#: (controller/devices/robotiq.py) and the BIO gripper (controller/devices/bio_gripper.py).
 GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio", "bio-g1", "inspire-rh56")
 
 
@@ -111,8 +118,8 @@ class Checkpoint:
 
 
 def _shared_immutables(root: object) -> dict[int, object]:
-    """Planned ruckig trajectories under ``root``: they cannot be copied and never change once
-    planned, so a checkpoint shares them."""
+    """Planned trajectories under ``root`` (ruckig's, and the joint moves and moving profiles
+    planned with it): they never change once planned, so a checkpoint shares them."""
     found: dict[int, object] = {}
     seen: set[int] = set()
     stack = [root]
@@ -121,7 +128,7 @@ def _shared_immutables(root: object) -> dict[int, object]:
         if id(obj) in seen or isinstance(obj, (int, float, str, bytes, bool, np.ndarray)) or obj is None:
             continue
         seen.add(id(obj))
-        if isinstance(obj, Trajectory):
+        if isinstance(obj, (Trajectory, JointTrajectory, MovingProfile)):
             found[id(obj)] = obj
         elif isinstance(obj, dict):
             stack.extend(obj.values())
@@ -213,47 +220,18 @@ class Emulator:
         check_firmware(self.model, self.firmware)
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD,
                                      firmware=self.firmware)
-        box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
-        # Control boxes with SN >= 1300 have 16 digital IO, as the SDK expects.
-        self.io = IOModule(n_digital=16 if box_number >= 1300 else 8,
-                           tool_ti2=self.model.tool_io.ti2_address is not None)
-        self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9], device=device)
-        self.controller.add_component(self.io)
-        self.io.attach(self.controller)
-        self.controller.add_component(self.gripper)
-        self.controller.hooks.tool_error = self._tool_error
-        #: The vacuum gripper's pressure switch on TI0 (controller/vacuum.py), when attached.
-        self.vacuum: VacuumGripper | None = None
-        if vacuum:
-            self.vacuum = VacuumGripper(self.io.tool)
-            self.controller.add_component(self.vacuum)
-        #: The Lite 6 gripper's jaws on TO0/TO1 (controller/lite6_gripper.py), on the arms wired for it.
-        self.lite6_gripper: Lite6Gripper | None = None
-        if self.model.tool_io.gripper is not None:
-            self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
-            self.controller.add_component(self.lite6_gripper)
-        #: The linear track on the control box RS-485 (controller/linear_track.py), ``linear_track``
-        #: mm long, when attached.
-        self.linear_track: LinearTrack | None = None
-        if linear_track is not None:
-            if not self.firmware.version.at_least(TRACK_FIRMWARE):
-                raise ValueError(f"the linear track needs firmware {TRACK_FIRMWARE} or later, not "
-                                 f"{self.firmware}: choose a later --firmware")
-            self.linear_track = track = LinearTrack(linear_track)
-            self.controller.add_component(track)
-            self.gripper.box_devices = lambda: (
-                {TRACK_ID: track} if self.io.tool.baud_index[CONTROL_BOX_HOST] == TRACK_BAUD_INDEX else {})
+        self._plug_io_and_tools(box_sn, device, vacuum)
+        self._plug_linear_track(linear_track)
         #: The feedback queue of firmware 2.x (registers 253/254, 0xFF frames), part of the box
         #: from the start so that every checkpoint holds it.
         self.feedback: FeedbackQueue | None = (feedback_queue(self.controller) if self.firmware.feedback
                                                else None)
-        #: Changes whenever anything a register or a report could show may have changed (every
-        #: command, control period and change from outside the protocol), so readers can key
-        #: derived values on it instead of being told to forget them.
+        #: Counts the changes that do not come from the control periods themselves: every command,
+        #: restore and change from outside the protocol (:meth:`touch`). With :meth:`next_event` it
+        #: tells whether anything can have changed since a moment (:meth:`mark`, :meth:`unchanged`).
         self.generation = 0
-        #: ``step()`` calls in which nothing changed but the clock (:attr:`revision`).
-        self._quiet_calls = 0
-        if ft_sensor:  # the six-axis F/T sensor between flange and tool (controller/ft_sensor.py)
+        sensor_state_of(self.controller)  # mounted or not, its state is part of the box from the start
+        if ft_sensor:  # the six-axis F/T sensor between flange and tool (controller/devices/ft_sensor.py)
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
             contact.set_scene(self.controller, scene)
@@ -270,6 +248,8 @@ class Emulator:
         self.periods_jumped = 0
         self._rest_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
         self._settled = -1  # the generation at the end of the last step() call
+        #: (generation, period) of the last :meth:`next_event` answer, kept while it holds.
+        self._next_event: tuple[int, float] = (-1, -math.inf)
         #: Actions due at a controller time (:meth:`at`); ``_scheduled`` is its heap.
         self.schedule = Schedule()
         self._scheduled = self.schedule.heap
@@ -282,6 +262,44 @@ class Emulator:
         if config_dir is not None:
             self._attach_store(Path(config_dir), load_config)
 
+    def _plug_io_and_tools(self, box_sn: str, device: ToolDevice | None, vacuum: bool) -> None:
+        """The IO, the tool RS-485 bus with ``device`` on it, and the end tools on the tool IO (the
+        vacuum gripper when ``vacuum``, the Lite 6 gripper on the arms wired for it)."""
+        box_number = int(box_sn[2:6]) if box_sn[2:6].isdigit() else 0
+        # Control boxes with SN >= 1300 have 16 digital IO, as the SDK expects.
+        self.io = IOModule(n_digital=16 if box_number >= 1300 else 8,
+                           tool_ti2=self.model.tool_io.ti2_address is not None)
+        self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9], device=device)
+        self.controller.add_component(self.io)
+        self.io.attach(self.controller)
+        self.controller.add_component(self.gripper)
+        self.controller.hooks.tool_error = self._tool_error
+        #: The vacuum gripper's pressure switch on TI0 (controller/devices/vacuum.py), when attached.
+        self.vacuum: VacuumGripper | None = None
+        if vacuum:
+            self.vacuum = VacuumGripper(self.io.tool)
+            self.controller.add_component(self.vacuum)
+        #: The Lite 6 gripper's jaws on TO0/TO1 (controller/devices/lite6_gripper.py), on the arms
+        #: wired for it.
+        self.lite6_gripper: Lite6Gripper | None = None
+        if self.model.tool_io.gripper is not None:
+            self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
+            self.controller.add_component(self.lite6_gripper)
+
+    def _plug_linear_track(self, linear_track: int | None) -> None:
+        """The linear track of ``linear_track`` mm on the control box RS-485, when given."""
+        #: The linear track on the control box RS-485 (controller/devices/linear_track.py), ``linear_track``
+        #: mm long, when attached.
+        self.linear_track: LinearTrack | None = None
+        if linear_track is not None:
+            if not self.firmware.version.at_least(TRACK_FIRMWARE):
+                raise ValueError(f"the linear track needs firmware {TRACK_FIRMWARE} or later, not "
+                                 f"{self.firmware}: choose a later --firmware")
+            self.linear_track = track = LinearTrack(linear_track)
+            self.controller.add_component(track)
+            self.gripper.box_devices = lambda: (
+                {TRACK_ID: track} if self.io.tool.baud_index[CONTROL_BOX_HOST] == TRACK_BAUD_INDEX else {})
+
     def _tool_error(self) -> int:
         """The end tool's error code (register 106): the xArm gripper's, which the box knows; a
         Robotiq or BIO gripper's faults are read by the SDK over register 124 only."""
@@ -290,8 +308,6 @@ class Emulator:
 
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
-        from .config import ConfigStore
-
         self._store = ConfigStore(directory, self.controller.robot_sn)
         ctl = self.controller
         ctl.hooks.on_save = self._save_config
@@ -330,16 +346,23 @@ class Emulator:
     def step(self, n: int = 1) -> None:
         """Run ``n`` control periods.
 
-        Periods in which nothing would change but the clock are jumped over (:meth:`_jump`) unless
-        :attr:`exact_steps` is set; the last period of every call, and the period in which anything
-        falls due, always runs in full, so everything anyone can observe comes out identical."""
+        Unless :attr:`exact_steps` is set: a call whose periods all come before :meth:`next_event`
+        runs only the clock (:meth:`_tick`); otherwise periods in which nothing would change but the
+        clock are jumped over (:meth:`_jump`), and the last period of the call and the period in
+        which anything falls due run in full. Everything anyone can observe, and the whole state
+        tree, comes out as if every period had run (``tests/test_clock_exact.py``,
+        ``tests/test_state_bytes.py``)."""
         ctl = self.controller
+        if n > 0 and not self.exact_steps and ctl.data.steps + n < self.next_event():
+            # Every period of the call comes before the next event: none would change anything but
+            # the clock (:meth:`next_event`), so only the clock runs, the last period too. This is
+            # what a report frame or a command costs an arm at rest.
+            self._tick(n)
+            self._settled = self.generation
+            return
         settled = self.generation == self._settled  # nothing changed the box since the last call
-        self.generation += 1
         step, at_rest, scheduled = ctl.step, ctl.at_rest, self._scheduled
         last = n - 1
-        quiet = True  # so far nothing has changed but the clock (revision)
-        steps0 = ctl.data.steps
         i = 0
         while i < n:
             if i < last and not self.exact_steps and at_rest(settled):
@@ -347,8 +370,6 @@ class Emulator:
                 if k:
                     i += k
                     continue
-            if quiet and (i < last or not self.quiet_periods(settled)):
-                quiet = False
             step()
             settled = True
             d = ctl.data
@@ -357,34 +378,50 @@ class Emulator:
             if scheduled and scheduled[0][0] <= d.time + 1e-9:
                 self._run_scheduled()
                 settled = False
-                quiet = False
             i += 1
         if n > 0:
             self._settled = self.generation
-        if quiet and ctl.data.steps // THERMAL_EVERY == steps0 // THERMAL_EVERY:  # no thermal step ran
-            self._quiet_calls += 1
 
-    @property
-    def revision(self) -> int:
-        """Like :attr:`generation`, but a :meth:`step` call in which nothing changed but the clock
-        (every period at rest, jumped over or run in full, no component, scheduled action or
-        thermal step due) is not a change: what a register or a report shows that does not carry
-        the time is the same at one revision. Every change from outside the protocol must go
-        through a command or :meth:`touch` to be seen."""
-        return self.generation - self._quiet_calls
+    # -- when the box next changes on its own --------------------------------------------------
+    def _tick(self, n: int) -> None:
+        """Run ``n`` control periods in which nothing changes but the clock: the time summed period
+        by period, as a step sums it."""
+        d = self.controller.data
+        t, dt = d.time, self.controller.period
+        for _ in range(n):
+            t += dt
+        d.time = t
+        d.steps += n
+        self.periods_jumped += n
 
-    def quiet_periods(self, settled: bool | None = None) -> float:
-        """How many control periods from now would, stepped in any calls, change nothing but the
-        clock (:attr:`revision` unchanged) unless something outside changes the box: 0 unless
-        :meth:`_quiet_now`; else up to the period before the next thermal step, component time
-        (:func:`~.base.idle_until`) or scheduled action. A lower bound (one period short of each
-        event's own period). ``settled``: as :meth:`Controller.at_rest` takes it (``None``: nothing
-        has changed the box since the last :meth:`step` call); :meth:`step` asks it of its last
-        period."""
+    def next_event(self) -> float:
+        """The first control period (numbered as ``controller.steps`` counts them) whose step may
+        change anything but the clock, unless something outside changes the box first
+        (:attr:`generation`): the next period while the arm moves, a dwell or a stop runs, a command
+        has just changed the box or the F/T sensor's readings follow the clock; else the period of
+        the next thermal step, component event (:func:`~.core.interface.idle_until`: a gripper or
+        the track moving, a delayed output, a timeout) or scheduled action, whichever comes first
+        (``math.inf``: none). A lower bound: every period before it, stepped in any calls, leaves
+        every register and every report without the clock as it was.
+
+        The one rule behind everything that is kept while the box is quiet (report frames without
+        the clock, pure reads' replies): keep it with :meth:`mark` and use it while
+        :meth:`unchanged` says so.
+
+        Kept while it holds (nothing outside changed the box and its period has not come): the
+        box is the same then but for the clock, so the answer is too."""
+        generation, event = self._next_event
+        if generation == self.generation and self.controller.data.steps < event:
+            return event
+        event = self._find_next_event()
+        self._next_event = (self.generation, event)
+        return event
+
+    def _find_next_event(self) -> float:
         ctl = self.controller
-        if not self._quiet_now(self.generation == self._settled if settled is None else settled):
-            return 0
         d = ctl.data
+        if not self._quiet_now(self.generation == self._settled):
+            return d.steps + 1
         dt = ctl.period
         count: float = THERMAL_EVERY - 1 - d.steps % THERMAL_EVERY  # the thermal step's period is not
         due = min((idle_until(c, ctl) for c in ctl.components), default=math.inf)
@@ -393,7 +430,17 @@ class Emulator:
         span = (due - d.time) / dt  # periods to the next event (inf: none; -inf: a busy component)
         if span < count + 2:
             count = math.floor(span) - 1 if span > 1.0 else 0
-        return max(0, count)
+        return d.steps + 1 + max(0, count)
+
+    def mark(self) -> tuple[int, float]:
+        """The moment now, for :meth:`unchanged`: (:attr:`generation`, :meth:`next_event`)."""
+        return self.generation, self.next_event()
+
+    def unchanged(self, mark: tuple[int, float]) -> bool:
+        """Whether everything a register or a report without the clock shows is still what it was at
+        ``mark`` (:meth:`mark`): nothing outside has changed the box and no period at or after the
+        mark's :meth:`next_event` has run."""
+        return mark[0] == self.generation and self.controller.data.steps < mark[1]
 
     def _quiet_now(self, settled: bool) -> bool:
         """The controller at rest (:meth:`Controller.at_rest`) with no command in its buffer (a
@@ -404,7 +451,7 @@ class Emulator:
 
     def _jump(self, most: int) -> int:
         """Jump over at most ``most`` control periods while the controller is at rest
-        (:meth:`Controller.at_rest`), each component idle (:func:`~.base.idle_until`) and no
+        (:meth:`Controller.at_rest`), each component idle (:func:`~.core.interface.idle_until`) and no
         scheduled action due; returns the number of periods jumped.
 
         Nothing changes in such a period but the clock and, every :data:`THERMAL_EVERY` periods, the
@@ -587,6 +634,42 @@ class Emulator:
             raise ValueError("checkpoint of an emulator with other components (grippers, linear track)")
         self._adopt(copy.deepcopy(cp.state, self._memo(cp.state)))
 
+    def _fixed(self) -> dict[str, object]:
+        """The fixed objects a state tree refers to (tasks in the command buffer call their methods),
+        by the names its bytes give them."""
+        return {"model": self.model, "controller": self.controller, "emulator": self, "io": self.io,
+                "gripper": self.gripper}
+
+    def _identity(self) -> dict[str, str]:
+        """What box a saved state belongs to: the arm, the firmware and the tool-bus gripper."""
+        return {"model": self.model.name, "firmware": str(self.firmware), "gripper": self.gripper_kind}
+
+    def checkpoint_bytes(self) -> bytes:
+        """The whole emulator state as bytes (:mod:`.core.state_bytes`), for a file or another process:
+        :meth:`restore_bytes` of an emulator built with the same options puts it back, the running
+        motion included (planned again from its inputs). Raises
+        :class:`~.core.state_bytes.StateBytesError` when the state holds a value that has no written
+        form (a lambda among the scheduled actions)."""
+        return state_bytes.encode(self.state, self._fixed(), self._identity())
+
+    def restore_bytes(self, data: bytes) -> None:
+        """Put back a state saved by :meth:`checkpoint_bytes`, as a whole. Raises
+        :class:`~.core.state_bytes.StateBytesError` (a ValueError) for bytes that are no saved state
+        or belong to another kind of box; the box is unchanged then."""
+        state, meta = state_bytes.decode(data, self._fixed())
+        if meta != self._identity():
+            mine = self._identity()
+            diff = ", ".join(f"{k} {meta.get(k)!r} (this box: {v!r})" for k, v in mine.items()
+                             if meta.get(k) != v)
+            raise state_bytes.StateBytesError(f"a saved state of another box: {diff}")
+        sensor = state.controller.ft_sensor if isinstance(state, EmulatorState) else None
+        if (not isinstance(state, EmulatorState) or state.layout() != self.state.layout()
+                or bool(getattr(sensor, "attached", False)) != self.has_ft_sensor):
+            raise state_bytes.StateBytesError("a saved state of an emulator with other components "
+                                              "(grippers, linear track, F/T sensor)")
+        self.generation += 1
+        self._adopt(state)
+
     # -- in-process API ------------------------------------------------------------------------
     @property
     def joints(self) -> np.ndarray:
@@ -665,7 +748,7 @@ class Emulator:
         """An external ``torque`` (N m) on ``joint`` (1-based), as a collision would apply.
 
         Detected (error C31, manual 3.2.1) when the joints are enabled and the torque reaches the
-        threshold of the collision sensitivity (register 37; ``safety.COLLISION_THRESHOLDS``);
+        threshold of the collision sensitivity (register 37; ``safety.collision_thresholds``);
         sensitivity 0 switches detection off. Returns whether it was detected.
         """
         self.generation += 1
@@ -676,7 +759,8 @@ class Emulator:
             raise ValueError(f"torque must be finite, got {torque!r}")
         if ctl.error_code or not all(ctl.enabled):
             return False
-        if not safety.collision_detected(ctl.settings.collision_sensitivity, torque):
+        if not safety.collision_detected(ctl.settings.collision_sensitivity, torque,
+                                         safety.collision_thresholds(ctl.model)):
             return False
         ctl.raise_error(C_COLLISION)
         return True
@@ -692,7 +776,7 @@ class Emulator:
             self.linear_track.clear_error()
         ft_sensor.state_of(ctl).error = 0
 
-    # -- the F/T sensor and the contact scene (controller/ft_sensor.py, controller/contact.py) ----
+    # -- the F/T sensor and the contact scene (devices/ft_sensor.py, scene/contact.py) ----
     def attach_ft_sensor(self, *, noise: bool = True) -> None:
         """Mount the six-axis F/T sensor between flange and tool (once)."""
         self.generation += 1
@@ -707,7 +791,8 @@ class Emulator:
 
     def apply_wrench(self, wrench: Any, frame: str = "tool", ramp_s: float = 0.0,
                      duration_s: float | None = None) -> None:
-        """An external wrench on the TCP (:func:`.ft_sensor.apply_wrench`); ValueError if not finite."""
+        """An external wrench on the TCP (:func:`.devices.ft_sensor.apply_wrench`); ValueError if not
+        finite."""
         self.generation += 1
         ft_sensor.apply_wrench(self.controller, wrench, frame, ramp_s, duration_s)
 

@@ -5,15 +5,15 @@ the real-time report of port 30000), read from the controller into the one repor
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from ..model import rotations as rot
 from ..protocol.reports import ReportSnapshot
-from .handlers.extras import extra_state
-from .reduced import reduced_of
+from .applications.reduced import reduced_of
+from .core.controller_protocol import Controller
+from .handlers.service import extra_state
 
 
-def firmware2_fields(ctl: Any, snap: ReportSnapshot) -> ReportSnapshot:
+def firmware2_fields(ctl: Controller, snap: ReportSnapshot) -> ReportSnapshot:
     """Fill ``snap``'s 2.x fields from controller ``ctl``; returns ``snap``.
 
     Bytes 284-287 carry the counter of registers 74/75 (``user_counter``), which both SDKs read there.

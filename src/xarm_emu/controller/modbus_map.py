@@ -11,8 +11,9 @@ and the Blockly / G-code trigger values live in the emulator's state
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..model import kinematics
@@ -21,8 +22,15 @@ from ..protocol import modbus
 from ..protocol import registers as regs
 from ..protocol.modbus import ILLEGAL_DATA_VALUE, ModbusError, Point
 from ..protocol.reports import ReportSnapshot, volts_to_counts
-from .io import ADDR_TOOL_AI, ADDR_TOOL_DI, ADDR_TOOL_DO, ADDR_TOOL_DO_READ, TOOL_AI_FULL_SCALE, TOOL_HOST
-from .reduced import reduced_of
+from .applications.reduced import reduced_of
+from .devices.io import (
+    ADDR_TOOL_AI,
+    ADDR_TOOL_DI,
+    ADDR_TOOL_DO,
+    ADDR_TOOL_DO_READ,
+    TOOL_AI_FULL_SCALE,
+    TOOL_HOST,
+)
 
 if TYPE_CHECKING:
     from .emulator import Emulator
@@ -44,7 +52,7 @@ class EmulatorDatastore:
 
     def __init__(self, emu: Emulator) -> None:
         self.emu = emu
-        self._snap: tuple[int, ReportSnapshot] | None = None
+        self._snap: tuple[tuple[int, int], ReportSnapshot] | None = None
 
     @property
     def triggered(self) -> list[tuple[str, str]]:
@@ -53,9 +61,10 @@ class EmulatorDatastore:
 
     # -- the emulator's public surface ------------------------------------------------------------
     def snapshot(self) -> ReportSnapshot:
-        gen = self.emu.generation
-        if self._snap is None or self._snap[0] != gen:
-            self._snap = (gen, self.emu.snapshot())
+        emu = self.emu
+        key = (emu.generation, emu.controller.data.steps)  # the snapshot carries the clock
+        if self._snap is None or self._snap[0] != key:
+            self._snap = (key, emu.snapshot())
         return self._snap[1]
 
     def _call(self, code: int, values: dict[str, Any]) -> bytes:
@@ -77,85 +86,11 @@ class EmulatorDatastore:
 
     # -- Datastore --------------------------------------------------------------------------------
     def read(self, point: Point) -> Sequence[float]:
-        name = point.name
-        if name.endswith("_absent") or name in ("tool_analog_outputs",
-                                                "cgpio_output_word_hi", "cgpio_input_word_hi"):
-            return [0.0] * point.count
-        if name == "user_coils":
-            return [float(v) for v in self.emu.modbus.user_coils]
-        if name == "user_registers":
-            return [float(v) for v in self.emu.modbus.user_registers]
-        if name == "blockly_trigger":
-            return [float(v) for v in self.emu.modbus.blockly_trigger]
-        if name == "gcode_trigger":
-            return [float(v) for v in self.emu.modbus.gcode_trigger]
-        if name in ("tgpio_outputs", "tgpio_output_word"):
-            word = self._tool_read(ADDR_TOOL_DO_READ)
-            return _bits(word, 2) if point.kind.bits else [float(word & 0xFF)]
-        if name in ("tgpio_inputs", "tgpio_input_word"):
-            word = self._tool_read(ADDR_TOOL_DI)
-            return _bits(word, 2) if point.kind.bits else [float(word & 0xFF)]
-        if name == "tool_analog_inputs":
-            return [self._tool_read(a) * (TOOL_AI_FULL_SCALE / 4095) for a in ADDR_TOOL_AI]
-        s = self.snapshot()
-        if name == "cgpio_outputs":
-            return _bits(s.cgpio_output_config, 16)
-        if name == "cgpio_output_word":
-            return [float(s.cgpio_output_config & 0xFFFF)]
-        if name == "cgpio_inputs":
-            return _bits(s.cgpio_input_config, 16)
-        if name == "cgpio_input_word":
-            return [float(s.cgpio_input_config & 0xFFFF)]
-        if name == "brakes":
-            return _bits(s.brake_bits, 7)
-        if name == "enabled":
-            return _bits(s.enable_bits, 7)
-        if name == "reduced_mode":
-            return [float(reduced_of(self.emu.controller).on)]
-        if name == "fence":
-            return [float(self.emu.controller.settings.boundary_on)]
-        if name == "paused":
-            return [float(s.state == STATE_SUSPEND)]
-        if name == "stopped":
-            return [float(s.state == STATE_STOP)]
-        if name == "mode_bits":
-            return [float(s.mode == n) for n in range(point.count)]
-        if name == "analog_outputs":
-            return [float(v) for v in s.analog_outputs]
-        if name == "analog_inputs":
-            return [float(v) for v in s.analog_inputs]
-        if name == "mode":
-            return [float(s.mode)]
-        if name == "state":
-            return [float(s.state)]
-        if name == "error":
-            return [float(s.error)]
-        if name == "warning":
-            return [float(s.warning)]
-        if name == "counter":
-            return [float((s.counter >> 16) & 0xFFFF), float(s.counter & 0xFFFF)]
-        if name == "pose":
-            p = list(s.pose)
-            aa = rpy_to_axis_angle(p[3], p[4], p[5])
-            return p[:3] + _deg(p[3:6]) + _deg([float(a) for a in aa])
-        if name == "payload_mass":
-            return [float(s.tcp_load[0])]
-        if name == "payload_center":
-            return [float(v) for v in s.tcp_load[1:4]]
-        if name == "tcp_offset":
-            return list(s.tcp_offset[:3]) + _deg(s.tcp_offset[3:6])
-        if name == "world_offset":
-            return list(s.world_offset[:3]) + _deg(s.world_offset[3:6])
-        if name == "joints":
-            return _deg(list(s.joints)[:7])
-        if name == "temperatures":
-            return [float(t) for t in list(s.temperatures)[:7]]
-        if name == "joint_speeds":
-            return _deg(list(s.joint_speeds)[:7])
-        if name == "tcp_speed":
-            m = self.emu.model
-            return [kinematics.tcp_speed(m, s.joints[:m.dof], s.joint_speeds[:m.dof], s.tcp_offset)]
-        raise ModbusError(modbus.DEVICE_FAILURE, f"no binding for {name}")
+        """The point's values, by its reader in :data:`READERS` (the map's table)."""
+        reader = READERS.get(point.name)
+        if reader is None:
+            raise ModbusError(modbus.DEVICE_FAILURE, f"no binding for {point.name}")
+        return reader(self, point)
 
     def write(self, point: Point, offset: int, values: Sequence[int]) -> None:
         name = point.name
@@ -201,6 +136,147 @@ class EmulatorDatastore:
         lo = ((mask & 0xFF) << 8) | (value & mask & 0xFF)
         hi = (((mask >> 8) & 0xFF) << 8) | ((value & mask) >> 8 & 0xFF)
         self._call(134, {"digital": lo, "digital_hi": hi})
+
+
+# -- readers: one per point of the map, each reading the emulator's public surface ----------------------
+
+Reader = Callable[[EmulatorDatastore, Point], Sequence[float]]
+
+
+def _absent(ds: EmulatorDatastore, point: Point) -> list[float]:
+    """Published but absent on this box: reads as zeros."""
+    return [0.0] * point.count
+
+
+def _user(ds: EmulatorDatastore, point: Point) -> list[float]:
+    """User storage and the trigger values, the emulator's own (a checkpoint holds them)."""
+    return [float(v) for v in getattr(ds.emu.modbus, point.name)]
+
+
+def _tool_word(ds: EmulatorDatastore, point: Point, *, addr: int) -> list[float]:
+    """Tool digital IO through register 128: two bits, or the low byte as a word."""
+    word = ds._tool_read(addr)
+    return _bits(word, 2) if point.kind.bits else [float(word & 0xFF)]
+
+
+def _tool_analog_inputs(ds: EmulatorDatastore, point: Point) -> list[float]:
+    return [ds._tool_read(a) * (TOOL_AI_FULL_SCALE / 4095) for a in ADDR_TOOL_AI]
+
+
+def _snap_bits(ds: EmulatorDatastore, point: Point, *, field: str, n: int) -> list[float]:
+    return _bits(getattr(ds.snapshot(), field), n)
+
+
+def _snap_word(ds: EmulatorDatastore, point: Point, *, field: str) -> list[float]:
+    return [float(getattr(ds.snapshot(), field) & 0xFFFF)]
+
+
+def _snap_value(ds: EmulatorDatastore, point: Point, *, field: str) -> list[float]:
+    return [float(getattr(ds.snapshot(), field))]
+
+
+def _snap_values(ds: EmulatorDatastore, point: Point, *, field: str) -> list[float]:
+    return [float(v) for v in list(getattr(ds.snapshot(), field))[:7]]
+
+
+def _snap_degrees(ds: EmulatorDatastore, point: Point, *, field: str) -> list[float]:
+    return _deg(list(getattr(ds.snapshot(), field))[:7])
+
+
+def _snap_offset(ds: EmulatorDatastore, point: Point, *, field: str) -> list[float]:
+    """A TCP or user offset: mm, then degrees."""
+    offset = getattr(ds.snapshot(), field)
+    return list(offset[:3]) + _deg(offset[3:6])
+
+
+def _reduced_mode(ds: EmulatorDatastore, point: Point) -> list[float]:
+    return [float(reduced_of(ds.emu.controller).on)]
+
+
+def _fence(ds: EmulatorDatastore, point: Point) -> list[float]:
+    return [float(ds.emu.controller.settings.boundary_on)]
+
+
+def _state_is(ds: EmulatorDatastore, point: Point, *, state: int) -> list[float]:
+    return [float(ds.snapshot().state == state)]
+
+
+def _mode_bits(ds: EmulatorDatastore, point: Point) -> list[float]:
+    mode = ds.snapshot().mode
+    return [float(mode == n) for n in range(point.count)]
+
+
+def _counter(ds: EmulatorDatastore, point: Point) -> list[float]:
+    counter = ds.snapshot().counter
+    return [float((counter >> 16) & 0xFFFF), float(counter & 0xFFFF)]
+
+
+def _pose(ds: EmulatorDatastore, point: Point) -> list[float]:
+    """The TCP pose: mm, RPY degrees, then the same orientation as an axis-angle vector in degrees."""
+    p = list(ds.snapshot().pose)
+    aa = rpy_to_axis_angle(p[3], p[4], p[5])
+    return p[:3] + _deg(p[3:6]) + _deg([float(a) for a in aa])
+
+
+def _payload_mass(ds: EmulatorDatastore, point: Point) -> list[float]:
+    return [float(ds.snapshot().tcp_load[0])]
+
+
+def _payload_center(ds: EmulatorDatastore, point: Point) -> list[float]:
+    return [float(v) for v in ds.snapshot().tcp_load[1:4]]
+
+
+def _tcp_speed(ds: EmulatorDatastore, point: Point) -> list[float]:
+    s, m = ds.snapshot(), ds.emu.model
+    return [kinematics.tcp_speed(m, s.joints[:m.dof], s.joint_speeds[:m.dof], s.tcp_offset)]
+
+
+#: How each point of the standard map reads (:data:`~xarm_emu.protocol.modbus.MODBUS_MAP`, by name);
+#: checked at import to cover every point.
+READERS: dict[str, Reader] = {
+    **{p.name: _absent for p in modbus.MODBUS_MAP if p.name.endswith("_absent")},
+    "tool_analog_outputs": _absent,
+    "cgpio_output_word_hi": _absent,
+    "cgpio_input_word_hi": _absent,
+    "user_coils": _user,
+    "user_registers": _user,
+    "blockly_trigger": _user,
+    "gcode_trigger": _user,
+    "tgpio_outputs": functools.partial(_tool_word, addr=ADDR_TOOL_DO_READ),
+    "tgpio_output_word": functools.partial(_tool_word, addr=ADDR_TOOL_DO_READ),
+    "tgpio_inputs": functools.partial(_tool_word, addr=ADDR_TOOL_DI),
+    "tgpio_input_word": functools.partial(_tool_word, addr=ADDR_TOOL_DI),
+    "tool_analog_inputs": _tool_analog_inputs,
+    "cgpio_outputs": functools.partial(_snap_bits, field="cgpio_output_config", n=16),
+    "cgpio_output_word": functools.partial(_snap_word, field="cgpio_output_config"),
+    "cgpio_inputs": functools.partial(_snap_bits, field="cgpio_input_config", n=16),
+    "cgpio_input_word": functools.partial(_snap_word, field="cgpio_input_config"),
+    "brakes": functools.partial(_snap_bits, field="brake_bits", n=7),
+    "enabled": functools.partial(_snap_bits, field="enable_bits", n=7),
+    "reduced_mode": _reduced_mode,
+    "fence": _fence,
+    "paused": functools.partial(_state_is, state=STATE_SUSPEND),
+    "stopped": functools.partial(_state_is, state=STATE_STOP),
+    "mode_bits": _mode_bits,
+    "analog_outputs": functools.partial(_snap_values, field="analog_outputs"),
+    "analog_inputs": functools.partial(_snap_values, field="analog_inputs"),
+    "mode": functools.partial(_snap_value, field="mode"),
+    "state": functools.partial(_snap_value, field="state"),
+    "error": functools.partial(_snap_value, field="error"),
+    "warning": functools.partial(_snap_value, field="warning"),
+    "counter": _counter,
+    "pose": _pose,
+    "payload_mass": _payload_mass,
+    "payload_center": _payload_center,
+    "tcp_offset": functools.partial(_snap_offset, field="tcp_offset"),
+    "world_offset": functools.partial(_snap_offset, field="world_offset"),
+    "joints": functools.partial(_snap_degrees, field="joints"),
+    "temperatures": functools.partial(_snap_values, field="temperatures"),
+    "joint_speeds": functools.partial(_snap_degrees, field="joint_speeds"),
+    "tcp_speed": _tcp_speed,
+}
+if _unread := {p.name for p in modbus.MODBUS_MAP} - READERS.keys():
+    raise ValueError(f"standard Modbus points without a reader: {sorted(_unread)}")
 
 
 def answer(emu: Emulator, tid: int, unit: int, pdu: bytes) -> bytes:

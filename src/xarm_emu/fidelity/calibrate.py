@@ -9,11 +9,13 @@ same path. Then, per joint, by linear least squares:
 - the torque offset, viscous and Coulomb friction: the recorded torques less the model's,
   ``offset + viscous * speed + coulomb * sign(speed)``; the friction terms only for a joint that moved
   both ways over enough samples (else they cannot be told from the offset and are left out);
-- the thermal constants are fitted only where the rich report's temperatures changed during the
-  recording; a session of minutes at room temperature leaves them as they are.
+- the thermal constants (time constant, idle rise, rise per A^2) where the rich report's temperatures
+  changed during the recording, by nonlinear least squares on the emulator's thermal model
+  (:mod:`.thermal_fit`); a session of minutes at room temperature leaves them as they are.
 
 Each value comes with its standard deviation, ``sqrt(s^2 (A^T A)^-1)`` of the fit, ``s^2`` the residual
-variance. Collision thresholds are not fitted: the SDK sets the collision sensitivity, a setting.
+variance. The collision thresholds (the external torque each collision sensitivity detects) are fitted
+where the recording holds a detected collision (:mod:`.collision_fit`), between bounds.
 """
 
 from __future__ import annotations
@@ -24,11 +26,21 @@ from pathlib import Path
 
 import numpy as np
 
+from ..controller.core import safety
+from ..controller.core.interface import PERIOD
+from ..controller.core.thermal import AMBIENT_C, thermal_params
+from ..controller.emulator import THERMAL_EVERY
 from ..model.calibration import Calibration
+from ..model.robots import get_model
+from . import collision_fit, thermal_fit
 from .compare import Comparison, compare
 
 #: Samples a joint needs in each direction of motion before friction is fitted for it.
 MIN_MOVING = 10
+#: Joints (rad, about half a degree) a recorded frame may be from the replayed one for its torques to
+#: be fitted: more than a real arm's tracking error, less than an arm that stopped on an error while
+#: the replay goes on shows within a few periods.
+SAME_PATH = 0.01
 #: Joint speed (rad/s) above which a sample counts as moving for the friction fit.
 MOVING = 1e-3
 
@@ -62,7 +74,13 @@ def fit(comparison: Comparison) -> Fit:
     rec, rep = comparison.recorded, comparison.replayed
     if len(rec) < 10:
         raise ValueError("the recording has too few real-time report frames to fit anything")
-    use = [i for i, s in enumerate(rep) if not np.isnan(s.torques[0])]  # compare.TORQUE_EVERY
+    # where the model's torques were taken (compare.TORQUE_EVERY) and the arm was where the replay is
+    # (after an error the box stops and the replay, which never sees it, goes on)
+    rows = [i for i, s in enumerate(rep) if not np.isnan(s.torques[0])
+            and float(np.abs(s.joints - rec[i].joints).max()) < SAME_PATH]
+    use = rows
+    if len(rows) < 3:
+        raise ValueError("the recorded arm never followed the replayed path: nothing to fit")
     tau = np.array([rec[i].torques for i in use])
     cur = np.array([rec[i].currents for i in use])
     model_tau = np.array([rep[i].torques for i in use])
@@ -95,17 +113,110 @@ def fit(comparison: Comparison) -> Fit:
             off[j], off_sd[j] = x[0], sd[0]
             notes.append(f"joint {j + 1}: friction not fitted (it did not move both ways over "
                          f"{MIN_MOVING} frames each)")
-    notes.append("thermal constants not fitted: fitting them needs temperatures that change over the "
-                 "recording (a long session from a cold start)")
     values: dict[str, tuple[float, ...]] = {"torque_constants": tuple(kt.tolist()),
                                             "torque_offsets": tuple(off.tolist())}
     unc = [("torque_constants", tuple(kt_sd.tolist())), ("torque_offsets", tuple(off_sd.tolist()))]
+    _thermal(comparison, values, unc, notes)
+    _collisions(comparison, rows, np.column_stack([off, visc, coul]), values, unc, notes)
     if friction_any:
         values["viscous_friction"] = tuple(max(0.0, x) for x in visc.tolist())
         values["coulomb_friction"] = tuple(max(0.0, x) for x in coul.tolist())
         unc += [("viscous_friction", tuple(visc_sd.tolist())), ("coulomb_friction", tuple(coul_sd.tolist()))]
     cal = Calibration(model=comparison.model, uncertainties=tuple(unc), **values)  # type: ignore[arg-type]
     return Fit(cal, notes, len(rec))
+
+
+def _collisions(comparison: Comparison, use: list[int], friction: np.ndarray,
+                values: dict[str, tuple[float, ...]], unc: list[tuple[str, tuple[float, ...]]],
+                notes: list[str]) -> None:
+    """Add the collision thresholds of the levels at which a collision was detected
+    (:mod:`.collision_fit`); the other levels keep the emulator's, with an infinite uncertainty."""
+    session = comparison.session
+    status = session.status if session is not None else []
+    if session is None or not any(f.error == collision_fit.C_COLLISION for f in status):
+        notes.append("collision thresholds not fitted: no collision (C31) was recorded")
+        return
+    rec, rep = comparison.recorded, comparison.replayed
+    t = np.array([s.t for s in rec])
+    tau = np.array([s.torques for s in rec])
+    speeds = np.array([s.speeds for s in rec])
+    # the model's torques between the frames they were taken at, plus the fitted offsets and friction
+    t_use = t[use]
+    model = np.column_stack([np.interp(t, t_use, [rep[i].torques[j] for i in use])
+                             for j in range(tau.shape[1])])
+    model += friction[:, 0] + friction[:, 1] * speeds + friction[:, 2] * np.sign(speeds)
+    residual = np.abs(tau - model).max(axis=1)
+    st = session.controller_times([f.t for f in status])
+    res = collision_fit.fit_thresholds(t, residual, st, np.array([f.error for f in status]),
+                                       np.array([f.sensitivity for f in status]),
+                                       np.array([s.state for s in rec]))
+    notes.extend(res.notes)
+    if not res.values:
+        notes.append("collision thresholds not fitted: no detection with frames before it at a known level")
+        return
+    defaults = safety.COLLISION_THRESHOLDS
+    vals = tuple(res.values.get(level, defaults[level]) for level in sorted(defaults))
+    sds = tuple(res.sd.get(level, math.inf) for level in sorted(defaults))
+    for level in sorted(defaults):
+        if level in res.bounds:
+            lo, hi = res.bounds[level]
+            notes.append(f"collision sensitivity {level}: threshold between {lo:.4g} and {hi:.4g} N.m")
+        else:
+            notes.append(f"collision sensitivity {level}: no detection recorded, the emulator's threshold "
+                         "is kept")
+    values["collision_thresholds"] = vals
+    unc.append(("collision_thresholds", sds))
+
+
+THERMAL_NAMES = ("thermal_time_constants", "thermal_idle_rise", "thermal_rise_per_amp2")
+
+
+def _thermal(comparison: Comparison, values: dict[str, tuple[float, ...]],
+             unc: list[tuple[str, tuple[float, ...]]], notes: list[str]) -> None:
+    """Add the thermal constants of the joints whose temperatures changed (:mod:`.thermal_fit`); a
+    joint not fitted keeps the emulator's values, written with an infinite uncertainty."""
+    session = comparison.session
+    rich = [f for f in session.status if f.temperatures is not None] if session is not None else []
+    if session is None or len(rich) < 8 or not comparison.recorded:
+        notes.append("thermal constants not fitted: the recording has no rich report (port 30002) "
+                     "with joint temperatures")
+        return
+    dt = THERMAL_EVERY * PERIOD
+    defaults = thermal_params(get_model(comparison.model))
+    dof = len(defaults)
+    obs_t = session.controller_times([f.t for f in rich])
+    temps = np.array([list(f.temperatures or ())[:dof] for f in rich], dtype=float)
+    cur_t = np.array([s.t for s in comparison.recorded])
+    cur = np.abs(np.array([s.currents for s in comparison.recorded]))
+    i2, idx, keep = thermal_fit.step_inputs(obs_t, cur_t, cur, dt)
+    idx, temps = idx[keep], temps[keep]
+    _, first = np.unique(idx, return_index=True)  # one observation per step: they repeat between steps
+    idx, temps = idx[first], temps[first]
+    fitted = [thermal_fit.fit_joint(idx, temps[:, j], i2[:, j], AMBIENT_C, dt, defaults[j].rise_per_amp2)
+              for j in range(dof)]
+    if not any(fitted):
+        notes.append(f"thermal constants not fitted: no joint's temperature changed by "
+                     f"{thermal_fit.MIN_CHANGE:g} C or more over the recording (a long session from a "
+                     "cold start shows them)")
+        return
+    inf = math.inf
+    tau = [f.time_constant if f else d.time_constant for f, d in zip(fitted, defaults, strict=True)]
+    idle = [f.idle_rise if f else d.idle_rise for f, d in zip(fitted, defaults, strict=True)]
+    rise = [f.rise_per_amp2 if f else d.rise_per_amp2 for f, d in zip(fitted, defaults, strict=True)]
+    sd = [f.sd if f else (inf, inf, inf) for f in fitted]
+    for j, f in enumerate(fitted):
+        if f is None:
+            notes.append(f"joint {j + 1}: thermal constants not fitted (its temperature changed by less "
+                         f"than {thermal_fit.MIN_CHANGE:g} C); the emulator's are kept")
+        elif not f.fitted_rise:
+            notes.append(f"joint {j + 1}: thermal rise per A^2 not fitted (its current hardly varied); "
+                         "the emulator's is kept")
+    values["thermal_time_constants"] = tuple(tau)
+    values["thermal_idle_rise"] = tuple(idle)
+    values["thermal_rise_per_amp2"] = tuple(max(0.0, r) for r in rise)
+    unc += [("thermal_time_constants", tuple(s[0] for s in sd)),
+            ("thermal_idle_rise", tuple(s[1] for s in sd)),
+            ("thermal_rise_per_amp2", tuple(inf if math.isnan(s[2]) else s[2] for s in sd))]
 
 
 def calibrate(path: Path) -> Fit:

@@ -1,4 +1,4 @@
-"""The fidelity commands of ``xarm-emu``: ``proxy``, ``compare`` and ``calibrate`` (registered by cli.py)."""
+"""The fidelity commands of ``xarm-emu``: ``proxy``, ``compare`` and ``calibrate`` (registered by cli/)."""
 
 from __future__ import annotations
 
@@ -103,7 +103,7 @@ def compare(
     import json
 
     from ..model.calibration import Calibration
-    from .compare import CompareError, html_report, load_tolerances
+    from .compare import CompareError, code_lines, html_report, load_tolerances
     from .compare import compare as run_compare
 
     cal: Calibration | None = None
@@ -132,8 +132,13 @@ def compare(
                       f"(xArm {result.model}, firmware {result.firmware}) in {result.replay_seconds:.2f} s",
                       soft_wrap=True)
         for key in ("reply_differences", "duration_s", "path_mm", "path_deg", "torque_rms", "torque_max",
-                    "current_rms", "current_max", "code_differences", "report_rate_rel"):
-            console.print(f"  {key:18} {t[key]:.6g}")
+                    "current_rms", "current_max", "code_differences", "code_timing_s", "report_rate_rel"):
+            if key in t:
+                console.print(f"  {key:18} {t[key]:.6g}")
+        for line in code_lines(result):
+            console.print(f"  {line}", soft_wrap=True)
+        for note in result.notes:
+            console.print(f"note: {note}", soft_wrap=True)
         console.print("within every tolerance" if not result.failures else
                       "outside the tolerances: " + "; ".join(result.failures), soft_wrap=True)
     if result.failures:

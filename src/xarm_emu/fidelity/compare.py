@@ -11,8 +11,11 @@ reply shows the state after the command, at the period it was answered in.
 Reported per command and in total: replies that differ (state byte or parameters); move durations
 (from the command to the first report at rest after it moved); the path deviation (the distance of each
 recorded TCP position from the replayed path, mm, and of the joints, degrees); joint torque and current
-differences (RMS and maximum); error and warning codes seen in one and not the other; report rates.
-The TCP offset, load and settings come from the recorded commands themselves, as they are replayed.
+differences (RMS and maximum); the error and warning codes of every normal and rich report frame and
+of every register 15 reply against the emulator's at the same controller time (:func:`_codes`);
+report rates. The TCP offset, load and settings come from the recorded commands themselves, as they
+are replayed. A recording without the real-time report is compared on what the command port shows
+(:data:`COMMAND_PORT_ONLY` says what that leaves out).
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ..controller.base import PERIOD
+from ..controller.core.interface import PERIOD
 from ..model.calibration import Calibration
 from ..model.robots import ROBOT_MODELS, RobotModel, with_calibration
 from ..protocol import registers as regs
@@ -34,7 +37,7 @@ from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..server import xrec
 from ..server.command_port import PURE_READS
-from ..tomlfile import read_toml
+from ..tomlfile import check_keys, load_toml
 
 #: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
 DEFAULT_TOLERANCES: dict[str, float] = {
@@ -46,10 +49,14 @@ DEFAULT_TOLERANCES: dict[str, float] = {
     "torque_max": 0.05,  # N.m
     "current_rms": 0.01,  # A
     "current_max": 0.02,  # A
-    "code_differences": 0,  # error or warning codes seen in one only
+    "code_differences": 0,  # error or warning codes seen in one only, register 15 replies that differ
+    "code_timing_s": 0.2 + 1e-9,  # when a code is first seen, recorded against replayed (one report period)
     "report_rate_rel": 0.2,  # relative difference of a report rate from the emulator's
 }
 
+
+#: get_err_warn_code (manual 2.1.3): its reply carries the error and the warning code.
+ERR_WARN_REGISTER = 15
 
 #: Joint torques and currents are compared on every this many real-time frames (25 Hz of the 250 Hz
 #: report): the dynamic model is the replay's costliest part, and torques change slowly against it.
@@ -90,6 +97,8 @@ class CommandResult:
     current_rms: float = 0.0
     current_max: float = 0.0
     samples: tuple[int, int] = (0, 0)  # sample index range [start, end)
+    #: A register 15 (get_err_warn_code) reply's codes: recorded error, warning, replayed error, warning.
+    reply_codes: tuple[int, int, int, int] | None = None
 
 
 @dataclass
@@ -101,15 +110,18 @@ class Comparison:
     commands: list[CommandResult] = field(default_factory=list)
     totals: dict[str, float] = field(default_factory=dict)
     per_joint: dict[str, list[float]] = field(default_factory=dict)
-    codes: dict[str, list[list[float]]] = field(default_factory=dict)
+    codes: dict[str, list[Any]] = field(default_factory=dict)  # see _codes
     rates: dict[str, list[float]] = field(default_factory=dict)  # port -> recorded, emulator's
     failures: list[str] = field(default_factory=list)
     recorded: list[Sample] = field(default_factory=list, repr=False)
     replayed: list[Sample] = field(default_factory=list, repr=False)
     replay_seconds: float = 0.0
+    session: Session | None = field(default=None, repr=False)
+    #: What this comparison could not measure and why (a recording without some report stream).
+    notes: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
-        return {"model": self.model, "firmware": self.firmware, "totals": self.totals,
+        return {"model": self.model, "firmware": self.firmware, "notes": self.notes, "totals": self.totals,
                 "per_joint": self.per_joint, "codes": self.codes, "rates": self.rates,
                 "failures": self.failures, "commands": [asdict(c) for c in self.commands]}
 
@@ -119,14 +131,16 @@ def load_tolerances(path: Path | None) -> dict[str, float]:
     tol = dict(DEFAULT_TOLERANCES)
     if path is None:
         return tol
-    data = read_toml(path, CompareError)
-    for k, v in data.items():
-        if k not in tol:
-            raise CompareError(f"{path}: unknown tolerance {k!r} (known: {', '.join(tol)})")
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
-            raise CompareError(f"{path}: {k} must be a number >= 0")
-        tol[k] = float(v)
-    return tol
+
+    def parse(data: dict[str, Any]) -> dict[str, float]:
+        check_keys(data, tol, error=CompareError)
+        for k, v in data.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+                raise CompareError(f"{k} must be a number >= 0")
+            tol[k] = float(v)
+        return tol
+
+    return load_toml(path, "tolerances file", parse, CompareError)
 
 
 def model_of(version: str) -> RobotModel:
@@ -141,6 +155,19 @@ def model_of(version: str) -> RobotModel:
     raise CompareError(f"no emulated arm has axis {axis} and type {rtype}")
 
 
+@dataclass(frozen=True)
+class StatusFrame:
+    """What a normal or rich report frame (ports 30001, 30002; manual 2.1.6) showed: the error and
+    warning codes (bytes 89, 90) and, in a rich frame, the joint temperatures (bytes 246-252)."""
+
+    t: float  # proxy time
+    port: int
+    error: int
+    warning: int
+    temperatures: tuple[int, ...] | None
+    sensitivity: int = 0  # collision sensitivity (register 37), byte 131
+
+
 @dataclass
 class Session:
     """A recording read for replay: the box, its requests and replies, its report frames."""
@@ -150,6 +177,24 @@ class Session:
     requests: list[tuple[xrec.Req, xrec.Rep | None]]
     realtime: list[tuple[float, float, reports.ReportSnapshot]]  # (proxy time, controller time, frame)
     frames: dict[int, list[float]]  # report port -> proxy times
+    status: list[StatusFrame] = field(default_factory=list)
+
+    def controller_times(self, proxy_times: np.ndarray | list[float]) -> np.ndarray:
+        """Controller times of moments on the proxy's clock: read from the real-time frames around
+        them (their timestamps are the box's clock), or, in a recording of the command port only, the
+        proxy's clock moved so that the first request falls one control period after the start."""
+        t = np.asarray(proxy_times, dtype=float)
+        if not self.realtime:
+            t0 = self.requests[0][0].t if self.requests else 0.0
+            return t - t0 + PERIOD
+        recv = np.array([r[0] for r in self.realtime])
+        ts = np.array([r[1] for r in self.realtime])
+        out = np.interp(t, recv, ts)
+        return np.where(t < recv[0], t - recv[0] + ts[0], np.where(t > recv[-1], t - recv[-1] + ts[-1], out))
+
+
+_STATUS_DECODERS = {reports.NORMAL_SIZE: reports.decode_normal, reports.RICH_SIZE: reports.decode_rich,
+                    reports.RICH2_SIZE: reports.decode_rich2}
 
 
 def read_session(path: Path) -> Session:
@@ -159,6 +204,7 @@ def read_session(path: Path) -> Session:
     waiting: dict[tuple[int, int], int] = {}
     realtime: list[tuple[float, float, reports.ReportSnapshot]] = []
     frames: dict[int, list[float]] = {}
+    status: list[StatusFrame] = []
     try:
         for rec in xrec.read(path):
             if isinstance(rec, xrec.Req) and rec.protocol != 1:
@@ -173,7 +219,16 @@ def read_session(path: Path) -> Session:
                     profile = xrec.firmware_of(version) or profile
             elif isinstance(rec, xrec.Rpt):
                 frames.setdefault(rec.port, []).append(rec.t)
-                if rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
+                decode = _STATUS_DECODERS.get(len(rec.frame))
+                if rec.port in (reports.NORMAL_PORT, reports.RICH_PORT) and decode is not None:
+                    try:
+                        st = decode(rec.frame)
+                    except reports.ReportError:
+                        continue
+                    temps = tuple(st.temperatures) if len(rec.frame) != reports.NORMAL_SIZE else None
+                    status.append(StatusFrame(rec.t, rec.port, st.error, st.warning, temps,
+                                              st.collision_sensitivity))
+                elif rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
                     snap = reports.decode_realtime(rec.frame)
                     ts = snap.timestamp_us / 1e6
                     if not realtime or ts > realtime[-1][1]:  # a frame sent again shows nothing new
@@ -183,10 +238,9 @@ def read_session(path: Path) -> Session:
     if not version:
         raise CompareError(f"{path} has no register 1 reply: the box's arm and firmware are unknown "
                            "(the SDK asks for it on connecting; record from the program's start)")
-    if not realtime:
-        raise CompareError(f"{path} has no real-time report frames (port 30000): open the real-time "
-                           "report through the proxy while recording (docs/real-arms.md)")
-    return Session(version, profile, requests, realtime, frames)
+    if not realtime and not requests:
+        raise CompareError(f"{path} has neither requests nor real-time report frames: nothing to compare")
+    return Session(version, profile, requests, realtime, frames, status)
 
 
 def _controller_times(session: Session) -> list[tuple[float, float, float]]:
@@ -200,7 +254,13 @@ def _controller_times(session: Session) -> list[tuple[float, float, float]]:
     earliest time: ``compare`` tries it again at each later period up to its upper bound, the time
     a round trip through a busy network or computer leaves open. Returns (time, upper bound, lower
     bound); a frame's timestamp may lead the box's clock by up to :data:`LEAD_PERIODS` periods, which
-    ``compare`` allows below the lower bound."""
+    ``compare`` allows below the lower bound.
+
+    Without real-time frames the bounds are the request's and the reply's arrival on the proxy's
+    clock, moved as :meth:`Session.controller_times` says, and a command's time is its request's on
+    the period grid."""
+    if not session.realtime:
+        return _proxy_times(session)
     recv = [r[0] for r in session.realtime]
     ts = [r[1] for r in session.realtime]
     bounds = []
@@ -223,6 +283,74 @@ def _controller_times(session: Session) -> list[tuple[float, float, float]]:
         else:
             t = min(max(lo, lo + round((req.t + offset - lo) / PERIOD) * PERIOD), hi)
         last = max(last, t)  # in the order the box received them
+        out.append((last, max(last, hi), lo))
+    return out
+
+
+#: What a recording without the real-time report (port 30000) cannot show, said with its comparison.
+COMMAND_PORT_ONLY = (
+    "no real-time report (port 30000) in the recording: the requests are placed on the controller's clock "
+    "by the proxy's (the first at the first control period), so a request's period is known only to "
+    "within its round trip and the clock's phase",
+    "path deviation is measured only at the program's own reads of the TCP pose (register 41) and the "
+    "joints (register 42), as the distance of each recorded answer from the replayed path over the "
+    "periods its round trip leaves open; such a read counts as a differing reply only beyond path_mm or "
+    "path_deg",
+    "not compared: move durations, joint torques and currents (they need the real-time report)",
+)
+#: Pure reads whose answers lie on the path: compared by distance without the real-time report.
+PATH_READS = {41: "pose", 42: "joints"}
+
+
+def _read_distance(c: CommandResult, rep: xrec.Rep, tries: list[bytes], cmd_only: bool,
+                   tol: dict[str, float]) -> None:
+    """For a pose or joint read still differing after its window (register 41 or 42): the distance
+    of the recorded answer from the polyline of the replayed answers (mm for the pose's position,
+    degrees for the joints). Without the real-time report, a read within the path tolerance is
+    equal: the clock's phase is unknown there (:data:`COMMAND_PORT_ONLY`)."""
+    key = PATH_READS.get(rep.register)
+    reg = regs.get(rep.register)
+    if key is None or reg is None or not c.reply_differs or not tries:
+        return
+    try:
+        got = np.array(reg.reply.decode(rep.frame[8:])[key], dtype=float)
+        path = np.array([reg.reply.decode(f[8:])[key] for f in tries], dtype=float)
+    except (ValueError, KeyError, TypeError):
+        return
+    if key == "pose":
+        d = float(np.linalg.norm(got[:3] - path[0, :3])) if len(path) == 1 else \
+            float(min(_point_seg(got[:3], path[n, :3], path[n + 1, :3]) for n in range(len(path) - 1)))
+        c.path_mm = d
+        within = d <= tol.get("path_mm", 0.0)
+    else:
+        q, qs = np.degrees(got), np.degrees(path)
+        d = float(np.linalg.norm(q - qs[0])) if len(qs) == 1 else \
+            float(min(_point_seg(q, qs[n], qs[n + 1]) for n in range(len(qs) - 1)))
+        c.path_deg = d
+        within = d <= tol.get("path_deg", 0.0)
+    if cmd_only and within:
+        c.reply_differs = False
+
+
+def _point_seg(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance of point ``p`` from the segment ``a``-``b``."""
+    ab = b - a
+    den = float(ab @ ab)
+    u = 0.0 if den == 0 else min(1.0, max(0.0, float((p - a) @ ab) / den))
+    return float(np.linalg.norm(p - (a + u * ab)))
+
+
+def _proxy_times(session: Session) -> list[tuple[float, float, float]]:
+    """:func:`_controller_times` of a recording of the command port only."""
+    out: list[tuple[float, float, float]] = []
+    last = 0.0
+    for req, rep in session.requests:
+        lo, hi = session.controller_times([req.t, rep.t if rep is not None else math.inf]).tolist()
+        if _pure_read(req):  # the period it arrived in
+            t, hi = math.floor(lo / PERIOD + 1e-9) * PERIOD, hi + LEAD_PERIODS * PERIOD
+        else:
+            t = max(PERIOD, round(lo / PERIOD) * PERIOD)
+        last = max(last, t)
         out.append((last, max(last, hi), lo))
     return out
 
@@ -289,8 +417,11 @@ def compare(path: Path, calibration: Calibration | None = None,
     model = with_calibration(base, calibration)
     dof = model.dof
     firmware = str(session.profile.version)
-    result = Comparison(base.key, firmware)
+    result = Comparison(base.key, firmware, session=session)
     spans = _controller_times(session)
+    cmd_only = not session.realtime
+    if cmd_only:
+        result.notes = list(COMMAND_PORT_ONLY)
     times = [t for t, _, _ in spans]
     rec_samples = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
     rep_samples: list[Sample] = []
@@ -300,33 +431,57 @@ def compare(path: Path, calibration: Calibration | None = None,
         emu = Emulator(model, config_dir=Path(cdir), firmware=firmware)
         server = EmulatorServer(emu, ServerConfig(stepped=True, port=0))
         cmd_at: list[tuple[float, int]] = []
-        pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float]] = []  # reads to try again
+        emu_codes: list[tuple[int, int]] = [(0, 0)] * len(session.status)
+        pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float, list[bytes]]] = []  # reads to try again
 
         def advance(to: float) -> None:
             while pending and to > emu.time + 1e-9:  # a period at a time while reads wait
+                before = emu.time
                 server.advance(min(PERIOD, to - emu.time))
                 retry()
+                if emu.time <= before:  # less than a period is left
+                    break
             if to > emu.time + 1e-9:
                 server.advance(to - emu.time)
             retry()
 
         def retry() -> None:
             for item in list(pending):
-                c, req, rep, hi = item
+                c, req, rep, hi, tries = item
                 if emu.time > hi + 1e-9:
                     pending.remove(item)
+                    _read_distance(c, rep, tries, cmd_only, tol)
                     continue
                 frame = server.answer(req.tid, req.protocol, req.register, req.params)
+                tries.append(bytes(frame))
                 if bytes(frame[6:]) == rep.frame[6:]:
                     c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
+                    if c.reply_codes is not None:
+                        c.reply_codes = (*c.reply_codes[:2], *c.reply_codes[:2])
                     pending.remove(item)
 
         j = 0
+        status = session.status
+        st_times = session.controller_times([f.t for f in status]).tolist() if status else []
+        st_order = sorted(range(len(status)), key=lambda n: st_times[n])
+        k = 0
 
         def sample_until(limit: float) -> None:
-            """Take the replayed state at every recorded frame before ``limit``."""
-            nonlocal j
-            while j < len(rec_samples) and rec_samples[j].t < limit - 1e-9:
+            """Take the replayed state at every recorded frame before ``limit``: the joints, torques
+            and currents at the real-time frames, the error and warning codes at the normal and rich
+            frames."""
+            nonlocal j, k
+            while True:
+                t_rt = rec_samples[j].t if j < len(rec_samples) else math.inf
+                t_st = st_times[st_order[k]] if k < len(st_order) else math.inf
+                if not min(t_rt, t_st) < limit - 1e-9:
+                    return
+                if t_st <= t_rt:  # the state of the last period begun by then (never one further)
+                    advance(math.floor(t_st / PERIOD + 1e-9) * PERIOD)
+                    ctl = emu.controller
+                    emu_codes[st_order[k]] = (ctl.error_code, ctl.warning_code)
+                    k += 1
+                    continue
                 st = rec_samples[j]
                 advance(st.t)
                 ctl = emu.controller
@@ -347,6 +502,8 @@ def compare(path: Path, calibration: Calibration | None = None,
             read = _pure_read(req)
             if read:
                 t = max(lower, emu.time)
+            elif _is_queued(req.register) and not rec_samples:  # no frames to place it by
+                t = max(t_est, lower)
             elif _is_queued(req.register):
                 t = _best_time(server, emu, session, [max(x, lower) for x in times], spans, rec_samples, i, j)
             else:  # the earliest its bounds allow, so that a queued command after it can be placed
@@ -356,36 +513,49 @@ def compare(path: Path, calibration: Calibration | None = None,
             advance(t)
             if not read and pending:  # a command may change what a read shows: look ahead first
                 cp = emu.checkpoint()
-                advance(max(hi_read for *_, hi_read in pending))
+                advance(max(item[3] for item in pending))
                 emu.restore(cp)
+                for c_read, _, rep_read, _, tries in pending:
+                    _read_distance(c_read, rep_read, tries, cmd_only, tol)
                 pending.clear()
             frame = server.answer(req.tid, req.protocol, req.register, req.params)
             c = CommandResult(i, t, req.register, req.name)
+            if req.register == ERR_WARN_REGISTER and rep is not None and min(len(rep.frame), len(frame)) > 9:
+                c.reply_codes = (rep.frame[8], rep.frame[9], frame[8], frame[9])
             if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
                 c.reply_differs = True
                 c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
                 if read:
-                    pending.append((c, req, rep, hi))
+                    pending.append((c, req, rep, hi, [bytes(frame)]))
             result.commands.append(c)
             cmd_at.append((t, j))
         sample_until(math.inf)
+        if pending:  # reads after the last frame (or in a recording without frames): their periods
+            advance(max(item[3] for item in pending) + PERIOD)
+            for c_read, _, rep_read, _, tries in pending:
+                _read_distance(c_read, rep_read, tries, cmd_only, tol)
+            pending.clear()
         result.replay_seconds = _time.perf_counter() - started
     result.recorded, result.replayed = rec_samples, rep_samples
-    _measure(result, cmd_at, tol, session)
+    _measure(result, cmd_at, tol, session, emu_codes)
     return result
 
 
 def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str, float],
-             session: Session) -> None:
+             session: Session, emu_codes: list[tuple[int, int]]) -> None:
     rec, rep = result.recorded, result.replayed
-    pos_r, pos_p = np.array([s.pos for s in rec]), np.array([s.pos for s in rep])
-    q_r = np.degrees(np.array([s.joints for s in rec]))
-    q_p = np.degrees(np.array([s.joints for s in rep]))
-    d_mm = _seg_dist(pos_r, pos_p)
-    d_deg = _seg_dist(q_r, q_p)
-    dtau = np.array([a.torques - b.torques for a, b in zip(rec, rep, strict=True)])
-    dcur = np.array([a.currents - b.currents for a, b in zip(rec, rep, strict=True)])
-    has = ~np.isnan(dtau[:, 0]) if len(rec) else np.zeros(0, dtype=bool)
+    if rec:
+        pos_r, pos_p = np.array([s.pos for s in rec]), np.array([s.pos for s in rep])
+        q_r = np.degrees(np.array([s.joints for s in rec]))
+        q_p = np.degrees(np.array([s.joints for s in rep]))
+        d_mm = _seg_dist(pos_r, pos_p)
+        d_deg = _seg_dist(q_r, q_p)
+        dtau = np.array([a.torques - b.torques for a, b in zip(rec, rep, strict=True)])
+        dcur = np.array([a.currents - b.currents for a, b in zip(rec, rep, strict=True)])
+        has = ~np.isnan(dtau[:, 0])
+    else:  # a recording of the command port only (COMMAND_PORT_ONLY)
+        d_mm, d_deg, dtau, dcur = np.zeros(0), np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1))
+        has = np.zeros(0, dtype=bool)
     dtau, dcur = np.where(np.isnan(dtau), 0.0, dtau), np.where(np.isnan(dcur), 0.0, dcur)
     rms = _rms_where
     bounds = [j for _, j in cmd_at] + [len(rec)]
@@ -411,7 +581,9 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     t["samples"] = len(rec)
     t["reply_differences"] = sum(c.reply_differs for c in result.commands)
     t["duration_s"] = max((d if math.isfinite(d) else math.inf for d in durations), default=0.0)
-    t["path_mm"], t["path_deg"] = float(d_mm.max(initial=0.0)), float(d_deg.max(initial=0.0))
+    reads = result.commands  # a read's own distance (a recording without the real-time report)
+    t["path_mm"] = max(float(d_mm.max(initial=0.0)), max((c.path_mm for c in reads), default=0.0))
+    t["path_deg"] = max(float(d_deg.max(initial=0.0)), max((c.path_deg for c in reads), default=0.0))
     t["torque_max"] = float(np.abs(dtau).max(initial=0.0))
     t["current_max"] = float(np.abs(dcur).max(initial=0.0))
     t["torque_rms"] = t["current_rms"] = 0.0
@@ -422,8 +594,7 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
         result.per_joint = {"torque_rms": jt.tolist(), "current_rms": jc.tolist(),
                             "torque_mean": dtau[has].mean(axis=0).tolist(),
                             "current_mean": dcur[has].mean(axis=0).tolist()}
-    _codes(result, session)
-    t["code_differences"] = float(sum(len(v) for v in result.codes.values()))
+    t["code_differences"], t["code_timing_s"] = _codes(result, session, emu_codes)
     nominal = reports.rates_for(session.profile)
     worst_rate = 0.0
     for port, stamps in sorted(session.frames.items()):
@@ -437,16 +608,78 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
             result.failures.append(f"{key} {t[key]:.6g} > {limit:.6g}")
 
 
-def _codes(result: Comparison, session: Session) -> None:
-    """Error and warning codes of the replies' state bits, per command: which side had them."""
-    only: list[list[float]] = []
+def _code_name(kind: int, code: int) -> str:
+    return f"{'EW'[kind]}{code}"
+
+
+def _codes(result: Comparison, session: Session, emu_codes: list[tuple[int, int]]) -> tuple[float, float]:
+    """The error and warning codes (manual 3.2) the box showed against the emulator's at the same
+    instants, into ``result.codes``; returns (differences, the largest difference in the time a code
+    was first seen, s).
+
+    - ``reports``: every normal and rich report frame (bytes 89 and 90, manual 2.1.6) whose codes
+      differ from the emulator's at its controller time, one row per run of frames alike:
+      ``{t, port, frames, recorded: [error, warning], emulator: [error, warning]}``;
+    - ``replies``: replies to register 15 (get_err_warn_code) that differ, with both codes;
+    - ``state_bits``: replies whose error or warning bits (state byte 0x40, 0x20) differ;
+    - ``first_seen``: each code either side showed, with the controller time it first showed it in
+      a report frame or a register 15 reply (``None``: never).
+
+    Differences: the codes seen on one side only, the register 15 replies and the state bits that
+    differ (a run of differing report frames is counted through its codes).
+    """
+    codes: dict[str, list[Any]] = {}
+    seen: dict[str, list[float | None]] = {}
+
+    def saw(name: str, side: int, t: float) -> None:
+        first = seen.setdefault(name, [None, None])
+        if first[side] is None or t < first[side]:  # type: ignore[operator]
+            first[side] = t
+
+    st_times = session.controller_times([f.t for f in session.status]).tolist() if session.status else []
+    runs: list[dict[str, Any]] = []
+    last: dict[int, tuple[int, int, int, int]] = {}
+    for f, t, emu in zip(session.status, st_times, emu_codes, strict=True):
+        rec = (f.error, f.warning)
+        for side, pair in ((0, rec), (1, emu)):
+            for kind, code in enumerate(pair):
+                if code:
+                    saw(_code_name(kind, code), side, t)
+        key = (*rec, *emu)
+        if rec != emu:
+            if last.get(f.port) == key:
+                runs[-1]["frames"] += 1
+            else:
+                runs.append({"t": t, "port": f.port, "frames": 1, "recorded": list(rec),
+                             "emulator": list(emu)})
+        last[f.port] = key
+    if runs:
+        codes["reports"] = runs
+    replies, bits = [], []
     for c in result.commands:
+        if c.reply_codes is not None:
+            for kind in (0, 1):
+                for side in (0, 1):
+                    if c.reply_codes[2 * side + kind]:
+                        saw(_code_name(kind, c.reply_codes[2 * side + kind]), side, c.t)
+            if c.reply_codes[:2] != c.reply_codes[2:]:
+                replies.append({"t": c.t, "request": c.index, "recorded": list(c.reply_codes[:2]),
+                                "emulator": list(c.reply_codes[2:])})
         if c.reply_differs and c.recorded_reply and c.replayed_reply:
             rs, ps = int(c.recorded_reply[2:4], 16), int(c.replayed_reply[2:4], 16)
             if (rs ^ ps) & 0x60:
-                only.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])
-    if only:
-        result.codes["state_bits"] = only
+                bits.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])
+    if replies:
+        codes["replies"] = replies
+    if bits:
+        codes["state_bits"] = bits
+    if seen:
+        codes["first_seen"] = [{"code": name, "recorded": r, "emulator": e}
+                               for name, (r, e) in sorted(seen.items())]
+    result.codes = codes
+    one_side = sum((r is None) != (e is None) for r, e in seen.values())
+    timing = max((abs(r - e) for r, e in seen.values() if r is not None and e is not None), default=0.0)
+    return float(one_side + len(replies) + len(bits)), float(timing)
 
 
 #: Periods by which a real-time frame's timestamp may lead the controller time of the commands
@@ -493,6 +726,20 @@ def _best_time(server: Any, emu: Any, session: Session, times: list[float],
     return cands[best] if math.isfinite(scores[best]) else times[i]
 
 
+def code_lines(result: Comparison) -> list[str]:
+    """One line per error or warning code either side showed: when, recorded against the emulator."""
+    out = []
+    for row in result.codes.get("first_seen", []):
+        r, e = row["recorded"], row["emulator"]
+        rec = "never" if r is None else f"{r:.3f} s"
+        emu = "never" if e is None else f"{e:.3f} s"
+        out.append(f"code {row['code']}: first seen recorded {rec}, emulator {emu}")
+    for row in result.codes.get("replies", []):
+        out.append(f"get_err_warn_code at {row['t']:.3f} s: recorded error {row['recorded'][0]} warning "
+                   f"{row['recorded'][1]}, emulator error {row['emulator'][0]} warning {row['emulator'][1]}")
+    return out
+
+
 def worst_commands(result: Comparison, n: int = 3) -> list[CommandResult]:
     """The ``n`` commands with the largest differences (torque, then path), for the plots."""
     with_samples = [c for c in result.commands if c.samples[1] > c.samples[0]]
@@ -518,6 +765,17 @@ def html_report(result: Comparison, path: Path) -> None:
              "<table border='1'><tr><th>measure</th><th>value</th></tr>"]
     parts += [f"<tr><td>{html.escape(k)}</td><td>{v:.6g}</td></tr>" for k, v in result.totals.items()]
     parts.append("</table>")
+    parts += [f"<p>note: {html.escape(n)}</p>" for n in result.notes]
+    runs = result.codes.get("reports", [])
+    if result.codes.get("first_seen") or runs:
+        parts.append("<h2>Error and warning codes</h2><ul>")
+        parts += [f"<li>{html.escape(line)}</li>" for line in code_lines(result)]
+        parts.append("</ul><table border='1'><tr><th>controller time (s)</th><th>report port</th>"
+                     "<th>frames</th><th>recorded error, warning</th><th>emulator error, warning</th></tr>")
+        parts += [f"<tr><td>{r['t']:.3f}</td><td>{r['port']}</td><td>{r['frames']}</td>"
+                  f"<td>{r['recorded'][0]}, {r['recorded'][1]}</td><td>{r['emulator'][0]}, "
+                  f"{r['emulator'][1]}</td></tr>" for r in runs]
+        parts.append("</table>")
     rec, rep = result.recorded, result.replayed
     for c in worst_commands(result):
         a, b = c.samples

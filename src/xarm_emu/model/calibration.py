@@ -10,7 +10,9 @@ overridden:
   the joint torques of the dynamic model, ``offset + viscous * qd + coulomb * sign(qd)`` (the emulator's
   defaults are zero: no friction);
 - ``thermal_time_constants`` (s), ``thermal_rise_per_amp2`` (C/A^2) and ``thermal_idle_rise`` (C): the
-  first-order thermal model of the joints (``controller.thermal``).
+  first-order thermal model of the joints (``controller.core.thermal``);
+- ``collision_thresholds`` (N.m): the external joint torque that collision sensitivity 1..5 (register
+  37) detects as a collision (error C31), five values, one per level (``controller.core.safety``).
 
 A field left ``None`` keeps the emulator's own value. A calibration is frozen and hashable; applying it
 (``robots.with_calibration``) gives a new ``RobotModel``, as models never change. ``uncertainties``
@@ -32,15 +34,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..tomlfile import read_toml
+from ..tomlfile import check_keys, load_toml
 
 #: Version of the calibration file format.
 FORMAT = 1
 
 #: The overridable constants, in file order.
 CONSTANTS = ("torque_constants", "torque_offsets", "viscous_friction", "coulomb_friction",
-             "thermal_time_constants", "thermal_rise_per_amp2", "thermal_idle_rise")
-_POSITIVE = frozenset({"torque_constants", "thermal_time_constants"})
+             "thermal_time_constants", "thermal_rise_per_amp2", "thermal_idle_rise", "collision_thresholds")
+_POSITIVE = frozenset({"torque_constants", "thermal_time_constants", "collision_thresholds"})
+#: Collision sensitivity levels 1..5 (register 37; level 0 switches detection off).
+COLLISION_LEVELS = 5
 
 
 class CalibrationError(ValueError):
@@ -61,6 +65,8 @@ class Calibration:
     thermal_time_constants: PerJoint = None
     thermal_rise_per_amp2: PerJoint = None
     thermal_idle_rise: PerJoint = None
+    #: One value per collision sensitivity level 1..5, not per joint.
+    collision_thresholds: PerJoint = None
     #: The model key the calibration was measured on ("" for any arm with as many joints).
     model: str = ""
     #: Standard deviations of the fitted values, as ``(name, values)`` pairs.
@@ -74,7 +80,11 @@ class Calibration:
         """``CalibrationError`` unless every set constant has ``dof`` finite values (positive where a
         constant divides or is a time)."""
         for name, vals in self.values().items():
-            if len(vals) != dof:
+            if name == "collision_thresholds":
+                if len(vals) != COLLISION_LEVELS:
+                    raise CalibrationError(f"{name} has {len(vals)} values, one per collision sensitivity "
+                                           f"level 1..{COLLISION_LEVELS} is needed")
+            elif len(vals) != dof:
                 raise CalibrationError(f"{name} has {len(vals)} values, the arm has {dof} joints")
             for v in vals:
                 bad = (name in _POSITIVE and v <= 0.0) or (v < 0.0 and "friction" in name)
@@ -99,10 +109,7 @@ def from_dict(data: dict[str, Any]) -> Calibration:
     fmt = data.get("format", FORMAT)
     if fmt != FORMAT:
         raise CalibrationError(f"calibration format {fmt!r} is not supported (this version reads {FORMAT})")
-    known = set(CONSTANTS) | {"format", "model", "uncertainty", "source"}
-    unknown = sorted(set(data) - known)
-    if unknown:
-        raise CalibrationError(f"unknown calibration key {unknown[0]!r} (known: {', '.join(CONSTANTS)})")
+    check_keys(data, ("format", "model", "source", "uncertainty", *CONSTANTS), error=CalibrationError)
     model = data.get("model", "")
     if not isinstance(model, str):
         raise CalibrationError("model must be a string such as \"6\" or \"lite6\"")
@@ -115,9 +122,9 @@ def from_dict(data: dict[str, Any]) -> Calibration:
 
 
 def load(path: Path | str) -> Calibration:
-    """Read a calibration file; ``CalibrationError`` with a one-line reason on any problem."""
-    data = read_toml(path, CalibrationError)
-    return from_dict(data)
+    """Read a calibration file; ``CalibrationError`` with a one-line reason naming the file on any
+    problem (the TOML files' one format, xarm_emu.tomlfile)."""
+    return load_toml(path, "calibration file", from_dict, CalibrationError)
 
 
 def _list(vals: tuple[float, ...]) -> str:
@@ -150,5 +157,5 @@ def save(calibration: Calibration, path: Path | str, comment: str = "") -> None:
         raise CalibrationError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
-__all__ = ["CONSTANTS", "FORMAT", "Calibration", "CalibrationError", "dumps", "from_dict", "load",
-           "save"]
+__all__ = ["COLLISION_LEVELS", "CONSTANTS", "FORMAT", "Calibration", "CalibrationError", "dumps", "from_dict",
+           "load", "save"]

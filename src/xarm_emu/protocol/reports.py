@@ -287,13 +287,18 @@ def encode_normal(s: ReportSnapshot) -> bytes:
     return bytes(buf)
 
 
-def encode_rich(s: ReportSnapshot) -> bytes:
-    """REPORT_TCP_RICH frame, 433 bytes (section 2.1.6, port 30002)."""
-    buf = bytearray(RICH_SIZE)
-    _pack_develop(buf, s, RICH_SIZE)
+def _rich_frame(s: ReportSnapshot, size: int) -> bytearray:
+    """A rich frame of ``size`` bytes with the manual's 433 packed (section 2.1.6)."""
+    buf = bytearray(size)
+    _pack_develop(buf, s, size)
     _pack_normal(buf, s)
     _pack_rich(buf, s)
-    return bytes(buf)
+    return buf
+
+
+def encode_rich(s: ReportSnapshot) -> bytes:
+    """REPORT_TCP_RICH frame, 433 bytes (section 2.1.6, port 30002)."""
+    return bytes(_rich_frame(s, RICH_SIZE))
 
 
 # --- decoding ------------------------------------------------------------------------------------
@@ -463,10 +468,7 @@ def encode_develop2(s: ReportSnapshot) -> bytes:
 
 def encode_rich2(s: ReportSnapshot) -> bytes:
     """Firmware 2.x rich frame (port 30002), 587 bytes: the manual's 433 then bytes 433..586."""
-    buf = bytearray(RICH2_SIZE)
-    _pack_develop(buf, s, RICH2_SIZE)
-    _pack_normal(buf, s)
-    _pack_rich(buf, s)
+    buf = _rich_frame(s, RICH2_SIZE)
     _pack_rich_tail(buf, s)
     return bytes(buf)
 
@@ -547,27 +549,33 @@ def decode_realtime(data: bytes) -> ReportSnapshot:
     return s
 
 
-def encoders_for(profile: FirmwareProfile) -> dict[int, Callable[[ReportSnapshot], bytes]]:
+Encoder = Callable[[ReportSnapshot], bytes]
+Decoder = Callable[[bytes], ReportSnapshot]
+#: The frames of a 2.x box by port (encoder, decoder); port 30000 where the profile has it.
+_FW2_CODECS: dict[int, tuple[Encoder, Decoder]] = {
+    DEVELOP_PORT: (encode_develop2, decode_develop2), NORMAL_PORT: (encode_normal, decode_normal),
+    RICH_PORT: (encode_rich2, decode_rich2)}
+
+
+def _codecs_for(profile: FirmwareProfile) -> dict[int, tuple[Encoder, Decoder]]:
+    """Report port -> (encoder, decoder) for a box of ``profile``'s firmware."""
+    if profile.version.major < 2:
+        return {port: (ENCODERS[port], DECODERS[port]) for port in ENCODERS}
+    out = dict(_FW2_CODECS)
+    if profile.realtime_report:
+        out[REALTIME_PORT] = (encode_realtime, decode_realtime)
+    return out
+
+
+def encoders_for(profile: FirmwareProfile) -> dict[int, Encoder]:
     """Report port -> encoder for a box of ``profile``'s firmware: the manual's frames for 1.x,
     the 135/145/587-byte frames plus port 30000 for 2.x."""
-    if profile.version.major < 2:
-        return dict(ENCODERS)
-    out: dict[int, Callable[[ReportSnapshot], bytes]] = {
-        DEVELOP_PORT: encode_develop2, NORMAL_PORT: encode_normal, RICH_PORT: encode_rich2}
-    if profile.realtime_report:
-        out[REALTIME_PORT] = encode_realtime
-    return out
+    return {port: enc for port, (enc, _) in _codecs_for(profile).items()}
 
 
-def decoders_for(profile: FirmwareProfile) -> dict[int, Callable[[bytes], ReportSnapshot]]:
+def decoders_for(profile: FirmwareProfile) -> dict[int, Decoder]:
     """Report port -> decoder matching :func:`encoders_for`."""
-    if profile.version.major < 2:
-        return dict(DECODERS)
-    out: dict[int, Callable[[bytes], ReportSnapshot]] = {
-        DEVELOP_PORT: decode_develop2, NORMAL_PORT: decode_normal, RICH_PORT: decode_rich2}
-    if profile.realtime_report:
-        out[REALTIME_PORT] = decode_realtime
-    return out
+    return {port: dec for port, (_, dec) in _codecs_for(profile).items()}
 
 
 def rates_for(profile: FirmwareProfile) -> dict[int, float]:

@@ -1,7 +1,8 @@
 """The emulator's network side (manual chapter 2): ``core`` (EmulatorServer, control loop),
 ``command_port`` (2.1.2) with ``fairness`` (back-pressure, round-robin, connection bounds),
 ``report_ports`` (2.1.6) with ``report_sender`` (one thread per process writing every frame on
-its deadline), ``admin`` (requests on an AdminTarget, the objects' commands in ``scene_admin``)
+its deadline), ``admin`` (requests on an AdminTarget, a table of commands with ``admin_args``, their
+argument schemas)
 over ``admin_port`` (socket),
 ``faults`` (schedules), ``thread`` (ServerThread), ``fleet``, ``workers`` (a fleet in supervised
 worker processes), ``trace``, ``disk`` (the worker that
@@ -12,6 +13,6 @@ Nothing here imports the viewer, the CLI or the client: the composers above (``x
 to a real box, and ``xrec`` its versioned recording format.
 """
 
-__all__ = ["admin", "admin_port", "app", "clock", "command_port", "core", "disk", "fairness",
+__all__ = ["admin", "admin_args", "admin_port", "app", "clock", "command_port", "core", "disk", "fairness",
            "faults", "fleet", "logs", "modbus_port", "proxy", "report_ports", "report_sender",
-           "scene_admin", "studio", "thread", "trace", "workers", "xrec"]
+           "studio", "thread", "trace", "workers", "xrec"]

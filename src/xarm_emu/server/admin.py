@@ -58,23 +58,30 @@ Checkpoints are an emulator feature (no real control box has them): they live in
 memory only, named, until the process ends. A refused request changes nothing.
 
 This module is request checking and preparation only: it works on any :class:`AdminTarget` (the
-running server satisfies it structurally), and the socket side is :mod:`.admin_port`.
+running server satisfies it structurally), and the socket side is :mod:`.admin_port`. Each command
+is one row of :data:`TABLE`: its declared arguments (:mod:`.admin_args`, checked in that order
+before anything changes) and a small function that turns them into the action.
 """
 
 from __future__ import annotations
 
+import functools
 import json
-import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, Protocol, cast
 
-from ..controller import contact
-from ..controller.base import CommandWarning
+from ..controller.core.interface import CommandWarning
+from ..controller.devices import ft_sensor as ft
+from ..controller.devices.linear_track import TRACK_ERRORS
 from ..controller.emulator import Emulator
-from ..controller.linear_track import TRACK_ERRORS
 from ..protocol import codes
-from ..protocol.admin import COMMANDS, INPUT_KINDS, MAX_SECONDS, WRENCH_FRAMES, checkpoint_name
-from . import scene_admin
+from ..protocol.admin import COMMANDS, INPUT_KINDS, WRENCH_FRAMES
+from . import admin_args as t
+from .admin_args import AdminError, Arg, parse_duration
+
+__all__ = ["SCHEDULABLE", "TABLE", "AdminError", "AdminTarget", "Command", "arguments", "execute",
+           "parse_duration", "prepare"]
 
 
 class Checkpointing(Protocol):
@@ -115,98 +122,46 @@ class AdminTarget(Protocol):
     def drop_clients(self) -> int: ...
 
 
-class AdminError(ValueError):
-    """A refused admin request (its message goes back to the client)."""
+#: What a checked request does when run: its message back. It does not refuse.
+Action = Callable[[], str]
+#: The checked arguments of a request, by name.
+Args = dict[str, Any]
 
 
-def _label(value: Any, prefix: str) -> codes.Code:
-    """Parse a code given as a label ('C31') or a bare number (31) for the table ``prefix``."""
-    if isinstance(value, bool) or not isinstance(value, (str, int)):
-        raise AdminError(f"code must be a label like {prefix}11, got {value!r}")
-    text = str(value).strip()
-    if text.isdigit():
-        text = prefix + text
-    try:
-        entry = codes.parse_label(text)
-    except ValueError as exc:
-        raise AdminError(str(exc)) from None
-    if entry.prefix != prefix:
-        raise AdminError(f"{entry.label} is not a {_KIND[prefix]} code ({prefix}<n>)")
-    return entry
+@dataclass(frozen=True)
+class Command:
+    """One admin command: what it needs of the server, its arguments, and its function."""
 
+    #: Carries the command out with its checked arguments; returns the message back, never refuses.
+    run: Callable[[AdminTarget, Args], str]
+    args: tuple[Arg, ...] = ()
+    #: Checked first: refuses (AdminError) when the server cannot carry the command out at all.
+    needs: Callable[[AdminTarget], None] | None = None
+    #: Checked after the arguments: what depends on several of them or on the server's state
+    #: (AdminError); it may add to the arguments what it found (a checkpoint's saved state).
+    check: Callable[[AdminTarget, Args], None] | None = None
+    #: A command whose arguments depend on one of them (set-input's kind): that argument's name
+    #: and the command for each of its values, ``None`` for every other value.
+    forms: tuple[str, dict[str | None, Command]] | None = None
 
-_KIND = {"C": "control box error", "W": "warning", "S": "servo error", "G": "gripper error"}
+    def prepare(self, server: AdminTarget, request: dict[str, Any]) -> Action:
+        """Check ``request`` against this command (AdminError) and return its action."""
+        if self.needs is not None:
+            self.needs(server)
+        values = t.checked(self.args, request, server.emulator)
+        if self.forms is not None:
+            key, forms = self.forms
+            return forms.get(values[key], forms[None]).prepare(server, request)
+        if self.check is not None:
+            self.check(server, values)
+        return functools.partial(self.run, server, values)
 
-
-def _gripper_code(value: Any, gripper: str) -> codes.Code:
-    """A code of the attached gripper's table (codes.GRIPPER_TABLES), as "G14", 14 or "0x0E"."""
-    if isinstance(value, bool) or not isinstance(value, (str, int)):
-        raise AdminError(f"code must be a gripper code like G11 or 11, got {value!r}")
-    text = str(value).strip().upper().removeprefix("G")
-    try:
-        number = int(text, 0)
-    except ValueError:
-        raise AdminError(f"not a gripper error code: {value!r} (examples: G11, 11, 0x0E)") from None
-    table = codes.GRIPPER_TABLES.get(gripper, codes.GRIPPER_ERRORS)
-    entry = table.get(number)
-    if entry is None:
-        raise AdminError(f"{number} is not an error code of the {gripper} gripper; known: "
-                         + ", ".join(str(c) for c in sorted(table)))
-    return entry
-
-
-def _seconds(value: Any) -> float:
-    if isinstance(value, str):
-        value = parse_duration(value)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise AdminError(f"seconds must be a number, got {value!r}")
-    if not 0.0 <= value <= MAX_SECONDS:
-        raise AdminError(f"seconds {value} out of range 0..{MAX_SECONDS:g}")
-    return float(value)
-
-
-def parse_duration(text: str) -> float:
-    """'2s', '50ms', '1.5' (seconds), '250us' -> seconds."""
-    t = text.strip().lower()
-    for suffix, scale in (("ms", 1e-3), ("us", 1e-6), ("s", 1.0), ("", 1.0)):
-        if suffix and not t.endswith(suffix):
-            continue
-        number = t[: len(t) - len(suffix)] if suffix else t
-        try:
-            value = float(number) * scale
-        except ValueError:
-            break
-        if not math.isfinite(value) or value < 0:
-            break
-        return value
-    raise AdminError(f"not a duration: {text!r} (examples: 2s, 50ms, 0.5)")
-
-
-def _int(value: Any, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        if isinstance(value, str) and value.strip().lstrip("-").isdigit():
-            return int(value)
-        raise AdminError(f"{name} must be an integer, got {value!r}")
-    return value
-
-
-def _joint(request: dict[str, Any], dof: int) -> int:
-    joint = _int(request.get("joint"), "joint")
-    if not 1 <= joint <= dof:
-        raise AdminError(f"joint {joint} out of range 1..{dof}")
-    return joint
-
-
-def _float(value: Any, name: str) -> float:
-    if isinstance(value, bool):
-        raise AdminError(f"{name} must be a number, got {value!r}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise AdminError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(x):
-        raise AdminError(f"{name} must be finite, got {value!r}")
-    return x
+    def names(self) -> tuple[str, ...]:
+        """Every argument it may take, its forms' too, in declared order."""
+        out = [a.name for a in self.args]
+        for form in (self.forms[1].values() if self.forms else ()):
+            out += [n for n in form.names() if n not in out]
+        return tuple(out)
 
 
 def execute(server: AdminTarget, request: dict[str, Any]) -> str:
@@ -217,190 +172,120 @@ def execute(server: AdminTarget, request: dict[str, Any]) -> str:
     return prepare(server, request)()
 
 
-#: Admin commands a fault schedule may hold (server/faults.py): the faults and inputs, not the
-#: queries, the lockstep clock or the checkpoints.
-SCHEDULABLE = frozenset(COMMANDS) - {"status", "step", "checkpoint-save", "checkpoint-restore",
-                                     "checkpoint-list", "scene-objects"}
-
-
-def prepare(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
+def prepare(server: AdminTarget, request: dict[str, Any]) -> Action:
     """Check one admin request now and return the action that carries it out (a message back).
 
     Raises AdminError for a bad request; the action it returns does not refuse.
     """
-    emu = server.emulator
     cmd = request.get("cmd")
-    if cmd == "estop":
-
-        def estop() -> str:
-            emu.inject_estop()
-            return "emergency stop: C1"
-
-        return estop
-    if cmd in ("error", "warning", "gripper-error"):
-        prefix = {"error": "C", "warning": "W", "gripper-error": "G"}[cmd]
-        entry = (_gripper_code(request.get("code"), emu.gripper_kind) if cmd == "gripper-error"
-                 else _label(request.get("code"), prefix))
-
-        def inject() -> str:
-            if cmd == "error":
-                emu.inject_error(entry.code)
-                return f"injected {entry.label} {entry.name}"
-            if cmd == "warning":
-                emu.inject_warning(entry.code)
-                return f"injected warning {entry.code} {entry.name}"
-            emu.inject_gripper_error(entry.code)
-            return f"injected gripper {entry.label} {entry.name}"
-
-        return inject
-    if cmd == "track-error":
-        code = _int(request.get("code"), "code")
-        if emu.linear_track is None:
-            raise AdminError("no linear track is attached (serve --linear-track)")
-        if code not in TRACK_ERRORS:
-            raise AdminError(f"linear track error {code}: one of {', '.join(map(str, TRACK_ERRORS))}")
-
-        def inject_track() -> str:
-            emu.inject_track_error(code)
-            return f"injected linear track error {code} {TRACK_ERRORS[code]}"
-
-        return inject_track
-    if cmd == "servo-error":
-        joint = _joint(request, emu.model.dof)
-        servo = _label(request.get("code"), "S")
-
-        def inject_servo() -> str:
-            emu.inject_servo_error(joint, servo.code)
-            return f"injected {servo.label} {servo.name} on joint {joint} (C{10 + joint})"
-
-        return inject_servo
-    if cmd == "end-module-lost":
-
-        def lose_end_module() -> str:
-            emu.inject_end_module_lost()
-            return "end module lost: C28"
-
-        return lose_end_module
-    if cmd == "collision":
-        joint = _joint(request, emu.model.dof)
-        torque = _float(request.get("torque"), "torque")
-
-        def push() -> str:
-            ctl = emu.controller
-            level = ctl.settings.collision_sensitivity
-            active, enabled = ctl.error_code, all(ctl.enabled)  # detection needs no error, enabled joints
-            if emu.inject_collision(joint, torque):
-                return f"collision of {torque:g} N m on joint {joint} detected at sensitivity {level}: C31"
-            why = (f"error {codes.describe_error(active)} is already active" if active else
-                   "the joints are not enabled" if not enabled else f"sensitivity {level}")
-            return f"collision of {torque:g} N m on joint {joint} not detected ({why})"
-
-        return push
-    if cmd == "report-pause":
-        pause = _seconds(request.get("seconds"))
-
-        def pause_reports() -> str:
-            server.pause_reports(pause)
-            return f"reports paused for {pause:g} s"
-
-        return pause_reports
-    if cmd == "reply-delay":
-        delay = _seconds(request.get("seconds"))
-
-        def set_delay() -> str:
-            server.set_reply_delay(delay)
-            return f"reply delay {delay * 1e3:g} ms" if delay else "reply delay off"
-
-        return set_delay
-    if cmd == "drop-clients":
-        return lambda: f"dropped {server.drop_clients()} client connections"
-    if cmd == "clear":
-
-        def clear() -> str:
-            emu.clear_faults()
-            server.clear_delays()
-            return "faults, reply delay and report pause cleared"
-
-        return clear
-    if cmd == "set-input":
-        return _set_input(server, request)
-    if cmd == "step":
-        if not server.stepped:
-            raise AdminError("step needs lockstep time: start the emulator with --stepped")
-        secs = _seconds(request.get("seconds"))
-
-        def advance() -> str:
-            n = server.advance(secs)
-            return f"advanced {n} control periods to t = {emu.time:.3f} s"
-
-        return advance
-    if cmd == "status":
-
-        def status() -> str:
-            ctl = emu.controller
-            out = {"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
-                   "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
-                   "reports_paused": server.reports_paused(), "gripper": emu.gripper_status()}
-            if emu.has_ft_sensor:
-                out["ft_sensor"] = _ft_status(emu)
-            health = getattr(server, "health", None)  # disk and trace state, where the server has it
-            if callable(health):
-                out.update(health())
-            return json.dumps(out)
-
-        return status
-    if cmd in ("checkpoint-save", "checkpoint-restore", "checkpoint-list"):
-        return _checkpoint(server, cmd, request)
-    if cmd in ("ft-error", "ft-noise", "payload", "scene"):
-        return _ft(server, cmd, request)
-    if cmd in scene_admin.COMMANDS:
-        try:
-            return scene_admin.prepare(emu, cmd, request)
-        except ValueError as exc:
-            raise AdminError(str(exc)) from None
-    raise AdminError(f"unknown command {cmd!r}; known: {', '.join(COMMANDS)}")
+    command = TABLE.get(cmd) if isinstance(cmd, str) else None
+    if command is None:
+        raise AdminError(f"unknown command {cmd!r}; known: {', '.join(COMMANDS)}")
+    return command.prepare(server, request)
 
 
-def _name(value: Any) -> str:
-    try:
-        return checkpoint_name(value)
-    except ValueError as exc:
-        raise AdminError(str(exc)) from None
+# -- faults ----------------------------------------------------------------------------------------
+
+def _estop(server: AdminTarget, a: Args) -> str:
+    server.emulator.inject_estop()
+    return "emergency stop: C1"
 
 
-def _checkpoint(server: AdminTarget, cmd: str, request: dict[str, Any]) -> Callable[[], str]:
-    """``checkpoint-save``/``-restore``/``-list``: the emulator's whole state kept under a name."""
-    kept = server.checkpoints
-    if cmd == "checkpoint-list":
-        return lambda: json.dumps(sorted(kept))
-    name = _name(request.get("name"))
+def _error(server: AdminTarget, a: Args) -> str:
+    entry: codes.Code = a["code"]
+    server.emulator.inject_error(entry.code)
+    return f"injected {entry.label} {entry.name}"
+
+
+def _warning(server: AdminTarget, a: Args) -> str:
+    entry: codes.Code = a["code"]
+    server.emulator.inject_warning(entry.code)
+    return f"injected warning {entry.code} {entry.name}"
+
+
+def _gripper_error(server: AdminTarget, a: Args) -> str:
+    entry: codes.Code = a["code"]
+    server.emulator.inject_gripper_error(entry.code)
+    return f"injected gripper {entry.label} {entry.name}"
+
+
+def _track_error(server: AdminTarget, a: Args) -> str:
+    server.emulator.inject_track_error(a["code"])
+    return f"injected linear track error {a['code']} {TRACK_ERRORS[a['code']]}"
+
+
+def _servo_error(server: AdminTarget, a: Args) -> str:
+    joint, servo = a["joint"], a["code"]
+    server.emulator.inject_servo_error(joint, servo.code)
+    return f"injected {servo.label} {servo.name} on joint {joint} (C{10 + joint})"
+
+
+def _end_module_lost(server: AdminTarget, a: Args) -> str:
+    server.emulator.inject_end_module_lost()
+    return "end module lost: C28"
+
+
+def _collision(server: AdminTarget, a: Args) -> str:
+    joint, torque, emu = a["joint"], a["torque"], server.emulator
+    ctl = emu.controller
+    level = ctl.settings.collision_sensitivity
+    active, enabled = ctl.error_code, all(ctl.enabled)  # detection needs no error, enabled joints
+    if emu.inject_collision(joint, torque):
+        return f"collision of {torque:g} N m on joint {joint} detected at sensitivity {level}: C31"
+    why = (f"error {codes.describe_error(active)} is already active" if active else
+           "the joints are not enabled" if not enabled else f"sensitivity {level}")
+    return f"collision of {torque:g} N m on joint {joint} not detected ({why})"
+
+
+# -- the server's knobs ----------------------------------------------------------------------------
+
+def _report_pause(server: AdminTarget, a: Args) -> str:
+    server.pause_reports(a["seconds"])
+    return f"reports paused for {a['seconds']:g} s"
+
+
+def _reply_delay(server: AdminTarget, a: Args) -> str:
+    delay = a["seconds"]
+    server.set_reply_delay(delay)
+    return f"reply delay {delay * 1e3:g} ms" if delay else "reply delay off"
+
+
+def _drop_clients(server: AdminTarget, a: Args) -> str:
+    return f"dropped {server.drop_clients()} client connections"
+
+
+def _clear(server: AdminTarget, a: Args) -> str:
+    server.emulator.clear_faults()
+    server.clear_delays()
+    return "faults, reply delay and report pause cleared"
+
+
+def _stepped(server: AdminTarget) -> None:
+    if not server.stepped:
+        raise AdminError("step needs lockstep time: start the emulator with --stepped")
+
+
+def _step(server: AdminTarget, a: Args) -> str:
+    n = server.advance(a["seconds"])
+    return f"advanced {n} control periods to t = {server.emulator.time:.3f} s"
+
+
+def _status(server: AdminTarget, a: Args) -> str:
     emu = server.emulator
-    if not (callable(getattr(emu, "checkpoint", None)) and callable(getattr(emu, "restore", None))):
-        raise AdminError("this emulator keeps no checkpoints")
-    keeper = cast(Checkpointing, emu)  # Emulator.checkpoint() and Emulator.restore()
-    if cmd == "checkpoint-save":
-
-        def save() -> str:
-            kept[name] = keeper.checkpoint()
-            return f"checkpoint {name!r} saved at t = {emu.time:.3f} s"
-
-        return save
-    if name not in kept:
-        known = ", ".join(repr(k) for k in sorted(kept)) or "none"
-        raise AdminError(f"no checkpoint {name!r}; saved: {known}")
-    saved = kept[name]
-
-    def restore() -> str:
-        keeper.restore(saved)
-        return f"checkpoint {name!r} restored: t = {emu.time:.3f} s"
-
-    return restore
+    ctl = emu.controller
+    out = {"time": ctl.time, "error": ctl.error_code, "warning": ctl.warning_code,
+           "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
+           "reports_paused": server.reports_paused(), "gripper": emu.gripper_status()}
+    if emu.has_ft_sensor:
+        out["ft_sensor"] = _ft_status(emu)
+    health = getattr(server, "health", None)  # disk and trace state, where the server has it
+    if callable(health):
+        out.update(health())
+    return json.dumps(out)
 
 
 def _ft_status(emu: Emulator) -> dict[str, Any]:
     """The F/T sensor in ``status``: switched on, its error, the compensated and raw readings."""
-    from ..controller import ft_sensor as ft
-
     ctl = emu.controller
     return {"enabled": ft.enabled(ctl), "error": ft.state_of(ctl).error,
             "reading": [round(float(x), 4) for x in ft.reading(ctl)],
@@ -408,91 +293,21 @@ def _ft_status(emu: Emulator) -> dict[str, Any]:
             "external": [round(float(x), 4) for x in ft.external_wrench(ctl)]}
 
 
-def _vector(value: Any, n: int, name: str) -> list[float]:
-    if not isinstance(value, (list, tuple)) or len(value) != n:
-        raise AdminError(f"{name} must be a list of {n} numbers, got {value!r}")
-    return [_float(x, name) for x in value]
+# -- inputs ----------------------------------------------------------------------------------------
 
-
-def _ft(server: AdminTarget, cmd: str, request: dict[str, Any]) -> Callable[[], str]:
-    """``ft-error``, ``ft-noise``, ``payload`` and ``scene``: the F/T sensor and what it touches."""
-    emu = server.emulator
-    if cmd == "ft-error":
-        if not emu.has_ft_sensor:
-            raise AdminError("no F/T sensor is attached: start the emulator with --ft-sensor")
-        code = _int(request.get("code"), "code")
-        if not 0 <= code <= 255 or code == 27:
-            raise AdminError(f"F/T sensor error code {code} out of range 0..255 (27 means no error)")
-
-        def ft_error() -> str:
-            emu.inject_ft_error(code)
-            return f"F/T sensor error {code}" if code else "F/T sensor error cleared"
-
-        return ft_error
-    if cmd == "ft-noise":
-        on = request.get("on")
-        if not isinstance(on, bool):
-            raise AdminError(f"on must be true or false, got {on!r}")
-
-        def noise() -> str:
-            emu.set_ft_noise(on)
-            return f"F/T noise and drift {'on' if on else 'off'}"
-
-        return noise
-    if cmd == "payload":
-        mass = _float(request.get("mass"), "mass")
-        com = _vector(request.get("com", [0.0, 0.0, 0.0]), 3, "com")
-        if mass < 0:
-            raise AdminError(f"mass must be >= 0 kg, got {mass:g}")
-
-        def payload() -> str:
-            emu.set_payload(mass, com)
-            return f"payload {mass:g} kg at ({com[0]:g}, {com[1]:g}, {com[2]:g}) mm"
-
-        return payload
-    try:
-        scene = contact.parse_scene(request.get("scene", {}))
-    except ValueError as exc:
-        raise AdminError(f"scene: {exc}") from None
-
-    def set_scene() -> str:
-        emu.set_scene(scene)
-        return f"contact scene of {len(scene.shapes)} shapes"
-
-    return set_scene
-
-
-def _set_wrench(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
+def _set_wrench(server: AdminTarget, a: Args) -> str:
     """``set-input`` kind ``ft``: the external wrench played on the TCP (replacing the last one)."""
-    wrench = _vector(request.get("wrench", request.get("value")), 6, "wrench")
-    frame = request.get("frame", "tool")
-    if frame not in WRENCH_FRAMES:
-        raise AdminError(f"frame must be one of {', '.join(WRENCH_FRAMES)}, got {frame!r}")
-    ramp = _seconds(request.get("ramp", 0.0))
-    hold = request.get("for")
-    duration = None if hold is None else _seconds(hold)
-    if duration == 0:
-        raise AdminError("for must be a time > 0 s (leave it out to hold the wrench)")
-    emu = server.emulator
-
-    def play() -> str:
-        emu.clear_wrench()
-        emu.apply_wrench(wrench, frame, ramp, duration)
-        text = " ".join(f"{x:g}" for x in wrench)
-        how = (f", ramp {ramp:g} s" if ramp else "") + (f", for {duration:g} s" if duration else "")
-        return f"external wrench ({text}) in the {frame} frame{how}"
-
-    return play
+    wrench, frame, ramp, duration = a["wrench"], a["frame"], a["ramp"], a["for"]
+    server.emulator.clear_wrench()
+    server.emulator.apply_wrench(wrench, frame, ramp, duration)
+    text = " ".join(f"{x:g}" for x in wrench)
+    how = (f", ramp {ramp:g} s" if ramp else "") + (f", for {duration:g} s" if duration else "")
+    return f"external wrench ({text}) in the {frame} frame{how}"
 
 
-def _set_input(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str]:
-    kind = request.get("kind")
-    if kind not in INPUT_KINDS:
-        raise AdminError(f"unknown input kind {kind!r}; known: {', '.join(INPUT_KINDS)}")
-    if kind == "ft":
-        return _set_wrench(server, request)
-    index = _int(request.get("index"), "index")
-    value = _float(request.get("value"), "value")
+def _input_in_range(server: AdminTarget, a: Args) -> None:
+    """A digital input is 0 or 1, an object's width >= 0, and the IO module takes the index."""
+    kind, index, value = a["kind"], a["index"], a["value"]
     if kind in ("cgpio", "tgpio", "vacuum-object") and value not in (0, 1):
         raise AdminError(f"digital input value must be 0 or 1, got {value!r}")
     if kind == "gripper-object" and value < 0:
@@ -502,11 +317,153 @@ def _set_input(server: AdminTarget, request: dict[str, Any]) -> Callable[[], str
     except (ValueError, CommandWarning) as exc:  # the IO module's own range checks
         raise AdminError(f"{kind} input {index}: {exc}") from None
 
-    def play() -> str:
-        server.emulator.set_input(kind, index, value)
-        if kind == "gripper-object":
-            return (f"gripper object {'removed' if value == 0 else f'{value:g} mm wide'}"
-                    f"{' around the fingers' if index == 1 else ''}")
-        return f"{kind} input {index} = {value:g}"
 
-    return play
+def _set_input(server: AdminTarget, a: Args) -> str:
+    """``set-input`` of a digital or analog input, or an object at the vacuum gripper or the fingers."""
+    kind, index, value = a["kind"], a["index"], a["value"]
+    server.emulator.set_input(kind, index, value)
+    if kind == "gripper-object":
+        return (f"gripper object {'removed' if value == 0 else f'{value:g} mm wide'}"
+                f"{' around the fingers' if index == 1 else ''}")
+    return f"{kind} input {index} = {value:g}"
+
+
+# -- the F/T sensor and what it touches ------------------------------------------------------------
+
+def _ft_error(server: AdminTarget, a: Args) -> str:
+    server.emulator.inject_ft_error(a["code"])
+    return f"F/T sensor error {a['code']}" if a["code"] else "F/T sensor error cleared"
+
+
+def _ft_noise(server: AdminTarget, a: Args) -> str:
+    server.emulator.set_ft_noise(a["on"])
+    return f"F/T noise and drift {'on' if a['on'] else 'off'}"
+
+
+def _mass_in_range(server: AdminTarget, a: Args) -> None:
+    if a["mass"] < 0:
+        raise AdminError(f"mass must be >= 0 kg, got {a['mass']:g}")
+
+
+def _payload(server: AdminTarget, a: Args) -> str:
+    mass, com = a["mass"], a["com"]
+    server.emulator.set_payload(mass, com)
+    return f"payload {mass:g} kg at ({com[0]:g}, {com[1]:g}, {com[2]:g}) mm"
+
+
+def _scene(server: AdminTarget, a: Args) -> str:
+    server.emulator.set_scene(a["scene"])
+    return f"contact scene of {len(a['scene'].shapes)} shapes"
+
+
+# -- the objects of the physics world (no real control box has these) -----------------------------
+
+def _physics(server: AdminTarget) -> None:
+    if server.emulator.physics is None:
+        raise AdminError("the scene has no objects (serve --scene with [[object]] tables)")
+
+
+def _scene_objects(server: AdminTarget, a: Args) -> str:
+    return json.dumps({"time": server.emulator.time, "objects": server.emulator.scene_objects()})
+
+
+def _scene_reset(server: AdminTarget, a: Args) -> str:
+    server.emulator.reset_objects()
+    return "every object back where the scene puts it"
+
+
+def _scene_place(server: AdminTarget, a: Args) -> str:
+    name, position, rpy = a["name"], a["position"], a["rpy"]
+    server.emulator.place_object(name, position, rpy)
+    return f"{name} at ({position[0]:g}, {position[1]:g}, {position[2]:g}) mm"
+
+
+# -- checkpoints (an emulator feature: they live in the server's memory until the process ends) --
+
+def _keeper(server: AdminTarget, a: Args) -> None:
+    """The emulator keeps checkpoints (Emulator.checkpoint() and Emulator.restore())."""
+    emu = server.emulator
+    if not (callable(getattr(emu, "checkpoint", None)) and callable(getattr(emu, "restore", None))):
+        raise AdminError("this emulator keeps no checkpoints")
+
+
+def _saved(server: AdminTarget, a: Args) -> None:
+    """The emulator keeps checkpoints and one is saved under the name: taken now."""
+    _keeper(server, a)
+    if a["name"] not in server.checkpoints:
+        known = ", ".join(repr(k) for k in sorted(server.checkpoints)) or "none"
+        raise AdminError(f"no checkpoint {a['name']!r}; saved: {known}")
+    a["saved"] = server.checkpoints[a["name"]]
+
+
+def _checkpoint_list(server: AdminTarget, a: Args) -> str:
+    return json.dumps(sorted(server.checkpoints))
+
+
+def _checkpoint_save(server: AdminTarget, a: Args) -> str:
+    server.checkpoints[a["name"]] = cast(Checkpointing, server.emulator).checkpoint()
+    return f"checkpoint {a['name']!r} saved at t = {server.emulator.time:.3f} s"
+
+
+def _checkpoint_restore(server: AdminTarget, a: Args) -> str:
+    cast(Checkpointing, server.emulator).restore(a["saved"])
+    return f"checkpoint {a['name']!r} restored: t = {server.emulator.time:.3f} s"
+
+
+# -- the table -------------------------------------------------------------------------------------
+
+_JOINT = Arg("joint", t.joint)
+_SECONDS = Arg("seconds", t.seconds)
+_KIND = Arg("kind", t.choice(INPUT_KINDS, "unknown input kind {value}; known: {known}"))
+_CHECKPOINT = Arg("name", t.checkpoint)
+
+#: Every admin command (protocol.admin.COMMANDS): its function, its arguments and what it needs.
+TABLE: dict[str, Command] = {
+    "estop": Command(_estop),
+    "error": Command(_error, (Arg("code", t.label("C")),)),
+    "warning": Command(_warning, (Arg("code", t.label("W")),)),
+    "servo-error": Command(_servo_error, (_JOINT, Arg("code", t.label("S")))),
+    "gripper-error": Command(_gripper_error, (Arg("code", t.gripper_code),)),
+    "track-error": Command(_track_error, (Arg("code", t.track_code),)),
+    "end-module-lost": Command(_end_module_lost),
+    "collision": Command(_collision, (_JOINT, Arg("torque", t.number("torque")))),
+    "report-pause": Command(_report_pause, (_SECONDS,)),
+    "reply-delay": Command(_reply_delay, (_SECONDS,)),
+    "drop-clients": Command(_drop_clients),
+    "clear": Command(_clear),
+    "set-input": Command(_set_input, (_KIND,), forms=("kind", {
+        "ft": Command(_set_wrench, (
+            Arg("wrench", t.vector(6, "wrench"), alias="value"),
+            Arg("frame", t.choice(WRENCH_FRAMES, "frame must be one of {known}, got {value}"), "tool"),
+            Arg("ramp", t.seconds, 0.0), Arg("for", t.hold))),
+        None: Command(_set_input, (_KIND, Arg("index", t.integer("index")), Arg("value", t.number("value"))),
+                      check=_input_in_range),
+    })),
+    "status": Command(_status),
+    "step": Command(_step, (_SECONDS,), needs=_stepped),
+    "ft-error": Command(_ft_error, (Arg("code", t.ft_code),)),
+    "ft-noise": Command(_ft_noise, (Arg("on", t.flag("on")),)),
+    "payload": Command(_payload, (Arg("mass", t.number("mass")),
+                                  Arg("com", t.vector(3, "com"), [0.0, 0.0, 0.0])), check=_mass_in_range),
+    "scene": Command(_scene, (Arg("scene", t.scene, {}),)),
+    "checkpoint-save": Command(_checkpoint_save, (_CHECKPOINT,), check=_keeper),
+    "checkpoint-restore": Command(_checkpoint_restore, (_CHECKPOINT,), check=_saved),
+    "checkpoint-list": Command(_checkpoint_list),
+    "scene-objects": Command(_scene_objects, needs=_physics),
+    "scene-place": Command(_scene_place, (
+        Arg("name", t.scene_object), Arg("position", t.place("position")),
+        Arg("rpy", t.place("rpy"), [0.0, 0.0, 0.0])), needs=_physics),
+    "scene-reset": Command(_scene_reset, needs=_physics),
+}
+if tuple(TABLE) != COMMANDS:
+    raise RuntimeError("the admin table and protocol.admin.COMMANDS list different commands")
+
+#: Admin commands a fault schedule may hold (server/faults.py): the faults and inputs, not the
+#: queries, the lockstep clock or the checkpoints.
+SCHEDULABLE = frozenset(COMMANDS) - {"status", "step", "checkpoint-save", "checkpoint-restore",
+                                     "checkpoint-list", "scene-objects"}
+
+
+def arguments(cmd: str) -> tuple[str, ...]:
+    """The names of the arguments ``cmd`` takes (a fault schedule refuses any other key)."""
+    return TABLE[cmd].names()

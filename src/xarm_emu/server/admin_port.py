@@ -3,7 +3,7 @@
 Framing is :class:`~xarm_emu.protocol.admin.LineDecoder` (sans-IO); the requests are checked and
 carried out by :func:`.admin.execute`. Loopback peers only (:func:`~xarm_emu.protocol.admin.is_loopback`),
 and every request carries the admin token (``"token"``, the file of
-:func:`~xarm_emu.controller.config.admin_token_path`, owner-only), so another local user cannot inject
+:func:`~xarm_emu.protocol.admin_token.admin_token_path`, owner-only), so another local user cannot inject
 faults.
 """
 
@@ -15,8 +15,8 @@ import hmac
 import logging
 from typing import Any, Protocol
 
-from ..controller.config import admin_token_path
 from ..protocol.admin import LineDecoder, LineTooLong, encode_answer, is_loopback, ok, refused
+from ..protocol.admin_token import admin_token_path
 from .admin import AdminError, AdminTarget, execute
 
 log = logging.getLogger("xarm_emu.admin")

@@ -80,18 +80,18 @@ def _host_of(peer: str) -> str:
 
 
 class ReadCache:
-    """Reply frames of :data:`PURE_READS`, reused while the emulator's revision stays the same (none
-    of them shows the clock)."""
+    """Reply frames of :data:`PURE_READS`, reused while the emulator is unchanged since the reply
+    was made (``Emulator.mark``, ``Emulator.unchanged``; none of them shows the clock)."""
 
     def __init__(self) -> None:
-        #: register -> (emulator revision, length field, reply after the header)
-        self._entries: dict[int, tuple[int, int, bytes]] = {}
+        #: register -> (the emulator's mark, length field, reply after the header)
+        self._entries: dict[int, tuple[tuple[int, float], int, bytes]] = {}
 
     def hit(self, emu: Emulator, tid: int, protocol: int, register: int) -> bytes | None:
-        """The reply frame to a parameterless pure read if one was made at the emulator's present
-        revision, else ``None``."""
+        """The reply frame to a parameterless pure read if one was made since which the emulator is
+        unchanged, else ``None``."""
         hit = self._entries.get(register)
-        if hit is None or hit[0] != emu.revision:
+        if hit is None or not emu.unchanged(hit[0]):
             return None
         return HEADER.pack(tid & 0xFFFF, protocol, hit[1]) + hit[2]
 
@@ -102,7 +102,7 @@ class ReadCache:
             return frame
         state, values = emu.handle(register, b"")
         made = encode_reply(0, 0, register, state, values)
-        entry = self._entries[register] = (emu.revision, HEADER.unpack_from(made)[2], made[HEADER_SIZE:])
+        entry = self._entries[register] = (emu.mark(), HEADER.unpack_from(made)[2], made[HEADER_SIZE:])
         return HEADER.pack(tid & 0xFFFF, protocol, entry[1]) + entry[2]
 
 

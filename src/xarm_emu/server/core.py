@@ -3,7 +3,7 @@
 - Command port (502), :mod:`.command_port`: frames of manual section 2.1.2.
 - Report ports (30001-30003, and 30000 for firmware >= 2.1.0), :mod:`.report_ports`: section 2.1.6.
 - Feedback frames (firmware >= 2.0.102): the controller's feedback events
-  (:mod:`xarm_emu.controller.feedback`), drained after every command and every catch-up and written
+  (:mod:`xarm_emu.controller.core.feedback`), drained after every command and every catch-up and written
   to the command connection each belongs to (:meth:`EmulatorServer.deliver_feedback`).
 - The admin channel (fault injection, :mod:`.admin` over :mod:`.admin_port`) listens on loopback
   only, and only when ``ServerConfig.admin`` is set.
@@ -31,11 +31,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from ..controller import identification, modbus_map
-from ..controller.base import PERIOD, WARN_PARAMETER
-from ..controller.config import ConfigStore, load_or_create_admin_token
+from ..controller import modbus_map
+from ..controller.applications import identification
+from ..controller.core.config import ConfigStore, load_or_create_admin_token
+from ..controller.core.feedback import FeedbackQueue, feedback_queue
+from ..controller.core.interface import PERIOD, WARN_PARAMETER
 from ..controller.emulator import Emulator
-from ..controller.feedback import FeedbackQueue, feedback_queue
 from ..protocol import reports
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.frame import COMMAND_PORT, encode_reply
@@ -81,7 +82,7 @@ class ServerConfig:
     #: Rotate the trace to ``<file>.1`` when it reaches this many bytes (0: never).
     trace_max_bytes: int = 0
     #: The admin channel's token; ``None``: the per-user token file's (created when missing,
-    #: controller/config.py ``load_or_create_admin_token``).
+    #: controller/core/config.py ``load_or_create_admin_token``).
     admin_token: str | None = None
     #: Faults and inputs at given controller times, from this TOML file (server/faults.py); read by
     #: the code that composes the server (faults.schedule_file), not by the server.
@@ -252,7 +253,8 @@ class EmulatorServer:
         #: loop for commands, admin requests and its catch-ups; the report sender for each frame).
         self.lock = threading.RLock()
         self.reports = ReportStreams(lambda: emulator.snapshot(), self.reports_paused, rates, profile,
-                                     lambda: emulator.revision, instant=self.report_instant, lock=self.lock)
+                                     (emulator.mark, emulator.unchanged), instant=self.report_instant,
+                                     lock=self.lock)
         #: The controller's feedback events (firmware >= 2.0.102), else ``None``.
         self.feedback: FeedbackQueue | None = (feedback_queue(emulator.controller) if profile.feedback
                                                else None)
@@ -363,7 +365,8 @@ class EmulatorServer:
 
     def answer_later(self, tid: int, protocol: int, register: int) -> asyncio.Future[bytes] | None:
         """The reply to register 204 once the load identification it started is over (its result,
-        controller/identification.py); ``None`` when it is over already (the reply made stands)."""
+        controller/applications/identification.py); ``None`` when it is over already (the reply made
+        stands)."""
         ctl = self.emulator.controller
         if register != identification.REGISTER or identification.finished(ctl):
             return None

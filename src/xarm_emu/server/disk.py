@@ -15,7 +15,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from ..controller.config import describe_os_error
+from ..controller.core.config import describe_os_error
 
 __all__ = ["DiskBusy", "DiskWorker", "describe_os_error"]
 

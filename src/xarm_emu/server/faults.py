@@ -46,7 +46,8 @@ So a schedule written for a program lands on the program's moves at any ``--spee
 Each entry runs right after the first control period ending at or after ``at`` (Emulator.at) and
 acts exactly as the same admin request would. Keys other than ``at``, ``after``, ``do`` and the
 admin command's own arguments are refused. Every entry is checked when the emulator starts; a
-bad one stops the start with one message naming it. The code that composes a server (``xarm-emu
+bad one stops the start with one message naming the file and the entry (the TOML files' one
+format, :mod:`xarm_emu.tomlfile`). The code that composes a server (``xarm-emu
 serve``, :class:`~xarm_emu.server.thread.ServerThread`, :func:`~xarm_emu.testing.running_emulator`)
 calls :func:`schedule_file`; the server itself never reads the file.
 """
@@ -56,11 +57,11 @@ from __future__ import annotations
 import functools
 import logging
 import math
-import tomllib
 from pathlib import Path
 from typing import Any
 
-from .admin import SCHEDULABLE, AdminError, AdminTarget, prepare
+from ..tomlfile import check_keys, load_toml
+from .admin import SCHEDULABLE, AdminError, AdminTarget, arguments, prepare
 
 log = logging.getLogger("xarm_emu.faults")
 
@@ -76,18 +77,17 @@ class FaultScheduleError(ValueError):
 
 
 def read_schedule(path: Path) -> list[dict[str, Any]]:
-    """The ``[[fault]]`` entries of a schedule file, with ``at`` and ``do`` checked."""
-    try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise FaultScheduleError(f"cannot read the fault schedule {path}: {exc.strerror or exc}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise FaultScheduleError(f"{path} is not valid TOML: {exc}") from None
-    extra = sorted(set(data) - {"fault"})
+    """The ``[[fault]]`` entries of a schedule file, with ``at`` and ``do`` checked; a refusal names
+    the file (the TOML files' one format, xarm_emu.tomlfile)."""
+    return load_toml(path, "fault schedule", parse_schedule, FaultScheduleError)
+
+
+def parse_schedule(data: dict[str, Any]) -> list[dict[str, Any]]:
+    """The ``[[fault]]`` entries of a schedule already read from TOML, with ``at`` and ``do`` checked."""
+    check_keys(data, ("fault",), error=FaultScheduleError)
     entries = data.get("fault")
-    if extra or not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
-        raise FaultScheduleError(f"{path}: the schedule is a list of [[fault]] tables"
-                                 + (f" (unknown key {extra[0]!r})" if extra else ""))
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise FaultScheduleError("the schedule is a list of [[fault]] tables")
     for i, e in enumerate(entries, start=1):
         after = e.get("after", "start")
         if after not in AFTER:
@@ -99,10 +99,7 @@ def read_schedule(path: Path) -> list[dict[str, Any]]:
         if not isinstance(do, str) or do not in SCHEDULABLE:
             raise FaultScheduleError(f"fault {i}: do is one of {', '.join(sorted(SCHEDULABLE))}, "
                                      f"got {e.get('do')!r}")
-        known = ("at", "after", "do", *ARGUMENTS.get(do, ()))
-        extra = sorted(set(e) - set(known))
-        if extra:
-            raise FaultScheduleError(f"fault {i} ({do}): unknown key {extra[0]!r}; known: {', '.join(known)}")
+        check_keys(e, ("at", "after", "do", *ARGUMENTS.get(do, ())), f"fault {i} ({do})", FaultScheduleError)
     return entries
 
 
@@ -129,17 +126,9 @@ def schedule(server: AdminTarget, entries: list[dict[str, Any]]) -> int:
     return len(actions)
 
 
-#: The arguments each schedulable admin command takes (server/admin.py), beside ``at``, ``after``
-#: and ``do``.
-ARGUMENTS: dict[str, tuple[str, ...]] = {
-    "estop": (), "error": ("code",), "warning": ("code",), "servo-error": ("code", "joint"),
-    "gripper-error": ("code",), "track-error": ("code",), "end-module-lost": (),
-    "collision": ("joint", "torque"),
-    "report-pause": ("seconds",), "reply-delay": ("seconds",), "drop-clients": (), "clear": (),
-    "set-input": ("kind", "index", "value", "wrench", "frame", "ramp", "for"),
-    "ft-error": ("code",), "ft-noise": ("on",), "payload": ("mass", "com"), "scene": ("scene",),
-    "scene-place": ("name", "position", "rpy"), "scene-reset": (),
-}
+#: The arguments each schedulable admin command takes (its declared arguments in the admin table,
+#: server/admin.py), beside ``at``, ``after`` and ``do``.
+ARGUMENTS: dict[str, tuple[str, ...]] = {cmd: arguments(cmd) for cmd in sorted(SCHEDULABLE)}
 
 
 def _started(server: AdminTarget, after: str) -> bool:
@@ -181,6 +170,10 @@ def schedule_file(server: AdminTarget, path: Path | None) -> int:
     entries. Raises :class:`FaultScheduleError` naming a bad entry before anything is scheduled."""
     if path is None:
         return 0
-    n = schedule(server, read_schedule(path))
+    entries = read_schedule(path)  # its refusals name the file already
+    try:
+        n = schedule(server, entries)
+    except FaultScheduleError as exc:  # an entry this server refuses: named in the same format
+        raise FaultScheduleError(f"fault schedule {path}: {exc}") from None
     log.info("fault schedule %s: %d entries", path, n)
     return n

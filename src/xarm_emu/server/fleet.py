@@ -31,26 +31,26 @@ and ``faults`` (a command trace file and a fault schedule, as ``serve --trace`` 
 relative to the fleet file; ``faults`` may be a top-level default). Arms
 without ``robot_sn`` get their model's default serial number, counted up when an earlier arm has
 it, so that no two arms share a saved configuration.
-Everything is checked before any port is opened; a bad file gives one message naming the arm and
-the key.
+Everything is checked before any port is opened; a bad file gives one message naming the file, the
+arm and the key (the TOML files' one format, :mod:`xarm_emu.tomlfile`).
 """
 
 from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from ..controller import contact
+from ..controller.devices.linear_track import DEFAULT_LENGTH, MODELS
 from ..controller.emulator import GRIPPERS, Emulator, check_firmware
-from ..controller.linear_track import DEFAULT_LENGTH, MODELS
+from ..controller.scene import contact
 from ..model.calibration import Calibration, load
-from ..model.robots import MODEL_NAMES, get_model, with_calibration
+from ..model.robots import MODEL_NAMES, RobotModel, get_model, with_calibration
 from ..protocol.admin import admin_host, derive_admin_port
 from ..protocol.firmware import SERVE_VERSION, FirmwareProfile, VersionError, profile_for
+from ..tomlfile import check_keys, load_toml
 from .core import ServerConfig
 
 _SN = re.compile(r"[A-Z]{2}[0-9]{4}")
@@ -71,12 +71,12 @@ class ArmSpec:
     model: int | str  # as the file gives it: 5, 6, 7 or a name of model.robots.MODEL_NAMES
     robot_sn: str
     server: ServerConfig = field(default_factory=ServerConfig)
-    vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/vacuum.py)
+    vacuum: bool = False  # the xArm Vacuum Gripper on the tool IO (controller/devices/vacuum.py)
     firmware: FirmwareProfile = field(default_factory=lambda: profile_for(SERVE_VERSION))  # serve --firmware
-    linear_track: int | None = None  # stroke in mm of the linear track (controller/linear_track.py)
+    linear_track: int | None = None  # stroke in mm of the linear track (controller/devices/linear_track.py)
     gripper: str = "xarm"  # the gripper on the tool RS-485 (controller/emulator.py GRIPPERS)
-    ft_sensor: bool = False  # the six-axis F/T sensor (controller/ft_sensor.py), serve --ft-sensor
-    scene: contact.Scene | None = None  # the contact scene (controller/contact.py), serve --scene
+    ft_sensor: bool = False  # the six-axis F/T sensor (controller/devices/ft_sensor.py), serve --ft-sensor
+    scene: contact.Scene | None = None  # the contact scene (controller/scene/contact.py), serve --scene
     calibration: Calibration | None = None  # measured constants (model/calibration.py), serve --calibration
 
     def emulator(self, config_dir: Path | None) -> Emulator:
@@ -96,19 +96,14 @@ class Fleet:
 
 
 def load_fleet(path: Path) -> Fleet:
-    """Read and check a fleet file (module docstring); raises :class:`FleetError`."""
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise FleetError(f"cannot read the fleet file {path}: {exc.strerror or exc}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise FleetError(f"{path} is not valid TOML: {exc}") from None
-    return parse_fleet(data, base=path.parent)
+    """Read and check a fleet file (module docstring); raises :class:`FleetError` in the TOML
+    files' one-line format (xarm_emu.tomlfile), naming the file."""
+    return load_toml(path, "fleet file", lambda data: parse_fleet(data, base=path.parent), FleetError)
 
 
 def parse_fleet(data: dict[str, Any], base: Path = Path(".")) -> Fleet:
     """Check fleet data already read from TOML; relative ``config_dir`` is taken from ``base``."""
-    _unknown(data, TOP_KEYS, "the fleet file")
+    check_keys(data, TOP_KEYS, error=FleetError)
     arms_data = data.get("arm")
     if not isinstance(arms_data, list) or not arms_data or not all(isinstance(a, dict) for a in arms_data):
         raise FleetError("the fleet file needs at least one [[arm]] table")
@@ -123,7 +118,7 @@ def parse_fleet(data: dict[str, Any], base: Path = Path(".")) -> Fleet:
     arms: list[ArmSpec] = []
     for i, raw in enumerate(arms_data, start=1):
         where = f"arm {i}"
-        _unknown(raw, ARM_KEYS, where)
+        check_keys(raw, ARM_KEYS, where, FleetError)
         arms.append(_arm({**defaults, **raw}, float(speed), where, [a.robot_sn for a in arms], base))
     _distinct([a.server for a in arms])
     traces = [a.server.trace for a in arms if a.server.trace is not None]
@@ -133,23 +128,44 @@ def parse_fleet(data: dict[str, Any], base: Path = Path(".")) -> Fleet:
     return Fleet(tuple(arms), cdir)
 
 
-def _unknown(table: dict[str, Any], known: tuple[str, ...], where: str) -> None:
-    extra = sorted(set(table) - set(known))
-    if extra:
-        raise FleetError(f"{where}: unknown key {extra[0]!r}; known: {', '.join(known)}")
-
-
 def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], base: Path) -> ArmSpec:
+    robot = _robot(values, where)
+    host = values.get("host", "127.0.0.1")
+    if not isinstance(host, str) or not host:
+        raise FleetError(f"{where}: host must be an address string, got {host!r}")
+    ports = _ports(values, where)
+    admin, vacuum, ft_sensor = (_flag(values, key, where) for key in ("admin", "vacuum", "ft_sensor"))
+    gripper = values.get("gripper", "xarm")
+    if gripper not in GRIPPERS:
+        raise FleetError(f"{where}: gripper is one of {', '.join(GRIPPERS)}, got {gripper!r}")
+    if vacuum and "gripper" in values:
+        raise FleetError(f"{where}: vacuum and gripper: one end tool at a time")
+    track = _track(values, where)
+    profile = _firmware(values, where)
+    sn = _robot_sn(values, robot, where, taken)
+    paths = _paths(values, where, base)
+    cfg = replace(ServerConfig(host=host, speed=speed, admin=admin, trace=paths["trace"],
+                               faults=paths["faults"]), **ports)
+    try:
+        check_firmware(robot, profile)
+    except ValueError as exc:
+        raise FleetError(f"{where}: {exc}") from None
+    scene, calibration = _files(paths, robot, where)
+    return ArmSpec(values.get("model", 6), sn, cfg, vacuum, profile, linear_track=track, gripper=gripper,
+                   ft_sensor=ft_sensor, scene=scene, calibration=calibration)
+
+
+def _robot(values: dict[str, Any], where: str) -> RobotModel:
     model = values.get("model", 6)
     try:
         if not isinstance(model, int | str):
             raise ValueError(model)
-        robot = get_model(model)
+        return get_model(model)
     except ValueError:
         raise FleetError(f"{where}: model is one of {', '.join(MODEL_NAMES)}, got {model!r}") from None
-    host = values.get("host", "127.0.0.1")
-    if not isinstance(host, str) or not host:
-        raise FleetError(f"{where}: host must be an address string, got {host!r}")
+
+
+def _ports(values: dict[str, Any], where: str) -> dict[str, Any]:
     ports: dict[str, Any] = {}
     for key in _PORT_KEYS:
         if key not in values:
@@ -158,31 +174,41 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
         if isinstance(p, bool) or not isinstance(p, int) or not 0 <= p <= 0xFFFF:
             raise FleetError(f"{where}: {key} must be a port number 0..65535, got {p!r}")
         ports[key] = p
-    admin, vacuum = values.get("admin", False), values.get("vacuum", False)
-    ft_sensor = values.get("ft_sensor", False)
-    for key, flag in (("admin", admin), ("vacuum", vacuum), ("ft_sensor", ft_sensor)):
-        if not isinstance(flag, bool):
-            raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
-    gripper = values.get("gripper", "xarm")
-    if gripper not in GRIPPERS:
-        raise FleetError(f"{where}: gripper is one of {', '.join(GRIPPERS)}, got {gripper!r}")
-    if vacuum and "gripper" in values:
-        raise FleetError(f"{where}: vacuum and gripper: one end tool at a time")
+    return ports
+
+
+def _flag(values: dict[str, Any], key: str, where: str) -> bool:
+    flag = values.get(key, False)
+    if not isinstance(flag, bool):
+        raise FleetError(f"{where}: {key} is true or false, got {flag!r}")
+    return flag
+
+
+def _track(values: dict[str, Any], where: str) -> int | None:
+    """The linear track's stroke in mm, or None without one."""
     track = values.get("linear_track", False)
     if track is True:
-        track = DEFAULT_LENGTH
+        return DEFAULT_LENGTH
     if track is False:
-        track = None
-    elif isinstance(track, bool) or not isinstance(track, int) or track not in MODELS:
+        return None
+    if isinstance(track, bool) or not isinstance(track, int) or track not in MODELS:
         raise FleetError(f"{where}: linear_track is true or a stroke in mm "
                          f"({', '.join(map(str, MODELS))}), got {track!r}")
+    return track
+
+
+def _firmware(values: dict[str, Any], where: str) -> FirmwareProfile:
     firmware = values.get("firmware", SERVE_VERSION)
     if not isinstance(firmware, str):
         raise FleetError(f"{where}: firmware is a version string such as \"2.7.103\", got {firmware!r}")
     try:
-        profile = profile_for(firmware)
+        return profile_for(firmware)
     except VersionError as exc:
         raise FleetError(f"{where}: {exc}") from None
+
+
+def _robot_sn(values: dict[str, Any], robot: RobotModel, where: str, taken: list[str]) -> str:
+    """The arm's serial number: as given, or its model's default counted up past the ones taken."""
     sn = values.get("robot_sn")
     if sn is None:
         sn = robot.default_robot_sn
@@ -193,18 +219,23 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     if sn in taken:
         raise FleetError(f"{where}: robot_sn {sn} is already another arm's (they would share a "
                          "saved configuration)")
+    return str(sn)
+
+
+def _paths(values: dict[str, Any], where: str, base: Path) -> dict[str, Path | None]:
+    """The arm's files (trace, fault schedule, scene, calibration), relative to the fleet file."""
     paths: dict[str, Path | None] = {}
     for key in ("trace", "faults", "scene", "calibration"):
         value = values.get(key)
         if value is not None and not isinstance(value, str):
             raise FleetError(f"{where}: {key} must be a path string, got {value!r}")
         paths[key] = None if value is None else base / value
-    cfg = replace(ServerConfig(host=host, speed=speed, admin=admin, trace=paths["trace"],
-                               faults=paths["faults"]), **ports)
-    try:
-        check_firmware(robot, profile)
-    except ValueError as exc:
-        raise FleetError(f"{where}: {exc}") from None
+    return paths
+
+
+def _files(paths: dict[str, Path | None], robot: RobotModel,
+           where: str) -> tuple[contact.Scene | None, Calibration | None]:
+    """The arm's contact scene and calibration, read from their files where it has them."""
     scene = None
     if paths["scene"] is not None:
         try:
@@ -218,8 +249,7 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
             with_calibration(robot, calibration)
         except ValueError as exc:
             raise FleetError(f"{where}: {exc}") from None
-    return ArmSpec(model, sn, cfg, vacuum, profile, linear_track=track, gripper=gripper, ft_sensor=ft_sensor,
-                   scene=scene, calibration=calibration)
+    return scene, calibration
 
 
 _WILDCARD = frozenset({"", "0.0.0.0", "::"})

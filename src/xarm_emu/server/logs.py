@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..controller.states import MODE_NAMES, STATE_NAMES
+from ..controller.core.state_machine import MODE_NAMES, STATE_NAMES
 from ..protocol import codes
 
 #: Seconds during which a line identical to one just written is held back (and counted).

@@ -56,20 +56,20 @@ class ReportStreams:
     ``frame`` is called by the sender thread at each deadline, under ``lock`` (the arm's lock):
     ``instant(deadline, interval)`` runs the control periods due by the deadline and says whether
     the frame is still due (``EmulatorServer.report_instant``), ``snapshot`` gives the state to report,
-    ``paused`` says whether an injected report pause is on. ``revision``, when given, is the box's
-    revision (``Emulator.revision``): a frame that carries no clock (``reports.CLOCKED_PORTS``) is
-    encoded again only when the revision moved since the last one, so an arm at rest costs one
-    comparison per frame.
+    ``paused`` says whether an injected report pause is on. ``quiet``, when given, is the box's
+    pair (``Emulator.mark``, ``Emulator.unchanged``): a frame that carries no clock
+    (``reports.CLOCKED_PORTS``) is encoded again only when the box may have changed since the last
+    one was encoded, so an arm at rest costs one comparison per frame.
     """
 
     def __init__(self, snapshot: Callable[[], reports.ReportSnapshot], paused: Callable[[], bool],
                  rates: dict[str, float], profile: FirmwareProfile = DEFAULT_PROFILE,
-                 revision: Callable[[], int] | None = None, *,
+                 quiet: tuple[Callable[[], Any], Callable[[Any], bool]] | None = None, *,
                  instant: Callable[[float, float], bool] = lambda deadline, interval: True,
                  lock: threading.RLock | None = None) -> None:
         self.snapshot = snapshot
         self.paused = paused
-        self.revision = revision
+        self.quiet = quiet
         self.instant = instant
         self.rates = rates
         #: The arm's lock: held by the sender from catching up to the last write of each frame.
@@ -92,20 +92,20 @@ class ReportStreams:
         reports are paused or closing, ``b""`` when the deadline's state is gone (not sent)."""
         encode = self.encoders[kind]
         interval = 1.0 / self.rates[kind]
-        revision = None if ALL_KIND_PORTS[kind] in reports.CLOCKED_PORTS else self.revision
-        last: list[Any] = [None, b""]  # the revision of the last frame encoded, the frame
+        quiet = None if ALL_KIND_PORTS[kind] in reports.CLOCKED_PORTS else self.quiet
+        last: list[Any] = [None, b""]  # the box's mark when the last frame was encoded, the frame
 
         def frame(deadline: float) -> bytes | None:
             if self._closing or self.paused():
                 return None
             if not self.instant(deadline, interval):  # the controller at the deadline's period
                 return b""
-            if revision is None:
+            if quiet is None:
                 return encode(self.snapshot())
-            now = revision()
-            if now != last[0]:
+            mark, unchanged = quiet
+            if last[0] is None or not unchanged(last[0]):
                 last[1] = encode(self.snapshot())
-                last[0] = now
+                last[0] = mark()
             return last[1]  # type: ignore[no-any-return]
 
         return frame

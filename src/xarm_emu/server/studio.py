@@ -38,7 +38,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any
 
-from ..controller import trajectory
+from ..controller.applications import trajectory
 
 log = logging.getLogger(__name__)
 

@@ -218,7 +218,7 @@ def _send(conn: multiprocessing.connection.Connection, message: object) -> None:
 
 def build_servers(plan: WorkerPlan) -> list[EmulatorServer]:
     """The arms' servers: each emulator claims and loads its saved configuration in
-    ``plan.config_dir`` (controller/config.py), its fault schedule scheduled."""
+    ``plan.config_dir`` (controller/core/config.py), its fault schedule scheduled."""
     from .faults import schedule_file
 
     servers = []

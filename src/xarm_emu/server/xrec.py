@@ -75,13 +75,18 @@ class Close(msgspec.Struct, tag="close", tag_field="k"):
     port: int
 
 
-class Req(msgspec.Struct, tag="req", tag_field="k"):
+class _Command(msgspec.Struct):
+    """What a request and a reply of the command port both record (manual 2.1.2 frame head)."""
+
     t: float
     conn: int
     frame: bytes
     tid: int
     protocol: int
     register: int
+
+
+class Req(_Command, tag="req", tag_field="k"):
     name: str | None = None
     values: dict[str, Any] | None = None
 
@@ -90,13 +95,7 @@ class Req(msgspec.Struct, tag="req", tag_field="k"):
         return self.frame[7:]
 
 
-class Rep(msgspec.Struct, tag="rep", tag_field="k"):
-    t: float
-    conn: int
-    frame: bytes
-    tid: int
-    protocol: int
-    register: int
+class Rep(_Command, tag="rep", tag_field="k"):
     state: int
     name: str | None = None
     values: dict[str, Any] | None = None

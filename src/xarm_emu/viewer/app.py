@@ -18,8 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from ..controller import contact, ft_sensor
+from ..controller.devices import ft_sensor
 from ..controller.emulator import Emulator
+from ..controller.scene import contact
 from ..server.core import EmulatorServer
 from . import scene
 from .pendant import Pendant, describe_state
@@ -32,11 +33,41 @@ GHOST_COLOR = (120, 170, 255)
 TOOL_COLOR = (255, 170, 60)
 TRACK_COLOR = (90, 95, 105)
 CONTACT_COLOR = (120, 160, 220)  # the contact scene's planes and boxes
-OBJECT_COLOR = (208, 64, 32)  # the scene's loose objects (controller/physics/)
+OBJECT_COLOR = (208, 64, 32)  # the scene's loose objects (controller/physics/) without a colour of their own
 HEMISPHERE_LIGHT = 2.5  # the fill light that stands in for viser's environment map
 
 
-class Viewer:
+class _Redrawing:
+    """A view redrawn :data:`RATE` times a second by a task of the running event loop (the server's),
+    in which its pendants carry out their actions too."""
+
+    _task: asyncio.Task[None] | None = None
+
+    def pendants(self) -> list[Pendant]:
+        raise NotImplementedError
+
+    def update(self) -> None:
+        raise NotImplementedError
+
+    def start(self) -> None:
+        """Start updating from the running event loop (the server's)."""
+        loop = asyncio.get_running_loop()
+        for pendant in self.pendants():
+            pendant.loop = loop
+        self._task = loop.create_task(self._run())
+
+    async def _run(self) -> None:
+        while True:
+            self.update()
+            await asyncio.sleep(1.0 / RATE)
+
+    def _cancel(self) -> None:
+        if self._task is not None:
+            self._task.cancel()
+            self._task = None
+
+
+class Viewer(_Redrawing):
     """A viser server showing one emulator."""
 
     def __init__(self, emulator: Emulator, host: str = "127.0.0.1", port: int = 8080,
@@ -68,17 +99,8 @@ class Viewer:
         #: The status panel and actions; only with the server, whose loop carries out the actions.
         self.pendant = Pendant(self.server.gui, server) if server is not None else None
 
-    def start(self) -> None:
-        """Start updating from the running event loop (the server's)."""
-        loop = asyncio.get_running_loop()
-        if self.pendant is not None:
-            self.pendant.loop = loop
-        self._task = loop.create_task(self._run())
-
-    async def _run(self) -> None:
-        while True:
-            self.update()
-            await asyncio.sleep(1.0 / RATE)
+    def pendants(self) -> list[Pendant]:
+        return [] if self.pendant is None else [self.pendant]
 
     def update(self) -> None:
         """Redraw from the emulator's current state."""
@@ -104,7 +126,7 @@ class Viewer:
         self._draw("contact", scene.contact_parts(contact.scene_of(ctl).shapes), CONTACT_COLOR, 0.4, True)
         if self.emulator.physics is not None:
             objs = self.emulator.physics.world.scene.objects
-            self._draw("objects", scene.object_parts([(o.name, o.shape, o.size) for o in objs],
+            self._draw("objects", scene.object_parts([(o.name, o.shape, o.size, o.color) for o in objs],
                                                      self.emulator.scene_objects()), OBJECT_COLOR, 1.0, True)
         if self.pendant is not None and self.updates % PANEL_EVERY == 0:
             self.pendant.update()
@@ -132,7 +154,7 @@ class Viewer:
             key = f"{self._root}/{group}/{part.name}"
             seen.add(key)
             handle = self._handles.get(key)
-            tint = TOOL_COLOR if "tool" in part.name else color
+            tint = part.color or (TOOL_COLOR if "tool" in part.name else color)
             size = (part.radius, part.length, part.half)
             if handle is None or self._sizes.get(key) != size:
                 if handle is not None:
@@ -164,9 +186,7 @@ class Viewer:
         return sc.add_box(key, color=color, dimensions=(2 * h[0], 2 * h[1], 2 * h[2]), opacity=op)
 
     def stop(self) -> None:
-        if self._task is not None:
-            self._task.cancel()
-            self._task = None
+        self._cancel()
         if self._owns:
             with contextlib.suppress(Exception):
                 self.server.stop()
@@ -196,7 +216,7 @@ def _new_viser(host: str, port: int) -> Any:
 FLEET_SPACING = 0.9  # m between the arms of a fleet view, along y
 
 
-class FleetView:
+class FleetView(_Redrawing):
     """One viser server for every arm of a fleet: the arms side by side along y, a list of them
     (model, command port, state, error), and a tab with each arm's pendant."""
 
@@ -238,17 +258,8 @@ class FleetView:
             lines.append(f"- **{self._name(i)}**: state {text['state']}, error {text['error'].split(':')[0]}")
         return "\n".join(lines)
 
-    def start(self) -> None:
-        loop = asyncio.get_running_loop()
-        for v in self.viewers:
-            if v.pendant is not None:
-                v.pendant.loop = loop
-        self._task = loop.create_task(self._run())
-
-    async def _run(self) -> None:
-        while True:
-            self.update()
-            await asyncio.sleep(1.0 / RATE)
+    def pendants(self) -> list[Pendant]:
+        return [p for v in self.viewers for p in v.pendants()]
 
     def update(self) -> None:
         for v in self.viewers:
@@ -260,9 +271,7 @@ class FleetView:
         self.updates += 1
 
     def stop(self) -> None:
-        if self._task is not None:
-            self._task.cancel()
-            self._task = None
+        self._cancel()
         with contextlib.suppress(Exception):
             self.server.stop()
 

@@ -34,6 +34,8 @@ class Part:
     radius: float = 0.0
     length: float = 0.0
     half: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    #: Its own colour (0-255 RGB), else the colour of its group.
+    color: tuple[int, int, int] | None = None
 
 
 def quat_z_to(d: Sequence[float]) -> tuple[float, float, float, float]:
@@ -212,7 +214,7 @@ def track_parts(length: float, position: float) -> list[Part]:
             Part("track_carriage", "box", (0.0, 0.0, z_carriage), identity, half=CARRIAGE_HALF)]
 
 
-#: The drawn F/T sensor: a disc of the sensor's height (controller/ft_sensor.py) on the flange.
+#: The drawn F/T sensor: a disc of the sensor's height (controller/devices/ft_sensor.py) on the flange.
 FT_SENSOR_RADIUS = 0.04  # m
 #: Half the side of the square drawn for a contact plane, and its drawn thickness (m).
 PLANE_HALF = 0.4
@@ -230,7 +232,7 @@ def ft_sensor_parts(model: RobotModel, q: Sequence[float] | np.ndarray, height_m
 
 
 def contact_parts(shapes: Sequence[Any]) -> list[Part]:
-    """The contact scene (controller/contact.py): each plane a thin square about its point, normal
+    """The contact scene (controller/scene/contact.py): each plane a thin square about its point, normal
     along the square's z; each box as it is. Shapes are read by their fields, base frame, mm."""
     parts: list[Part] = []
     for i, s in enumerate(shapes):
@@ -248,23 +250,29 @@ def contact_parts(shapes: Sequence[Any]) -> list[Part]:
     return parts
 
 
-def object_parts(shapes: Sequence[tuple[str, str, Sequence[float]]],
-                 poses: Sequence[dict[str, Any]]) -> list[Part]:
+def object_parts(shapes: Sequence[Sequence[Any]], poses: Sequence[dict[str, Any]]) -> list[Part]:
     """The scene's loose objects where the physics world has them: ``shapes`` are (name, shape, size
-    mm) as the scene declares them, ``poses`` what ``Emulator.scene_objects()`` answers. A box is
-    drawn as itself, a sphere as a capsule of no length, a cylinder as the box around it."""
+    mm[, colour r, g, b from 0 to 1]) as the scene declares them, ``poses`` what
+    ``Emulator.scene_objects()`` answers. A box is drawn as itself, a sphere as a capsule of no
+    length, a cylinder as the box around it."""
     parts = []
-    for (name, shape, size), pose in zip(shapes, poses, strict=True):
+    for spec, pose in zip(shapes, poses, strict=True):
+        name, shape, size = str(spec[0]), str(spec[1]), [float(v) for v in spec[2]]
+        tint: tuple[int, int, int] | None = None
+        if len(spec) > 3:
+            r, g, b = (int(round(255 * float(v))) for v in spec[3][:3])
+            tint = (r, g, b)
         R = rpy_to_matrix(*np.radians(pose["rpy"]))
         c = np.asarray(pose["position"], dtype=float) * MM
         wxyz = quat_from_matrix(R)
         centre = (float(c[0]), float(c[1]), float(c[2]))
         if shape == "sphere":
-            parts.append(Part(f"object_{name}", "capsule", centre, wxyz, radius=size[0] / 2 * MM))
+            parts.append(Part(f"object_{name}", "capsule", centre, wxyz, radius=size[0] / 2 * MM,
+                              color=tint))
             continue
         if shape == "cylinder":
             half = (size[0] / 2 * MM, size[0] / 2 * MM, size[1] / 2 * MM)
         else:
             half = (size[0] / 2 * MM, size[1] / 2 * MM, size[2] / 2 * MM)
-        parts.append(Part(f"object_{name}", "box", centre, wxyz, half=half))
+        parts.append(Part(f"object_{name}", "box", centre, wxyz, half=half, color=tint))
     return parts

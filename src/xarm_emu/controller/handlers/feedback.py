@@ -6,33 +6,30 @@
 - 253 FEEDBACK_CHECK: empty reply at once; a MOTION_FINISH frame carrying 253's transaction id
   follows once every task queued before it has finished.
 
-The frames themselves come from :class:`~xarm_emu.controller.feedback.FeedbackQueue`.
+The frames themselves come from :class:`~xarm_emu.controller.core.feedback.FeedbackQueue`.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
-
-from ..base import Values
-from ..feedback import feedback_queue
-
-if TYPE_CHECKING:
-    from . import CtlHandler
+from ..core.controller_protocol import Controller
+from ..core.feedback import feedback_queue
+from ..core.interface import Binding, Values
 
 
-def set_feedback_type(ctl: Any, v: Values) -> None:
+def set_feedback_type(ctl: Controller, v: Values) -> None:
     """Register 254: the connection's feedback mask (a request from outside a connection keeps no mask)."""
     feedback_queue(ctl).set_mask(int(v["mask"]))
     return None
 
 
-def feedback_check(ctl: Any, v: Values) -> None:
+def feedback_check(ctl: Controller, v: Values) -> None:
     """Register 253: answered now; the MOTION_FINISH frame marks the end of every earlier task."""
     feedback_queue(ctl).check(ctl)
     return None
 
 
-HANDLERS: dict[int, CtlHandler] = {
-    253: feedback_check,
-    254: set_feedback_type,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(253, feedback_check),
+    Binding(254, set_feedback_type),
+)

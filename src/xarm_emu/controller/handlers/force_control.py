@@ -1,7 +1,7 @@
 """The F/T sensor's applications (firmware 2.x): register 202 sets admittance (1) or force control
 (2) or neither (0), 203 reads it back, 207-211 set their parameters (the SDK's
 ``set_ft_sensor_mode``, ``get_ft_sensor_mode``, ``set_ft_sensor_admittance_parameters`` and
-``set_ft_sensor_force_parameters``); the control laws are in controller/force_control.py.
+``set_ft_sensor_force_parameters``); the control laws are in controller/applications/force_control.py.
 
 Parameters outside the vendor's ranges (those the SDK checks unless ``params_limit=False``) are
 parameter abnormal, warning 12 (manual 3.2.2), and change nothing. An application needs the sensor
@@ -11,13 +11,13 @@ carried out (reply bit 0x08, the SDK's code 10) and the application stays off.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
-from .. import force_control as fc
-from .. import ft_sensor as sensor
-from ..base import CommandFailed, ParameterError, Values
-from .ft_sensor import ft_config
+from ..applications import force_control as fc
+from ..core.controller_protocol import Controller
+from ..core.ft_config import ft_config
+from ..core.interface import Binding, CommandFailed, ParameterError, Values
+from ..devices import ft_sensor as sensor
 
 
 def _floats(values: Any) -> tuple[float, ...]:
@@ -39,7 +39,7 @@ def _mkb(v: Values) -> tuple[tuple[float, ...], ...]:
     return M, K, B
 
 
-def set_mode(ctl: Any, v: Values) -> None:
+def set_mode(ctl: Controller, v: Values) -> None:
     """Register 202: the application, 0 none, 1 admittance, 2 force control."""
     app = int(v["app"])
     if app not in fc.APPS:
@@ -51,12 +51,12 @@ def set_mode(ctl: Any, v: Values) -> None:
     fc.set_app(ctl, app)
 
 
-def get_mode(ctl: Any, v: Values) -> dict[str, Any]:
+def get_mode(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 203: the application set by 202."""
     return {"app": fc.control_of(ctl).app}
 
 
-def admittance_config(ctl: Any, v: Values) -> None:
+def admittance_config(ctl: Controller, v: Values) -> None:
     """Register 207: admittance frame, compliant axes and M, K, B."""
     coord, axes = _coord_axes(v)
     M, K, B = _mkb(v)
@@ -64,7 +64,7 @@ def admittance_config(ctl: Any, v: Values) -> None:
     cfg.imp_coord, cfg.imp_c_axis, cfg.M, cfg.K, cfg.B = coord, axes, M, K, B
 
 
-def force_pid(ctl: Any, v: Values) -> None:
+def force_pid(ctl: Controller, v: Values) -> None:
     """Register 208: force-control PID and the speed cap ``xe_limit``."""
     pid = {k: _floats(v[k]) for k in ("kp", "ki", "kd", "xe_limit")}
     problem = fc.pid_problem(pid["kp"], pid["ki"], pid["kd"], pid["xe_limit"])
@@ -73,7 +73,7 @@ def force_pid(ctl: Any, v: Values) -> None:
     ft_config(ctl).pid = pid
 
 
-def force_config(ctl: Any, v: Values) -> None:
+def force_config(ctl: Controller, v: Values) -> None:
     """Register 209: force-control frame, axes, reference and limits (stored; the SDK's example
     calls them reserved)."""
     coord, axes = _coord_axes(v)
@@ -85,29 +85,30 @@ def force_config(ctl: Any, v: Values) -> None:
     cfg.fc_coord, cfg.fc_c_axis, cfg.f_ref, cfg.limits = coord, axes, f_ref, limits
 
 
-def admittance_mkb(ctl: Any, v: Values) -> None:
+def admittance_mkb(ctl: Controller, v: Values) -> None:
     """Register 210: admittance M, K, B."""
     cfg = ft_config(ctl)
     cfg.M, cfg.K, cfg.B = _mkb(v)
 
 
-def admittance_frame(ctl: Any, v: Values) -> None:
+def admittance_frame(ctl: Controller, v: Values) -> None:
     """Register 211: admittance frame and compliant axes."""
     cfg = ft_config(ctl)
     cfg.imp_coord, cfg.imp_c_axis = _coord_axes(v)
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    202: set_mode,
-    203: get_mode,
-    207: admittance_config,
-    208: force_pid,
-    209: force_config,
-    210: admittance_mkb,
-    211: admittance_frame,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(202, set_mode),
+    Binding(203, get_mode),
+    Binding(207, admittance_config),
+    Binding(208, force_pid),
+    Binding(209, force_config),
+    Binding(210, admittance_mkb),
+    Binding(211, admittance_frame),
+)
 
 
-def create_state(ctl: Any) -> None:
+def create_state(ctl: Controller) -> None:
     """Create the application's state at construction, so that a checkpoint always holds it."""
     fc.control_of(ctl)

@@ -2,19 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ...model import kinematics as kin
 from ...model import rotations as rot
-from ..base import WARN_NO_SOLUTION, CommandWarning, Values
-from ..poses import wire_pose_to_matrix
-
-if TYPE_CHECKING:
-    from ..core import Controller
-    from . import CtlHandler
+from ..core.controller_protocol import Controller
+from ..core.interface import WARN_NO_SOLUTION, Binding, CommandWarning, Values
+from ..core.poses import wire_pose_to_matrix
 
 
 def kinematics_params(ctl: Controller, v: Values) -> dict[str, Any]:
@@ -71,14 +67,30 @@ def pose_offset(ctl: Controller, v: Values) -> dict[str, Any]:
     return {"pose": tuple(out)}
 
 
-HANDLERS: Mapping[int, CtlHandler] = {
-    8: kinematics_params,
-    41: lambda ctl, v: {"pose": tuple(ctl.tcp_pose())},
-    42: joint_states,
-    43: ik,
-    44: fk,
-    45: joint_limit,
-    55: lambda ctl, v: {"torques": ctl.joint_torques7()},
-    76: pose_offset,
-    91: lambda ctl, v: {"pose": tuple(rot.matrix_to_pose_aa(ctl.tcp_matrix()))},
-}
+def tcp_pose(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 41: the TCP pose (user frame, TCP offset applied)."""
+    return {"pose": tuple(ctl.tcp_pose())}
+
+
+def joint_torques(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 55: the theoretical joint torques."""
+    return {"torques": ctl.joint_torques7()}
+
+
+def tcp_pose_aa(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 91: the TCP pose with its orientation as an axis-angle vector."""
+    return {"pose": tuple(rot.matrix_to_pose_aa(ctl.tcp_matrix()))}
+
+
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(8, kinematics_params),
+    Binding(41, tcp_pose),
+    Binding(42, joint_states),
+    Binding(43, ik),
+    Binding(44, fk),
+    Binding(45, joint_limit),
+    Binding(55, joint_torques),
+    Binding(76, pose_offset),
+    Binding(91, tcp_pose_aa),
+)

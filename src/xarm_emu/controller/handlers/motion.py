@@ -18,35 +18,34 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ...model import collision
 from ...model import kinematics as kin
 from ...model import rotations as rot
-from .. import motion, safety
-from ..base import (
+from .. import motion
+from ..applications import online
+from ..core import safety
+from ..core.commands import CircleMove, Dwell, JointMove, LineMove
+from ..core.controller_protocol import Controller
+from ..core.executor import keep_unchanged_joints, line_target
+from ..core.interface import (
     C_BOUNDARY,
     C_JOINT_LIMIT,
     C_KINEMATIC,
     C_SELF_COLLISION,
     WARN_NO_SOLUTION,
+    Binding,
     CommandError,
     CommandWarning,
     ParameterError,
     Values,
 )
-from ..commands import CircleMove, Dwell, JointMove, LineMove
-from ..executor import keep_unchanged_joints, line_target
-from ..poses import apply_offset, wire_pose_to_matrix
-from ..settings import in_range
+from ..core.poses import apply_offset, wire_pose_to_matrix
+from ..core.settings import in_range
 from .settings import report_tau_or_i
-
-if TYPE_CHECKING:
-    from ..core import Controller
-    from . import CtlHandler
 
 #: Joint positions sampled along the straight joint path of an only-check move.
 CHECK_SAMPLES = 24
@@ -296,17 +295,21 @@ def servo_cartesian_aa(ctl: Controller, v: Values) -> None:
     return None
 
 
-HANDLERS: Mapping[int, CtlHandler] = {
-    21: functools.partial(move_line, register=21),
-    22: functools.partial(move_line, register=22),
-    23: functools.partial(move_joint, register=23),
-    24: register_24,
-    25: move_home,
-    26: dwell,
-    27: move_circle,
-    28: functools.partial(move_line, register=28),
-    29: servoj,
-    30: servo_cartesian,
-    92: move_line_aa,
-    93: servo_cartesian_aa,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    # In online planning (modes 6/7, firmware 2.x) a joint or linear move is a new online target.
+    Binding(21, functools.partial(move_line, register=21),
+            mode_route={online.MODE_CARTESIAN_ONLINE: online.cartesian_target}),
+    Binding(22, functools.partial(move_line, register=22)),
+    Binding(23, functools.partial(move_joint, register=23),
+            mode_route={online.MODE_JOINT_ONLINE: online.joint_target}),
+    Binding(24, register_24, mode_route={online.MODE_JOINT_ONLINE: online.joint_target}),
+    Binding(25, move_home),
+    Binding(26, dwell),
+    Binding(27, move_circle),
+    Binding(28, functools.partial(move_line, register=28)),
+    Binding(29, servoj),
+    Binding(30, servo_cartesian),
+    Binding(92, move_line_aa),
+    Binding(93, servo_cartesian_aa),
+)

@@ -1,13 +1,14 @@
-"""Reduced-mode registers (47-50, 53, 58, 60). The mechanism is :mod:`xarm_emu.controller.reduced`."""
+"""Reduced-mode registers (47-50, 53, 58, 60). The mechanism is
+:mod:`xarm_emu.controller.applications.reduced`."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
-from ..base import ParameterError, Values
-from ..reduced import reduced_of
+from ..applications.reduced import reduced_of
+from ..core.controller_protocol import Controller
+from ..core.interface import Binding, ParameterError, Values
 
 
 def _switch(v: Values, name: str = "on") -> bool:
@@ -17,7 +18,7 @@ def _switch(v: Values, name: str = "on") -> bool:
     return bool(on)
 
 
-def set_tcp_speed(ctl: Any, v: Values) -> None:
+def set_tcp_speed(ctl: Controller, v: Values) -> None:
     """Register 47: reduced-mode maximum TCP speed (mm/s, up to the model's)."""
     speed = float(v["speed"])
     if not (0.0 < speed <= ctl.model.max_tcp_speed):
@@ -26,7 +27,7 @@ def set_tcp_speed(ctl: Any, v: Values) -> None:
     return None
 
 
-def set_joint_speed(ctl: Any, v: Values) -> None:
+def set_joint_speed(ctl: Controller, v: Values) -> None:
     """Register 48: reduced-mode maximum joint speed (rad/s, up to the model's)."""
     speed = float(v["speed"])
     if not (0.0 < speed <= ctl.model.max_joint_speed * (1 + 1e-6)):
@@ -35,18 +36,18 @@ def set_joint_speed(ctl: Any, v: Values) -> None:
     return None
 
 
-def get_mode(ctl: Any, v: Values) -> dict[str, Any]:
+def get_mode(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 49: whether reduced mode is on."""
     return {"on": int(reduced_of(ctl).on)}
 
 
-def set_mode(ctl: Any, v: Values) -> None:
+def set_mode(ctl: Controller, v: Values) -> None:
     """Register 50: switch reduced mode."""
     reduced_of(ctl).on = _switch(v)
     return None
 
 
-def get_state(ctl: Any, v: Values) -> dict[str, Any]:
+def get_state(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 53: on, the safety boundary (register 52), the TCP and joint speed maxima, the joint
     ranges, the fence switch (59) and the collision rebound (60); 79 bytes."""
     r = reduced_of(ctl)
@@ -56,7 +57,7 @@ def get_state(ctl: Any, v: Values) -> dict[str, Any]:
             "fence": int(s.boundary_on), "rebound": int(r.rebound)}
 
 
-def set_joint_ranges(ctl: Any, v: Values) -> None:
+def set_joint_ranges(ctl: Controller, v: Values) -> None:
     """Register 58: reduced joint ranges (J1 min, J1 max, ... rad); each range must overlap the
     joint's limits and is clipped to them."""
     values = [float(x) for x in v["joint_ranges"]]
@@ -71,18 +72,19 @@ def set_joint_ranges(ctl: Any, v: Values) -> None:
     return None
 
 
-def set_rebound(ctl: Any, v: Values) -> None:
+def set_rebound(ctl: Controller, v: Values) -> None:
     """Register 60: switch the collision rebound (kept and reported in register 53)."""
     reduced_of(ctl).rebound = _switch(v)
     return None
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    47: set_tcp_speed,
-    48: set_joint_speed,
-    49: get_mode,
-    50: set_mode,
-    53: get_state,
-    58: set_joint_ranges,
-    60: set_rebound,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(47, set_tcp_speed),
+    Binding(48, set_joint_speed),
+    Binding(49, get_mode),
+    Binding(50, set_mode),
+    Binding(53, get_state),
+    Binding(58, set_joint_ranges),
+    Binding(60, set_rebound),
+)

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ...model import collision
-from ..base import ParameterError, Values
-from ..settings import (
+from ..core.controller_protocol import Controller
+from ..core.interface import Binding, ParameterError, Values
+from ..core.settings import (
     COLLISION_SENSITIVITY_RANGE,
     MOTION_LIMITS,
     TEACH_SENSITIVITY_RANGE,
@@ -17,11 +17,7 @@ from ..settings import (
     gravity_ok,
     in_range,
 )
-from ..states import Event, fire
-
-if TYPE_CHECKING:
-    from ..core import Controller
-    from . import CtlHandler
+from ..core.state_machine import Event, fire
 
 
 def motion_limit(ctl: Controller, v: Values, *, name: str, key: str) -> dict[str, Any]:
@@ -165,24 +161,31 @@ def simulation_robot(ctl: Controller, v: Values) -> None:
     return None
 
 
-HANDLERS: Mapping[int, CtlHandler] = {
-    5: lambda ctl, v: {"tau_or_i": int(ctl.settings.report_current)},
-    31: functools.partial(motion_limit, name="tcp_jerk", key="jerk"),
-    32: functools.partial(motion_limit, name="tcp_maxacc", key="maxacc"),
-    33: functools.partial(motion_limit, name="joint_jerk", key="jerk"),
-    34: functools.partial(motion_limit, name="joint_maxacc", key="maxacc"),
-    35: tcp_offset,
-    36: tcp_load,
-    37: functools.partial(sensitivity, name="collision_sensitivity", allowed=COLLISION_SENSITIVITY_RANGE),
-    38: functools.partial(sensitivity, name="teach_sensitivity", allowed=TEACH_SENSITIVITY_RANGE),
-    39: clean_conf,
-    40: save_conf,
-    51: gravity,
-    52: boundary,
-    59: boundary_on,
-    70: report_tau_or_i,
-    73: world_offset,
-    77: self_collision,
-    78: collision_tool,
-    79: simulation_robot,
-}
+def get_tau_or_i(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 5: whether the reports carry joint currents (1) or torques (0)."""
+    return {"tau_or_i": int(ctl.settings.report_current)}
+
+
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(5, get_tau_or_i),
+    Binding(31, functools.partial(motion_limit, name="tcp_jerk", key="jerk")),
+    Binding(32, functools.partial(motion_limit, name="tcp_maxacc", key="maxacc")),
+    Binding(33, functools.partial(motion_limit, name="joint_jerk", key="jerk")),
+    Binding(34, functools.partial(motion_limit, name="joint_maxacc", key="maxacc")),
+    Binding(35, tcp_offset),
+    Binding(36, tcp_load),
+    Binding(37, functools.partial(sensitivity, name="collision_sensitivity",
+                                  allowed=COLLISION_SENSITIVITY_RANGE)),
+    Binding(38, functools.partial(sensitivity, name="teach_sensitivity", allowed=TEACH_SENSITIVITY_RANGE)),
+    Binding(39, clean_conf),
+    Binding(40, save_conf),
+    Binding(51, gravity),
+    Binding(52, boundary),
+    Binding(59, boundary_on),
+    Binding(70, report_tau_or_i),
+    Binding(73, world_offset),
+    Binding(77, self_collision),
+    Binding(78, collision_tool),
+    Binding(79, simulation_robot),
+)

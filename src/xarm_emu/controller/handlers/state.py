@@ -3,12 +3,13 @@ and 106): version, serial numbers, enable, state, mode, errors and warnings."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ...protocol import codes
-from ..base import ParameterError, Values
-from ..states import (
+from ..applications.modes import extra_modes
+from ..core.controller_protocol import Controller
+from ..core.interface import Binding, ParameterError, Values
+from ..core.state_machine import (
     MODE_JOINT_TEACH,
     MODE_POSITION,
     MODE_SERVO,
@@ -17,12 +18,10 @@ from ..states import (
     STATE_STOP,
     STATE_SUSPEND,
     Event,
+    ModeEvent,
     fire,
+    fire_mode,
 )
-
-if TYPE_CHECKING:
-    from ..core import Controller
-    from . import CtlHandler
 
 
 def needs_power_on(code: int) -> bool:
@@ -129,14 +128,12 @@ def clean_warning(ctl: Controller, v: Values) -> None:
 
 def set_mode(ctl: Controller, v: Values) -> None:
     """Register 19: motion mode 0, 1 or 2 (3, Cartesian teaching, is not available), and the modes
-    4-7 of the firmware (:func:`~xarm_emu.controller.mode_steps.extra_modes`); a system reset.
+    4-7 of the firmware (:func:`~xarm_emu.controller.applications.modes.extra_modes`); a system reset.
     The detection parameter byte SDKs append for firmware >= 1.10.0 is accepted and has no effect."""
-    from ..mode_steps import extra_modes
-
     mode = v["mode"]
     if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH) + extra_modes(ctl):
         raise ParameterError(f"mode {mode} not available")
-    ctl.mode = mode
+    fire_mode(ctl, ModeEvent.SELECT, mode)
     ctl.system_reset()
     return None
 
@@ -153,18 +150,34 @@ def servo_debug(ctl: Controller, v: Values) -> dict[str, Any]:
     return {"servos": tuple(servos)}
 
 
-HANDLERS: Mapping[int, CtlHandler] = {
-    1: version,
-    2: robot_sn,
-    10: shutdown,
-    11: motion_enable,
-    12: set_state,
-    13: lambda ctl, v: {"state": ctl.state},
-    14: lambda ctl, v: {"cmdnum": ctl.executor.cmdnum},
-    15: lambda ctl, v: {"error": ctl.error_code, "warning": ctl.warning_code},
-    16: clean_error,
-    17: clean_warning,
-    18: brake,
-    19: set_mode,
-    106: servo_debug,
-}
+def get_state(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 13: the motion state."""
+    return {"state": ctl.state}
+
+
+def get_cmdnum(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 14: the number of commands in the buffer."""
+    return {"cmdnum": ctl.executor.cmdnum}
+
+
+def get_err_warn(ctl: Controller, v: Values) -> dict[str, Any]:
+    """Register 15: the error and warning codes."""
+    return {"error": ctl.error_code, "warning": ctl.warning_code}
+
+
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(1, version),
+    Binding(2, robot_sn),
+    Binding(10, shutdown),
+    Binding(11, motion_enable),
+    Binding(12, set_state),
+    Binding(13, get_state),
+    Binding(14, get_cmdnum),
+    Binding(15, get_err_warn),
+    Binding(16, clean_error),
+    Binding(17, clean_warning),
+    Binding(18, brake),
+    Binding(19, set_mode),
+    Binding(106, servo_debug),
+)

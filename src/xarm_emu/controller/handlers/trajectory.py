@@ -1,17 +1,17 @@
 """Trajectory registers (61-65, 230): recording, saving, loading, playback and its speed check.
-The mechanism is :mod:`xarm_emu.controller.trajectory`."""
+The mechanism is :mod:`xarm_emu.controller.applications.trajectory`."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
-from .. import trajectory as traj
-from ..base import CommandWarning, ParameterError, Values
-from ..states import STATE_SLEEP
+from ..applications import trajectory as traj
+from ..core.controller_protocol import Controller
+from ..core.interface import Binding, CommandWarning, NotReady, ParameterError, Values
+from ..core.state_machine import STATE_SLEEP
 
 
-def set_record(ctl: Any, v: Values) -> None:
+def set_record(ctl: Controller, v: Values) -> None:
     """Register 61: ``[1]`` starts recording the joints, ``[0]`` stops."""
     on = int(v["on"])
     if on not in (0, 1):
@@ -27,23 +27,21 @@ def _name(v: Values) -> str:
     return name
 
 
-def save(ctl: Any, v: Values) -> None:
+def save(ctl: Controller, v: Values) -> None:
     """Register 62: save the recording (register 65 then reads 5, or 6 when it failed)."""
     traj.save(ctl, _name(v))
     return None
 
 
-def load(ctl: Any, v: Values) -> None:
+def load(ctl: Controller, v: Values) -> None:
     """Register 63: load a saved trajectory (register 65 then reads 2, or 3 when it failed)."""
     traj.load(ctl, _name(v))
     return None
 
 
-def play(ctl: Any, v: Values) -> None:
+def play(ctl: Controller, v: Values) -> None:
     """Register 64: play the loaded trajectory ``times`` times (-1 forever) at a factor 1, 2 or 4.
     Only from position mode at rest; mode 11 during playback."""
-    from ..core import NotReady
-
     times = int(v["times"])
     factor = int(v.get("speed", 1)) if ctl.firmware.play_traj_speed else 1
     if times == 0 or times < -1 or factor not in traj.SPEED_FACTORS:
@@ -61,12 +59,12 @@ def play(ctl: Any, v: Values) -> None:
     return None
 
 
-def rw_status(ctl: Any, v: Values) -> dict[str, Any]:
+def rw_status(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 65: status of the last save or load."""
     return {"status": traj.store_of(ctl).status}
 
 
-def speeding(ctl: Any, v: Values) -> dict[str, Any]:
+def speeding(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 230: whether the loaded trajectory played at ``rate`` exceeds the joint speed
     limit: (result 0 within / 1 above, joint 1-based, peak speed rad/s)."""
     rate = int(v["rate"])
@@ -77,11 +75,12 @@ def speeding(ctl: Any, v: Values) -> dict[str, Any]:
     return {"result": 1 if over else 0, "servo_id": joint if over else 0, "speed": speed}
 
 
-HANDLERS: dict[int, Callable[[Any, Values], dict[str, Any] | None]] = {
-    61: set_record,
-    62: save,
-    63: load,
-    64: play,
-    65: rw_status,
-    230: speeding,
-}
+#: The registers of this module, bound (:class:`~xarm_emu.controller.core.interface.Binding`).
+BINDINGS: tuple[Binding, ...] = (
+    Binding(61, set_record),
+    Binding(62, save),
+    Binding(63, load),
+    Binding(64, play),
+    Binding(65, rw_status),
+    Binding(230, speeding),
+)

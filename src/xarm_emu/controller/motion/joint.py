@@ -78,7 +78,7 @@ class JointTrajectory:
     ``target`` is where the move is going.
     """
 
-    __slots__ = ("dof", "duration", "target", "limits", "_traj", "_start", "_end")
+    __slots__ = ("dof", "duration", "target", "limits", "_traj", "_start", "_end", "_inputs")
 
     def __init__(self, traj: _Samples | Trajectory | None, start: tuple[np.ndarray, np.ndarray, np.ndarray],
                  end: tuple[np.ndarray, np.ndarray, np.ndarray], target: np.ndarray,
@@ -89,6 +89,13 @@ class JointTrajectory:
         self._start, self._end = start, end
         self.target = target
         self.limits = limits
+        #: The arguments of :func:`plan_joint_move` that planned it (set there).
+        self._inputs: tuple[object, ...] = ()
+
+    def __reduce__(self) -> tuple[object, tuple[object, ...]]:
+        """Copied and saved as the inputs it was planned from, planned again when loaded (a ruckig
+        trajectory is not data; planning the same inputs gives the same trajectory)."""
+        return plan_joint_move, self._inputs
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if t >= self.duration or self._traj is None:
@@ -136,8 +143,11 @@ def plan_joint_move(q0: Sequence[float] | np.ndarray, q1: Sequence[float] | np.n
     limits = (_limits(vmax, dof, "vmax"), _limits(amax, dof, "amax"), _limits(jmax, dof, "jmax"))
     start = (start_q, v0, a0)
     end = (target, zero, zero.copy())
+    inputs = (start_q.copy(), target.copy(), *limits, v0.copy(), a0.copy())
     if np.array_equal(start_q, target) and not v0.any() and not a0.any():
-        return JointTrajectory(None, start, end, target, limits)
+        out = JointTrajectory(None, start, end, target, limits)
+        out._inputs = inputs
+        return out
     inp = InputParameter(dof)
     inp.current_position = start_q.tolist()
     inp.current_velocity = v0.tolist()
@@ -151,4 +161,6 @@ def plan_joint_move(q0: Sequence[float] | np.ndarray, q1: Sequence[float] | np.n
         if v0.any() or a0.any():
             raise
         traj = StraightLine(start_q, target, limits)
-    return JointTrajectory(traj, start, end, target, limits)
+    out = JointTrajectory(traj, start, end, target, limits)
+    out._inputs = inputs
+    return out

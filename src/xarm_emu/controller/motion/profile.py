@@ -188,11 +188,12 @@ class MovingProfile:
     by ruckig (offline, one degree of freedom); same interface as :class:`JerkProfile`.
     """
 
-    __slots__ = ("duration", "distance", "_traj", "_end", "_tables")
+    __slots__ = ("duration", "distance", "_traj", "_end", "_tables", "_inputs")
 
     def __init__(self, distance: float, v0: float, a0: float, vmax: float, amax: float, jmax: float) -> None:
         from ruckig import InputParameter, Result, Ruckig, RuckigError, Trajectory
 
+        self._inputs = (distance, v0, a0, vmax, amax, jmax)
         _check_limits(vmax, amax, jmax)
         inp = InputParameter(1)
         inp.current_position = [0.0]
@@ -216,6 +217,11 @@ class MovingProfile:
         self.distance = distance
         self._end = (distance, 0.0, 0.0)
         self._tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def __reduce__(self) -> tuple[object, tuple[object, ...]]:
+        """Copied and saved as the inputs it was planned from, planned again when loaded (a ruckig
+        trajectory is not data; planning the same inputs gives the same trajectory)."""
+        return MovingProfile, self._inputs
 
     def sample(self, t: float) -> tuple[float, float, float]:
         """``(s, v, a)`` at time ``t`` (clamped to ``[0, duration]``)."""

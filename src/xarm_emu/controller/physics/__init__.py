@@ -1,12 +1,13 @@
-"""Objects, grasps and contacts: the physics world of a scene with ``[[object]]`` tables.
+"""Objects, grasps and contacts: the physics world of a scene with ``[[object]]`` tables (their
+declaration is controller/scene/objects.py).
 
-- ``objects.py``: the ``[[object]]`` tables (pure data, no engine).
 - ``hands.py``: the end tools as bodies (finger pads, housing), in the flange frame.
 - ``mjcf.py``: the engine's model document from the project's own tables (joint frames, link
   capsules, inertials, hand, fixtures, objects).
 - ``world.py``: the engine (MuJoCo, an optional extra) stepped by the control period, its state
   (:class:`~.world.PhysicsState`), object poses, placing.
 - ``component.py``: the world as a controller component, coupling the gripper's fingers to it.
+- ``driven.py``: grippers whose own model moves the fingers (Robotiq, BIO), as the component asks.
 
 The engine is imported only by :func:`attach`, which the emulator calls for a scene with objects.
 """
@@ -17,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from ...model.robots import RobotModel
-    from ..contact import Scene
+    from ..scene.contact import Scene
     from .component import PhysicsComponent
 
 #: What to install when the engine is missing.

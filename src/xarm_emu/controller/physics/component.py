@@ -1,7 +1,7 @@
 """The physics world as a controller component: stepped once a control period after the gripper
 (so it sees this period's joints and finger command), it tells the gripper where its fingers stopped.
 
-The finger drive: the gripper's own model (controller/gripper.py) says where the fingers are told to
+The finger drive: the gripper's own model (controller/devices/gripper.py) says where the fingers are told to
 go and how fast; here that command (:attr:`PhysicsState.ramp`, mm of opening) runs toward the target
 at the gripper's speed and the engine's force-limited finger drives follow it. Where a pad meets an
 object the fingers stop and the drive presses with the hand's force; the gripper's reported position
@@ -10,10 +10,10 @@ object (motion bits 2, what the SDK's wait for a grip reads as done). Free finge
 itself, so a gripper that closes on nothing moves exactly as without the engine.
 
 Collision detection (C31, manual 3.2.1, at the sensitivity of register 37): the force of the scene's
-planes and boxes on the TCP (their spring-damper, :func:`.contact.scene_wrench`) and the engine's
+planes and boxes on the TCP (their spring-damper, :func:`..scene.contact.scene_wrench`) and the engine's
 contact forces of objects on the arm and hand (:meth:`.world.World.arm_torques`) enter the joint
 torques as ``J^T f``; the largest external joint torque is checked against the sensitivity's
-threshold every period (:func:`.safety.collision_detected`), so pushing the tool into the table
+threshold every period (:func:`..core.safety.collision_detected`), so pushing the tool into the table
 raises C31 as a real push would; sensitivity 0 never does.
 """
 
@@ -26,10 +26,12 @@ import numpy as np
 
 from ...model import kinematics as kin
 from ...model.robots import VACUUM_WIRING
-from .. import contact, safety
-from ..base import C_COLLISION, NOT_IDLE, Handler
-from ..gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
-from ..robotiq import OBJ_MOVING, RobotiqGripper
+from ..core import safety
+from ..core.controller_protocol import Controller
+from ..core.interface import C_COLLISION, NOT_IDLE
+from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
+from ..scene import contact
+from .driven import driven
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
 from .world import World
@@ -38,53 +40,60 @@ from .world import World
 FOLLOW_MM = 0.05
 
 
+def _inside(shape: contact.Plane | contact.Box, p: tuple[float, float, float]) -> bool:
+    """Whether the point ``p`` (mm) is inside the fixture ``shape`` (plain floats: asked every period;
+    the fixture's own penetration says the same)."""
+    x, y, z = p
+    if isinstance(shape, contact.Plane):
+        (px, py, pz), (nx, ny, nz) = shape.point, shape.normal
+        return (px - x) * nx + (py - y) * ny + (pz - z) * nz > 0.0
+    lo, hi = shape.min, shape.max
+    return lo[0] < x < hi[0] and lo[1] < y < hi[1] and lo[2] < z < hi[2]
+
+
 class PhysicsComponent:
     """Steps :attr:`world` every control period and couples the xArm gripper's fingers to it."""
 
     def __init__(self, world: World, device: Any, vacuum: Any = None) -> None:
         self.world = world
-        #: The vacuum gripper (controller/vacuum.py), when it is the hand.
+        #: The vacuum gripper (controller/devices/vacuum.py), when it is the hand.
         self.vacuum = vacuum
         self.device = device if isinstance(device, XArmGripper) else None
         if self.device is not None:
             self.world.state.ramp = self.device.position * XARM_MM_PER_PULSE
-        #: The Robotiq 2F-85 on the tool bus, when it is the hand.
-        self.robotiq = device if isinstance(device, RobotiqGripper) and world.fingers else None
         hand = world.hand
+        #: A gripper on the tool bus whose own model moves its fingers (Robotiq, BIO), when it is
+        #: the hand (:mod:`.driven`).
+        self.driven = driven(device, hand)
         #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
         #: (The drive holds finger a, half the opening, and presses with the force of both pads.)
         self.squeeze = (2 * (2 * hand.force / FINGER_KP) / 0.001 + 1.0) if hand is not None else 0.0
 
-    def handlers(self) -> dict[int, Handler]:
-        return {}
-
-    def _robotiq_ramp(self) -> float:
-        """The Robotiq's command: its own fingers' opening (its model moves them and stops them at the
-        object the engine found), pressing past it while it grips; its force setting limits the drive."""
-        r = self.robotiq
-        assert r is not None
-        force = r.model.force_min + (r.model.force_max - r.model.force_min) * r.rFR / 255.0
+    def _driven_ramp(self) -> float:
+        """A driven gripper's command: its own fingers' opening (its model moves them and stops them
+        at the object the engine found), pressing past it while it grips; its force setting limits
+        the drive."""
+        f = self.driven
+        assert f is not None
+        force = f.force
         self.world.set_force(force)
-        if r.gripping:
-            return r.opening_mm - 2 * (2 * force / FINGER_KP) / 0.001 - 1.0
-        return r.opening_mm
+        if f.gripping:
+            return f.opening - 2 * (2 * force / FINGER_KP) / 0.001 - 1.0
+        return f.opening
 
-    def _robotiq_contact(self) -> None:
-        """Tell the Robotiq where both pads met one object (its gOBJ then says so), and that it is
-        gone when the fingers open."""
-        r = self.robotiq
-        assert r is not None
+    def _driven_contact(self) -> None:
+        """Tell a driven gripper where both pads met one object (its status then says so), and that
+        it is gone when the fingers open."""
+        f = self.driven
+        assert f is not None
         w = self.world
-        gripping = any(len(pads) == 2 for pads in w.pad_contacts().values())
-        closing = r.moving and r.goal > r.position
-        if gripping and closing and r.object_mm is None:
-            width = min(w.opening(), r.model.stroke_mm)
-            r.set_object(width)
-            r.position = min(r.position, r._counts_at(width))  # the fingers stopped where they met it
-        elif r.object_mm is not None and not gripping and not r.gripping and r.gOBJ == OBJ_MOVING:
-            r.object_mm = None  # opening away from it: nothing between the fingers any more
+        touching = w.gripped()
+        if touching and f.closing and not f.met:
+            f.meet(w.opening())
+        else:
+            f.part(touching)
 
-    def _vacuum(self, ctl: Any) -> None:
+    def _vacuum(self, ctl: Controller) -> None:
         """The cup seals on a flat face under it (the pressure input then rises as the pump runs) and
         holds that object while the pump runs; the pump stopped, it lets go."""
         v, w = self.vacuum, self.world
@@ -98,8 +107,8 @@ class PhysicsComponent:
 
     def _ramp(self, dt: float) -> float:
         """This period's finger command (mm of opening)."""
-        if self.robotiq is not None:
-            return self._robotiq_ramp()
+        if self.driven is not None:
+            return self._driven_ramp()
         ramp = self.world.state.ramp
         g = self.device
         if g is None or not self.world.fingers:
@@ -117,44 +126,52 @@ class PhysicsComponent:
             return target
         return ramp + math.copysign(step, target - ramp)
 
-    def external_torques(self, ctl: Any) -> np.ndarray:
-        """The joint torques (N m) of the scene's fixtures pressing on the TCP: ``J^T f``."""
+    def external_torques(self, ctl: Controller) -> np.ndarray | None:
+        """The joint torques (N m) of the scene's fixtures pressing on the TCP: ``J^T f``; None when
+        the TCP touches none of them."""
         q = ctl.data.q
+        shapes = contact.scene_of(ctl).shapes
+        if not shapes:
+            return None
+        p = self.world.tcp_point(q, ctl.settings.tcp_offset)
+        if not any(_inside(s, p) for s in shapes):
+            return None
         T = kin.fk(ctl.model, q)
         off = T[:3, :3] @ np.asarray(ctl.settings.tcp_offset[:3], dtype=float)
-        p = T[:3, 3] + off
-        if not any(shape.penetration(p)[0] > 0 for shape in contact.scene_of(ctl).shapes):
-            return np.zeros(ctl.dof)  # the TCP touches nothing
         f = contact.scene_wrench(ctl)[:3]
         r = off * 0.001  # m
         J = kin.jacobian(ctl.model, q)  # flange: linear (mm/rad) over angular rows
         return np.asarray(J[:3].T @ f * 0.001 + J[3:].T @ np.cross(r, f))
 
-    def _collision(self, ctl: Any) -> None:
+    def _collision(self, ctl: Controller) -> None:
         sens = ctl.settings.collision_sensitivity
         if not sens or ctl.error_code or not all(ctl.enabled):
             return
         gripping = bool(self.device is not None and self.device.gripped) or bool(
-            self.robotiq is not None and self.robotiq.gripping)
-        tau = self.external_torques(ctl) + self.world.arm_torques(gripping)
-        if tau.any() and safety.collision_detected(sens, float(np.max(np.abs(tau)))):
+            self.driven is not None and self.driven.gripping)
+        tau = self.external_torques(ctl)
+        if self.world.touching_arm():
+            arm = self.world.arm_torques(gripping)
+            tau = arm if tau is None else tau + arm
+        if tau is not None and tau.any() and safety.collision_detected(
+                sens, float(np.max(np.abs(tau))), safety.collision_thresholds(ctl.model)):
             ctl.raise_error(C_COLLISION)
 
-    def step(self, dt: float, ctl: Any) -> None:
+    def step(self, dt: float, ctl: Controller) -> None:
         self._collision(ctl)
         w = self.world
         ramp = self._ramp(dt)
         w.state.ramp = ramp
         w.step(ctl.data.q, dt, ramp)
-        if self.robotiq is not None:
-            self._robotiq_contact()
+        if self.driven is not None:
+            self._driven_contact()
         if self.vacuum is not None:
             self._vacuum(ctl)
         g = self.device
         if g is None or not w.fingers:
             return
         measured = w.opening()
-        gripping = any(len(pads) == 2 for pads in w.pad_contacts().values())  # both pads on one object
+        gripping = w.gripped()  # both pads on one object
         # the grip is made when the drive presses with the hand's full force (or its target is reached)
         full = ramp <= measured - (self.squeeze - 1.0) or ramp == g.target * XARM_MM_PER_PULSE
         pressing = gripping and full and g.target * XARM_MM_PER_PULSE < measured - FOLLOW_MM
@@ -164,6 +181,8 @@ class PhysicsComponent:
         else:
             g.position = measured / XARM_MM_PER_PULSE
 
-    def idle_until(self, ctl: Any) -> float:
+    def idle_until(self, ctl: Controller) -> float:
         """Idle while the world is settled and neither the arm nor the finger command would move."""
+        if not self.world.state.settled:
+            return NOT_IDLE
         return math.inf if self.world.idle(ctl.data.q, self._ramp(ctl.period)) else NOT_IDLE

@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ...model.collision import BUILTIN_TOOLS
+from ..devices import bio_gripper
+from ..devices.robotiq import ROBOTIQ_2F85, ROBOTIQ_2F140
 
 
 @dataclass(frozen=True)
@@ -46,13 +48,26 @@ XARM_HAND = Hand("xArm Gripper", stroke=85.0, pad_half=(10.0, 4.0, 20.0), tip=BU
 XARM_MM_PER_PULSE = XARM_HAND.stroke / 850.0
 
 #: The Robotiq 2F-85: its 85 mm stroke, fingertips at its 174 mm tool length; the force is set per
-#: grip by its rFR register (controller/robotiq.py), this is the most.
-ROBOTIQ_2F85_HAND = Hand("Robotiq 2F-85", stroke=85.0, pad_half=(11.0, 4.0, 19.0), tip=BUILTIN_TOOLS[4][2],
-                         housing=(55.0, (35.0, 60.0, 55.0)), force=235.0)
+#: grip by its rFR register (controller/devices/robotiq.py), this is the most.
+ROBOTIQ_2F85_HAND = Hand("Robotiq 2F-85", stroke=ROBOTIQ_2F85.stroke_mm, pad_half=(11.0, 4.0, 19.0),
+                         tip=BUILTIN_TOOLS[4][2], housing=(55.0, (35.0, 60.0, 55.0)),
+                         force=ROBOTIQ_2F85.force_max)
+
+#: The Robotiq 2F-140: its 140 mm stroke, fingertips at its 244 mm tool length, a wider palm; the
+#: force set per grip by rFR, this is the most.
+ROBOTIQ_2F140_HAND = Hand("Robotiq 2F-140", stroke=ROBOTIQ_2F140.stroke_mm, pad_half=(13.0, 4.0, 24.0),
+                          tip=BUILTIN_TOOLS[5][2], housing=(80.0, (35.0, 85.0, 80.0)),
+                          force=ROBOTIQ_2F140.force_max)
 
 #: The xArm Vacuum Gripper: a 20 mm cup whose face is at its 126 mm tool length.
 VACUUM_HAND = Hand("xArm Vacuum Gripper", stroke=0.0, pad_half=(0.0, 0.0, 0.0), tip=BUILTIN_TOOLS[2][2],
                    housing=(50.0, (30.0, 30.0, 50.0)), force=0.0, cup_radius=20.0)
 
+#: The BIO gripper: fingertips at its 150 mm tool length, opening 71..150 mm (its model keeps the
+#: fingers within; the pads' joints span 0..150); 50 N a finger at force 100 is the emulator's estimate.
+BIO_HAND = Hand("xArm BIO Gripper", stroke=bio_gripper.OPEN_MM, pad_half=(12.0, 4.0, 20.0),
+                tip=BUILTIN_TOOLS[3][2], housing=(50.0, (40.0, 90.0, 50.0)), force=50.0)
+
 #: The hands by the emulator's gripper names (``Emulator(gripper=...)``).
-HANDS = {"xarm": XARM_HAND, "robotiq-2f85": ROBOTIQ_2F85_HAND}
+HANDS = {"xarm": XARM_HAND, "robotiq-2f85": ROBOTIQ_2F85_HAND, "robotiq-2f140": ROBOTIQ_2F140_HAND,
+         "bio": BIO_HAND}

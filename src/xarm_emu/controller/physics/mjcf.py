@@ -24,13 +24,14 @@ from ...model.collision import _link_capsules
 from ...model.inertials import get_inertials
 from ...model.robots import RobotModel
 from ...model.rotations import quat_from_matrix, rpy_to_matrix
-from ..contact import Box, Plane, Scene
+from ..scene.contact import Box, Plane, Scene
+from ..scene.objects import ObjectSpec
 from .hands import Hand
-from .objects import ObjectSpec
 
 MM = 0.001
-#: The engine's time step (s): two per control period of 4 ms.
-TIMESTEP = 0.002
+#: The engine's time step (s): one per control period of 4 ms, the implicit integrator (stable for
+#: the stiff finger drive and contacts at this step).
+TIMESTEP = 0.004
 #: The arm's joints: an inertia so large that nothing the engine applies moves them within a step
 #: (the controller moves them; kg m^2).
 ARM_ARMATURE = 1.0e4
@@ -44,9 +45,9 @@ FINGER_KV = 40.0
 FIXTURE, OBJECT, ARM = 1, 2, 4
 #: An arm or hand this near an object (m) makes the world step (:meth:`.world.World.step`).
 NEAR = 0.01
-#: Contacts: stiff (time constant two engine steps) and hard (impedance near 1 from the first 0.5 mm),
-#: so a squeezed object is pressed into by a fraction of a millimetre.
-SOLREF = "0.004 1"
+#: Contacts: as stiff as the engine allows at its step (time constant two steps) and hard (impedance
+#: near 1 from the first 0.5 mm), so a squeezed object is pressed into by a fraction of a millimetre.
+SOLREF = "0.008 1"
 SOLIMP = "0.99 0.999 0.0005 0.5 2"
 
 

@@ -6,17 +6,21 @@ get the speed that takes them from the last period's joints to the controller's,
 them, so the engine never moves the arm; it answers what touches what and with what force. Objects
 are free bodies; the fingers slide on force-limited position drives.
 
-Settling: once every object and finger has stayed still (below :data:`STILL_SPEED`) for
-:data:`SETTLE_PERIODS` periods with nothing of the arm touching an object, the world is settled: the
-speeds are zeroed and the engine is not stepped again until the arm or the fingers are told to move.
-The rule reads only the world's own state, so stepping every period or jumping over idle ones
-(controller/emulator.py) gives the same poses.
+Settling: once every object has stayed still (below :data:`STILL_SPEED`) for :data:`SETTLE_PERIODS`
+periods, with nothing of the arm touching an object and the arm and the fingers either still or
+farther than ``mjcf.NEAR`` from every object, the world is settled: the speeds are zeroed and the
+engine is not stepped again until the arm or the fingers come that near an object (free fingers
+are then put where their drive is told). Nearness is asked of a second copy of the model in which
+only the arm and the objects collide. The rule reads only the world's own state, so stepping every
+period or jumping over idle ones (controller/emulator.py) gives the same poses.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 import struct
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
@@ -25,9 +29,9 @@ import numpy as np
 from ...model import kinematics as kin
 from ...model.robots import RobotModel
 from ...model.rotations import matrix_to_rpy, quat_from_matrix, rpy_to_matrix
-from ..contact import Scene
+from ..scene.contact import Scene
 from .hands import Hand
-from .mjcf import MM, NEAR, TIMESTEP, world_xml
+from .mjcf import ARM, MM, NEAR, TIMESTEP, world_xml
 
 #: Object and finger speeds below this are still (m/s, and rad/s for turning).
 STILL_SPEED = 2.0e-4
@@ -38,7 +42,7 @@ SETTLE_PERIODS = 25
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
-@dataclass
+@dataclass(slots=True)
 class PhysicsState:
     """Every mutable value of the physics world (what a checkpoint carries): the engine's integration
     state (time, positions, speeds, actuator states, solver warm start, controls) as float64 bytes,
@@ -98,6 +102,7 @@ class World:
         self._kind[list(self._arm_geoms)] = 1
         self._arm_idx = np.array(sorted(self._arm_geoms), dtype=int)
         self._kind[list(self._pads)] = 2
+        self._kinds: list[int] = self._kind.tolist()
         self.objects: list[tuple[str, int, int, int]] = []  # name, qpos adr, dof adr, geom id
         for o in scene.objects:
             j = m.joint(f"object:{o.name}").id
@@ -105,8 +110,31 @@ class World:
             self.objects.append((o.name, int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]),
                                  int(m.body_geomadr[body])))
         self._object_geoms = {g: i for i, (_, _, _, g) in enumerate(self.objects)}
+        #: The model of the nearness test (:meth:`_kinematics_at`, :meth:`_far`): the arm's geoms
+        #: see objects from ``NEAR``; nothing else collides (fixtures touch nothing, objects only
+        #: the arm), so the world's own contacts stay those of its last step.
+        self._near_m = near = copy.copy(m)
+        near.geom_margin[self._arm_idx] = NEAR
+        obj_idx = [g for *_, g in self.objects]
+        near.geom_contype[:] = np.where(self._kind > 0, near.geom_contype, 0)
+        near.geom_conaffinity[:] = 0
+        near.geom_conaffinity[obj_idx] = ARM
+        near.geom_contype[obj_idx] = 0
+        self._near_d = mujoco.MjData(near)
+        self._flange_body = m.body(f"link{dof}").id
+        self._near_key: tuple[bytes, bytes] = (b"", b"")
+        self._far_key: tuple[bytes, bytes] = (b"", b"")
+        self._far_out = False
         self._free_v = np.array([v + k for _, _, v, _ in self.objects for k in range(6)], dtype=int)
+        self._free_list: list[int] = self._free_v.tolist()
         self._size = mujoco.mj_stateSize(m, _STATE)
+        #: The engine's contacts are read once each time they change (:meth:`_scan`): ``_version``
+        #: counts the changes, ``_scanned`` the one read; ``_rows`` (contact index, geom, geom) of each
+        #: contact that touches the arm or hand, ``_pads`` the pads on each object.
+        self._version = 0
+        self._scanned = -1
+        self._rows: list[tuple[int, int, int]] = []
+        self._pad_map: dict[int, set[int]] = {}
         self._initial = (self.d.qpos.copy(), self.d.qvel.copy())
         self.state = PhysicsState(b"", 0.0, 0, False, b"")
         self.reset()
@@ -126,6 +154,7 @@ class World:
             raise ValueError("physics state of another world (other objects or arm)")
         mujoco.mj_setState(self.m, self.d, buf.copy(), _STATE)
         mujoco.mj_forward(self.m, self.d)
+        self._version += 1
         self.state = PhysicsState(state.integration, state.ramp, state.still, state.settled, state.inputs,
                                   state.held, state.relative)
 
@@ -136,6 +165,7 @@ class World:
         if q is not None:
             self.d.qpos[self._q] = q[: self.robot.dof]
         mujoco.mj_forward(self.m, self.d)
+        self._version += 1
         self.state = PhysicsState(b"", 0.0, 0, False, b"")
 
     # -- stepping ------------------------------------------------------------------------------
@@ -160,30 +190,49 @@ class World:
             return
         m, d = self.m, self.d
         qa = np.asarray(q[: self.robot.dof], dtype=float)
-        if s.settled and inputs[-8:] == s.inputs[-8:] and self._far(qa):
-            s.inputs = inputs  # the arm moves where nothing is near it: the world stays settled
+        if s.settled and self._far(qa):
+            # the arm and fingers move where nothing is near them: the world stays settled, the
+            # free fingers are where their drive is told (they follow it within a period)
+            self._fingers_to(ramp)
+            s.inputs = inputs
             return
-        moving_arm = not np.array_equal(d.qpos[self._q], qa)
-        d.qvel[self._v] = (qa - d.qpos[self._q]) / dt
+        last = d.qpos[self._q].copy()
+        moving_arm = last.tolist() != qa.tolist()
+        d.qvel[self._v] = (qa - last) / dt
         if self.fingers:
             d.ctrl[:] = ramp / 2.0 * MM
         mujoco.mj_step(m, d, nstep=max(1, round(dt / TIMESTEP)))
+        self._version += 1
         d.qpos[self._q] = qa
         d.qvel[self._v] = 0.0
         if s.held >= 0:
             self._carry(qa)
         s.inputs = inputs
         s.settled = False
-        still = not moving_arm and not self.touching_arm()
-        if still and self._free_v.size:
-            still = float(np.max(np.abs(d.qvel[self._free_v]))) < STILL_SPEED
-        if still and self._finger_v:
-            still = max(abs(float(d.qvel[v])) for v in self._finger_v) < STILL_SPEED
+        # an arm moving where nothing is near it lets the objects settle all the same (asked only
+        # when nothing of the arm touches an object: then the world cannot settle anyway)
+        still = not self.touching_arm()
+        far = still and (moving_arm or self.fingers) and self._far(qa)
+        still = still and (far or not moving_arm)
+        if still and (self._free_v.size or (self._finger_v and not far)):
+            qvel = d.qvel.tolist()
+            still = all(abs(qvel[v]) < STILL_SPEED for v in self._free_list)
+            if still and self._finger_v and not far:
+                still = all(abs(qvel[v]) < STILL_SPEED for v in self._finger_v)
         s.still = s.still + 1 if still else 0
         if s.still >= SETTLE_PERIODS:
             d.qvel[:] = 0.0
             d.qacc_warmstart[:] = 0.0
             s.settled = True
+
+    def _fingers_to(self, ramp: float) -> None:
+        """Free fingers at the opening ``ramp`` (mm), at rest."""
+        if self.fingers:
+            half = min(max(ramp / 2.0, 0.0), self.hand.stroke / 2.0) * MM  # type: ignore[union-attr]
+            for a in self._fq:
+                self.d.qpos[a] = half
+            for v in self._finger_v:
+                self.d.qvel[v] = 0.0
 
     # -- the vacuum cup ------------------------------------------------------------------------
     def cup_object(self, q: np.ndarray) -> int:
@@ -259,73 +308,115 @@ class World:
         touching contact, at its point, on the arm's joints. While the hand grips (``gripping``, its
         device says so) the pads' contacts with an object both pads touch are its own squeeze and
         are left out."""
-        m, d = self.m, self.d
         tau = np.zeros(self.robot.dof)
-        n = d.ncon
-        if not n:
+        kind = self._kinds
+        gripped = {i for i, pads in self._pad_map.items() if len(pads) == 2} if gripping else set()
+        pushing = []
+        for k, g1, g2 in self._scan():
+            first = bool(kind[g1])
+            arm_geom, other = (g1, g2) if first else (g2, g1)
+            if kind[arm_geom] == 2 and self._object_geoms.get(other) in gripped:
+                continue
+            pushing.append((k, arm_geom, first))
+        if not pushing:
             return tau
-        pairs = np.asarray(d.contact.geom[:n]).reshape(-1, 2)
-        kinds = self._kind[pairs]
-        rows = np.nonzero(kinds.any(axis=1) & (np.asarray(d.contact.dist[:n]) <= 0.0))[0]
-        if not rows.size:
-            return tau
-        gripped = {i for i, pads in self.pad_contacts().items() if len(pads) == 2} if gripping else set()
+        m, d = self.m, self.d
         f6 = np.zeros(6)
         jacp = np.zeros((3, m.nv))
-        for k in rows:
-            c = d.contact[int(k)]
-            first = bool(kinds[k, 0])
-            arm_geom, other = (int(c.geom[0]), int(c.geom[1])) if first else (int(c.geom[1]), int(c.geom[0]))
-            if self._kind[arm_geom] == 2 and self._object_geoms.get(other) in gripped:
-                continue
-            mujoco.mj_contactForce(m, d, int(k), f6)
-            force = np.asarray(c.frame).reshape(3, 3).T @ f6[:3]  # on geom2, from geom1
-            mujoco.mj_jac(m, d, jacp, None, c.pos, int(m.geom_bodyid[arm_geom]))
+        frames = d.contact.frame
+        points = d.contact.pos
+        for k, arm_geom, first in pushing:
+            mujoco.mj_contactForce(m, d, k, f6)
+            force = frames[k].reshape(3, 3).T @ f6[:3]  # on geom2, from geom1
+            mujoco.mj_jac(m, d, jacp, None, points[k], int(m.geom_bodyid[arm_geom]))
             tau += jacp[:, self._v].T @ (-force if first else force)
         return tau
 
+    def tcp_point(self, q: np.ndarray, offset: Sequence[float]) -> tuple[float, float, float]:
+        """The point ``offset`` (mm, flange frame) of the arm at ``q`` (rad), in the base frame (mm),
+        from the engine's kinematics of the nearness model (the same joint frames as ``model/``)."""
+        self._kinematics_at(q)
+        d = self._near_d
+        b = self._flange_body
+        r = d.xmat[b].tolist()
+        x, y, z = (v / MM for v in d.xpos[b].tolist())
+        ox, oy, oz = float(offset[0]), float(offset[1]), float(offset[2])
+        return (x + r[0] * ox + r[1] * oy + r[2] * oz, y + r[3] * ox + r[4] * oy + r[5] * oz,
+                z + r[6] * ox + r[7] * oy + r[8] * oz)
+
     def _far(self, qa: np.ndarray) -> bool:
-        """The arm put at ``qa``: whether no part of it is near an object (within ``mjcf.NEAR``)."""
-        m, d = self.m, self.d
-        d.qpos[self._q] = qa
-        mujoco.mj_kinematics(m, d)
-        m.geom_margin[self._arm_idx] = NEAR  # contacts of the arm seen from this far, for this test only
-        mujoco.mj_collision(m, d)
-        m.geom_margin[self._arm_idx] = 0.0
-        return not self._kind[np.asarray(d.contact.geom[: d.ncon]).reshape(-1, 2)].any()
+        """The arm put at ``qa``: whether no part of it is near an object (within ``mjcf.NEAR``),
+        asked of the nearness model (once for the same joints and world)."""
+        self._kinematics_at(qa)
+        if self._far_key != self._near_key:
+            mujoco.mj_collision(self._near_m, self._near_d)
+            self._far_key, self._far_out = self._near_key, not self._near_d.ncon
+        return self._far_out
+
+    def _kinematics_at(self, q: np.ndarray) -> None:
+        """The nearness model's bodies where the world's are, the arm at ``q`` (done once for the
+        same joints and world)."""
+        key = (self.d.qpos.tobytes(), q[: self.robot.dof].tobytes())
+        if key == self._near_key:
+            return
+        d = self._near_d
+        d.qpos[:] = self.d.qpos
+        d.qpos[self._q] = q[: self.robot.dof]
+        mujoco.mj_kinematics(self._near_m, d)
+        self._near_key = key
 
     # -- what the world shows ------------------------------------------------------------------
-    def _pairs(self) -> np.ndarray:
-        """The geoms of each contact that touches (not one only near)."""
-        n = self.d.ncon
-        c = self.d.contact
-        pairs = np.asarray(c.geom[:n]).reshape(-1, 2)
-        return pairs[np.asarray(c.dist[:n]) <= 0.0]
+    def _scan(self) -> list[tuple[int, int, int]]:
+        """The contacts that touch (not ones only near) the arm or hand, as (contact index, geom,
+        geom), read from the engine once after each change; the pads on each object with them."""
+        if self._scanned == self._version:
+            return self._rows
+        self._scanned = self._version
+        d = self.d
+        n = d.ncon
+        rows: list[tuple[int, int, int]] = []
+        pads: dict[int, set[int]] = {}
+        if n:
+            c = d.contact
+            kind, objects = self._kinds, self._object_geoms
+            # the world's geoms have no margins: every contact of the engine touches
+            for k, (a, b) in enumerate(c.geom[:n].tolist()):
+                ka, kb = kind[a], kind[b]
+                if not (ka or kb):
+                    continue
+                rows.append((k, a, b))
+                if ka == 2 and b in objects:
+                    pads.setdefault(objects[b], set()).add(a)
+                elif kb == 2 and a in objects:
+                    pads.setdefault(objects[a], set()).add(b)
+        self._rows, self._pad_map = rows, pads
+        return rows
 
     def touching_arm(self) -> bool:
         """Whether any part of the arm or hand touches an object."""
-        return bool(self.d.ncon) and bool(self._kind[self._pairs()].any())
+        return bool(self._scan())
 
     def pad_contacts(self) -> dict[int, set[int]]:
         """For each object index, the finger pads that touch it."""
-        out: dict[int, set[int]] = {}
-        pairs = self._pairs()
-        if not pairs.size or not (self._kind[pairs] == 2).any():
-            return out
-        for a, b in pairs:
-            a, b = int(a), int(b)
-            for pad, other in ((a, b), (b, a)):
-                if pad in self._pads and other in self._object_geoms:
-                    out.setdefault(self._object_geoms[other], set()).add(pad)
-        return out
+        self._scan()
+        return {i: set(p) for i, p in self._pad_map.items()}
+
+    def gripped(self) -> bool:
+        """Whether both pads touch one object."""
+        self._scan()
+        return any(len(p) == 2 for p in self._pad_map.values())
 
     def opening(self) -> float:
         """The opening between the pads (mm)."""
-        return sum(float(self.d.qpos[a]) for a in self._fq) / MM
+        if not self._fq:
+            return 0.0
+        qpos = self.d.qpos
+        return (float(qpos[self._fq[0]]) + float(qpos[self._fq[1]])) / MM
 
     def poses(self) -> list[ObjectPose]:
         """Every object's pose, in scene order."""
-        held = {i for i, pads in self.pad_contacts().items() if len(pads) == 2}
+        self._scan()
+        held = {i for i, pads in self._pad_map.items() if len(pads) == 2}
         out = []
         for i, (name, a, _, _) in enumerate(self.objects):
             qp = self.d.qpos
@@ -353,5 +444,6 @@ class World:
         d.qpos[a + 3: a + 7] = quat_from_matrix(rpy_to_matrix(*np.radians(rpy)))
         d.qvel[v: v + 6] = 0.0
         mujoco.mj_forward(self.m, d)
+        self._version += 1
         self.state.settled = False
         self.state.still = 0
