@@ -86,7 +86,7 @@ class ControllerState:
 
     Slotted: a value that is not declared here cannot be attached at run time. The application
     states below start as None and are created on first use by the module that owns them
-    (``reduced.reduced_of`` and the like), all of them at construction (``mode_steps.create_state``)."""
+    (``reduced.reduced_of`` and the like), all of them at construction (``applications.modes.create_state``)."""
 
     dof: int
     time: float = 0.0  # controller time, s
