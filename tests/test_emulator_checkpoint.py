@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import struct
 from typing import Any
 
@@ -103,10 +104,10 @@ def test_restore_puts_the_schedule_back_where_it_was() -> None:
     """Actions pending at the checkpoint (a fault schedule) run again after a restore; one scheduled
     after the checkpoint is gone with the rest of that later state."""
     emu = Emulator(6)
-    emu.at(0.5, lambda: emu.inject_warning(11))
+    emu.at(0.5, functools.partial(emu.inject_warning, 11))  # actions are partials: a checkpoint writes them
     emu.advance(0.2)
     cp = emu.checkpoint()
-    emu.at(0.6, lambda: emu.inject_error(22))
+    emu.at(0.6, functools.partial(emu.inject_error, 22))
     emu.advance(1.0)
     assert (emu.controller.warning_code, emu.controller.error_code) == (11, 22)
     emu.restore(cp)

@@ -109,3 +109,40 @@ def test_serve_faults_from_the_cli(tmp_path: Path) -> None:
     ports = ("--port", "0", "--normal-port", "0", "--rich-port", "0", "--develop-port", "0")
     code, out = run_cli("serve", "--faults", str(bad), *ports, "--config-dir", str(tmp_path))
     assert code == 2 and "do is one of" in " ".join(out.split())
+
+
+def test_a_checkpoint_carries_the_pending_fault_schedule(make_server, tmp_path: Path) -> None:
+    """The schedule's actions are written into a checkpoint like the rest of the state: after a
+    restore the faults that were pending come again, and one waiting for the first motion waits again."""
+    from xarm_emu.server.admin import execute
+
+    path = tmp_path / "faults.toml"
+    path.write_text(SCHEDULE + '\n[[fault]]\nafter = "motion"\nat = 0.2\ndo = "warning"\ncode = 11\n'
+                    '\n[[fault]]\nat = 0.8\ndo = "drop-clients"\n')
+    st = make_server(stepped=True, admin=True, faults=path)
+    emu, srv = st.emulator, st.server
+    st.call(lambda: ready(emu))
+    st.call(lambda: srv.advance(0.3))
+    assert "saved" in st.call(lambda: execute(srv, {"cmd": "checkpoint-save", "name": "early"}))
+    assert st.call(emu.checkpoint_bytes)  # the schedule has a written form, for a file too
+    st.call(lambda: srv.advance(1.0))
+    assert st.call(lambda: emu.controller.error_code) == 31
+    assert "restored" in st.call(lambda: execute(srv, {"cmd": "checkpoint-restore", "name": "early"}))
+    assert st.call(lambda: (emu.controller.error_code, (emu.io.cgpio.digital_inputs >> 3) & 1)) == (0, 1)
+    st.call(lambda: srv.advance(0.196))
+    assert st.call(lambda: (emu.io.cgpio.digital_inputs >> 3) & 1) == 1
+    st.call(lambda: srv.advance(0.6))
+    assert st.call(lambda: (emu.controller.error_code, (emu.io.cgpio.digital_inputs >> 3) & 1)) == (31, 0)
+    assert st.call(lambda: emu.controller.warning_code) == 0  # the motion-watch still waits
+
+
+def test_a_state_that_cannot_be_written_is_refused_by_checkpoint_save(make_server) -> None:
+    """A lambda scheduled in process has no written form: the admin request is refused by name."""
+    from xarm_emu.server.admin import AdminError, execute
+
+    st = make_server(stepped=True, admin=True)
+    emu, srv = st.emulator, st.server
+    st.call(lambda: emu.at(5.0, lambda: None))
+    with pytest.raises(AdminError, match=r"cannot be saved: .*lambda"):
+        st.call(lambda: execute(srv, {"cmd": "checkpoint-save", "name": "x"}))
+    assert st.call(lambda: srv.checkpoints) == {}

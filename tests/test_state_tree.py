@@ -14,7 +14,7 @@ from typing import Any
 
 import pytest
 
-from xarm_emu.controller.emulator import Emulator, _shared_immutables
+from xarm_emu.controller.emulator import Emulator
 
 FIXED = "fixed at construction (model, firmware, wiring options, serial numbers)"
 DERIVED = "derived from the state (a cache, recomputed or keyed on what it depends on)"
@@ -33,6 +33,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Emulator", "exact_steps"): FIXED,
     ("Emulator", "physics"): WIRING,  # its world's state is the tree's ``physics`` part
     ("Emulator", "_store"): FIXED,  # the saved configuration's file (register 39/40)
+    ("Emulator", "outside"): FIXED,  # the server scheduled actions act on (named in a checkpoint)
     ("Emulator", "controller"): WIRING,
     ("Emulator", "io"): WIRING,
     ("Emulator", "gripper"): WIRING,
@@ -195,9 +196,9 @@ def _reach(root: object, stop: set[int]) -> dict[int, object]:
 
 
 def _shared(emu: Emulator) -> set[int]:
-    """What a checkpoint shares instead of copying: the model, the controller and the emulator
-    (referred to by plans and scheduled actions) and planned trajectories."""
-    return {id(emu.model), id(emu.controller), id(emu)} | set(_shared_immutables(emu.state))
+    """What a checkpoint refers to by name instead of writing: the model, the controller, the
+    emulator and its fixed components (referred to by plans, tasks and scheduled actions)."""
+    return {id(o) for o in emu._fixed().values()}
 
 
 def _mutable(obj: object) -> bool:
@@ -235,7 +236,7 @@ def _moving_box(**kw: Any) -> Emulator:
     emu.handle(23, struct.pack("<10f", 0.4, -0.2, 0, 0, 0.1, 0, 0, 0.6, 4.0, 0))
     emu.handle(21, struct.pack("<9f", 250, 0, 300, 3.1416, 0, 0, 100, 1000, 0))
     emu.handle(142, struct.pack("<BBf", 2, 1, 0.5))  # a delayed output
-    emu.at(5.0, lambda: None)
+    emu.at(5.0, emu.touch)  # a pending scheduled action
     emu.advance(0.3)
     return emu
 
@@ -286,11 +287,13 @@ def test_a_checkpoint_shares_no_mutable_object_with_the_live_box(kw: dict[str, A
     emu = _moving_box(**kw)
     shared = _shared(emu)
     cp = emu.checkpoint()
-    live = {i for i, o in _reach(emu.state, shared).items() if _mutable(o)}
-    kept = {i for i, o in _reach(cp.state, shared).items() if _mutable(o)}
+    tree, saved = emu.state, cp.state  # both held, so that no id is reused while they are compared
+    live = {i for i, o in _reach(tree, shared).items() if _mutable(o)}
+    kept = {i for i, o in _reach(saved, shared).items() if _mutable(o)}
     assert live & kept == set()
     emu.restore(cp)
-    assert {i for i, o in _reach(emu.state, shared).items() if _mutable(o)} & kept == set()
+    restored = emu.state
+    assert {i for i, o in _reach(restored, shared).items() if _mutable(o)} & kept == set()
 
 
 #: Classes in the tree that still keep their values in an instance dict (plain classes, not

@@ -8,18 +8,15 @@ as the CPU allows, deterministically).
 
 from __future__ import annotations
 
-import copy
 import heapq
 import logging
 import math
-from collections import deque
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
-from ruckig import Trajectory
 
 from ..model import dynamics as dyn
 from ..model import rotations as rot
@@ -53,7 +50,6 @@ from .devices.robotiq import MODELS as ROBOTIQ_MODELS
 from .devices.robotiq import RobotiqGripper
 from .devices.vacuum import VacuumGripper
 from .firmware2_report import firmware2_fields
-from .motion import JointTrajectory, MovingProfile
 from .scene import contact
 
 #: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
@@ -104,43 +100,24 @@ def check_firmware(model: RobotModel, firmware: FirmwareProfile) -> None:
 @dataclass(frozen=True)
 class Checkpoint:
     """The whole state of an emulator at one instant (:meth:`Emulator.checkpoint`): its
-    :class:`~.box_state.EmulatorState` tree, copied as a whole (controller and motion with the
+    :class:`~.box_state.EmulatorState` tree written as a whole (controller and motion with the
     buffer, plan and ramps, settings, IO, every attached device, the Modbus user storage, the
-    tool bus timeouts, the thermal model, the pending scheduled actions and the clock). Holds its
-    own deep copy: restoring it any number of times gives the same state."""
+    tool bus timeouts, the thermal model, the pending scheduled actions and the clock), as the
+    bytes of :meth:`Emulator.checkpoint_bytes`. Bytes do not change: restoring it any number of
+    times gives the same state."""
 
-    state: EmulatorState
+    #: The state tree as bytes (:mod:`.core.state_bytes`).
+    data: bytes
+    #: Controller time at the checkpoint, s.
+    time: float
+    #: The fixed objects the bytes refer to by name (the emulator's, :meth:`Emulator._fixed`).
+    fixed: Mapping[str, object] = field(repr=False, compare=False)
 
     @property
-    def time(self) -> float:
-        """Controller time at the checkpoint, s."""
-        return self.state.controller.time
-
-
-def _shared_immutables(root: object) -> dict[int, object]:
-    """Planned trajectories under ``root`` (ruckig's, and the joint moves and moving profiles
-    planned with it): they never change once planned, so a checkpoint shares them."""
-    found: dict[int, object] = {}
-    seen: set[int] = set()
-    stack = [root]
-    while stack:
-        obj = stack.pop()
-        if id(obj) in seen or isinstance(obj, (int, float, str, bytes, bool, np.ndarray)) or obj is None:
-            continue
-        seen.add(id(obj))
-        if isinstance(obj, (Trajectory, JointTrajectory, MovingProfile)):
-            found[id(obj)] = obj
-        elif isinstance(obj, dict):
-            stack.extend(obj.values())
-        elif isinstance(obj, (list, tuple, set, frozenset, deque)):
-            stack.extend(obj)
-        else:
-            if hasattr(obj, "__dict__"):
-                stack.extend(vars(obj).values())
-            for slot in getattr(type(obj), "__slots__", ()):
-                if hasattr(obj, slot):
-                    stack.append(getattr(obj, slot))
-    return found
+    def state(self) -> EmulatorState:
+        """The saved tree read back: a new copy on each call, sharing nothing mutable with the box."""
+        state, _ = state_bytes.decode(self.data, self.fixed)
+        return cast(EmulatorState, state)
 
 
 def report_snapshot(model: RobotModel, data: ControllerState, settings: Settings, io: IOModule,
@@ -253,6 +230,9 @@ class Emulator:
         #: Actions due at a controller time (:meth:`at`); ``_scheduled`` is its heap.
         self.schedule = Schedule()
         self._scheduled = self.schedule.heap
+        #: Objects of the layers above that scheduled actions refer to (the server a fault schedule
+        #: acts on), by name: a checkpoint writes the name and a restore finds the object again.
+        self.outside: dict[str, object] = {}
         #: What Modbus-TCP clients store in the box (controller/modbus_map.py).
         self.modbus = ModbusUserState()
         self.config_dir = config_dir
@@ -612,33 +592,22 @@ class Emulator:
         if self.physics is not None and state.physics is not None:
             self.physics.world.restore(state.physics)
 
-    def _memo(self, state: EmulatorState) -> dict[int, object]:
-        """Objects a copy of ``state`` shares instead of copying: the model, the controller and the
-        emulator (plans refer to the controller's pose functions, scheduled actions to the
-        emulator) and the planned trajectories, which cannot be copied and never change once
-        planned."""
-        memo = _shared_immutables(state)
-        for shared in (self.model, self.controller, self):
-            memo[id(shared)] = shared
-        return memo
-
     def checkpoint(self) -> Checkpoint:
-        """The whole emulator state as an independent deep copy (:class:`Checkpoint`)."""
-        state = self.state
-        return Checkpoint(copy.deepcopy(state, self._memo(state)))
+        """The whole emulator state, written as bytes (:class:`Checkpoint`, :meth:`checkpoint_bytes`).
+        Raises :class:`~.core.state_bytes.StateBytesError` when a scheduled action has no written
+        form (a lambda: schedule a ``functools.partial`` of a module-level function instead)."""
+        return Checkpoint(self.checkpoint_bytes(), self.time, self._fixed())
 
     def restore(self, cp: Checkpoint) -> None:
-        """Put the state of ``cp`` back exactly, as a whole; ``cp`` stays usable for further restores."""
-        self.generation += 1
-        if cp.state.layout() != self.state.layout():
-            raise ValueError("checkpoint of an emulator with other components (grippers, linear track)")
-        self._adopt(copy.deepcopy(cp.state, self._memo(cp.state)))
+        """Put the state of ``cp`` back exactly, as a whole; ``cp`` stays usable for further restores.
+        A checkpoint of another kind of box is refused (a ValueError) and changes nothing."""
+        self.restore_bytes(cp.data)
 
     def _fixed(self) -> dict[str, object]:
-        """The fixed objects a state tree refers to (tasks in the command buffer call their methods),
-        by the names its bytes give them."""
-        return {"model": self.model, "controller": self.controller, "emulator": self, "io": self.io,
-                "gripper": self.gripper}
+        """The fixed objects a state tree refers to (tasks in the command buffer call their methods,
+        scheduled actions act on the server of :attr:`outside`), by the names its bytes give them."""
+        return {**self.outside, "model": self.model, "controller": self.controller, "emulator": self,
+                "io": self.io, "gripper": self.gripper}
 
     def _identity(self) -> dict[str, str]:
         """What box a saved state belongs to: the arm, the firmware and the tool-bus gripper."""

@@ -401,7 +401,11 @@ def _checkpoint_list(server: AdminTarget, a: Args) -> str:
 
 
 def _checkpoint_save(server: AdminTarget, a: Args) -> str:
-    server.checkpoints[a["name"]] = cast(Checkpointing, server.emulator).checkpoint()
+    try:
+        saved = cast(Checkpointing, server.emulator).checkpoint()
+    except ValueError as exc:  # a value with no written form (a lambda scheduled in process)
+        raise AdminError(f"the state cannot be saved: {exc}") from None
+    server.checkpoints[a["name"]] = saved
     return f"checkpoint {a['name']!r} saved at t = {server.emulator.time:.3f} s"
 
 

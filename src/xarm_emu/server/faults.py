@@ -105,6 +105,7 @@ def parse_schedule(data: dict[str, Any]) -> list[dict[str, Any]]:
 
 def schedule(server: AdminTarget, entries: list[dict[str, Any]]) -> int:
     """Check every entry against ``server`` and schedule it on its emulator; returns how many."""
+    server.emulator.outside["server"] = server  # what the scheduled actions act on, by name
     actions = []
     for i, e in enumerate(entries, start=1):
         request = {k: v for k, v in e.items() if k not in ("at", "do", "after")}
@@ -142,27 +143,32 @@ def _watch(server: AdminTarget, after: str, at: float, action: Any) -> None:
     """Schedule ``action`` ``at`` seconds after the moment ``after`` names, looking for it every
     :data:`_WATCH` seconds of controller time."""
     emu = server.emulator
+    emu.at(emu.time, functools.partial(_look, server, after, at, action))
 
-    def look() -> None:
-        if _started(server, after):
-            log.info("fault schedule: %s at t = %.3f s; entry due %.3f s later", after, emu.time, at)
-            emu.at(emu.time + at, action)
-        else:
-            emu.at(emu.time + _WATCH, look)
 
-    emu.at(emu.time, look)
+def _look(server: AdminTarget, after: str, at: float, action: Any) -> None:
+    """One look of :func:`_watch`: the moment has come (schedule ``action``) or look again later.
+    Scheduled actions are partials of module-level functions, so a checkpoint can write them."""
+    emu = server.emulator
+    if _started(server, after):
+        log.info("fault schedule: %s at t = %.3f s; entry due %.3f s later", after, emu.time, at)
+        emu.at(emu.time + at, action)
+    else:
+        emu.at(emu.time + _WATCH, functools.partial(_look, server, after, at, action))
 
 
 def _logged(server: AdminTarget, i: int, action: Any) -> Any:
-    def run() -> None:
-        try:
-            message = action()
-        except AdminError as exc:
-            log.warning("fault %d at t = %.3f s refused: %s", i, server.emulator.time, exc)
-            return
-        log.info("fault %d at t = %.3f s: %s", i, server.emulator.time, message)
+    """``action`` as entry ``i`` of the schedule: what it did, or why it was refused, logged."""
+    return functools.partial(_run_logged, server, i, action)
 
-    return run
+
+def _run_logged(server: AdminTarget, i: int, action: Any) -> None:
+    try:
+        message = action()
+    except AdminError as exc:
+        log.warning("fault %d at t = %.3f s refused: %s", i, server.emulator.time, exc)
+        return
+    log.info("fault %d at t = %.3f s: %s", i, server.emulator.time, message)
 
 
 def schedule_file(server: AdminTarget, path: Path | None) -> int:

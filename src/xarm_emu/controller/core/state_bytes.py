@@ -11,7 +11,7 @@ the project's serialiser of recordings already. The tree is first turned into pl
 ``t``     a tuple; ``q`` a deque (``m``: its maxlen); ``d`` a dict as (key, value) pairs;
           ``s``/``fs`` a set/frozenset; ``L`` a list that is referred to more than once
 ``a``     a numpy array (``d``: dtype, ``s``: shape, ``b``: its bytes, ``w``: writeable);
-          ``g`` a numpy scalar
+          ``g`` a numpy scalar; ``P`` a file system path (a trajectory store's directory)
 ``c``     a dataclass (``c``: ``module:QualName``, ``f``: its fields); ``o`` any other object
           of the emulator by its attributes; ``e`` an enum member
 ``R``     an object rebuilt by calling ``f`` with ``a`` (its ``__reduce__``): a planned motion
@@ -42,6 +42,7 @@ import importlib
 import types
 from collections import Counter, deque
 from collections.abc import Mapping
+from pathlib import Path, PurePath
 from typing import Any
 
 import msgspec
@@ -126,6 +127,8 @@ class _Writer:
                     "b": np.ascontiguousarray(obj).tobytes(), "w": bool(obj.flags.writeable)}
         if isinstance(obj, np.generic):
             return {"~": "g", "d": obj.dtype.str, "b": obj.tobytes()}
+        if isinstance(obj, PurePath):
+            return {"~": "P", "v": str(obj)}
         if isinstance(obj, enum.Enum):
             return {"~": "e", "c": _path(type(obj)), "v": self.value(obj.value, where)}
         if isinstance(obj, types.MethodType):
@@ -177,7 +180,7 @@ def _count(root: object, shared: Mapping[str, object],
             stack.extend(obj)
         elif isinstance(obj, types.MethodType):
             stack.append(obj.__self__)
-        elif isinstance(obj, (np.ndarray, np.generic, enum.Enum, types.FunctionType, type)):
+        elif isinstance(obj, (np.ndarray, np.generic, enum.Enum, types.FunctionType, type, PurePath)):
             continue
         elif isinstance(obj, functools.partial):
             stack.extend((obj.func, obj.args, obj.keywords))
@@ -272,6 +275,8 @@ class _Reader:
             return arr
         if kind == "g":
             return np.frombuffer(node["b"], dtype=np.dtype(node["d"]))[0]
+        if kind == "P":
+            return Path(node["v"])
         if kind == "e":
             return _resolve(node["c"])(self.value(node["v"]))
         if kind == "m":
