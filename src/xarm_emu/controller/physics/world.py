@@ -128,6 +128,17 @@ class World:
         self._free_v = np.array([v + k for _, _, v, _ in self.objects for k in range(6)], dtype=int)
         self._free_list: list[int] = self._free_v.tolist()
         self._size = mujoco.mj_stateSize(m, _STATE)
+        #: Views into the engine's arrays, made once: the engine writes its data in place (stepping,
+        #: resetting and restoring alike), so a view made here always reads what is there now,
+        #: where each attribute read of an ``MjData`` builds a new array (the hot path of every
+        #: control period reads and writes them through these).
+        d, nd = self.d, self._near_d
+        self._qpos, self._qvel, self._ctrl, self._warm = d.qpos, d.qvel, d.ctrl, d.qacc_warmstart
+        self._forcerange = m.actuator_forcerange
+        self._arm_qpos, self._arm_qvel = d.qpos[self._q], d.qvel[self._v]
+        self._last = np.empty(dof)  # the arm's joints before a step
+        self._near_qpos, self._near_arm = nd.qpos, nd.qpos[self._q]
+        self._flange_xpos, self._flange_xmat = nd.xpos[self._flange_body], nd.xmat[self._flange_body]
         #: The engine's contacts are read once each time they change (:meth:`_scan`): ``_version``
         #: counts the changes, ``_scanned`` the one read; ``_rows`` (contact index, geom, geom) of each
         #: contact that touches the arm or hand, ``_pads`` the pads on each object.
@@ -172,7 +183,7 @@ class World:
     def set_force(self, per_pad: float) -> None:
         """The most each pad presses with (N): the finger drive's force limit (both pads' worth)."""
         if self.fingers:
-            self.m.actuator_forcerange[0] = (-2.0 * per_pad, 2.0 * per_pad)
+            self._forcerange[0] = (-2.0 * per_pad, 2.0 * per_pad)
 
     def inputs(self, q: np.ndarray, ramp: float) -> bytes:
         return np.asarray(q[: self.robot.dof], dtype=float).tobytes() + struct.pack("<d", ramp)
@@ -196,15 +207,17 @@ class World:
             self._fingers_to(ramp)
             s.inputs = inputs
             return
-        last = d.qpos[self._q].copy()
+        last, arm_v = self._last, self._arm_qvel
+        np.copyto(last, self._arm_qpos)
         moving_arm = last.tolist() != qa.tolist()
-        d.qvel[self._v] = (qa - last) / dt
+        np.subtract(qa, last, out=arm_v)
+        arm_v /= dt
         if self.fingers:
-            d.ctrl[:] = ramp / 2.0 * MM
+            self._ctrl[:] = ramp / 2.0 * MM
         mujoco.mj_step(m, d, nstep=max(1, round(dt / TIMESTEP)))
         self._version += 1
-        d.qpos[self._q] = qa
-        d.qvel[self._v] = 0.0
+        self._arm_qpos[:] = qa
+        arm_v[:] = 0.0
         if s.held >= 0:
             self._carry(qa)
         s.inputs = inputs
@@ -215,24 +228,25 @@ class World:
         far = still and (moving_arm or self.fingers) and self._far(qa)
         still = still and (far or not moving_arm)
         if still and (self._free_v.size or (self._finger_v and not far)):
-            qvel = d.qvel.tolist()
+            qvel = self._qvel.tolist()
             still = all(abs(qvel[v]) < STILL_SPEED for v in self._free_list)
             if still and self._finger_v and not far:
                 still = all(abs(qvel[v]) < STILL_SPEED for v in self._finger_v)
         s.still = s.still + 1 if still else 0
         if s.still >= SETTLE_PERIODS:
-            d.qvel[:] = 0.0
-            d.qacc_warmstart[:] = 0.0
+            self._qvel[:] = 0.0
+            self._warm[:] = 0.0
             s.settled = True
 
     def _fingers_to(self, ramp: float) -> None:
         """Free fingers at the opening ``ramp`` (mm), at rest."""
         if self.fingers:
             half = min(max(ramp / 2.0, 0.0), self.hand.stroke / 2.0) * MM  # type: ignore[union-attr]
+            qpos, qvel = self._qpos, self._qvel
             for a in self._fq:
-                self.d.qpos[a] = half
+                qpos[a] = half
             for v in self._finger_v:
-                self.d.qvel[v] = 0.0
+                qvel[v] = 0.0
 
     # -- the vacuum cup ------------------------------------------------------------------------
     def cup_object(self, q: np.ndarray) -> int:
@@ -336,10 +350,8 @@ class World:
         """The point ``offset`` (mm, flange frame) of the arm at ``q`` (rad), in the base frame (mm),
         from the engine's kinematics of the nearness model (the same joint frames as ``model/``)."""
         self._kinematics_at(q)
-        d = self._near_d
-        b = self._flange_body
-        r = d.xmat[b].tolist()
-        x, y, z = (v / MM for v in d.xpos[b].tolist())
+        r = self._flange_xmat.tolist()
+        x, y, z = (v / MM for v in self._flange_xpos.tolist())
         ox, oy, oz = float(offset[0]), float(offset[1]), float(offset[2])
         return (x + r[0] * ox + r[1] * oy + r[2] * oz, y + r[3] * ox + r[4] * oy + r[5] * oz,
                 z + r[6] * ox + r[7] * oy + r[8] * oz)
@@ -356,13 +368,13 @@ class World:
     def _kinematics_at(self, q: np.ndarray) -> None:
         """The nearness model's bodies where the world's are, the arm at ``q`` (done once for the
         same joints and world)."""
-        key = (self.d.qpos.tobytes(), q[: self.robot.dof].tobytes())
+        qa = q[: self.robot.dof]
+        key = (self._qpos.tobytes(), qa.tobytes())
         if key == self._near_key:
             return
-        d = self._near_d
-        d.qpos[:] = self.d.qpos
-        d.qpos[self._q] = q[: self.robot.dof]
-        mujoco.mj_kinematics(self._near_m, d)
+        self._near_qpos[:] = self._qpos
+        self._near_arm[:] = qa
+        mujoco.mj_kinematics(self._near_m, self._near_d)
         self._near_key = key
 
     # -- what the world shows ------------------------------------------------------------------
@@ -410,7 +422,7 @@ class World:
         """The opening between the pads (mm)."""
         if not self._fq:
             return 0.0
-        qpos = self.d.qpos
+        qpos = self._qpos
         return (float(qpos[self._fq[0]]) + float(qpos[self._fq[1]])) / MM
 
     def poses(self) -> list[ObjectPose]:
