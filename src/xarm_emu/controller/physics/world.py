@@ -146,6 +146,10 @@ class World:
         self._scanned = -1
         self._rows: list[tuple[int, int, int]] = []
         self._pad_map: dict[int, set[int]] = {}
+        #: Read with the rows: per touching contact (contact index, the arm's geom, whether it is
+        #: geom1, the object a pad touches or -1), in contact order; the objects both pads touch.
+        self._push: list[tuple[int, int, bool, int]] = []
+        self._both: set[int] = set()
         self._initial = (self.d.qpos.copy(), self.d.qvel.copy())
         self.state = PhysicsState(b"", 0.0, 0, False, b"")
         self.reset()
@@ -323,15 +327,9 @@ class World:
         device says so) the pads' contacts with an object both pads touch are its own squeeze and
         are left out."""
         tau = np.zeros(self.robot.dof)
-        kind = self._kinds
-        gripped = {i for i, pads in self._pad_map.items() if len(pads) == 2} if gripping else set()
-        pushing = []
-        for k, g1, g2 in self._scan():
-            first = bool(kind[g1])
-            arm_geom, other = (g1, g2) if first else (g2, g1)
-            if kind[arm_geom] == 2 and self._object_geoms.get(other) in gripped:
-                continue
-            pushing.append((k, arm_geom, first))
+        self._scan()
+        gripped = self._both if gripping else ()
+        pushing = [row for row in self._push if row[3] not in gripped] if gripped else self._push
         if not pushing:
             return tau
         m, d = self.m, self.d
@@ -339,7 +337,7 @@ class World:
         jacp = np.zeros((3, m.nv))
         frames = d.contact.frame
         points = d.contact.pos
-        for k, arm_geom, first in pushing:
+        for k, arm_geom, first, _ in pushing:
             mujoco.mj_contactForce(m, d, k, f6)
             force = frames[k].reshape(3, 3).T @ f6[:3]  # on geom2, from geom1
             mujoco.mj_jac(m, d, jacp, None, points[k], int(m.geom_bodyid[arm_geom]))
@@ -388,6 +386,7 @@ class World:
         n = d.ncon
         rows: list[tuple[int, int, int]] = []
         pads: dict[int, set[int]] = {}
+        push: list[tuple[int, int, bool, int]] = []
         if n:
             c = d.contact
             kind, objects = self._kinds, self._object_geoms
@@ -397,11 +396,16 @@ class World:
                 if not (ka or kb):
                     continue
                 rows.append((k, a, b))
+                first = bool(ka)
+                arm_geom, other = (a, b) if first else (b, a)
+                push.append((k, arm_geom, first,
+                             objects.get(other, -1) if kind[arm_geom] == 2 else -1))
                 if ka == 2 and b in objects:
                     pads.setdefault(objects[b], set()).add(a)
                 elif kb == 2 and a in objects:
                     pads.setdefault(objects[a], set()).add(b)
-        self._rows, self._pad_map = rows, pads
+        self._rows, self._pad_map, self._push = rows, pads, push
+        self._both = {i for i, p in pads.items() if len(p) == 2}
         return rows
 
     def touching_arm(self) -> bool:
