@@ -150,6 +150,9 @@ class World:
         #: geom1, the object a pad touches or -1), in contact order; the objects both pads touch.
         self._push: list[tuple[int, int, bool, int]] = []
         self._both: set[int] = set()
+        #: The engine's contact set (its geom pairs in contact order, as bytes) the rows were sorted
+        #: out of: an unchanged set (an object held or resting) gives the same rows, not sorted again.
+        self._pairs = b""
         self._initial = (self.d.qpos.copy(), self.d.qvel.copy())
         self.state = PhysicsState(b"", 0.0, 0, False, b"")
         self.reset()
@@ -384,14 +387,18 @@ class World:
         self._scanned = self._version
         d = self.d
         n = d.ncon
+        geoms = d.contact.geom[:n] if n else None
+        pairs = geoms.tobytes() if geoms is not None else b""
+        if pairs == self._pairs:
+            return self._rows
+        self._pairs = pairs
         rows: list[tuple[int, int, int]] = []
         pads: dict[int, set[int]] = {}
         push: list[tuple[int, int, bool, int]] = []
-        if n:
-            c = d.contact
+        if geoms is not None:
             kind, objects = self._kinds, self._object_geoms
             # the world's geoms have no margins: every contact of the engine touches
-            for k, (a, b) in enumerate(c.geom[:n].tolist()):
+            for k, (a, b) in enumerate(geoms.tolist()):
                 ka, kb = kind[a], kind[b]
                 if not (ka or kb):
                     continue
