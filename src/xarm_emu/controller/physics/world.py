@@ -60,6 +60,23 @@ class PhysicsState:
     relative: tuple[float, ...] = ()
 
 
+@dataclass(frozen=True, slots=True)
+class Contacts:
+    """The contacts of one engine step that touch the arm or hand, sorted out of the engine's contact
+    list once for each contact set: the same geom pairs in the same order (an object held or at rest
+    period after period) sort out the same, so they are not sorted again."""
+
+    #: The contact set: the engine's geom pairs in contact order, as bytes.
+    pairs: bytes
+    #: (contact index, geom, geom) of each contact that touches the arm or hand.
+    rows: list[tuple[int, int, int]]
+    #: The same contacts as (contact index, the arm's geom, whether it is geom1, the object a finger
+    #: pad touches or -1): what :meth:`World.arm_torques` sums.
+    push: list[tuple[int, int, bool, int]]
+    #: The objects both pads touch.
+    both: frozenset[int]
+
+
 @dataclass(frozen=True)
 class ObjectPose:
     """Where an object is: centre (mm, base frame), roll/pitch/yaw (deg), whether the hand holds it."""
@@ -128,31 +145,13 @@ class World:
         self._free_v = np.array([v + k for _, _, v, _ in self.objects for k in range(6)], dtype=int)
         self._free_list: list[int] = self._free_v.tolist()
         self._size = mujoco.mj_stateSize(m, _STATE)
-        #: Views into the engine's arrays, made once: the engine writes its data in place (stepping,
-        #: resetting and restoring alike), so a view made here always reads what is there now,
-        #: where each attribute read of an ``MjData`` builds a new array (the hot path of every
-        #: control period reads and writes them through these).
-        d, nd = self.d, self._near_d
-        self._qpos, self._qvel, self._ctrl, self._warm = d.qpos, d.qvel, d.ctrl, d.qacc_warmstart
-        self._forcerange = m.actuator_forcerange
-        self._arm_qpos, self._arm_qvel = d.qpos[self._q], d.qvel[self._v]
-        self._last = np.empty(dof)  # the arm's joints before a step
-        self._near_qpos, self._near_arm = nd.qpos, nd.qpos[self._q]
-        self._flange_xpos, self._flange_xmat = nd.xpos[self._flange_body], nd.xmat[self._flange_body]
         #: The engine's contacts are read once each time they change (:meth:`_scan`): ``_version``
-        #: counts the changes, ``_scanned`` the one read; ``_rows`` (contact index, geom, geom) of each
-        #: contact that touches the arm or hand, ``_pads`` the pads on each object.
+        #: counts the changes, ``_scanned`` the one read; ``_rows`` what was read (:class:`Contacts`),
+        #: ``_pad_map`` the pads on each object.
         self._version = 0
         self._scanned = -1
-        self._rows: list[tuple[int, int, int]] = []
+        self._rows = Contacts(b"", [], [], frozenset())
         self._pad_map: dict[int, set[int]] = {}
-        #: Read with the rows: per touching contact (contact index, the arm's geom, whether it is
-        #: geom1, the object a pad touches or -1), in contact order; the objects both pads touch.
-        self._push: list[tuple[int, int, bool, int]] = []
-        self._both: set[int] = set()
-        #: The engine's contact set (its geom pairs in contact order, as bytes) the rows were sorted
-        #: out of: an unchanged set (an object held or resting) gives the same rows, not sorted again.
-        self._pairs = b""
         self._initial = (self.d.qpos.copy(), self.d.qvel.copy())
         self.state = PhysicsState(b"", 0.0, 0, False, b"")
         self.reset()
@@ -190,7 +189,7 @@ class World:
     def set_force(self, per_pad: float) -> None:
         """The most each pad presses with (N): the finger drive's force limit (both pads' worth)."""
         if self.fingers:
-            self._forcerange[0] = (-2.0 * per_pad, 2.0 * per_pad)
+            self.m.actuator_forcerange[0] = (-2.0 * per_pad, 2.0 * per_pad)
 
     def inputs(self, q: np.ndarray, ramp: float) -> bytes:
         return np.asarray(q[: self.robot.dof], dtype=float).tobytes() + struct.pack("<d", ramp)
@@ -214,16 +213,17 @@ class World:
             self._fingers_to(ramp)
             s.inputs = inputs
             return
-        last, arm_v = self._last, self._arm_qvel
-        np.copyto(last, self._arm_qpos)
+        qpos, qvel = d.qpos, d.qvel  # views into the engine's arrays, read once
+        arm_q, arm_v = qpos[self._q], qvel[self._v]
+        last = arm_q.copy()
         moving_arm = last.tolist() != qa.tolist()
         np.subtract(qa, last, out=arm_v)
         arm_v /= dt
         if self.fingers:
-            self._ctrl[:] = ramp / 2.0 * MM
+            d.ctrl[:] = ramp / 2.0 * MM
         mujoco.mj_step(m, d, nstep=max(1, round(dt / TIMESTEP)))
         self._version += 1
-        self._arm_qpos[:] = qa
+        arm_q[:] = qa
         arm_v[:] = 0.0
         if s.held >= 0:
             self._carry(qa)
@@ -235,21 +235,21 @@ class World:
         far = still and (moving_arm or self.fingers) and self._far(qa)
         still = still and (far or not moving_arm)
         if still and (self._free_v.size or (self._finger_v and not far)):
-            qvel = self._qvel.tolist()
-            still = all(abs(qvel[v]) < STILL_SPEED for v in self._free_list)
+            speeds = qvel.tolist()
+            still = all(abs(speeds[v]) < STILL_SPEED for v in self._free_list)
             if still and self._finger_v and not far:
-                still = all(abs(qvel[v]) < STILL_SPEED for v in self._finger_v)
+                still = all(abs(speeds[v]) < STILL_SPEED for v in self._finger_v)
         s.still = s.still + 1 if still else 0
         if s.still >= SETTLE_PERIODS:
-            self._qvel[:] = 0.0
-            self._warm[:] = 0.0
+            qvel[:] = 0.0
+            d.qacc_warmstart[:] = 0.0
             s.settled = True
 
     def _fingers_to(self, ramp: float) -> None:
         """Free fingers at the opening ``ramp`` (mm), at rest."""
         if self.fingers:
             half = min(max(ramp / 2.0, 0.0), self.hand.stroke / 2.0) * MM  # type: ignore[union-attr]
-            qpos, qvel = self._qpos, self._qvel
+            qpos, qvel = self.d.qpos, self.d.qvel
             for a in self._fq:
                 qpos[a] = half
             for v in self._finger_v:
@@ -331,8 +331,9 @@ class World:
         are left out."""
         tau = np.zeros(self.robot.dof)
         self._scan()
-        gripped = self._both if gripping else ()
-        pushing = [row for row in self._push if row[3] not in gripped] if gripped else self._push
+        rows = self._rows
+        gripped = rows.both if gripping else ()
+        pushing = [row for row in rows.push if row[3] not in gripped] if gripped else rows.push
         if not pushing:
             return tau
         m, d = self.m, self.d
@@ -351,8 +352,10 @@ class World:
         """The point ``offset`` (mm, flange frame) of the arm at ``q`` (rad), in the base frame (mm),
         from the engine's kinematics of the nearness model (the same joint frames as ``model/``)."""
         self._kinematics_at(q)
-        r = self._flange_xmat.tolist()
-        x, y, z = (v / MM for v in self._flange_xpos.tolist())
+        d = self._near_d
+        b = self._flange_body
+        r = d.xmat[b].tolist()
+        x, y, z = (v / MM for v in d.xpos[b].tolist())
         ox, oy, oz = float(offset[0]), float(offset[1]), float(offset[2])
         return (x + r[0] * ox + r[1] * oy + r[2] * oz, y + r[3] * ox + r[4] * oy + r[5] * oz,
                 z + r[6] * ox + r[7] * oy + r[8] * oz)
@@ -369,13 +372,16 @@ class World:
     def _kinematics_at(self, q: np.ndarray) -> None:
         """The nearness model's bodies where the world's are, the arm at ``q`` (done once for the
         same joints and world)."""
+        qpos = self.d.qpos
         qa = q[: self.robot.dof]
-        key = (self._qpos.tobytes(), qa.tobytes())
+        key = (qpos.tobytes(), qa.tobytes())
         if key == self._near_key:
             return
-        self._near_qpos[:] = self._qpos
-        self._near_arm[:] = qa
-        mujoco.mj_kinematics(self._near_m, self._near_d)
+        d = self._near_d
+        near = d.qpos
+        near[:] = qpos
+        near[self._q] = qa
+        mujoco.mj_kinematics(self._near_m, d)
         self._near_key = key
 
     # -- what the world shows ------------------------------------------------------------------
@@ -383,15 +389,14 @@ class World:
         """The contacts that touch (not ones only near) the arm or hand, as (contact index, geom,
         geom), read from the engine once after each change; the pads on each object with them."""
         if self._scanned == self._version:
-            return self._rows
+            return self._rows.rows
         self._scanned = self._version
         d = self.d
         n = d.ncon
         geoms = d.contact.geom[:n] if n else None
         pairs = geoms.tobytes() if geoms is not None else b""
-        if pairs == self._pairs:
-            return self._rows
-        self._pairs = pairs
+        if pairs == self._rows.pairs:
+            return self._rows.rows
         rows: list[tuple[int, int, int]] = []
         pads: dict[int, set[int]] = {}
         push: list[tuple[int, int, bool, int]] = []
@@ -411,8 +416,8 @@ class World:
                     pads.setdefault(objects[b], set()).add(a)
                 elif kb == 2 and a in objects:
                     pads.setdefault(objects[a], set()).add(b)
-        self._rows, self._pad_map, self._push = rows, pads, push
-        self._both = {i for i, p in pads.items() if len(p) == 2}
+        self._rows = Contacts(pairs, rows, push, frozenset(i for i, p in pads.items() if len(p) == 2))
+        self._pad_map = pads
         return rows
 
     def touching_arm(self) -> bool:
@@ -433,7 +438,7 @@ class World:
         """The opening between the pads (mm)."""
         if not self._fq:
             return 0.0
-        qpos = self._qpos
+        qpos = self.d.qpos
         return (float(qpos[self._fq[0]]) + float(qpos[self._fq[1]])) / MM
 
     def poses(self) -> list[ObjectPose]:
