@@ -152,7 +152,8 @@ class PhysicsComponent:
         tau = self.external_torques(ctl)
         if self.world.touching_arm():
             arm = self.world.arm_torques(gripping)
-            tau = arm if tau is None else tau + arm
+            if arm is not None:
+                tau = arm if tau is None else tau + arm
         if tau is not None and tau.any() and safety.collision_detected(
                 sens, float(np.max(np.abs(tau))), safety.collision_thresholds(ctl.model)):
             ctl.raise_error(C_COLLISION)

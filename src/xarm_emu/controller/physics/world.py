@@ -324,18 +324,18 @@ class World:
         self.d.qpos[a + 3: a + 7] = quat_from_matrix(P[:3, :3])
         self.d.qvel[v: v + 6] = 0.0
 
-    def arm_torques(self, gripping: bool = False) -> np.ndarray:
+    def arm_torques(self, gripping: bool = False) -> np.ndarray | None:
         """The joint torques (N m) of what objects press on the arm and the hand: ``J^T f`` of each
-        touching contact, at its point, on the arm's joints. While the hand grips (``gripping``, its
-        device says so) the pads' contacts with an object both pads touch are its own squeeze and
-        are left out."""
-        tau = np.zeros(self.robot.dof)
+        touching contact, at its point, on the arm's joints; None when nothing presses. While the
+        hand grips (``gripping``, its device says so) the pads' contacts with an object both pads
+        touch are its own squeeze and are left out."""
         self._scan()
         rows = self._rows
         gripped = rows.both if gripping else ()
         pushing = [row for row in rows.push if row[3] not in gripped] if gripped else rows.push
         if not pushing:
-            return tau
+            return None
+        tau = np.zeros(self.robot.dof)
         m, d = self.m, self.d
         f6 = np.zeros(6)
         jacp = np.zeros((3, m.nv))
@@ -350,12 +350,16 @@ class World:
 
     def tcp_point(self, q: np.ndarray, offset: Sequence[float]) -> tuple[float, float, float]:
         """The point ``offset`` (mm, flange frame) of the arm at ``q`` (rad), in the base frame (mm),
-        from the engine's kinematics of the nearness model (the same joint frames as ``model/``)."""
-        self._kinematics_at(q)
+        from the engine's kinematics of the nearness model (the same joint frames as ``model/``).
+        The flange hangs on the arm's joints alone: the nearness model's arm already at ``q`` (the
+        objects wherever they were) has it where it is."""
+        if q[: self.robot.dof].tobytes() != self._near_key[1]:
+            self._kinematics_at(q)
         d = self._near_d
         b = self._flange_body
         r = d.xmat[b].tolist()
-        x, y, z = (v / MM for v in d.xpos[b].tolist())
+        px, py, pz = d.xpos[b].tolist()
+        x, y, z = px / MM, py / MM, pz / MM
         ox, oy, oz = float(offset[0]), float(offset[1]), float(offset[2])
         return (x + r[0] * ox + r[1] * oy + r[2] * oz, y + r[3] * ox + r[4] * oy + r[5] * oz,
                 z + r[6] * ox + r[7] * oy + r[8] * oz)
