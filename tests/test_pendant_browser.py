@@ -24,6 +24,7 @@ import pytest
 from helpers import wait_for
 
 from xarm_emu.client.sync import Client
+from xarm_emu.viewer import app
 from xarm_emu.viewer.pendant import READY
 
 pytest.importorskip("viser")
@@ -169,22 +170,25 @@ def test_admin_actions_appear_only_with_admin(make_server, browser) -> None:  # 
         page.close()
 
 
-def _bare_viser_seconds(browser: Any) -> float:
-    """The baseline: seconds this browser takes, on this machine now, to show one line of a viser
-    page with nothing else on it (the viewer's own start-up: its script, the websocket, WebGL)."""
-    import viser
+#: The status panel shows within this of the page's load on a machine where an empty viser page
+#: shows sooner; on a busier one, within :data:`PANEL_EXTRA` beyond that empty page.
+PANEL_SECONDS = 2.0
+PANEL_EXTRA = 1.0
 
-    vs = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+
+def load_seconds(browser: Any, port: int, text: str) -> tuple[float, float]:
+    """Seconds from asking for the page on ``port`` until ``text`` is visible on it, and then the
+    seconds a screenshot of it takes (a page whose renderer is busy answers late)."""
     page = browser.new_page()
     try:
-        vs.gui.add_markdown("baseline line")
         t0 = time.monotonic()
-        page.goto(f"http://127.0.0.1:{vs.get_port()}/")
-        page.get_by_text("baseline line").wait_for(timeout=30000)
-        return time.monotonic() - t0
+        page.goto(f"http://127.0.0.1:{port}/")
+        page.get_by_text(text).wait_for(timeout=30000)
+        shown = time.monotonic() - t0
+        page.screenshot()
+        return shown, time.monotonic() - t0 - shown
     finally:
         page.close()
-        vs.stop()
 
 
 def red_pixels(page: Any) -> int:
@@ -195,22 +199,34 @@ def red_pixels(page: Any) -> int:
 
 def test_the_status_panel_is_there_at_once(make_server, browser, tmp_path) -> None:  # type: ignore[no-untyped-def]
     st = make_server(view=True, view_port=0)
-    baseline = _bare_viser_seconds(browser)
+    # The baseline: an empty viser page made by the viewer's own factory (same lights, same
+    # server), loaded by this browser on this machine now: the viewer's script, its websocket and
+    # WebGL, with nothing of the pendant. Loads alternate and each side keeps its shorter one, so
+    # a burst of another process's load does not decide alone.
+    bare = app._new_viser("127.0.0.1", 0)
+    bare.gui.add_markdown("baseline line")
+    try:
+        times: dict[str, list[tuple[float, float]]] = {"bare": [], "pendant": []}
+        for _ in range(2):
+            times["bare"].append(load_seconds(browser, int(bare.get_port()), "baseline line"))
+            times["pendant"].append(load_seconds(browser, st.ports["view"], READY))
+    finally:
+        bare.stop()
+    baseline, shown = (min(t[0] for t in times[k]) for k in ("bare", "pendant"))
+    assert shown <= max(PANEL_SECONDS, baseline + PANEL_EXTRA), times
+    # And the page answers then: its renderer is not held by the scene (a screenshot no slower
+    # than the empty page's, within the same allowance).
+    assert min(t[1] for t in times["pendant"]) <= min(t[1] for t in times["bare"]) + PANEL_EXTRA, times
     page = browser.new_page()
     try:
         t0 = time.monotonic()
         page.goto(f"http://127.0.0.1:{st.ports['view']}/")
-        ready(page)
-        shown = time.monotonic() - t0
         time.sleep(max(0.0, 3.0 - (time.monotonic() - t0)))  # the screenshot 3 s after load
         shot = tmp_path / "pendant-3s.png"
         page.screenshot(path=str(shot))
-        assert page.get_by_text("State:").is_visible() and page.get_by_text(READY).is_visible()
-        assert "State: 4 stopped" in status(page)
+        assert page.get_by_text("State: 4 stopped").is_visible() and page.get_by_text(READY).is_visible()
     finally:
         page.close()
-    # The panel costs at most 2 s beyond an empty viser page loaded the same way just before.
-    assert shown <= baseline + 2.0, (shown, baseline)
     from PIL import Image
 
     panel = np.asarray(Image.open(shot).convert("L"))[60:360, SCENE_WIDTH + 30:]
@@ -223,11 +239,19 @@ def test_an_error_turns_the_arm_red_and_shows_in_the_panel(pendant) -> None:  # 
     reds = int(((before[..., 0] > 170) & (before[..., 1] < 90) & (before[..., 2] < 90)).sum())
     from xarm_emu.client.admin import AdminClient
 
+    t = time.monotonic()
+    red_pixels(page)
+    one_shot = time.monotonic() - t  # the baseline: one screenshot of this page, on this machine now
     with AdminClient("127.0.0.1", st.ports["admin"]) as admin:
+        t0 = time.monotonic()
         admin.request("error", code="C31")
         assert client.get_err_warn()[0] == 31
         assert shows(page, "Error: C31", timeout=2.0) and shows(page, "State: 4", timeout=2.0)
-        assert wait_for(lambda: red_pixels(page) > reds + 2000, 5.0)  # the arm is drawn red
+        assert time.monotonic() - t0 <= 2.0
+        # The arm is drawn red in a screenshot that was done within 2 s of the error (and the time
+        # one screenshot takes here).
+        assert wait_for(lambda: red_pixels(page) > reds + 2000, 5.0)
+        assert time.monotonic() - t0 <= 2.0 + one_shot, (time.monotonic() - t0, one_shot)
         admin.request("clear")
     client.call(16)  # clear the error (register 16)
     assert wait_for(lambda: red_pixels(page) < reds + 200, 5.0)  # and its own colour again

@@ -10,7 +10,7 @@ One module per group of commands, registered here in the order ``xarm-emu --help
 - :mod:`.admin`: the admin channel's ``inject``, ``clear``, ``set-input``, ``step`` and ``checkpoint``;
   :mod:`.scene`: ``scene``, ``scene-place``, ``scene-reset``.
 - :mod:`.sessions`: ``record``, ``plot``, ``replay``.
-- ``proxy``, ``compare``, ``calibrate``: :mod:`xarm_emu.fidelity.commands`.
+- :mod:`.fidelity`: ``proxy``, ``compare``, ``calibrate`` (a real box's session against the emulator).
 - :mod:`.options`: what they share: the consoles, option types, the one-line exit (2 for a usage
   mistake, 1 for a runtime failure) and the admin request.
 """
@@ -22,8 +22,7 @@ from typing import Any
 import typer
 
 from .. import __version__
-from ..fidelity.commands import register as _register_fidelity
-from . import admin, reference, scene, serve, serving, sessions, status
+from . import admin, fidelity, reference, scene, serve, serving, sessions, status
 from .options import console
 from .serve import bare_linear_track
 
@@ -53,7 +52,9 @@ app.add_typer(admin.checkpoint_app, name="checkpoint")
 app.command("record")(sessions.record_session)
 app.command("plot")(sessions.plot_session)
 app.command("replay")(sessions.replay_trace)
-_register_fidelity(app)  # proxy, compare, calibrate (fidelity/commands.py)
+app.command("proxy")(fidelity.proxy)
+app.command("compare")(fidelity.compare)
+app.command("calibrate")(fidelity.calibrate)
 
 #: How ``serve`` runs its servers' coroutine on the chosen loop; replace it to see what ``serve`` does
 #: when a port cannot be bound (looked up here at each call).

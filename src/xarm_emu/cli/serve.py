@@ -14,7 +14,9 @@ from typing import Annotated, Any
 import typer
 from typer.core import TyperCommand
 
-from ..model.robots import MODEL_NAMES, RobotModel, get_model
+from ..model.calibration import CalibrationError
+from ..model.calibration import load as load_calibration
+from ..model.robots import MODEL_NAMES, RobotModel, get_model, with_calibration
 from ..protocol.admin_token import default_config_dir
 from ..protocol.firmware import SERVE_VERSION, SUPPORTED_VERSIONS, FirmwareProfile, VersionError, profile_for
 from ..protocol.frame import COMMAND_PORT
@@ -226,12 +228,23 @@ def check_run_options(record: Path | None, fleet: Path | None, loop: str, speed:
         raise typer.Exit(2)
 
 
+def calibrated_model(robot: RobotModel, path: Path | None) -> RobotModel:
+    """``robot`` with the calibration file at ``path`` (``--calibration``); one line and exit 2 for a
+    file that cannot be used."""
+    if path is None:
+        return robot
+    try:
+        return with_calibration(robot, load_calibration(path))
+    except CalibrationError as exc:
+        err_console.print(f"--calibration: {exc}")
+        raise typer.Exit(2) from None
+
+
 def checked_arm(model: str, firmware: str, calibration: Path | None, linear_track: int | None,
                 gripper: str | None, vacuum: bool) -> tuple[FirmwareProfile, RobotModel]:
     """The firmware profile and the arm's model (calibrated if asked) after every check of the box's
     options: exit 2 with one line for a firmware, model, linear track or gripper it cannot have."""
     from ..controller.emulator import GRIPPERS, check_firmware
-    from ..fidelity.commands import calibrated_model
 
     try:
         profile = profile_for(firmware)

@@ -403,141 +403,178 @@ def _duration(samples: list[Sample], start: int, end: int, t0: float) -> float |
     return None
 
 
+#: A read waiting to be answered again (``_Replay.retry``): its result, request, recorded reply, the
+#: controller time after which it is given up, and the replayed answers it got so far.
+_Pending = tuple[CommandResult, xrec.Req, xrec.Rep, float, list[bytes]]
+
+
+class _Replay:
+    """A fresh emulator on the stepped clock answering a session's requests in order (module
+    docstring): the replayed samples taken at the recorded frames, the reads waiting to be answered
+    again, and the cursors into the real-time frames (``j``) and the normal and rich frames (``k``,
+    in controller-time order)."""
+
+    def __init__(self, server: Any, emu: Any, session: Session, dof: int, tol: dict[str, float]) -> None:
+        self.server, self.emu, self.session, self.dof, self.tol = server, emu, session, dof, tol
+        self.cmd_only = not session.realtime
+        self.spans = _controller_times(session)
+        self.times = [t for t, _, _ in self.spans]
+        self.recorded = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
+        self.replayed: list[Sample] = []
+        self.nan = np.full(dof, np.nan)
+        self.cmd_at: list[tuple[float, int]] = []  # (controller time, first sample) of every request
+        self.emu_codes: list[tuple[int, int]] = [(0, 0)] * len(session.status)
+        self.pending: list[_Pending] = []  # reads to try again
+        status = session.status
+        self.st_times = session.controller_times([f.t for f in status]).tolist() if status else []
+        self.st_order = sorted(range(len(status)), key=lambda n: self.st_times[n])
+        self.j = self.k = 0
+        self.previous = 0.0  # the controller time of the request placed last
+
+    @classmethod
+    def start(cls, model: RobotModel, firmware: str, config_dir: Path, session: Session,
+              tol: dict[str, float]) -> _Replay:
+        """An emulator of ``model`` at ``firmware`` (its settings in ``config_dir``) on the stepped clock."""
+        from ..controller.emulator import Emulator
+        from ..server.core import EmulatorServer, ServerConfig
+
+        emu = Emulator(model, config_dir=config_dir, firmware=firmware)
+        server = EmulatorServer(emu, ServerConfig(stepped=True, port=0))
+        return cls(server, emu, session, model.dof, tol)
+
+    def advance(self, to: float) -> None:
+        """Step the emulator to controller time ``to``, a period at a time while reads wait."""
+        emu, server = self.emu, self.server
+        while self.pending and to > emu.time + 1e-9:
+            before = emu.time
+            server.advance(min(PERIOD, to - emu.time))
+            self.retry()
+            if emu.time <= before:  # less than a period is left
+                break
+        if to > emu.time + 1e-9:
+            server.advance(to - emu.time)
+        self.retry()
+
+    def retry(self) -> None:
+        """Answer every waiting read again: one answered as recorded compares equal, one past its
+        upper bound is given up and measured by its distance from the path (:func:`_read_distance`)."""
+        for item in list(self.pending):
+            c, req, rep, hi, tries = item
+            if self.emu.time > hi + 1e-9:
+                self.pending.remove(item)
+                _read_distance(c, rep, tries, self.cmd_only, self.tol)
+                continue
+            frame = self.server.answer(req.tid, req.protocol, req.register, req.params)
+            tries.append(bytes(frame))
+            if bytes(frame[6:]) == rep.frame[6:]:
+                c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
+                if c.reply_codes is not None:
+                    c.reply_codes = (*c.reply_codes[:2], *c.reply_codes[:2])
+                self.pending.remove(item)
+
+    def give_up_reads(self) -> None:
+        """Measure every waiting read by the answers it got and stop trying them."""
+        for c_read, _, rep_read, _, tries in self.pending:
+            _read_distance(c_read, rep_read, tries, self.cmd_only, self.tol)
+        self.pending.clear()
+
+    def sample_until(self, limit: float) -> None:
+        """Take the replayed state at every recorded frame before ``limit``: the joints, torques
+        and currents at the real-time frames, the error and warning codes at the normal and rich
+        frames."""
+        dof, rec_samples, st_order = self.dof, self.recorded, self.st_order
+        while True:
+            t_rt = rec_samples[self.j].t if self.j < len(rec_samples) else math.inf
+            t_st = self.st_times[st_order[self.k]] if self.k < len(st_order) else math.inf
+            if not min(t_rt, t_st) < limit - 1e-9:
+                return
+            if t_st <= t_rt:  # the state of the last period begun by then (never one further)
+                self.advance(math.floor(t_st / PERIOD + 1e-9) * PERIOD)
+                ctl = self.emu.controller
+                self.emu_codes[st_order[self.k]] = (ctl.error_code, ctl.warning_code)
+                self.k += 1
+                continue
+            st = rec_samples[self.j]
+            self.advance(st.t)
+            ctl = self.emu.controller
+            if self.j % TORQUE_EVERY == 0:
+                tau, cur = ctl.joint_torques()[:dof].copy(), ctl.joint_currents()[:dof].copy()
+            else:
+                tau = cur = self.nan
+            self.replayed.append(Sample(st.t, ctl.data.motion_state, ctl.data.q[:dof].copy(),
+                                        ctl.tcp_matrix()[:3, 3].copy(), tau, cur, ctl.data.qd[:dof].copy()))
+            self.j += 1
+
+    def time_of(self, i: int, req: xrec.Req) -> float:
+        """The controller time request ``i`` is answered at (:func:`_controller_times`), the state
+        sampled up to its lower bound first: a read at its earliest period, a queued command at the
+        period the frames after it fit best (:func:`_best_time`), any other at its lower bound."""
+        t_est, _, lo = self.spans[i]
+        lower = max(self.previous, lo - LEAD_PERIODS * PERIOD)
+        self.sample_until(lower)  # no command can come before its lower bound
+        if _pure_read(req):
+            return max(lower, self.emu.time)
+        if _is_queued(req.register) and not self.recorded:  # no frames to place it by
+            return max(t_est, lower)
+        if _is_queued(req.register):
+            times = [max(x, lower) for x in self.times]
+            return _best_time(self.server, self.emu, self.session, times, self.spans, self.recorded, i,
+                              self.j)
+        return max(lo, lower)  # the earliest its bounds allow, so a queued command after it can be placed
+
+    def place(self, i: int, req: xrec.Req, rep: xrec.Rep | None) -> CommandResult:
+        """Answer request ``i`` at its controller time and compare the reply with the recorded one."""
+        read = _pure_read(req)
+        t = self.previous = self.time_of(i, req)
+        self.sample_until(t)
+        self.advance(t)
+        if not read and self.pending:  # a command may change what a read shows: look ahead first
+            cp = self.emu.checkpoint()
+            self.advance(max(item[3] for item in self.pending))
+            self.emu.restore(cp)
+            self.give_up_reads()
+        frame = self.server.answer(req.tid, req.protocol, req.register, req.params)
+        c = CommandResult(i, t, req.register, req.name)
+        if req.register == ERR_WARN_REGISTER and rep is not None and min(len(rep.frame), len(frame)) > 9:
+            c.reply_codes = (rep.frame[8], rep.frame[9], frame[8], frame[9])
+        if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
+            c.reply_differs = True
+            c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
+            if read:
+                self.pending.append((c, req, rep, self.spans[i][1], [bytes(frame)]))
+        self.cmd_at.append((t, self.j))
+        return c
+
+    def finish(self) -> None:
+        """Sample the frames after the last request and try the reads still waiting over their periods."""
+        self.sample_until(math.inf)
+        if self.pending:  # reads after the last frame (or in a recording without frames): their periods
+            self.advance(max(item[3] for item in self.pending) + PERIOD)
+            self.give_up_reads()
+
+
 def compare(path: Path, calibration: Calibration | None = None,
             tolerances: dict[str, float] | None = None) -> Comparison:
     """Replay the recording at ``path`` and measure the differences (module docstring)."""
     import time as _time
 
-    from ..controller.emulator import Emulator
-    from ..server.core import EmulatorServer, ServerConfig
-
     tol = tolerances or dict(DEFAULT_TOLERANCES)
     session = read_session(Path(path))
     base = model_of(session.version)
     model = with_calibration(base, calibration)
-    dof = model.dof
     firmware = str(session.profile.version)
     result = Comparison(base.key, firmware, session=session)
-    spans = _controller_times(session)
-    cmd_only = not session.realtime
-    if cmd_only:
+    if not session.realtime:
         result.notes = list(COMMAND_PORT_ONLY)
-    times = [t for t, _, _ in spans]
-    rec_samples = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
-    rep_samples: list[Sample] = []
-    nan = np.full(dof, np.nan)
     started = _time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="xarm-emu-compare-") as cdir:
-        emu = Emulator(model, config_dir=Path(cdir), firmware=firmware)
-        server = EmulatorServer(emu, ServerConfig(stepped=True, port=0))
-        cmd_at: list[tuple[float, int]] = []
-        emu_codes: list[tuple[int, int]] = [(0, 0)] * len(session.status)
-        pending: list[tuple[CommandResult, xrec.Req, xrec.Rep, float, list[bytes]]] = []  # reads to try again
-
-        def advance(to: float) -> None:
-            while pending and to > emu.time + 1e-9:  # a period at a time while reads wait
-                before = emu.time
-                server.advance(min(PERIOD, to - emu.time))
-                retry()
-                if emu.time <= before:  # less than a period is left
-                    break
-            if to > emu.time + 1e-9:
-                server.advance(to - emu.time)
-            retry()
-
-        def retry() -> None:
-            for item in list(pending):
-                c, req, rep, hi, tries = item
-                if emu.time > hi + 1e-9:
-                    pending.remove(item)
-                    _read_distance(c, rep, tries, cmd_only, tol)
-                    continue
-                frame = server.answer(req.tid, req.protocol, req.register, req.params)
-                tries.append(bytes(frame))
-                if bytes(frame[6:]) == rep.frame[6:]:
-                    c.reply_differs, c.recorded_reply, c.replayed_reply = False, "", ""
-                    if c.reply_codes is not None:
-                        c.reply_codes = (*c.reply_codes[:2], *c.reply_codes[:2])
-                    pending.remove(item)
-
-        j = 0
-        status = session.status
-        st_times = session.controller_times([f.t for f in status]).tolist() if status else []
-        st_order = sorted(range(len(status)), key=lambda n: st_times[n])
-        k = 0
-
-        def sample_until(limit: float) -> None:
-            """Take the replayed state at every recorded frame before ``limit``: the joints, torques
-            and currents at the real-time frames, the error and warning codes at the normal and rich
-            frames."""
-            nonlocal j, k
-            while True:
-                t_rt = rec_samples[j].t if j < len(rec_samples) else math.inf
-                t_st = st_times[st_order[k]] if k < len(st_order) else math.inf
-                if not min(t_rt, t_st) < limit - 1e-9:
-                    return
-                if t_st <= t_rt:  # the state of the last period begun by then (never one further)
-                    advance(math.floor(t_st / PERIOD + 1e-9) * PERIOD)
-                    ctl = emu.controller
-                    emu_codes[st_order[k]] = (ctl.error_code, ctl.warning_code)
-                    k += 1
-                    continue
-                st = rec_samples[j]
-                advance(st.t)
-                ctl = emu.controller
-                if j % TORQUE_EVERY == 0:
-                    tau, cur = ctl.joint_torques()[:dof].copy(), ctl.joint_currents()[:dof].copy()
-                else:
-                    tau = cur = nan
-                rep_samples.append(Sample(st.t, ctl.data.motion_state, ctl.data.q[:dof].copy(),
-                                          ctl.tcp_matrix()[:3, 3].copy(), tau, cur,
-                                          ctl.data.qd[:dof].copy()))
-                j += 1
-
-        previous = 0.0
+        replay = _Replay.start(model, firmware, Path(cdir), session, tol)
         for i, (req, rep) in enumerate(session.requests):
-            t_est, hi, lo = spans[i]
-            lower = max(previous, lo - LEAD_PERIODS * PERIOD)
-            sample_until(lower)  # no command can come before its lower bound
-            read = _pure_read(req)
-            if read:
-                t = max(lower, emu.time)
-            elif _is_queued(req.register) and not rec_samples:  # no frames to place it by
-                t = max(t_est, lower)
-            elif _is_queued(req.register):
-                t = _best_time(server, emu, session, [max(x, lower) for x in times], spans, rec_samples, i, j)
-            else:  # the earliest its bounds allow, so that a queued command after it can be placed
-                t = max(lo, lower)
-            previous = t
-            sample_until(t)
-            advance(t)
-            if not read and pending:  # a command may change what a read shows: look ahead first
-                cp = emu.checkpoint()
-                advance(max(item[3] for item in pending))
-                emu.restore(cp)
-                for c_read, _, rep_read, _, tries in pending:
-                    _read_distance(c_read, rep_read, tries, cmd_only, tol)
-                pending.clear()
-            frame = server.answer(req.tid, req.protocol, req.register, req.params)
-            c = CommandResult(i, t, req.register, req.name)
-            if req.register == ERR_WARN_REGISTER and rep is not None and min(len(rep.frame), len(frame)) > 9:
-                c.reply_codes = (rep.frame[8], rep.frame[9], frame[8], frame[9])
-            if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
-                c.reply_differs = True
-                c.recorded_reply, c.replayed_reply = rep.frame[6:].hex(), bytes(frame[6:]).hex()
-                if read:
-                    pending.append((c, req, rep, hi, [bytes(frame)]))
-            result.commands.append(c)
-            cmd_at.append((t, j))
-        sample_until(math.inf)
-        if pending:  # reads after the last frame (or in a recording without frames): their periods
-            advance(max(item[3] for item in pending) + PERIOD)
-            for c_read, _, rep_read, _, tries in pending:
-                _read_distance(c_read, rep_read, tries, cmd_only, tol)
-            pending.clear()
+            result.commands.append(replay.place(i, req, rep))
+        replay.finish()
         result.replay_seconds = _time.perf_counter() - started
-    result.recorded, result.replayed = rec_samples, rep_samples
-    _measure(result, cmd_at, tol, session, emu_codes)
+    result.recorded, result.replayed = replay.recorded, replay.replayed
+    _measure(result, replay.cmd_at, tol, session, replay.emu_codes)
     return result
 
 

@@ -34,6 +34,7 @@ TOOL_COLOR = (255, 170, 60)
 TRACK_COLOR = (90, 95, 105)
 CONTACT_COLOR = (120, 160, 220)  # the contact scene's planes and boxes
 OBJECT_COLOR = (208, 64, 32)  # the scene's loose objects (controller/physics/) without a colour of their own
+HEMISPHERE_LIGHT = 2.5  # the fill light that stands in for viser's environment map
 
 
 class _Redrawing:
@@ -198,7 +199,18 @@ def _new_viser(host: str, port: int) -> Any:
         raise RuntimeError("the 3D view needs viser: pip install 'xarm-emu[view]'") from exc
     if not 0 <= port <= 65535:
         raise ValueError(f"--view-port must be 0..65535, got {port}")
-    return viser.ViserServer(host=host, port=port, label="xarm-emu", verbose=False)
+    vs = viser.ViserServer(host=host, port=port, label="xarm-emu", verbose=False)
+    # Lit by viser's default lights and a hemisphere light, without its default image-based lighting
+    # and shadow maps. That HDR environment map is pre-filtered in the browser on the first frame
+    # with a lit mesh: tens of seconds of a software-rendering browser's main thread during which
+    # every later picture (the red arm of an error) waits. The shadow maps (three cascades drawn
+    # before each frame) hold the first paint of the page, the status panel's too, about 0.6 s
+    # longer. The flat colours need neither.
+    vs.scene.configure_environment_map(hdri=None)
+    vs.scene.configure_default_lights(enabled=True, cast_shadow=False)
+    vs.scene.add_light_hemisphere("/light", sky_color=(255, 255, 255), ground_color=(120, 120, 130),
+                                  intensity=HEMISPHERE_LIGHT)
+    return vs
 
 
 FLEET_SPACING = 0.9  # m between the arms of a fleet view, along y

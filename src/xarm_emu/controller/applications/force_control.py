@@ -43,6 +43,7 @@ import numpy as np
 from ...model import kinematics as kin
 from ...model import rotations as rot
 from ..core.controller_protocol import Controller
+from ..core.controller_state import part_of
 from ..core.ft_config import ft_config
 from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
 from . import reduced
@@ -222,11 +223,7 @@ class ForceControl:
 
 def control_of(ctl: Controller) -> ForceControl:
     """The force-control state of ``ctl`` (created, off, on first use)."""
-    fc = cast("ForceControl | None", ctl.data.force_control)
-    if fc is None:
-        fc = ForceControl()
-        ctl.data.force_control = fc
-    return fc
+    return part_of(ctl.data, "force_control", ForceControl)
 
 
 def set_app(ctl: Controller, app: int) -> None:

@@ -17,7 +17,7 @@ The modes are answered from firmware 2.0.0 (the SDK documents them for the 2.x c
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
@@ -25,6 +25,7 @@ from ...model import kinematics as kin
 from ...model import rotations as rot
 from .. import motion
 from ..core.controller_protocol import Controller
+from ..core.controller_state import part_of
 from ..core.interface import C_JOINT_LIMIT, C_KINEMATIC, CommandError, NotReady, ParameterError, Values
 from ..core.poses import wire_pose_to_matrix
 from ..core.settings import in_range
@@ -58,11 +59,8 @@ class OnlinePlanner:
 
 
 def planner_of(ctl: Controller) -> OnlinePlanner:
-    p = cast("OnlinePlanner | None", ctl.data.online_planner)
-    if p is None:
-        p = OnlinePlanner()
-        ctl.data.online_planner = p
-    return p
+    """The online planner's state of ``ctl`` (modes 6 and 7)."""
+    return part_of(ctl.data, "online_planner", OnlinePlanner)
 
 
 def available(ctl: Controller) -> bool:

@@ -22,6 +22,7 @@ from typing import Any, cast
 import numpy as np
 
 from ..core.controller_protocol import Controller
+from ..core.controller_state import part_of
 from ..core.interface import C_JOINT_LIMIT, CommandError
 
 
@@ -37,13 +38,10 @@ class ReducedMode:
 
 def reduced_of(ctl: Controller) -> ReducedMode:
     """The reduced-mode settings of ``ctl`` (the model's maxima and limits until set)."""
-    r = cast("ReducedMode | None", ctl.data.reduced)
-    if r is None:
-        m = ctl.model
-        r = ReducedMode(tcp_speed=float(m.max_tcp_speed), joint_speed=float(m.max_joint_speed),
-                        joint_ranges=reduced_of_default(ctl))
-        ctl.data.reduced = r
-    return r
+    m = ctl.model
+    return part_of(ctl.data, "reduced", lambda: ReducedMode(
+        tcp_speed=float(m.max_tcp_speed), joint_speed=float(m.max_joint_speed),
+        joint_ranges=reduced_of_default(ctl)))
 
 
 def speed_caps(ctl: Controller) -> tuple[float, float]:

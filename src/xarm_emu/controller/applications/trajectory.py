@@ -39,6 +39,7 @@ import numpy as np
 from ...model import kinematics as kin
 from .. import motion
 from ..core.controller_protocol import Controller
+from ..core.controller_state import part_of
 from ..core.state_machine import MODE_PLAYBACK, STATE_MOVING, STATE_SLEEP, Event, ModeEvent, fire, fire_mode
 
 #: Longest recording (s of controller time); recording stops by itself after it.
@@ -173,11 +174,7 @@ class TrajectoryStore:
 
 def store_of(ctl: Controller) -> TrajectoryStore:
     """The trajectory store of ``ctl`` (in memory until :func:`attach` gives it a directory)."""
-    st = cast("TrajectoryStore | None", ctl.data.trajectory_store)
-    if st is None:
-        st = TrajectoryStore(record_period=ctl.period)
-        ctl.data.trajectory_store = st
-    return st
+    return part_of(ctl.data, "trajectory_store", lambda: TrajectoryStore(record_period=ctl.period))
 
 
 def attach(ctl: Controller, config_dir: Path | None) -> TrajectoryStore:

@@ -17,7 +17,6 @@ the joint limits or the workspace (no inverse kinematics solution) stops the arm
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import cast
 
 import numpy as np
 from ruckig import ControlInterface, InputParameter, Result, Ruckig, Synchronization, Trajectory
@@ -25,6 +24,7 @@ from ruckig import ControlInterface, InputParameter, Result, Ruckig, Synchroniza
 from ...model import kinematics as kin
 from ...model import rotations as rot
 from ..core.controller_protocol import Controller
+from ..core.controller_state import part_of
 from ..core.state_machine import STATE_MOVING, STATE_SLEEP, Event, fire
 from . import reduced
 
@@ -60,11 +60,7 @@ class VelocityControl:
 
 def control_of(ctl: Controller) -> VelocityControl:
     """The velocity control state of ``ctl`` (created at rest on first use)."""
-    vc = cast("VelocityControl | None", ctl.data.velocity_control)
-    if vc is None:
-        vc = VelocityControl()
-        ctl.data.velocity_control = vc
-    return vc
+    return part_of(ctl.data, "velocity_control", VelocityControl)
 
 
 def _size(mode: int, dof: int) -> int:

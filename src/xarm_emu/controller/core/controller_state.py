@@ -15,7 +15,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from operator import attrgetter
-from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, cast, overload
 
 import numpy as np
 
@@ -67,6 +67,17 @@ class PlanState:
         if self.stopping:
             return 0
         return len(self.buffer) + (1 + self.merged if self.current is not None else 0)
+
+
+def part_of(data: ControllerState, slot: str, make: Callable[[], T]) -> T:
+    """The application part in ``slot`` of ``data``, made by ``make`` when the slot is empty (at the
+    controller's construction, so a checkpoint holds it from the start). Each application reads its
+    part through this, with the slot's type given by ``make``."""
+    part = getattr(data, slot)
+    if part is None:
+        part = make()
+        setattr(data, slot, part)
+    return cast(T, part)
 
 
 @dataclass(slots=True)

@@ -1,4 +1,5 @@
-"""The fidelity commands of ``xarm-emu``: ``proxy``, ``compare`` and ``calibrate`` (registered by cli/)."""
+"""``proxy``, ``compare`` and ``calibrate``: a program's session with a real box recorded, replayed into
+the emulator and the emulator's estimated constants fitted to it (:mod:`xarm_emu.fidelity`)."""
 
 from __future__ import annotations
 
@@ -9,26 +10,10 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 
 from ..model.calibration import CalibrationError
 from ..model.calibration import load as load_calibration
-from ..model.robots import RobotModel, with_calibration
-
-console = Console(markup=False, highlight=False)
-err_console = Console(stderr=True, markup=False, highlight=False, soft_wrap=True)
-
-
-def calibrated_model(robot: RobotModel, path: Path | None) -> RobotModel:
-    """``robot`` with the calibration file at ``path`` (``serve --calibration``); one line and exit 2
-    for a file that cannot be used."""
-    if path is None:
-        return robot
-    try:
-        return with_calibration(robot, load_calibration(path))
-    except CalibrationError as exc:
-        err_console.print(f"--calibration: {exc}")
-        raise typer.Exit(2) from None
+from .options import console, err_console
 
 
 def proxy(
@@ -102,9 +87,9 @@ def compare(
     """Replay a recording into the emulator and report the differences; exit 1 outside the tolerances."""
     import json
 
+    from ..fidelity.compare import CompareError, code_lines, html_report, load_tolerances
+    from ..fidelity.compare import compare as run_compare
     from ..model.calibration import Calibration
-    from .compare import CompareError, code_lines, html_report, load_tolerances
-    from .compare import compare as run_compare
 
     cal: Calibration | None = None
     try:
@@ -150,9 +135,9 @@ def calibrate(
     output: Annotated[Path, typer.Option("-o", "--output", help="The calibration file to write (TOML).")],
 ) -> None:
     """Fit the emulator's estimated constants to a recording, with their uncertainties."""
+    from ..fidelity.calibrate import calibrate as run_calibrate
+    from ..fidelity.compare import CompareError
     from ..model.calibration import dumps, save
-    from .calibrate import calibrate as run_calibrate
-    from .compare import CompareError
 
     try:
         result = run_calibrate(recording)
@@ -166,9 +151,3 @@ def calibrate(
     for note in result.notes:
         console.print(f"note: {note}", soft_wrap=True)
 
-
-def register(app: typer.Typer) -> None:
-    """Add the fidelity commands to ``app``."""
-    app.command("proxy")(proxy)
-    app.command("compare")(compare)
-    app.command("calibrate")(calibrate)
