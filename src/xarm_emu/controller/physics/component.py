@@ -134,7 +134,10 @@ class PhysicsComponent:
         if not shapes:
             return None
         p = self.world.tcp_point(q, ctl.settings.tcp_offset)
-        if not any(_inside(s, p) for s in shapes):
+        for s in shapes:
+            if _inside(s, p):
+                break
+        else:
             return None
         T = kin.fk(ctl.model, q)
         off = T[:3, :3] @ np.asarray(ctl.settings.tcp_offset[:3], dtype=float)
