@@ -85,8 +85,9 @@ class ControllerState:
     """Every mutable value of the controller core and its executor (see the module docstring).
 
     Slotted: a value that is not declared here cannot be attached at run time. The application
-    states below start as None and are created on first use by the module that owns them
-    (``reduced.reduced_of`` and the like), all of them at construction (``applications.modes.create_state``)."""
+    states below start as None and are made by the module that owns them through :func:`part_of`
+    (``reduced.reduced_of`` and the like), all of them at construction
+    (``applications.modes.create_state``)."""
 
     dof: int
     time: float = 0.0  # controller time, s

@@ -134,7 +134,10 @@ class PhysicsComponent:
         if not shapes:
             return None
         p = self.world.tcp_point(q, ctl.settings.tcp_offset)
-        if not any(_inside(s, p) for s in shapes):
+        for s in shapes:
+            if _inside(s, p):
+                break
+        else:
             return None
         T = kin.fk(ctl.model, q)
         off = T[:3, :3] @ np.asarray(ctl.settings.tcp_offset[:3], dtype=float)
@@ -152,7 +155,8 @@ class PhysicsComponent:
         tau = self.external_torques(ctl)
         if self.world.touching_arm():
             arm = self.world.arm_torques(gripping)
-            tau = arm if tau is None else tau + arm
+            if arm is not None:
+                tau = arm if tau is None else tau + arm
         if tau is not None and tau.any() and safety.collision_detected(
                 sens, float(np.max(np.abs(tau))), safety.collision_thresholds(ctl.model)):
             ctl.raise_error(C_COLLISION)

@@ -60,6 +60,23 @@ class PhysicsState:
     relative: tuple[float, ...] = ()
 
 
+@dataclass(frozen=True, slots=True)
+class Contacts:
+    """The contacts of one engine step that touch the arm or hand, sorted out of the engine's contact
+    list once for each contact set: the same geom pairs in the same order (an object held or at rest
+    period after period) sort out the same, so they are not sorted again."""
+
+    #: The contact set: the engine's geom pairs in contact order, as bytes.
+    pairs: bytes
+    #: (contact index, geom, geom) of each contact that touches the arm or hand.
+    rows: list[tuple[int, int, int]]
+    #: The same contacts as (contact index, the arm's geom, whether it is geom1, the object a finger
+    #: pad touches or -1): what :meth:`World.arm_torques` sums.
+    push: list[tuple[int, int, bool, int]]
+    #: The objects both pads touch.
+    both: frozenset[int]
+
+
 @dataclass(frozen=True)
 class ObjectPose:
     """Where an object is: centre (mm, base frame), roll/pitch/yaw (deg), whether the hand holds it."""
@@ -129,11 +146,11 @@ class World:
         self._free_list: list[int] = self._free_v.tolist()
         self._size = mujoco.mj_stateSize(m, _STATE)
         #: The engine's contacts are read once each time they change (:meth:`_scan`): ``_version``
-        #: counts the changes, ``_scanned`` the one read; ``_rows`` (contact index, geom, geom) of each
-        #: contact that touches the arm or hand, ``_pads`` the pads on each object.
+        #: counts the changes, ``_scanned`` the one read; ``_rows`` what was read (:class:`Contacts`),
+        #: ``_pad_map`` the pads on each object.
         self._version = 0
         self._scanned = -1
-        self._rows: list[tuple[int, int, int]] = []
+        self._rows = Contacts(b"", [], [], frozenset())
         self._pad_map: dict[int, set[int]] = {}
         self._initial = (self.d.qpos.copy(), self.d.qvel.copy())
         self.state = PhysicsState(b"", 0.0, 0, False, b"")
@@ -196,15 +213,18 @@ class World:
             self._fingers_to(ramp)
             s.inputs = inputs
             return
-        last = d.qpos[self._q].copy()
+        qpos, qvel = d.qpos, d.qvel  # views into the engine's arrays, read once
+        arm_q, arm_v = qpos[self._q], qvel[self._v]
+        last = arm_q.copy()
         moving_arm = last.tolist() != qa.tolist()
-        d.qvel[self._v] = (qa - last) / dt
+        np.subtract(qa, last, out=arm_v)
+        arm_v /= dt
         if self.fingers:
             d.ctrl[:] = ramp / 2.0 * MM
         mujoco.mj_step(m, d, nstep=max(1, round(dt / TIMESTEP)))
         self._version += 1
-        d.qpos[self._q] = qa
-        d.qvel[self._v] = 0.0
+        arm_q[:] = qa
+        arm_v[:] = 0.0
         if s.held >= 0:
             self._carry(qa)
         s.inputs = inputs
@@ -215,13 +235,13 @@ class World:
         far = still and (moving_arm or self.fingers) and self._far(qa)
         still = still and (far or not moving_arm)
         if still and (self._free_v.size or (self._finger_v and not far)):
-            qvel = d.qvel.tolist()
-            still = all(abs(qvel[v]) < STILL_SPEED for v in self._free_list)
+            speeds = qvel.tolist()
+            still = all(abs(speeds[v]) < STILL_SPEED for v in self._free_list)
             if still and self._finger_v and not far:
-                still = all(abs(qvel[v]) < STILL_SPEED for v in self._finger_v)
+                still = all(abs(speeds[v]) < STILL_SPEED for v in self._finger_v)
         s.still = s.still + 1 if still else 0
         if s.still >= SETTLE_PERIODS:
-            d.qvel[:] = 0.0
+            qvel[:] = 0.0
             d.qacc_warmstart[:] = 0.0
             s.settled = True
 
@@ -229,10 +249,11 @@ class World:
         """Free fingers at the opening ``ramp`` (mm), at rest."""
         if self.fingers:
             half = min(max(ramp / 2.0, 0.0), self.hand.stroke / 2.0) * MM  # type: ignore[union-attr]
+            qpos, qvel = self.d.qpos, self.d.qvel
             for a in self._fq:
-                self.d.qpos[a] = half
+                qpos[a] = half
             for v in self._finger_v:
-                self.d.qvel[v] = 0.0
+                qvel[v] = 0.0
 
     # -- the vacuum cup ------------------------------------------------------------------------
     def cup_object(self, q: np.ndarray) -> int:
@@ -303,29 +324,24 @@ class World:
         self.d.qpos[a + 3: a + 7] = quat_from_matrix(P[:3, :3])
         self.d.qvel[v: v + 6] = 0.0
 
-    def arm_torques(self, gripping: bool = False) -> np.ndarray:
+    def arm_torques(self, gripping: bool = False) -> np.ndarray | None:
         """The joint torques (N m) of what objects press on the arm and the hand: ``J^T f`` of each
-        touching contact, at its point, on the arm's joints. While the hand grips (``gripping``, its
-        device says so) the pads' contacts with an object both pads touch are its own squeeze and
-        are left out."""
-        tau = np.zeros(self.robot.dof)
-        kind = self._kinds
-        gripped = {i for i, pads in self._pad_map.items() if len(pads) == 2} if gripping else set()
-        pushing = []
-        for k, g1, g2 in self._scan():
-            first = bool(kind[g1])
-            arm_geom, other = (g1, g2) if first else (g2, g1)
-            if kind[arm_geom] == 2 and self._object_geoms.get(other) in gripped:
-                continue
-            pushing.append((k, arm_geom, first))
+        touching contact, at its point, on the arm's joints; None when nothing presses. While the
+        hand grips (``gripping``, its device says so) the pads' contacts with an object both pads
+        touch are its own squeeze and are left out."""
+        self._scan()
+        rows = self._rows
+        gripped = rows.both if gripping else ()
+        pushing = [row for row in rows.push if row[3] not in gripped] if gripped else rows.push
         if not pushing:
-            return tau
+            return None
+        tau = np.zeros(self.robot.dof)
         m, d = self.m, self.d
         f6 = np.zeros(6)
         jacp = np.zeros((3, m.nv))
         frames = d.contact.frame
         points = d.contact.pos
-        for k, arm_geom, first in pushing:
+        for k, arm_geom, first, _ in pushing:
             mujoco.mj_contactForce(m, d, k, f6)
             force = frames[k].reshape(3, 3).T @ f6[:3]  # on geom2, from geom1
             mujoco.mj_jac(m, d, jacp, None, points[k], int(m.geom_bodyid[arm_geom]))
@@ -334,12 +350,16 @@ class World:
 
     def tcp_point(self, q: np.ndarray, offset: Sequence[float]) -> tuple[float, float, float]:
         """The point ``offset`` (mm, flange frame) of the arm at ``q`` (rad), in the base frame (mm),
-        from the engine's kinematics of the nearness model (the same joint frames as ``model/``)."""
-        self._kinematics_at(q)
+        from the engine's kinematics of the nearness model (the same joint frames as ``model/``).
+        The flange hangs on the arm's joints alone: the nearness model's arm already at ``q`` (the
+        objects wherever they were) has it where it is."""
+        if q[: self.robot.dof].tobytes() != self._near_key[1]:
+            self._kinematics_at(q)
         d = self._near_d
         b = self._flange_body
         r = d.xmat[b].tolist()
-        x, y, z = (v / MM for v in d.xpos[b].tolist())
+        px, py, pz = d.xpos[b].tolist()
+        x, y, z = px / MM, py / MM, pz / MM
         ox, oy, oz = float(offset[0]), float(offset[1]), float(offset[2])
         return (x + r[0] * ox + r[1] * oy + r[2] * oz, y + r[3] * ox + r[4] * oy + r[5] * oz,
                 z + r[6] * ox + r[7] * oy + r[8] * oz)
@@ -356,12 +376,15 @@ class World:
     def _kinematics_at(self, q: np.ndarray) -> None:
         """The nearness model's bodies where the world's are, the arm at ``q`` (done once for the
         same joints and world)."""
-        key = (self.d.qpos.tobytes(), q[: self.robot.dof].tobytes())
+        qpos = self.d.qpos
+        qa = q[: self.robot.dof]
+        key = (qpos.tobytes(), qa.tobytes())
         if key == self._near_key:
             return
         d = self._near_d
-        d.qpos[:] = self.d.qpos
-        d.qpos[self._q] = q[: self.robot.dof]
+        near = d.qpos
+        near[:] = qpos
+        near[self._q] = qa
         mujoco.mj_kinematics(self._near_m, d)
         self._near_key = key
 
@@ -370,26 +393,35 @@ class World:
         """The contacts that touch (not ones only near) the arm or hand, as (contact index, geom,
         geom), read from the engine once after each change; the pads on each object with them."""
         if self._scanned == self._version:
-            return self._rows
+            return self._rows.rows
         self._scanned = self._version
         d = self.d
         n = d.ncon
+        geoms = d.contact.geom[:n] if n else None
+        pairs = geoms.tobytes() if geoms is not None else b""
+        if pairs == self._rows.pairs:
+            return self._rows.rows
         rows: list[tuple[int, int, int]] = []
         pads: dict[int, set[int]] = {}
-        if n:
-            c = d.contact
+        push: list[tuple[int, int, bool, int]] = []
+        if geoms is not None:
             kind, objects = self._kinds, self._object_geoms
             # the world's geoms have no margins: every contact of the engine touches
-            for k, (a, b) in enumerate(c.geom[:n].tolist()):
+            for k, (a, b) in enumerate(geoms.tolist()):
                 ka, kb = kind[a], kind[b]
                 if not (ka or kb):
                     continue
                 rows.append((k, a, b))
+                first = bool(ka)
+                arm_geom, other = (a, b) if first else (b, a)
+                push.append((k, arm_geom, first,
+                             objects.get(other, -1) if kind[arm_geom] == 2 else -1))
                 if ka == 2 and b in objects:
                     pads.setdefault(objects[b], set()).add(a)
                 elif kb == 2 and a in objects:
                     pads.setdefault(objects[a], set()).add(b)
-        self._rows, self._pad_map = rows, pads
+        self._rows = Contacts(pairs, rows, push, frozenset(i for i, p in pads.items() if len(p) == 2))
+        self._pad_map = pads
         return rows
 
     def touching_arm(self) -> bool:
