@@ -146,3 +146,23 @@ def test_a_state_that_cannot_be_written_is_refused_by_checkpoint_save(make_serve
     with pytest.raises(AdminError, match=r"cannot be saved: .*lambda"):
         st.call(lambda: execute(srv, {"cmd": "checkpoint-save", "name": "x"}))
     assert st.call(lambda: srv.checkpoints) == {}
+
+
+def test_a_saved_schedule_needs_a_server_to_act_on(make_server, tmp_path: Path) -> None:
+    """Bytes with a pending fault schedule load into a served box, and are refused by name (not
+    half-loaded) by a bare emulator that has no server for the faults to act on."""
+    from xarm_emu.controller.core.state_bytes import StateBytesError
+
+    path = tmp_path / "faults.toml"
+    path.write_text(SCHEDULE)
+    st = make_server(stepped=True, admin=True, faults=path)
+    data = st.call(st.emulator.checkpoint_bytes)
+    bare = Emulator(6)
+    bare.advance(0.1)
+    with pytest.raises(StateBytesError, match="refers to the 'server'"):
+        bare.restore_bytes(data)
+    assert bare.time == pytest.approx(0.1)
+    other = make_server(stepped=True, admin=True, faults=path)
+    other.call(lambda: other.emulator.restore_bytes(data))
+    other.call(lambda: other.server.advance(1.0))
+    assert other.call(lambda: other.emulator.controller.error_code) == 31

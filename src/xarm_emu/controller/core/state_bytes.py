@@ -236,7 +236,7 @@ class _Reader:
         if kind == "@":
             return self.numbered[node["#"]]
         if kind == "r":
-            return self.shared[node["n"]]
+            return self._shared(node["n"])
         number = node.get("#")
         if kind in ("L", "c", "o"):  # containers that may refer to themselves: registered first
             if kind == "L":
@@ -255,6 +255,12 @@ class _Reader:
         out = self._leaf(kind, node)
         self._number(number, out)
         return out
+
+    def _shared(self, name: Any) -> object:
+        if name not in self.shared:  # a fault schedule's server, say, in a box served without one
+            raise StateBytesError(f"the saved state refers to the {name!r} of its box, which this "
+                                  "emulator does not have")
+        return self.shared[name]
 
     def _number(self, number: int | None, obj: Any) -> None:
         if number is not None:
@@ -280,7 +286,7 @@ class _Reader:
         if kind == "e":
             return _resolve(node["c"])(self.value(node["v"]))
         if kind == "m":
-            return getattr(self.shared[node["n"]], node["a"])
+            return getattr(self._shared(node["n"]), node["a"])
         if kind == "M":
             return getattr(self.value(node["s"]), node["a"])
         if kind == "f":
