@@ -83,7 +83,13 @@ def test_each_develop_frame_shows_the_controller_at_its_deadlines_control_period
         make_server, sdk_arm) -> None:
     """The controller's own log of its control periods beside the frames: every develop frame sent
     while the arm moves carries the joints of a period that ends within one period of the frame's
-    deadline (the deadlines are the multiples of 10 ms, manual 2.1.6)."""
+    deadline (the deadlines are the multiples of 10 ms, manual 2.1.6).
+
+    The log holds each period stepped in full (``Controller.step``). The periods between two of
+    them, in which only the clock runs (an arm at rest: ``Emulator.next_event``), hold the joints of
+    the one before: the first frame after a move command shows state 1 with the joints the arm has
+    rested at since its last full period, long before. Such periods never follow a period that
+    ended in motion."""
     import numpy as np
 
     from xarm_emu.controller.core.interface import PERIOD
@@ -91,13 +97,14 @@ def test_each_develop_frame_shows_the_controller_at_its_deadlines_control_period
     srv = make_server()
     emu = srv.emulator
     ctl = emu.controller
-    periods: dict[tuple[float, ...], list[int]] = {}  # joints (as the report's fp32) -> periods
+    # each period stepped in full: (its number, the joints as the report's fp32, the state after it)
+    log: list[tuple[int, tuple[float, ...], int]] = []
     inner = ctl.step
 
     def logged() -> None:
         inner()
-        key = tuple(float(x) for x in np.float32(ctl.data.q))
-        periods.setdefault(key, []).append(ctl.data.steps)
+        d = ctl.data
+        log.append((d.steps, tuple(float(x) for x in np.float32(d.q)), d.motion_state))
 
     ctl.step = logged  # type: ignore[method-assign]
     stream = srv.server.reports.streams["develop"]
@@ -116,6 +123,13 @@ def test_each_develop_frame_shows_the_controller_at_its_deadlines_control_period
         reader.close()
     clock = srv.server.clock
     offset = srv.call(lambda: ctl.data.steps - clock.steps)  # controller periods before the clock's
+    with srv.server.lock:  # the log as far as the controller has run
+        stepped, last = list(log), ctl.data.steps
+    periods: dict[tuple[float, ...], list[int]] = {}  # joints -> the periods that ended with them
+    for (k, key, state), following in zip(stepped, [e[0] for e in stepped[1:]] + [last + 1],
+                                          strict=True):
+        assert following == k + 1 or state != 1, (k, following)  # only the clock ran: never in motion
+        periods.setdefault(key, []).extend(range(k, following))
     to_mono = time.monotonic() - time.perf_counter()
     assert srv.server.reports.frames_skipped["develop"] == 0  # one frame read per frame sent
     frames = [f for _, f in reader.frames]
