@@ -162,6 +162,25 @@ def test_each_develop_frame_shows_the_controller_at_its_deadlines_control_period
     assert checked >= 40, checked
 
 
+def test_a_frame_whose_deadline_is_two_periods_gone_is_not_sent(make_server) -> None:  # type: ignore[no-untyped-def]
+    """The sender comes late and a command has already run the controller two periods past the
+    deadline's own period: that deadline's state is gone, so its frame is not sent (counted missed)
+    rather than show a later state; one period past, it is still sent."""
+    from xarm_emu.controller.core.interface import PERIOD
+
+    core = make_server().server
+    time.sleep(0.05)  # a few periods after the start
+    with core.lock:  # nothing else runs the controller meanwhile
+        core.catch_up()
+        end = core.clock.wall_after(-1)  # when the last period run ended (monotonic)
+        to_perf = time.perf_counter() - time.monotonic()
+        # its own period ended two periods before the last one run (which ended 1.25 periods after
+        # the deadline, 8.75 ms before the next deadline): gone
+        assert core.report_instant(end - 1.25 * PERIOD + to_perf, 0.01) is False
+        # its own period is the one before the last one run: sent
+        assert core.report_instant(end - 0.5 * PERIOD + to_perf, 0.01) is True
+
+
 def test_a_250_hz_servo_stream_is_reported_within_a_degree_20_ms_later(  # type: ignore[no-untyped-def]
         make_server, sdk_arm) -> None:
     """Mode 1 (servo motion, manual register 19 / 29): ``set_servo_angle_j`` at 250 Hz moving joint 1
