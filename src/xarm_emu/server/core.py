@@ -591,15 +591,17 @@ class EmulatorServer:
     def report_instant(self, deadline: float, interval: float) -> bool:
         """The report sender, under :attr:`lock`, before it encodes the frame due at ``deadline``
         (perf_counter seconds) of a stream of period ``interval``: run the control periods due by
-        the deadline, so the frame shows the state of the deadline's own control period. ``False``
-        when the controller already runs the period of the stream's next deadline (the sender was
-        that late, or the loop ran ahead): this frame would show the next one's state, so it is not
-        sent; a report never repeats a state for two deadlines."""
+        the deadline, so the frame shows the state of the deadline's own control period or of the
+        one after it. ``False`` when the controller already runs a later period (the sender was
+        late and a command or the loop ran on meanwhile) or the period of the stream's next
+        deadline: the deadline's state is gone, so the frame is not sent rather than show a later
+        state; a report never repeats a state for two deadlines."""
         if self._loop is None or self.config.stepped:
             return True
         until = deadline + (time.monotonic() - time.perf_counter())
         self.catch_up(until)
-        return self.clock.steps < self.clock.steps_at(until + interval)
+        steps = self.clock.steps
+        return steps <= self.clock.steps_at(until) + 1 and steps < self.clock.steps_at(until + interval)
 
     def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "",
                client: int = 0) -> bytes:
