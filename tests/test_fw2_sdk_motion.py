@@ -95,9 +95,13 @@ def test_relative_joint_move_beyond_the_limits_is_refused(fw_server: ServerThrea
 def _speed_of(st: ServerThread, seconds: float) -> np.ndarray:
     """Mean joint velocity (rad/s of controller time) over ``seconds`` of controller time."""
     ctl = st.emulator.controller
-    t0, q0 = ctl.time, ctl.q.copy()
+
+    def instant() -> tuple[float, np.ndarray]:  # time and joints of one period, read in the loop
+        return ctl.time, ctl.q.copy()
+
+    t0, q0 = st.call(instant)
     assert wait_for(lambda: ctl.time >= t0 + seconds, 10)
-    t1, q1 = ctl.time, ctl.q.copy()
+    t1, q1 = st.call(instant)
     return np.asarray((q1 - q0) / (t1 - t0))
 
 
@@ -113,6 +117,8 @@ def test_vc_set_joint_velocity_moves_at_the_commanded_speed_and_stops_after_the_
     assert wait_for(lambda: ctl.state == 1, 5)
     assert wait_for(lambda: float(np.max(np.abs(ctl.qd))) > 0.1 * math.radians(8.0), 5)
     t_start = ctl.time
+    # The mean speed is measured once every joint cruises (past the acceleration ramp).
+    assert wait_for(lambda: bool(np.allclose(ctl.qd, np.radians(speeds), rtol=1e-3, atol=1e-6)), 5)
     v = _speed_of(fw_server, 1.0)
     assert v == pytest.approx(np.radians(speeds), rel=0.01, abs=1e-6)
     assert wait_for(lambda: ctl.state == 2, 10)

@@ -222,6 +222,22 @@ def test_a_cube_too_heavy_for_the_grip_slips_out_and_is_not_held() -> None:
     assert not end.held
 
 
+@pytest.mark.parametrize("wait_periods", [0, 1, 3])
+def test_a_cube_slipping_out_raises_no_collision(wait_periods: int) -> None:
+    """3 kg with friction 0.5 slips out of the pads as the arm lifts (the lift started 0, 1 or 3
+    periods after the grip): the fingers close on at the gripper's speed instead of springing
+    into the cube's edge, so no contact force reaches the joints and no C31 stops the lift."""
+    heavy = {**CUBE, "mass": 3.0, "friction": 0.5}
+    emu = prepare(Emulator(6, scene=contact.parse_scene({"plane": [TABLE], "object": [heavy]})))
+    assert call(emu, 13)["state"] != 4 and emu.controller.settings.collision_sensitivity
+    pick(emu)
+    emu.advance(wait_periods * emu.controller.period)
+    line(emu, 300, -100, TZ + 115)  # asserts that no error stops it
+    assert emu.controller.tcp_matrix()[2, 3] == pytest.approx(TZ + 115, abs=0.1)
+    end = cube(emu)
+    assert not end.held and end.position[2] == pytest.approx(TZ + 20.0, abs=1.0)
+
+
 def test_the_ft_sensor_reads_the_tables_reaction_in_a_scene_with_objects() -> None:
     from xarm_emu.controller.devices import ft_sensor
 

@@ -38,6 +38,9 @@ from .world import World
 
 #: A command this far (mm) from where the free fingers are is where they are (the drive's lag).
 FOLLOW_MM = 0.05
+#: How many periods of the gripper's speed the command may run ahead of fingers that hold nothing
+#: (more than the drive's lag behind a command moving at that speed, about 1.7 periods).
+FREE_LEAD_PERIODS = 3
 
 
 def _inside(shape: contact.Plane | contact.Box, p: tuple[float, float, float]) -> bool:
@@ -77,7 +80,7 @@ class PhysicsComponent:
         assert f is not None
         force = f.force
         self.world.set_force(force)
-        if f.gripping:
+        if f.gripping and self.world.gripped():  # pressing only while both pads hold the object
             return f.opening - 2 * (2 * force / FINGER_KP) / 0.001 - 1.0
         return f.opening
 
@@ -117,11 +120,15 @@ class PhysicsComponent:
             return ramp
         target = g.target * XARM_MM_PER_PULSE
         measured = self.world.opening()
+        step = min(g.speed, SPEED_TOP) * SPEED_TO_PULSES * XARM_MM_PER_PULSE * dt
         if target > ramp:  # opening: the command never lags behind the fingers
             ramp = max(ramp, measured)
         elif target < ramp:  # closing on something: press, no further
-            ramp = max(ramp, measured - self.squeeze)
-        step = min(g.speed, SPEED_TOP) * SPEED_TO_PULSES * XARM_MM_PER_PULSE * dt
+            # Pressing (the command a squeeze past the fingers) only while both pads hold one object;
+            # an object that slips out leaves the fingers closing on at the gripper's speed, not
+            # springing the squeeze's length in one step into the object's edge.
+            lead = self.squeeze if self.world.gripped() else FREE_LEAD_PERIODS * step
+            ramp = max(ramp, measured - lead)
         if abs(target - ramp) <= step:
             return target
         return ramp + math.copysign(step, target - ramp)
