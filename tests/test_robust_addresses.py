@@ -50,10 +50,10 @@ def test_host_double_colon_serves_ipv4_and_ipv6_clients() -> None:
                 assert len(r.recv(4)) == 4
 
 
-def _count_frames(port: int, out: list[int], i: int, start: threading.Barrier) -> None:
-    """Count the whole frames that reach one reader from its start until the server closes the
-    connection: every reader stops at the same frame, the last one the server sent."""
-    with socket.create_connection(("127.0.0.1", port), timeout=30.0) as s:
+def _count_frames(sock: socket.socket, out: list[int], i: int, start: threading.Barrier) -> None:
+    """Count the whole frames that reach one reader from its connection until the server closes it:
+    every reader stops at the same frame, the last one the server sent."""
+    with sock as s:
         start.wait(5)
         buf = b""
         got = 0
@@ -82,7 +82,11 @@ def test_ten_develop_readers_each_get_every_due_frame(tmp_path: Path) -> None:
     with serve_subprocess(tmp_path, *port_args(*ports)):
         assert wait_for(lambda: accepts(last), 15.0)
         start = threading.Barrier(11)
-        readers = [threading.Thread(target=_count_frames, args=(ports[3], got, i, start))
+        # Connected one after another by this thread, so the server registers the ten within a
+        # frame or so of each other (ten threads each connecting on a busy machine spread that over
+        # several frames); the frames sent meanwhile wait in each socket's buffer.
+        socks = [socket.create_connection(("127.0.0.1", ports[3]), timeout=30.0) for _ in range(10)]
+        readers = [threading.Thread(target=_count_frames, args=(socks[i], got, i, start))
                    for i in range(10)]
         for t in readers:
             t.start()
