@@ -7,7 +7,9 @@ at the gripper's speed and the engine's force-limited finger drives follow it. W
 object the fingers stop and the drive presses with the hand's force; the gripper's reported position
 is then the fingers' own (:attr:`XArmGripper.position`), and its status says the fingers stopped on an
 object (motion bits 2, what the SDK's wait for a grip reads as done). Free fingers report the command
-itself, so a gripper that closes on nothing moves exactly as without the engine.
+itself, so a gripper that closes on nothing moves exactly as without the engine. The command presses
+(runs past the fingers) only while both pads hold one object; once the object slips out, the fingers
+close on at the gripper's speed (:data:`FREE_LEAD_PERIODS`).
 
 Collision detection (C31, manual 3.2.1, at the sensitivity of register 37): the force of the scene's
 planes and boxes on the TCP (their spring-damper, :func:`..scene.contact.scene_wrench`) and the engine's
