@@ -5,6 +5,7 @@ import struct
 
 import numpy as np
 import pytest
+from helpers import assert_ik_round_trips
 
 from xarm_emu.model.kinematics import (
     fk,
@@ -129,20 +130,7 @@ def test_xarm5_closed_form_same_plane_solution():
 
 @pytest.mark.parametrize("model", [XARM5, XARM6, XARM7])
 def test_fk_of_ik_reproduces_random_poses(model):
-    rng = np.random.default_rng(3)
-    solved = 0
-    for _ in range(40):
-        truth = reachable_joints(model, rng)
-        T = fk(model, truth)
-        q = ik(model, T, truth + rng.uniform(-0.2, 0.2, model.dof))
-        if q is None:
-            continue
-        solved += 1
-        assert within_limits(model, q)
-        Tq = fk(model, q)
-        assert np.linalg.norm(Tq[:3, 3] - T[:3, 3]) < 1e-3
-        assert rot_err(Tq, T) < 1e-5
-    assert solved >= 39
+    assert_ik_round_trips(model, reachable_joints)
 
 
 @pytest.mark.parametrize("model", [XARM5, XARM6])

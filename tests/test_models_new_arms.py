@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import assert_ik_round_trips
 
 from xarm_emu.model.collision import link_shapes, self_collision
 from xarm_emu.model.dynamics import gravity_torques, mass_matrix, torques_to_currents
@@ -181,20 +182,7 @@ def test_jacobian_matches_finite_differences(model: RobotModel) -> None:
 
 @pytest.mark.parametrize("model", NEW, ids=lambda m: m.name)
 def test_fk_of_ik_reproduces_random_poses(model: RobotModel) -> None:
-    rng = np.random.default_rng(3)
-    solved = 0
-    for _ in range(40):
-        truth = random_joints(model, rng)
-        T = fk(model, truth)
-        q = ik(model, T, truth + rng.uniform(-0.2, 0.2, model.dof))
-        if q is None:
-            continue
-        solved += 1
-        assert within_limits(model, q)
-        Tq = fk(model, q)
-        assert np.linalg.norm(Tq[:3, 3] - T[:3, 3]) < 1e-3
-        assert np.linalg.norm(matrix_to_axis_angle(Tq[:3, :3] @ T[:3, :3].T)) < 1e-5
-    assert solved >= 39
+    assert_ik_round_trips(model, random_joints)
 
 
 @pytest.mark.parametrize("model", NEW, ids=lambda m: m.name)
