@@ -14,15 +14,18 @@ import numpy as np
 import pytest
 from helpers import rx, ry, rz
 
+from xarm_emu.model.calibration import Calibration
 from xarm_emu.model.dynamics import (
     gravity_from_direction,
     gravity_torques,
     inverse_dynamics,
+    inverse_dynamics_many,
+    joint_friction,
     mass_matrix,
     torques_to_currents,
 )
 from xarm_emu.model.inertials import STANDARD_GRAVITY, get_inertials, torque_constants
-from xarm_emu.model.robots import XARM5, XARM6, XARM7, RobotModel
+from xarm_emu.model.robots import ROBOT_MODELS, XARM5, XARM6, XARM7, RobotModel, with_calibration
 
 G = STANDARD_GRAVITY
 DOWN = np.array([0.0, 0.0, -G])
@@ -326,3 +329,24 @@ def test_manual_register55_example_under_a_vertical_forearm_hypothesis():
     tau = gravity_torques(XARM6, [0, a, -a, 0, 0, 0], payload_mass=1.2, payload_com=(-4.0, 0.0, 0.0))
     assert np.allclose(tau[[1, 2, 4]], [j2, j3, j5], atol=0.05)
     assert np.all(np.abs(tau[[0, 3, 5]]) < 1e-9)
+
+
+@pytest.mark.parametrize("key", sorted(ROBOT_MODELS))
+def test_many_states_at_once_give_each_state_s_torques(key):
+    """The array recursion (a replay's batch) equals the per-state one for random states, a tilted
+    gravity and a payload; friction and currents of a calibrated model come out row by row."""
+    model = ROBOT_MODELS[key]
+    rng = np.random.default_rng(7)
+    q, qd, qdd = (rng.uniform(-lim, lim, (40, 7)) for lim in (2.5, 2.0, 8.0))
+    g = (1.5, -2.0, -9.3)
+    many = inverse_dynamics_many(model, q, qd, qdd, g, 1.3, (10.0, -20.0, 45.0))
+    assert many.shape == (40, model.dof)
+    one = np.array([inverse_dynamics(model, q[i], qd[i], qdd[i], g, 1.3, (10.0, -20.0, 45.0))
+                    for i in range(40)])
+    np.testing.assert_allclose(many, one, rtol=0, atol=1e-9)
+    cal = with_calibration(model, Calibration(viscous_friction=(0.5,) * model.dof,
+                                              coulomb_friction=(0.2,) * model.dof))
+    friction = joint_friction(cal, qd)
+    assert friction is not None and friction.shape == (40, model.dof)
+    np.testing.assert_allclose(friction[3], joint_friction(cal, qd[3]))
+    np.testing.assert_allclose(torques_to_currents(model, many)[5], torques_to_currents(model, many[5]))

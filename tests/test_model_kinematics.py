@@ -15,9 +15,10 @@ from xarm_emu.model.kinematics import (
     joint_frames,
     pose_offset,
     tcp_pose,
+    tcp_positions,
     within_limits,
 )
-from xarm_emu.model.robots import MODELS, XARM5, XARM6, XARM7, get_model
+from xarm_emu.model.robots import MODELS, ROBOT_MODELS, XARM5, XARM6, XARM7, get_model
 from xarm_emu.model.rotations import matrix_to_axis_angle, matrix_to_pose, pose_to_matrix, snap_seam
 
 PI = math.pi
@@ -85,6 +86,20 @@ def test_unrolled_fk_matches_numpy_chain(model):
         frames = joint_frames(model, q)
         assert len(frames) == model.dof
         np.testing.assert_allclose(fk(model, q), frames[-1], atol=1e-9)
+
+
+@pytest.mark.parametrize("key", sorted(ROBOT_MODELS))
+def test_tcp_positions_of_many_states_equal_each_state_s_tcp_pose(key):
+    """The array form of the unrolled chain (a replay's batch) gives every state's TCP position of
+    :func:`tcp_pose`, with a TCP offset and a user frame."""
+    model = ROBOT_MODELS[key]
+    q = np.random.default_rng(3).uniform(-PI, PI, (60, 7))
+    tcp, user = (5.0, -10.0, 120.0, 0.1, 0.2, -0.3), (100.0, 50.0, -20.0, 0.3, -0.2, 1.0)
+    many = tcp_positions(model, q, tcp, user)
+    one = np.array([tcp_pose(model, row, tcp, user)[:3, 3] for row in q])
+    np.testing.assert_allclose(many, one, rtol=0, atol=1e-9)
+    flange = [fk(model, row)[:3, 3] for row in q[:4]]
+    np.testing.assert_allclose(tcp_positions(model, q[:4]), flange, atol=1e-9)
 
 
 @pytest.mark.parametrize("model", [XARM5, XARM6, XARM7])

@@ -103,13 +103,27 @@ def joint_torques(model: RobotModel, data: ControllerState, settings: Settings) 
     motion (recursive Newton-Euler, :mod:`xarm_emu.model.dynamics`), plus a calibrated model's offsets
     and friction (``dynamics.joint_friction``)."""
     s = settings
-    try:
-        g: Any = dyn.gravity_from_direction(s.gravity_direction)
-    except ValueError:
-        g = dyn.DEFAULT_GRAVITY
-    tau = dyn.inverse_dynamics(model, data.q, data.qd, data.qdd, g, s.tcp_load[0], s.tcp_load[1:4])
+    tau = dyn.inverse_dynamics(model, data.q, data.qd, data.qdd, _gravity(s), s.tcp_load[0], s.tcp_load[1:4])
     friction = dyn.joint_friction(model, data.qd) if model.calibration is not None else None
     return tau if friction is None else tau + friction
+
+
+def joint_torques_many(model: RobotModel, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                       settings: Settings) -> np.ndarray:
+    """:func:`joint_torques` of ``N`` states at once (``(N, dof)`` joints, speeds and accelerations)
+    under one payload and gravity direction: ``(N, dof)`` torques."""
+    s = settings
+    tau = dyn.inverse_dynamics_many(model, q, qd, qdd, _gravity(s), s.tcp_load[0], s.tcp_load[1:4])
+    friction = dyn.joint_friction(model, qd) if model.calibration is not None else None
+    return tau if friction is None else tau + friction
+
+
+def _gravity(settings: Settings) -> Any:
+    """The gravity vector of register 51's direction (the default when it has no usable length)."""
+    try:
+        return dyn.gravity_from_direction(settings.gravity_direction)
+    except ValueError:
+        return dyn.DEFAULT_GRAVITY
 
 
 def tcp_matrix(model: RobotModel, q: np.ndarray, settings: Settings) -> np.ndarray:

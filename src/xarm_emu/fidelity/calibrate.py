@@ -74,10 +74,9 @@ def fit(comparison: Comparison) -> Fit:
     rec, rep = comparison.recorded, comparison.replayed
     if len(rec) < 10:
         raise ValueError("the recording has too few real-time report frames to fit anything")
-    # where the model's torques were taken (compare.TORQUE_EVERY) and the arm was where the replay is
-    # (after an error the box stops and the replay, which never sees it, goes on)
-    rows = [i for i, s in enumerate(rep) if not np.isnan(s.torques[0])
-            and float(np.abs(s.joints - rec[i].joints).max()) < SAME_PATH]
+    # where the arm was where the replay is (after an error the box stops and the replay, which never
+    # sees it, goes on)
+    rows = [i for i, s in enumerate(rep) if float(np.abs(s.joints - rec[i].joints).max()) < SAME_PATH]
     use = rows
     if len(rows) < 3:
         raise ValueError("the recorded arm never followed the replayed path: nothing to fit")

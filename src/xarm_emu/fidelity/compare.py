@@ -11,16 +11,18 @@ reply shows the state after the command, at the period it was answered in.
 Reported per command and in total: replies that differ (state byte or parameters); move durations
 (from the command to the first report at rest after it moved); the path deviation (the distance of each
 recorded TCP position from the replayed path, mm, and of the joints, degrees); joint torque and current
-differences (RMS and maximum); the error and warning codes of every normal and rich report frame and
-of every register 15 reply against the emulator's at the same controller time (:func:`_codes`);
-report rates. The TCP offset, load and settings come from the recorded commands themselves, as they
-are replayed. A recording without the real-time report is compared on what the command port shows
-(:data:`COMMAND_PORT_ONLY` says what that leaves out).
+differences at every real-time frame (RMS and maximum; the replayed poses, torques and currents are
+computed in one batch after the replay, :meth:`_Replay.derive`); the error and warning codes of every
+normal and rich report frame and of every register 15 reply against the emulator's at the same
+controller time (:func:`_codes`); report rates. The TCP offset, load and settings come from the
+recorded commands themselves, as they are replayed. A recording without the real-time report is
+compared on what the command port shows (:data:`COMMAND_PORT_ONLY` says what that leaves out).
 """
 
 from __future__ import annotations
 
 import bisect
+import copy
 import math
 import tempfile
 from dataclasses import asdict, dataclass, field
@@ -29,7 +31,10 @@ from typing import Any
 
 import numpy as np
 
+from ..controller.controller import joint_torques_many
 from ..controller.core.interface import PERIOD
+from ..model import dynamics as dyn
+from ..model import kinematics as kin
 from ..model.calibration import Calibration
 from ..model.robots import ROBOT_MODELS, RobotModel, with_calibration
 from ..protocol import registers as regs
@@ -57,11 +62,6 @@ DEFAULT_TOLERANCES: dict[str, float] = {
 
 #: get_err_warn_code (manual 2.1.3): its reply carries the error and the warning code.
 ERR_WARN_REGISTER = 15
-
-#: Joint torques and currents are compared on every this many real-time frames (25 Hz of the 250 Hz
-#: report): the dynamic model is the replay's costliest part, and torques change slowly against it.
-TORQUE_EVERY = 10
-
 
 class CompareError(ValueError):
     """The recording cannot be compared; the message says why."""
@@ -421,7 +421,11 @@ class _Replay:
         self.times = [t for t, _, _ in self.spans]
         self.recorded = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
         self.replayed: list[Sample] = []
-        self.nan = np.full(dof, np.nan)
+        self.nan, self.nan3 = np.full(dof, np.nan), np.full(3, np.nan)  # until derive()
+        #: The settings that shape a sample's pose and torques, by their values: (group, a copy).
+        self.settings: dict[tuple[float, ...], tuple[int, Any]] = {}
+        self.group: list[int] = []  # each replayed sample's settings group
+        self.qdd: list[np.ndarray] = []  # each replayed sample's joint accelerations
         self.cmd_at: list[tuple[float, int]] = []  # (controller time, first sample) of every request
         self.emu_codes: list[tuple[int, int]] = [(0, 0)] * len(session.status)
         self.pending: list[_Pending] = []  # reads to try again
@@ -497,13 +501,38 @@ class _Replay:
             st = rec_samples[self.j]
             self.advance(st.t)
             ctl = self.emu.controller
-            if self.j % TORQUE_EVERY == 0:
-                tau, cur = ctl.joint_torques()[:dof].copy(), ctl.joint_currents()[:dof].copy()
-            else:
-                tau = cur = self.nan
-            self.replayed.append(Sample(st.t, ctl.data.motion_state, ctl.data.q[:dof].copy(),
-                                        ctl.tcp_matrix()[:3, 3].copy(), tau, cur, ctl.data.qd[:dof].copy()))
+            d, s = ctl.data, ctl.settings
+            key = (*s.tcp_offset, *s.world_offset, *s.tcp_load, *s.gravity_direction)
+            group = self.settings.get(key)
+            if group is None:
+                group = self.settings[key] = (len(self.settings), copy.deepcopy(s))
+            self.group.append(group[0])
+            self.qdd.append(d.qdd[:dof].copy())
+            self.replayed.append(Sample(st.t, d.motion_state, d.q[:dof].copy(), self.nan3, self.nan,
+                                        self.nan, d.qd[:dof].copy()))
             self.j += 1
+
+    def derive(self) -> None:
+        """The TCP positions, joint torques and currents of every replayed sample, computed in one
+        batch per set of settings that shape them (TCP and user offsets, payload, gravity direction)
+        once the replay is over: the same functions the box's reports use, on arrays
+        (``kinematics.tcp_positions``, ``controller.joint_torques_many``)."""
+        rep = self.replayed
+        if not rep:
+            return
+        model = self.emu.controller.model
+        q = np.array([x.joints for x in rep])
+        qd = np.array([x.speeds for x in rep])
+        qdd = np.array(self.qdd)
+        which = np.array(self.group)
+        pos, tau = np.empty((len(rep), 3)), np.empty_like(q)
+        for n, s in self.settings.values():
+            rows = which == n
+            pos[rows] = kin.tcp_positions(model, q[rows], s.tcp_offset, s.world_offset)
+            tau[rows] = joint_torques_many(model, q[rows], qd[rows], qdd[rows], s)
+        cur = dyn.torques_to_currents(model, tau)
+        for i, x in enumerate(rep):
+            x.pos, x.torques, x.currents = pos[i], tau[i], cur[i]
 
     def time_of(self, i: int, req: xrec.Req) -> float:
         """The controller time request ``i`` is answered at (:func:`_controller_times`), the state
@@ -572,6 +601,7 @@ def compare(path: Path, calibration: Calibration | None = None,
         for i, (req, rep) in enumerate(session.requests):
             result.commands.append(replay.place(i, req, rep))
         replay.finish()
+        replay.derive()
         result.replay_seconds = _time.perf_counter() - started
     result.recorded, result.replayed = replay.recorded, replay.replayed
     _measure(result, replay.cmd_at, tol, session, replay.emu_codes)
@@ -816,7 +846,7 @@ def html_report(result: Comparison, path: Path) -> None:
     rec, rep = result.recorded, result.replayed
     for c in worst_commands(result):
         a, b = c.samples
-        idx = [i for i in range(a, b) if not np.isnan(rep[i].torques[0])]  # TORQUE_EVERY
+        idx = list(range(a, b))
         t = [rec[i].t for i in idx]
         fig, axes = plt.subplots(1, 3, figsize=(14, 3.5))
         for j in range(len(rec[a].torques)):

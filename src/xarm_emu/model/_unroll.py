@@ -217,8 +217,10 @@ def _clamp(model: RobotModel, i: int, indent: str) -> list[str]:
 
 
 def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step: float,
-             max_move: float = math.inf) -> Callable[..., tuple[float, ...]]:
+             max_move: float = math.inf, arrays: bool = False) -> Callable[..., tuple[float, ...]]:
     """Unrolled code of ``model`` as a Python function; mode is "fk", "jac", "lm", "track" or "track3".
+    With ``arrays`` ("fk" and "jac" only) the same code runs on numpy arrays of joint values (each
+    ``q`` an array, many states at once): its entries are arrays, its constants stay floats.
 
     fk: (R row-major 9, p 3) in mm.  jac: the same plus the 6 x dof Jacobian row-major.
     lm: args (q..., T0..T8, tx, ty, tz, mu, max_iter) in metres; the whole damped least-squares loop,
@@ -272,7 +274,8 @@ def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step:
         src = f"def _chain({', '.join(args)}):\n" + "\n".join(g.lines)
         src += "\n    return (" + ", ".join(repr(e) if isinstance(e, float) else e for e in out) + ",)\n"
     namespace: dict[str, object] = {
-        "cos": math.cos, "sin": math.sin, "sqrt": math.sqrt, "atan2": math.atan2, "_rotvec": _rotvec,
+        "cos": np.cos if arrays else math.cos, "sin": np.sin if arrays else math.sin,
+        "sqrt": math.sqrt, "atan2": math.atan2, "_rotvec": _rotvec,
         "INF": math.inf,
         "PTOL2": ptol2, "RTOL2": rtol2, "MAX_STEP": max_step,
         "LO": tuple(j.lower for j in model.joints), "HI": tuple(j.upper for j in model.joints),

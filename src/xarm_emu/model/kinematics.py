@@ -59,6 +59,7 @@ def _chain_fn(model: RobotModel, mode: str) -> Callable[..., tuple[float, ...]]:
         ptol2, rtol2 = (POS_TOL * 1e-3) ** 2, ROT_TOL ** 2  # the LM step works in metres
         fns = {m: generate(model, m, ptol2, rtol2, MAX_STEP, TRACK_MAX_MOVE)
                for m in ("fk", "jac", "lm", "track", "track3")}
+        fns["fk_arrays"] = generate(model, "fk", ptol2, rtol2, MAX_STEP, arrays=True)
         entry = _CACHE[id(model)] = (model, fns)
     return entry[1][mode]
 
@@ -417,6 +418,26 @@ def tcp_pose(
     if any(user_offset):
         T = invert_transform(pose_to_matrix(user_offset)) @ T
     return T
+
+
+def tcp_positions(
+    model: RobotModel,
+    q: np.ndarray,
+    tcp_offset: Sequence[float] = (0.0,) * 6,
+    user_offset: Sequence[float] = (0.0,) * 6,
+) -> np.ndarray:
+    """The TCP positions (mm, ``(N, 3)``) of :func:`tcp_pose` for ``N`` joint states at once
+    (``q`` of shape ``(N, >= dof)``, extra columns ignored), one TCP and user offset for all."""
+    qs = np.asarray(q, dtype=float)
+    r = _chain_fn(model, "fk_arrays")(*(qs[:, i] for i in range(model.dof)))
+    rows = len(qs)
+    R = np.stack([np.broadcast_to(np.asarray(x, dtype=float), (rows,)) for x in r[:9]], axis=1)
+    p = np.stack([np.broadcast_to(np.asarray(x, dtype=float), (rows,)) for x in r[9:12]], axis=1)
+    pos = p + R.reshape(rows, 3, 3) @ np.asarray(tcp_offset[:3], dtype=float)
+    if any(user_offset):
+        inv = invert_transform(pose_to_matrix(user_offset))
+        pos = pos @ inv[:3, :3].T + inv[:3, 3]
+    return pos
 
 
 def flange_target(
