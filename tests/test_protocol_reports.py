@@ -557,6 +557,21 @@ def test_realtime_report_through_sdk_structure():
         (123456789012, 2, 0x1234, JOINTS, AA)
 
 
+def test_realtime_columns_read_what_decode_realtime_reads():
+    """The offsets for reading many real-time frames at once give each field of decode_realtime."""
+    s = replace(snapshot(), timestamp_us=987654321, joint_speeds=tuple(0.1 * i for i in range(7)),
+                joint_currents=tuple(-0.5 * i for i in range(7)), torques=tuple(1.5 + i for i in range(7)))
+    frame = R.encode_realtime(s)
+    d = R.decode_realtime(frame)
+    read = {name: struct.unpack_from(fmt[0] + fmt[1:] * n, frame, off)
+            for name, (off, fmt, n) in R.REALTIME_COLUMNS.items()}
+    assert read["timestamp_us"] == (d.timestamp_us,)
+    assert read["state_mode"] == (d.state | d.mode << 4,)
+    assert read["joints"] == tuple(d.joints) and read["joint_speeds"] == tuple(d.joint_speeds)
+    assert read["joint_currents"] == tuple(d.joint_currents) and read["torques"] == tuple(d.torques)
+    assert read["position"] == tuple(d.pose[:3])
+
+
 def test_encoders_by_profile():
     v1 = R.encoders_for(DEFAULT_PROFILE)
     assert {p: len(enc(ReportSnapshot())) for p, enc in v1.items()} == {30003: 87, 30001: 145, 30002: 433}

@@ -175,7 +175,7 @@ class Session:
     version: str
     profile: FirmwareProfile
     requests: list[tuple[xrec.Req, xrec.Rep | None]]
-    realtime: list[tuple[float, float, reports.ReportSnapshot]]  # (proxy time, controller time, frame)
+    realtime: RealtimeFrames
     frames: dict[int, list[float]]  # report port -> proxy times
     status: list[StatusFrame] = field(default_factory=list)
 
@@ -187,10 +187,56 @@ class Session:
         if not self.realtime:
             t0 = self.requests[0][0].t if self.requests else 0.0
             return t - t0 + PERIOD
-        recv = np.array([r[0] for r in self.realtime])
-        ts = np.array([r[1] for r in self.realtime])
+        recv, ts = self.realtime.recv, self.realtime.ts
         out = np.interp(t, recv, ts)
         return np.where(t < recv[0], t - recv[0] + ts[0], np.where(t > recv[-1], t - recv[-1] + ts[-1], out))
+
+
+@dataclass
+class RealtimeFrames:
+    """A recording's real-time report frames (port 30000), one row each in the order they came,
+    without the frames sent again: the proxy's time, the controller time (the frame's timestamp),
+    the state, and the joints (rad), speeds (rad/s), currents (A), torques (N m) and TCP position
+    (mm) as float64 columns."""
+
+    recv: np.ndarray
+    ts: np.ndarray
+    state: np.ndarray
+    joints: np.ndarray
+    speeds: np.ndarray
+    currents: np.ndarray
+    torques: np.ndarray
+    pos: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.recv)
+
+    @classmethod
+    def read(cls, recv: list[float], frames: list[bytes]) -> RealtimeFrames:
+        """The columns of ``frames`` (804 bytes each, received at proxy times ``recv``), read at
+        once at the offsets :data:`~xarm_emu.protocol.reports.REALTIME_COLUMNS` gives. A frame whose
+        timestamp is not past every earlier one's is a frame sent again: it shows nothing new."""
+        rows = np.frombuffer(b"".join(frames), dtype=_REALTIME_DTYPE)
+        stamps = rows["timestamp_us"].astype(np.int64)
+        seen = np.maximum.accumulate(stamps)
+        keep = np.ones(len(rows), dtype=bool)
+        keep[1:] = stamps[1:] > seen[:-1]
+        rows = rows[keep]
+
+        def col(name: str) -> np.ndarray:
+            return np.ascontiguousarray(rows[name], dtype=float)
+
+        return cls(np.asarray(recv, dtype=float)[keep], stamps[keep] / 1e6, rows["state_mode"] & 0x0F,
+                   col("joints"), col("joint_speeds"), col("joint_currents"), col("torques"), col("position"))
+
+
+_NUMPY_TYPES = {">Q": ">u8", "B": "u1", "<f": "<f4"}
+_REALTIME_DTYPE = np.dtype({
+    "names": list(reports.REALTIME_COLUMNS),
+    "formats": [np.dtype((_NUMPY_TYPES[fmt], (n,))) if n > 1 else np.dtype(_NUMPY_TYPES[fmt])
+                for _, fmt, n in reports.REALTIME_COLUMNS.values()],
+    "offsets": [off for off, _, _ in reports.REALTIME_COLUMNS.values()],
+    "itemsize": reports.REALTIME_SIZE})
 
 
 _STATUS_DECODERS = {reports.NORMAL_SIZE: reports.decode_normal, reports.RICH_SIZE: reports.decode_rich,
@@ -202,7 +248,8 @@ def read_session(path: Path) -> Session:
     version, profile = "", DEFAULT_PROFILE
     requests: list[tuple[xrec.Req, xrec.Rep | None]] = []
     waiting: dict[tuple[int, int], int] = {}
-    realtime: list[tuple[float, float, reports.ReportSnapshot]] = []
+    rt_recv: list[float] = []
+    rt_frames: list[bytes] = []
     frames: dict[int, list[float]] = {}
     status: list[StatusFrame] = []
     try:
@@ -229,15 +276,14 @@ def read_session(path: Path) -> Session:
                     status.append(StatusFrame(rec.t, rec.port, st.error, st.warning, temps,
                                               st.collision_sensitivity))
                 elif rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
-                    snap = reports.decode_realtime(rec.frame)
-                    ts = snap.timestamp_us / 1e6
-                    if not realtime or ts > realtime[-1][1]:  # a frame sent again shows nothing new
-                        realtime.append((rec.t, ts, snap))
+                    rt_recv.append(rec.t)
+                    rt_frames.append(rec.frame)
     except xrec.RecordingError as exc:
         raise CompareError(str(exc)) from None
     if not version:
         raise CompareError(f"{path} has no register 1 reply: the box's arm and firmware are unknown "
                            "(the SDK asks for it on connecting; record from the program's start)")
+    realtime = RealtimeFrames.read(rt_recv, rt_frames)
     if not realtime and not requests:
         raise CompareError(f"{path} has neither requests nor real-time report frames: nothing to compare")
     return Session(version, profile, requests, realtime, frames, status)
@@ -261,8 +307,7 @@ def _controller_times(session: Session) -> list[tuple[float, float, float]]:
     the period grid."""
     if not session.realtime:
         return _proxy_times(session)
-    recv = [r[0] for r in session.realtime]
-    ts = [r[1] for r in session.realtime]
+    recv, ts = session.realtime.recv.tolist(), session.realtime.ts.tolist()
     bounds = []
     for req, rep in session.requests:
         i = bisect.bisect_right(recv, rep.t if rep is not None else req.t)
@@ -359,11 +404,6 @@ def _pure_read(req: xrec.Req) -> bool:
     return req.protocol in (2, 3) and req.register in PURE_READS and not req.params
 
 
-def _rt_sample(t: float, s: reports.ReportSnapshot, dof: int) -> Sample:
-    return Sample(t, s.state, np.array(s.joints[:dof]), np.array(s.pose[:3]), np.array(s.torques[:dof]),
-                  np.array(s.joint_currents[:dof]), np.array(s.joint_speeds[:dof]))
-
-
 def _seg_dist(points: np.ndarray, path: np.ndarray, window: int = 8) -> np.ndarray:
     """Distance of each of ``points`` from the polyline ``path`` (same length, aligned in time),
     looking at the segments within ``window`` samples."""
@@ -418,8 +458,10 @@ class _Replay:
         self.server, self.emu, self.session, self.dof, self.tol = server, emu, session, dof, tol
         self.cmd_only = not session.realtime
         self.spans = _controller_times(session)
-        self.times = [t for t, _, _ in self.spans]
-        self.recorded = [_rt_sample(ts, f, dof) for _, ts, f in session.realtime]
+        rt = session.realtime
+        self.recorded = [Sample(t, int(st), q, p, tau, cur, qd) for t, st, q, p, tau, cur, qd in zip(
+            rt.ts.tolist(), rt.state.tolist(), rt.joints[:, :dof], rt.pos, rt.torques[:, :dof],
+            rt.currents[:, :dof], rt.speeds[:, :dof], strict=True)]
         self.replayed: list[Sample] = []
         self.nan, self.nan3 = np.full(dof, np.nan), np.full(3, np.nan)  # until derive()
         #: The settings that shape a sample's pose and torques, by their values: (group, a copy).
@@ -546,9 +588,8 @@ class _Replay:
         if _is_queued(req.register) and not self.recorded:  # no frames to place it by
             return max(t_est, lower)
         if _is_queued(req.register):
-            times = [max(x, lower) for x in self.times]
-            return _best_time(self.server, self.emu, self.session, times, self.spans, self.recorded, i,
-                              self.j)
+            return _best_time(self.server, self.emu, self.session, max(t_est, lower), self.spans[i][1],
+                              self.recorded, i, self.j)
         return max(lo, lower)  # the earliest its bounds allow, so a queued command after it can be placed
 
     def place(self, i: int, req: xrec.Req, rep: xrec.Rep | None) -> CommandResult:
@@ -758,23 +799,24 @@ SEARCH_FRAMES = 25
 SEARCH_PERIODS = 8
 
 
-def _best_time(server: Any, emu: Any, session: Session, times: list[float],
-               spans: list[tuple[float, float, float]], samples: list[Sample], i: int, j: int) -> float:
+def _best_time(server: Any, emu: Any, session: Session, t_est: float, upper: float,
+               samples: list[Sample], i: int, j: int) -> float:
     """The period a queued command was answered in: of the periods its bounds leave open (on a busy
     computer a frame sent after the reply may be one the box prepared before it), the one after
     which the replayed joints follow the recorded frames most closely, the command alone replayed
     over the next :data:`SEARCH_FRAMES` frames from a checkpoint restored after each try."""
     req = session.requests[i][0]
-    first = max(emu.time, times[i] - LEAD_PERIODS * PERIOD)
-    last = spans[i][1] + 2 * PERIOD if math.isfinite(spans[i][1]) else times[i]
+    first = max(emu.time, t_est - LEAD_PERIODS * PERIOD)
+    last = upper + 2 * PERIOD if math.isfinite(upper) else t_est
     cands = [first + n * PERIOD for n in range(int(round((last - first) / PERIOD)) + 1)][:SEARCH_PERIODS]
     if len(cands) < 2:
-        return times[i]
+        return t_est
     dof = len(samples[0].joints)
     cp = emu.checkpoint()
     scores = []
-    for c in cands:
-        emu.restore(cp)
+    for n, c in enumerate(cands):
+        if n:  # the first starts from the state the checkpoint was taken of
+            emu.restore(cp)
         if c > emu.time + 1e-9:
             server.advance(c - emu.time)
         server.answer(req.tid, req.protocol, req.register, req.params)
@@ -790,7 +832,7 @@ def _best_time(server: Any, emu: Any, session: Session, times: list[float],
         scores.append(err if n else math.inf)
     emu.restore(cp)
     best = min(range(len(cands)), key=lambda n: scores[n])
-    return cands[best] if math.isfinite(scores[best]) else times[i]
+    return cands[best] if math.isfinite(scores[best]) else t_est
 
 
 def code_lines(result: Comparison) -> list[str]:

@@ -435,6 +435,18 @@ _RT_MON = struct.Struct(">BB3h")  # 736: monitored device
 _RT_IO = struct.Struct(">HH4hHH2h")  # 784: CGPIO DI, DO words, 2 AI, 2 AO (mV), tool DI, DO, 2 tool AI (mV)
 OFF_RT_JOINTS, OFF_RT_TCP, OFF_RT_FT, OFF_RT_MON, OFF_RT_IO = 32, 424, 688, 736, 784
 assert OFF_RT_IO + _RT_IO.size == REALTIME_SIZE
+#: What :func:`decode_realtime` reads of a real-time frame, by byte offset, for readers of many
+#: frames at once (the replay of a recording): name -> (offset, struct format of one value, count).
+#: The state and mode byte holds the state in its low and the mode in its high four bits.
+REALTIME_COLUMNS: dict[str, tuple[int, str, int]] = {
+    "timestamp_us": (4, ">Q", 1),
+    "state_mode": (12, "B", 1),
+    "joints": (OFF_RT_JOINTS + 21 * 4, "<f", 7),
+    "joint_speeds": (OFF_RT_JOINTS + 28 * 4, "<f", 7),
+    "joint_currents": (OFF_RT_JOINTS + 42 * 4, "<f", 7),
+    "torques": (OFF_RT_JOINTS + 49 * 4, "<f", 7),
+    "position": (OFF_RT_TCP + 12 * 4, "<f", 3),
+}
 
 
 def _config_bits(s: ReportSnapshot) -> int:

@@ -222,14 +222,18 @@ def _resolve(path: Any) -> Any:
     return obj
 
 
+#: What MessagePack reads as itself (a list or a map is a node to read further).
+_PLAIN = frozenset(_ATOMS)
+
+
 class _Reader:
     def __init__(self, shared: Mapping[str, object]) -> None:
         self.shared = shared
         self.numbered: dict[int, Any] = {}
 
     def value(self, node: Any) -> Any:
-        if isinstance(node, list):
-            return [self.value(x) for x in node]
+        if isinstance(node, list):  # most items are plain numbers: taken as they are
+            return [x if type(x) in _PLAIN else self.value(x) for x in node]
         if not isinstance(node, dict):
             return node
         kind = node.get("~")
