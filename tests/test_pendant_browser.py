@@ -211,7 +211,7 @@ def test_the_status_panel_is_there_at_once(make_server, browser, tmp_path) -> No
             times["bare"].append(load_seconds(browser, int(bare.get_port()), "baseline line"))
             times["pendant"].append(load_seconds(browser, st.ports["view"], READY))
     finally:
-        bare.stop()
+        app._stop_viser(bare)
     baseline, shown = (min(t[0] for t in times[k]) for k in ("bare", "pendant"))
     assert shown <= max(PANEL_SECONDS, baseline + PANEL_EXTRA), times
     # And the page answers then: its renderer is not held by the scene (a screenshot no slower

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import threading
 from typing import Any
 
 import numpy as np
@@ -188,8 +189,19 @@ class Viewer(_Redrawing):
     def stop(self) -> None:
         self._cancel()
         if self._owns:
-            with contextlib.suppress(Exception):
-                self.server.stop()
+            _stop_viser(self.server)
+
+
+def _stop_viser(vs: Any) -> None:
+    """Stop a viser server without holding up the emulator's own close: once a browser has been
+    connected, its stop waits 6 s for its own event loop to wind down, so it runs in a thread of its
+    own that nothing waits for (the loop ends on its own)."""
+
+    def stop() -> None:
+        with contextlib.suppress(Exception):
+            vs.stop()
+
+    threading.Thread(target=stop, name="viser-stop", daemon=True).start()
 
 
 def _new_viser(host: str, port: int) -> Any:
@@ -272,8 +284,7 @@ class FleetView(_Redrawing):
 
     def stop(self) -> None:
         self._cancel()
-        with contextlib.suppress(Exception):
-            self.server.stop()
+        _stop_viser(self.server)
 
 
 def attach_fleet_view(servers: list[EmulatorServer], host: str, port: int) -> None:
