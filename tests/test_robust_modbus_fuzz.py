@@ -1,7 +1,8 @@
 """Protocol 0 is standard Modbus TCP on the command port at every firmware (manual 2.1.2): random
 protocol-0 frames (any unit, function codes 0-255, empty and short PDUs, lengths their function's
 layout disagrees with), interleaved with private frames on the same connections, get a Modbus
-reply with their transaction id and unit, or a clean close; never a private-protocol reply."""
+reply with their transaction id and unit, or a clean close; never a private-protocol reply. Each
+connection sends its bytes and then closes its sending side, as a client that has said all it will."""
 
 from __future__ import annotations
 
@@ -83,6 +84,7 @@ def test_random_protocol0_frames_get_modbus_answers_or_a_close(firmware: str) ->
                 sent += sum(1 for a in asked if a[0] == 0)
                 s = socket.create_connection(("127.0.0.1", port))
                 s.sendall(payload)
+                s.shutdown(socket.SHUT_WR)  # all it sends: the server answers what is whole, then closes
                 s.setblocking(False)
                 batch.append((s, asked, bytearray()))
             _read_all(batch)
