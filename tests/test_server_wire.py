@@ -111,6 +111,23 @@ def test_several_requests_in_one_segment_get_all_replies(srv: ServerThread) -> N
         assert (r.tid, r.register, len(r.params)) == (4, 41, 24)
 
 
+def test_requests_before_a_half_close_are_all_answered_then_the_connection_closes(srv: ServerThread) -> None:
+    """A client that sends its requests and then closes its sending side (shutdown(SHUT_WR)) gets
+    every reply, in order, before the server closes: the bytes before the end of the stream are
+    read and answered as a box reading its socket to the end does, however many turns they take."""
+    frames = [encode_request(t & 0xFFFF, 13, b"", 2 + t % 2) for t in range(3000)]
+    frames.append(encode_request(3000, 41)[:5])  # a cut frame at the end: dropped with the close
+    with connect(srv.ports["command"]) as s:
+        s.sendall(b"".join(frames))
+        s.shutdown(socket.SHUT_WR)
+        got = bytearray()
+        s.settimeout(10.0)
+        while chunk := s.recv(65536):
+            got += chunk
+    replies = FrameDecoder(replies=True).feed(bytes(got))
+    assert [(r.tid, r.register, r.params) for r in replies] == [(t, 13, b"\x04") for t in range(3000)]
+
+
 def test_unknown_register_sets_warning_13(srv: ServerThread) -> None:
     assert 200 not in REGISTERS
     with connect(srv.ports["command"]) as s:

@@ -172,6 +172,8 @@ class CommandProtocol(asyncio.Protocol):
         self._timer: asyncio.TimerHandle | None = None
         #: The reply of a save/delete waiting for the disk (DISK_REGISTERS); later requests wait.
         self._waiting: asyncio.Future[bytes] | None = None
+        self._eof = False  # the peer has closed its sending side (see eof_received)
+        self._delayed = 0  # replies held back by an injected reply delay, not written yet
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         self.transport = transport  # type: ignore[assignment]  # uvloop's transports are not subclasses
@@ -205,6 +207,24 @@ class CommandProtocol(asyncio.Protocol):
         log.info("command client from %s left%s", _host_of(self.peer), f" ({exc})" if exc else "")
         if self.server.trace is not None:
             self.server.trace.event(self.server.emulator.time, self.peer, "close")
+
+    def eof_received(self) -> bool:
+        """The peer has sent all it will (a TCP half-close): what it sent before is still answered,
+        in order, and the connection closes once the last reply is written, as a box that reads its
+        socket to the end does. ``True`` keeps the transport open for those replies."""
+        self._eof = True
+        return not self._close_if_done()
+
+    def _close_if_done(self) -> bool:
+        """After the peer's half-close: close once nothing is left to answer; whether it closed."""
+        transport = self.transport
+        if not self._eof or transport is None:
+            return False
+        if self.pending or self.inbox or self._waiting is not None or self._delayed:
+            return False
+        if not transport.is_closing():
+            transport.close()  # the replies already written still go out
+        return True
 
     # -- bounds (fairness.Limits) -------------------------------------------------------------------
     def _admit(self, transport: asyncio.BaseTransport) -> bool:
@@ -380,6 +400,7 @@ class CommandProtocol(asyncio.Protocol):
         if out:
             self._reply(transport, out[0] if len(out) == 1 else b"".join(out))
         self._update_reading()
+        self._close_if_done()
         return taken
 
     def _disk_done(self, fut: asyncio.Future[bytes]) -> None:
@@ -392,6 +413,7 @@ class CommandProtocol(asyncio.Protocol):
         self._update_reading()
         if self.pending or self.inbox:
             self.server.scheduler.wake(self)
+        self._close_if_done()
 
     def _answer_modbus(self, tid: int, unit: int, pdu: bytes) -> bytes:
         """One standard Modbus request the screen passed (:func:`~xarm_emu.protocol.modbus.respond`),
@@ -402,13 +424,16 @@ class CommandProtocol(asyncio.Protocol):
         """One write per read, now or after the injected reply delay."""
         delay = self.server.reply_delay
         if delay > 0.0:
+            self._delayed += 1
             asyncio.get_running_loop().call_later(delay, self._send, payload)
         else:
             transport.write(payload)
 
     def _send(self, payload: bytes) -> None:
+        self._delayed -= 1
         if self.transport is not None and not self.transport.is_closing():
             self.transport.write(payload)
+            self._close_if_done()
 
     # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
     def send_feedback(self, frame: bytes) -> bool:
