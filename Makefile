@@ -37,8 +37,13 @@ sdk: $(SERVE_STAMP)
 	@$(PY) -c "import xarm" >/dev/null 2>&1 && echo "== xarm-python-sdk is installed in $(VENV)" || \
 		$(PY) -m pip install --disable-pip-version-check xarm-python-sdk==$(SDK_VERSION)
 
+# pytest marks every module of a plugin's package for assertion rewriting; with PYTHONDONTWRITEBYTECODE
+# set nothing caches that, so each run rewrote all of hypothesis again (about 9 s of collecting):
+# plugins are not loaded automatically, and hypothesis's own plugin is loaded by name.
+PYTEST := PYTEST_DISABLE_PLUGIN_AUTOLOAD=1 $(PY) -m pytest -p _hypothesis_pytestplugin
+
 test: $(STAMP) bytecode
-	$(PY) -m pytest $(PYTEST_ARGS)
+	$(PYTEST) $(PYTEST_ARGS)
 
 # What some tests need from outside Python; without it they skip, naming the target.
 # The browser of the pendant tests: Debian's chromium (Playwright's driver comes with the test tools).
@@ -58,13 +63,13 @@ bench: $(STAMP)
 # Random exploration beyond the deterministic examples of `make test` (FUZZ_SCALE times as many).
 FUZZ_SCALE ?= 25
 fuzz: $(STAMP)
-	HYPOTHESIS_PROFILE=explore XARM_EMU_FUZZ_SCALE=$(FUZZ_SCALE) $(PY) -m pytest -q tests/test_controller_fuzz.py \
+	HYPOTHESIS_PROFILE=explore XARM_EMU_FUZZ_SCALE=$(FUZZ_SCALE) $(PYTEST) -q tests/test_controller_fuzz.py \
 		tests/test_protocol_frame.py tests/test_model_rotations.py
 
 # The reliability suite at full length: a one-minute pipelining flood, the ten-minute ten-reader
 # develop soak, plus the bounded floods of `make test` (tests/test_robust_*.py).
 stress: $(STAMP)
-	XARM_EMU_STRESS=1 $(PY) -m pytest -q -p no:randomly tests/test_robust_*.py
+	XARM_EMU_STRESS=1 $(PYTEST) -q -p no:randomly tests/test_robust_*.py
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests bench examples
