@@ -146,7 +146,10 @@ def test_control_box_digital_and_analog_io(make_server, sdk_arm) -> None:
     assert state[9] == pytest.approx(7.5, abs=10 / 4095 + 1e-9)
     assert len(state[10]) == 16 and len(state[11]) == 16
     # the rich report shows the same live IO (bytes 384-433), parsed by the SDK
-    assert wait_for(lambda: arm.cgpio_states[3] == state[3] and arm.cgpio_states[5] == state[5])
+    # (a frame prepared between two of the calls above shows the outputs set so far: wait for one
+    # prepared after the last)
+    assert wait_for(lambda: arm.cgpio_states[3] == state[3] and arm.cgpio_states[5] == state[5]
+                    and abs(arm.cgpio_states[9] - 7.5) <= 10 / 4095 + 1e-9)
     assert arm.cgpio_states[7] == pytest.approx(5.0, abs=10 / 4095 + 1e-9)
     assert arm.cgpio_states[8:10] == pytest.approx([2.5, 7.5], abs=10 / 4095 + 1e-9)
     snap = st.call(lambda: st.emulator.snapshot())
