@@ -219,8 +219,8 @@ def _clamp(model: RobotModel, i: int, indent: str) -> list[str]:
 def generate(model: RobotModel, mode: str, ptol2: float, rtol2: float, max_step: float,
              max_move: float = math.inf, arrays: bool = False) -> Callable[..., tuple[float, ...]]:
     """Unrolled code of ``model`` as a Python function; mode is "fk", "jac", "lm", "track" or "track3".
-    With ``arrays`` ("fk" and "jac" only) the same code runs on numpy arrays of joint values (each
-    ``q`` an array, many states at once): its entries are arrays, its constants stay floats.
+    With ``arrays`` (for "fk": ``kinematics.tcp_positions``) the same code runs on numpy arrays of
+    joint values (each ``q`` an array, many states at once): its entries are arrays, constants floats.
 
     fk: (R row-major 9, p 3) in mm.  jac: the same plus the 6 x dof Jacobian row-major.
     lm: args (q..., T0..T8, tx, ty, tz, mu, max_iter) in metres; the whole damped least-squares loop,
