@@ -435,17 +435,21 @@ _RT_MON = struct.Struct(">BB3h")  # 736: monitored device
 _RT_IO = struct.Struct(">HH4hHH2h")  # 784: CGPIO DI, DO words, 2 AI, 2 AO (mV), tool DI, DO, 2 tool AI (mV)
 OFF_RT_JOINTS, OFF_RT_TCP, OFF_RT_FT, OFF_RT_MON, OFF_RT_IO = 32, 424, 688, 736, 784
 assert OFF_RT_IO + _RT_IO.size == REALTIME_SIZE
-#: What :func:`decode_realtime` reads of a real-time frame, by byte offset, for readers of many
-#: frames at once (the replay of a recording): name -> (offset, struct format of one value, count).
-#: The state and mode byte holds the state in its low and the mode in its high four bits.
+#: The joint section's blocks of seven float32 values (from OFF_RT_JOINTS) that
+#: :func:`decode_realtime` reads: the actual joints, speeds, accelerations, currents and torques
+#: (blocks 0-2 hold the targets), and where the actual TCP position starts in the TCP section.
+RT_BLOCKS = {"joints": 3, "joint_speeds": 4, "joint_accelerations": 5, "joint_currents": 6, "torques": 7}
+RT_TCP_POSITION = 12
+_RT_SLICES = {name: slice(7 * b, 7 * b + 7) for name, b in RT_BLOCKS.items()}
+#: The same fields by byte offset, for readers of many frames at once (the replay of a recording):
+#: name -> (offset, struct format of one value, count). The head is _RT_HEAD's: length, timestamp,
+#: then the byte with the state in its low and the mode in its high four bits.
 REALTIME_COLUMNS: dict[str, tuple[int, str, int]] = {
-    "timestamp_us": (4, ">Q", 1),
-    "state_mode": (12, "B", 1),
-    "joints": (OFF_RT_JOINTS + 21 * 4, "<f", 7),
-    "joint_speeds": (OFF_RT_JOINTS + 28 * 4, "<f", 7),
-    "joint_currents": (OFF_RT_JOINTS + 42 * 4, "<f", 7),
-    "torques": (OFF_RT_JOINTS + 49 * 4, "<f", 7),
-    "position": (OFF_RT_TCP + 12 * 4, "<f", 3),
+    "timestamp_us": (struct.calcsize(">I"), ">Q", 1),
+    "state_mode": (struct.calcsize(">IQ"), "B", 1),
+    **{name: (OFF_RT_JOINTS + 4 * 7 * RT_BLOCKS[name], "<f", 7)
+       for name in ("joints", "joint_speeds", "joint_currents", "torques")},
+    "position": (OFF_RT_TCP + 4 * RT_TCP_POSITION, "<f", 3),
 }
 
 
@@ -549,11 +553,14 @@ def decode_realtime(data: bytes) -> ReportSnapshot:
     _, s.timestamp_us, sm, s.cmdnum = _RT_HEAD.unpack_from(data, 0)
     s.state, s.mode = sm & 0x0F, sm >> 4
     j = _RT_JOINTS.unpack_from(data, OFF_RT_JOINTS)
-    s.joints, s.joint_speeds, s.joint_accelerations = j[21:28], j[28:35], j[35:42]
-    s.joint_currents, s.torques = j[42:49], j[49:56]
+    b = _RT_SLICES
+    s.joints, s.joint_speeds, s.joint_accelerations = j[b["joints"]], j[b["joint_speeds"]], \
+        j[b["joint_accelerations"]]
+    s.joint_currents, s.torques = j[b["joint_currents"]], j[b["torques"]]
     t = _RT_TCP.unpack_from(data, OFF_RT_TCP)
-    s.pose_aa, s.tcp_velocity = t[15:18], t[18:24]
-    s.pose = (*t[12:15], *s.pose[3:])
+    p = RT_TCP_POSITION
+    s.pose_aa, s.tcp_velocity = t[p + 3:p + 6], t[p + 6:p + 12]
+    s.pose = (*t[p:p + 3], *s.pose[3:])
     f = _RT_FT.unpack_from(data, OFF_RT_FT)
     s.ft_raw_force, s.ft_ext_force = f[0:6], f[6:12]
     m = _RT_MON.unpack_from(data, OFF_RT_MON)
