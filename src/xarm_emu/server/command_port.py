@@ -64,6 +64,8 @@ DISK_REGISTERS = frozenset({39, 40})
 #: Registers whose reply waits for a motion they start (204, load identification: its result):
 #: the connection's later requests wait behind it; other connections are not held.
 LATER_REGISTERS = frozenset({204})
+#: Registers whose reply may wait (either kind above): never answered by the one-frame fast path.
+HELD_REGISTERS = DISK_REGISTERS | LATER_REGISTERS
 
 
 def set_nodelay(endpoint: Any) -> None:
@@ -315,7 +317,7 @@ class CommandProtocol(asyncio.Protocol):
                 and self._waiting is None:
             tid, prot, length = HEADER.unpack_from(data)
             if length + HEADER_SIZE == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS \
-                    and data[6] not in DISK_REGISTERS and data[6] not in LATER_REGISTERS:
+                    and data[6] not in HELD_REGISTERS:
                 self._partial_since = None
                 self._reply(transport, self.server.answer(tid, prot, data[6], data[7:], self.peer,
                                                           self.client_id))

@@ -356,7 +356,7 @@ class EmulatorServer:
             return
         if job.exception() is not None and len(frame) > 7:
             with self.lock:
-                self.catch_up()
+                self._run_due()
                 ctl = self.emulator.controller
                 ctl.raise_warning(WARN_PARAMETER)
                 self.emulator.touch()
@@ -555,28 +555,34 @@ class EmulatorServer:
         (:data:`IDLE_WAKE`) when nobody is looking. The report sender calls it from its own thread
         (:meth:`report_instant`): the feedback frames it causes are handed to the loop.
         """
+        if self._loop is None:
+            return 0
+        with self.lock:
+            return self._run_due(until)
+
+    def _run_due(self, until: float | None = None) -> int:
+        """:meth:`catch_up` with the arm's :attr:`lock` held already (a command takes it once)."""
+        now = time.monotonic()  # the clock's time base, the same in the loop and the sender
+        if until is not None:
+            now = min(now, until)
+        if now < self.clock.quiet_until or self.config.stepped:  # the usual case: nothing due yet
+            return 0
         loop = self._loop
         if loop is None:
             return 0
-        with self.lock:
-            now = time.monotonic()  # the clock's time base, the same in the loop and the sender
-            if until is not None:
-                now = min(now, until)
-            if now < self.clock.quiet_until or self.config.stepped:  # the usual case: nothing due yet
-                return 0
-            n = self.clock.due(now, MAX_CATCH_UP)
-            if n:
-                self.emulator.step(n)
-                self.code_watch.check(self.emulator.controller)
-                if self.feedback is not None and self.feedback.pending:
-                    if threading.get_ident() == self._loop_thread:
-                        self.deliver_feedback()
-                    else:
-                        with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
-                            loop.call_soon_threadsafe(self.deliver_feedback)
-                if self._later:  # replies held for a motion (register 204) resolve on the loop
-                    self.in_loop(self._settle_later)
-            return n
+        n = self.clock.due(now, MAX_CATCH_UP)
+        if n:
+            self.emulator.step(n)
+            self.code_watch.check(self.emulator.controller)
+            if self.feedback is not None and self.feedback.pending:
+                if threading.get_ident() == self._loop_thread:
+                    self.deliver_feedback()
+                else:
+                    with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
+                        loop.call_soon_threadsafe(self.deliver_feedback)
+            if self._later:  # replies held for a motion (register 204) resolve on the loop
+                self.in_loop(self._settle_later)
+        return n
 
     def in_loop(self, fn: Callable[[], object]) -> None:
         """Run ``fn`` now when called on the event loop's thread, else soon on the loop (an action
@@ -608,7 +614,7 @@ class EmulatorServer:
         """The reply frame to one private-protocol request (manual 2.1.2) from command connection
         ``client`` (its :attr:`CommandProtocol.client_id`; 0: none)."""
         with self.lock:
-            self.catch_up()
+            self._run_due()
             emu = self.emulator
             cached: bytes | None = None
             if not params and register in PURE_READS:
@@ -685,7 +691,7 @@ class EmulatorServer:
         """The reply frame to one standard Modbus-TCP request (protocol id 0): the map of
         :mod:`xarm_emu.protocol.modbus` over the live emulator, after the due control periods."""
         with self.lock:
-            self.catch_up()
+            self._run_due()
             frame = modbus_map.answer(self.emulator, tid, unit, pdu)
         if self.trace is not None:
             self.trace.modbus(self.emulator.time, peer, tid, unit, pdu, frame)
