@@ -275,7 +275,16 @@ class CommandProtocol(asyncio.Protocol):
                     self._timer = asyncio.get_running_loop().call_later(
                         self.server.limits.frame_timeout, self._check_partial)
         else:
-            self._partial_since = None
+            self._no_partial()
+
+    def _no_partial(self) -> None:
+        """No frame is awaited in part: the frame timer stops (it runs only while the first frame or
+        the rest of one is awaited, so a loop serving whole frames keeps no timer; see
+        ``EmulatorServer._nap``)."""
+        self._partial_since = None
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
 
     # -- flow control -------------------------------------------------------------------------------
     def pause_writing(self) -> None:
@@ -318,7 +327,8 @@ class CommandProtocol(asyncio.Protocol):
             tid, prot, length = HEADER.unpack_from(data)
             if length + HEADER_SIZE == n and length <= MAX_LENGTH and prot in PRIVATE_PROTOCOLS \
                     and data[6] not in HELD_REGISTERS:
-                self._partial_since = None
+                if self._timer is not None or self._partial_since is not None:
+                    self._no_partial()
                 self._reply(transport, self.server.answer(tid, prot, data[6], data[7:], self.peer,
                                                           self.client_id))
                 return

@@ -153,6 +153,11 @@ class ReportStreams:
             self._sender = report_sender.acquire()
         return self._sender.set_priority(priority)
 
+    @property
+    def sender(self) -> report_sender.ReportSender | None:
+        """The process's report sender while this server uses it (:meth:`start` to :meth:`stop`)."""
+        return self._sender
+
     def quiesce(self) -> None:
         """Prepare no more frames (the server is closing): with many arms in one process, the
         frames of those still closing would otherwise keep the event loop busy and delay every

@@ -16,6 +16,9 @@ burst (a few microseconds per reader), so the sender is not preempted between re
 the sender waits for the interpreter lock when it wakes is the process's switch interval: the
 ``serve`` command shortens it (:func:`tune_process`); a library user's process keeps its own.
 
+The sender also wakes each server's control loop when its nap is over (:meth:`ReportSender.wake_at`),
+so an event loop keeps no timer of its own while it serves requests (see ``EmulatorServer._nap``).
+
 A reader whose socket is full skips whole frames (counted per reader and frame in
 ``frames_skipped``); a frame partly written is finished before the next one, so every reader reads
 whole frames.
@@ -143,6 +146,19 @@ class Reader:
         return True
 
 
+class Wake:
+    """A call the sender makes at its time (:meth:`ReportSender.wake_at`), unless cancelled first."""
+
+    __slots__ = ("fn", "cancelled")
+
+    def __init__(self, fn: Callable[[], object]) -> None:
+        self.fn = fn
+        self.cancelled = False
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+
 class SendStream:
     """One report stream of one server (a port's readers at one rate), as the sender sees it.
 
@@ -185,7 +201,7 @@ class ReportSender:
 
     def __init__(self) -> None:
         self._cond = threading.Condition()
-        self._heap: list[tuple[float, int, SendStream]] = []
+        self._heap: list[tuple[float, int, SendStream | Wake]] = []
         self._seq = 0
         self._stop = False
         self._retired: deque[Reader] = deque()
@@ -215,10 +231,19 @@ class ReportSender:
             self._retired.append(reader)
             self._cond.notify()
 
+    def wake_at(self, when: float, fn: Callable[[], object]) -> Wake:
+        """Call ``fn`` on the sender thread at ``when`` (perf_counter seconds) unless the returned
+        :class:`Wake` is cancelled first. ``fn`` must be quick and must not raise: it hands the
+        wake-up to an event loop (``loop.call_soon_threadsafe``)."""
+        wake = Wake(fn)
+        with self._cond:
+            self._push(when, wake)
+        return wake
+
     # -- the thread ----------------------------------------------------------------------------
-    def _push(self, when: float, stream: SendStream) -> None:
+    def _push(self, when: float, item: SendStream | Wake) -> None:
         self._seq += 1
-        heapq.heappush(self._heap, (when, self._seq, stream))
+        heapq.heappush(self._heap, (when, self._seq, item))
         self._cond.notify()
 
     def _run(self) -> None:
@@ -243,8 +268,12 @@ class ReportSender:
                 due = [heapq.heappop(self._heap)[2]]  # every stream of this instant: one wake-up
                 while self._heap and self._heap[0][0] == when:
                     due.append(heapq.heappop(self._heap)[2])
-            for stream in due:
-                self._send(stream)
+            for item in due:
+                if isinstance(item, Wake):
+                    if not item.cancelled:
+                        item.fn()
+                else:
+                    self._send(item)
 
     def _send(self, stream: SendStream) -> None:
         """Make ``stream``'s frame for its deadline and write it, under the arm's lock."""
