@@ -72,6 +72,13 @@ def _p50_beside_a_pipeliner(measured: int, piped: int) -> tuple[float, int]:
     return p50, int(replies.value)  # type: ignore[attr-defined]
 
 
+#: Baseline and loaded p50 are measured this many times, in pairs back to back; the test asserts
+#: the median pair's ratio. With one core busy, a phase's p50 lands in one of two placements of the
+#: processes on the 2 CPUs (baseline 17-25 or 72-85 us, loaded 85-185 us), so one pair's ratio
+#: ranged from 1.1 to 9.5 on the same code; the median of three is what sharing the box costs.
+PAIRS = 3
+
+
 def test_a_pipelining_reader_raises_another_clients_p50_at_most_3x(tmp_path: Path) -> None:
     """The baseline runs with the same pipelining reader against a second box of its own, so both
     measurements share the machine's load (a pipelining process takes a core on a 2-core
@@ -84,11 +91,14 @@ def test_a_pipelining_reader_raises_another_clients_p50_at_most_3x(tmp_path: Pat
             serve_subprocess(tmp_path / "b", *port_args(cmd2, normal2, rich2, develop2)):
         assert wait_for(lambda: accepts(last), 15.0) and wait_for(lambda: accepts(last2), 15.0)
         _p50(cmd, 100)  # warm-up
-        base, _ = _p50_beside_a_pipeliner(cmd, cmd2)
-        loaded, replies = _p50_beside_a_pipeliner(cmd, cmd)
-    assert replies > 1000  # the pipelining client was served meanwhile
+        pairs = []
+        for _ in range(PAIRS):
+            base, _ = _p50_beside_a_pipeliner(cmd, cmd2)
+            loaded, replies = _p50_beside_a_pipeliner(cmd, cmd)
+            assert replies > 1000  # the pipelining client was served meanwhile
+            pairs.append((loaded / base, base * 1e6, loaded * 1e6))
     # The target, 3x, holds alone on a busy 2-core machine but not always beside the rest of the
     # suite there (4.3x seen): `make stress` asserts it; `make test` asserts a bound that the old
     # turns (16 requests a turn, 2 ms rounds: 43x) fail by far.
     bound = 3 if STRESS else 8
-    assert loaded <= bound * base, (loaded * 1e3, base * 1e3, replies)
+    assert statistics.median(ratio for ratio, _, _ in pairs) <= bound, pairs  # (ratio, base us, loaded us)
