@@ -255,19 +255,22 @@ class ReportSender:
                         self._retired.popleft().sock.close()
                 if self._stop:
                     return
-                if not self._heap:
+                heap = self._heap
+                while heap and isinstance(heap[0][2], Wake) and heap[0][2].cancelled:
+                    heapq.heappop(heap)  # a nap ended early: no wake-up for it
+                if not heap:
                     cond.wait()
                     continue
-                when = self._heap[0][0]
+                when = heap[0][0]
                 delay = when - time.perf_counter()
                 if delay > 0:
                     # One timed wait to the deadline (a new, earlier event wakes it): each wake-up
                     # costs a wait for the interpreter lock, so there is one per instant.
                     cond.wait(delay)
                     continue
-                due = [heapq.heappop(self._heap)[2]]  # every stream of this instant: one wake-up
-                while self._heap and self._heap[0][0] == when:
-                    due.append(heapq.heappop(self._heap)[2])
+                due = [heapq.heappop(heap)[2]]  # every stream of this instant: one wake-up
+                while heap and heap[0][0] == when:
+                    due.append(heapq.heappop(heap)[2])
             for item in due:
                 if isinstance(item, Wake):
                     if not item.cancelled:
