@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 SERVE_STAMP := $(VENV)/.serve-installed
 STAMP := $(VENV)/.installed
 
-.PHONY: install serve sdk test bench lint clean fuzz stress image image-test browser sdk-examples bytecode
+.PHONY: install serve sdk test bench lint clean fuzz stress image image-test browser sdk-examples bytecode docs docs-serve
 
 $(SERVE_STAMP): pyproject.toml
 	@echo "== make serve: creating $(VENV) and installing what xarm-emu serve needs"
@@ -17,7 +17,7 @@ $(SERVE_STAMP): pyproject.toml
 
 $(STAMP): $(SERVE_STAMP)
 	@echo "== installing the test, lint, 3D view and recording tools"
-	$(PY) -m pip install --disable-pip-version-check --progress-bar on -e '.[test,view,record,physics]'
+	$(PY) -m pip install --disable-pip-version-check --progress-bar on -e '.[test,view,record,physics,docs]'
 	@touch $(STAMP)
 
 install: $(STAMP)
@@ -76,6 +76,13 @@ lint: $(STAMP)
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 
+# The documentation site (mkdocs.yml): reference pages generated from the code's tables at build time.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet
+
+docs-serve: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs serve --strict --dev-addr 127.0.0.1:8000
+
 # The container image (docs/container.md): IMAGE_BASE is any base with python3 and its venv module.
 IMAGE ?= xarm-emu
 IMAGE_BASE ?= python:3.11-slim
@@ -87,4 +94,4 @@ image-test: $(STAMP)
 	PYTHON=$(abspath $(PY)) scripts/image-test
 
 clean:
-	rm -rf $(VENV) .sdk build *.egg-info src/*.egg-info
+	rm -rf $(VENV) .sdk build site *.egg-info src/*.egg-info

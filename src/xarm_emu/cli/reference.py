@@ -4,31 +4,74 @@
 from __future__ import annotations
 
 import json
-from typing import Annotated
+from collections.abc import Mapping
+from typing import Annotated, Any
 
 import typer
 from rich.table import Table
 
 from ..protocol import codes
+from ..protocol.firmware import DEFAULT_VERSION
+from ..protocol.layouts import Layout
+from ..protocol.registers import Register
 from .options import console, err_console, user_error
+
+
+def register_record(reg: Register) -> dict[str, Any]:
+    """One register as plain data (``registers --json`` and the documentation site): code, names,
+    manual section, the firmware version it appears in, flags, and each request and reply layout as a
+    list of alternative forms, each a list of fields (name, wire type, count, bytes, optional, doc)."""
+    return {"code": reg.code, "name": reg.name, "title": reg.title, "section": reg.section,
+            "since": reg.since, "flags": flag_names(reg), "request": _layout_record(reg.request),
+            "reply": _layout_record(reg.reply), "doc": reg.doc}
+
+
+def flag_names(reg: Register) -> list[str]:
+    """The register's flags in words (``queued``, ``system reset``, ...)."""
+    return [f.name.lower().replace("_", " ") for f in type(reg.flags) if f in reg.flags and f.name]
+
+
+def _layout_record(layout: Layout) -> list[dict[str, Any]]:
+    options: tuple[Layout, ...] = getattr(layout, "options", None) or (layout,)
+    return [{"fields": [{"name": f.name, "type": f.kind, "count": f.count, "bytes": f.size,
+                         "optional": i >= o.n_required, "doc": f.doc} for i, f in enumerate(o.fields)],
+             "rest": o.rest, "rest_min": o.rest_min, "sizes": o.sizes(), "describe": o.describe()}
+            for o in options]
+
+
+def register_table(firmware: str) -> Mapping[int, Register]:
+    """The register table a box of ``firmware`` answers (exit 2 for a version the CLI does not take)."""
+    from ..protocol.firmware import VersionError, profile_for
+    from ..protocol.registers import registers_for
+
+    try:
+        return registers_for(profile_for(firmware))
+    except VersionError as exc:
+        user_error(f"--firmware: {exc}")
 
 
 def registers(
     code: Annotated[int | None, typer.Argument(help="One register, e.g. 21.")] = None,
+    firmware: Annotated[str, typer.Option(help="The firmware profile whose table to show: 1.6.0 is the "
+                                               "manual's box; later versions add registers and forms.")]
+    = DEFAULT_VERSION,
+    as_json: Annotated[bool, typer.Option("--json", help="One JSON object per register.")] = False,
 ) -> None:
     """List the registers of the command port with their request and reply layouts (manual 2.1.3,
     2.1.4), read from the register table the emulator itself uses."""
-    from ..protocol.registers import REGISTERS
-
+    table = register_table(firmware)
     if code is not None:
-        reg = REGISTERS.get(code)
+        reg = table.get(code)
         if reg is None:
-            err_console.print(f"no register {code}; `xarm-emu registers` lists them")
+            err_console.print(f"no register {code} at firmware {firmware}; `xarm-emu registers` lists them")
             raise typer.Exit(2)
+        if as_json:
+            print(json.dumps(register_record(reg)))
+            return
         console.print(f"{reg.code} {reg.name}: {reg.title} (manual {reg.section})")
         console.print(f"  request: {reg.request.describe()}")
         console.print(f"  reply:   {reg.reply.describe()}")
-        flags = [f.name.lower().replace("_", " ") for f in type(reg.flags) if f in reg.flags and f.name]
+        flags = flag_names(reg)
         if flags:
             console.print(f"  flags:   {', '.join(flags)}")
         if reg.doc:
@@ -38,9 +81,13 @@ def registers(
         for line in handled_by(code):
             console.print(f"  {line}", soft_wrap=True)
         return
+    if as_json:
+        for reg in table.values():
+            print(json.dumps(register_record(reg)))
+        return
     # Plain lines (one per register), easy to grep: code, name, title; request -> reply.
     print("# command port registers: fp32/int32 little-endian, u16 big-endian (manual 2.1.2)")
-    for reg in REGISTERS.values():
+    for reg in table.values():
         print(f"{reg.code:3d} {reg.name:26s} {reg.title}\n    request: {reg.request.describe()}"
               f"\n    reply:   {reg.reply.describe()}")
 

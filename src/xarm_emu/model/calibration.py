@@ -104,12 +104,17 @@ def _floats(name: str, value: Any) -> tuple[float, ...]:
     return tuple(float(v) for v in value)
 
 
+#: The top-level keys of a calibration file: its format, the arm, where it came from, the constants and
+#: their ``[uncertainty]`` table.
+KEYS = ("format", "model", "source", "uncertainty", *CONSTANTS)
+
+
 def from_dict(data: dict[str, Any]) -> Calibration:
     """A calibration from the tables of its TOML file."""
     fmt = data.get("format", FORMAT)
     if fmt != FORMAT:
         raise CalibrationError(f"calibration format {fmt!r} is not supported (this version reads {FORMAT})")
-    check_keys(data, ("format", "model", "source", "uncertainty", *CONSTANTS), error=CalibrationError)
+    check_keys(data, KEYS, error=CalibrationError)
     model = data.get("model", "")
     if not isinstance(model, str):
         raise CalibrationError("model must be a string such as \"6\" or \"lite6\"")

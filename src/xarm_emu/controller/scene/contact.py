@@ -125,6 +125,10 @@ def _number(shape: str, key: str, v: Any, *, positive: bool = False) -> float:
 
 
 _COMMON = {"name", "stiffness", "damping", "friction"}
+#: The tables of a scene file, and the keys of each fixed shape (``[[object]]``: objects.KEYS).
+TABLES = ("plane", "box", "object")
+SHAPE_KEYS: dict[str, frozenset[str]] = {"plane": frozenset(_COMMON | {"point", "normal"}),
+                                         "box": frozenset(_COMMON | {"min", "max"})}
 
 
 def _shape(kind: str, i: int, t: Any) -> Shape:
@@ -132,7 +136,7 @@ def _shape(kind: str, i: int, t: Any) -> Shape:
     if not isinstance(t, Mapping):
         raise ValueError(f"{label}: a table of keys expected")
     label = f"{kind} {t.get('name', i + 1)!s}"
-    keys = _COMMON | ({"point", "normal"} if kind == "plane" else {"min", "max"})
+    keys = set(SHAPE_KEYS[kind])
     check_keys(t, sorted(keys), label)
     for need in sorted(keys - {"name", "damping", "friction"}):
         if need not in t:
@@ -160,7 +164,7 @@ def parse_scene(tables: Mapping[str, Any]) -> Scene:
     ValueError on anything else (one line naming the shape and the key)."""
     if not isinstance(tables, Mapping):
         raise ValueError("a scene is a table with 'plane', 'box' and 'object' lists")
-    check_keys(tables, ("plane", "box", "object"))
+    check_keys(tables, TABLES)
     shapes: list[Shape] = []
     for kind in ("plane", "box"):
         items = tables.get(kind, [])

@@ -31,7 +31,8 @@ SHAPES = {"box": 3, "cylinder": 2, "sphere": 1}
 SIZE_NAMES = {"box": "[x, y, z]", "cylinder": "[diameter, height]", "sphere": "[diameter]"}
 DEFAULT_FRICTION = 1.0
 DEFAULT_COLOR = (0.8, 0.3, 0.15, 1.0)
-_KEYS = {"name", "shape", "size", "mass", "position", "rpy", "friction", "color"}
+#: The keys of an ``[[object]]`` table.
+KEYS = frozenset({"name", "shape", "size", "mass", "position", "rpy", "friction", "color"})
 
 
 @dataclass(frozen=True)
@@ -87,7 +88,7 @@ def parse_object(i: int, t: Any) -> ObjectSpec:
     if not isinstance(t, Mapping):
         raise ValueError(f"object {i + 1}: a table of keys expected")
     label = f"object {t.get('name', i + 1)!s}"
-    check_keys(t, sorted(_KEYS), label)
+    check_keys(t, sorted(KEYS), label)
     for need in ("shape", "size", "mass", "position"):
         if need not in t:
             raise ValueError(f"{label}: missing {need!r}")
