@@ -6,7 +6,7 @@ import html
 import re
 from collections.abc import Iterable, Sequence
 
-__all__ = ["cell", "code", "docstring", "table"]
+__all__ = ["cell", "code", "docstring", "inline", "table"]
 
 
 def cell(text: object) -> str:
@@ -45,7 +45,7 @@ def docstring(text: str | None) -> str:
     i = 0
     while i < len(lines):
         line = lines[i]
-        out.append(_inline(line[:-1] if line.rstrip().endswith("::") else line))
+        out.append(inline(line[:-1] if line.rstrip().endswith("::") else line))
         if line.rstrip().endswith("::"):
             if line.rstrip() != "::":
                 out[-1] = out[-1].rstrip()  # "tables::" -> "tables:"
@@ -65,6 +65,8 @@ def docstring(text: str | None) -> str:
     return "\n".join(out) + "\n"
 
 
-def _inline(line: str) -> str:
+def inline(line: str) -> str:
+    """One line of reStructuredText inline markup as Markdown: roles as their target's name in code,
+    double backquotes as single ones."""
     line = _ROLE.sub(lambda m: "`" + m.group(1).lstrip(".").rsplit(".", 1)[-1] + "`", line)
     return line.replace("``", "`")
