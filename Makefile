@@ -72,7 +72,7 @@ stress: $(STAMP)
 	XARM_EMU_STRESS=1 $(PYTEST) -q -p no:randomly tests/test_robust_*.py
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check src tests bench examples
+	$(VENV)/bin/ruff check src tests bench examples docs/hooks
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 

@@ -14,5 +14,6 @@ from xarm_emu.docsite.markdown import inline
 class RestRoles(griffe.Extension):
     def on_instance(self, *, obj: griffe.Object, **kwargs: Any) -> None:
         if obj.docstring is not None:
-            lines = obj.docstring.value.splitlines()  # "block::" introduces an indented (code) block
-            obj.docstring.value = "\n".join(inline(line[:-1] if line.endswith("::") else line) for line in lines)
+            # "block::" introduces an indented block, which Markdown shows as code already
+            lines = [line[:-1] if line.endswith("::") else line for line in obj.docstring.value.splitlines()]
+            obj.docstring.value = "\n".join(inline(line) for line in lines)
