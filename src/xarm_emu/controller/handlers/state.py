@@ -45,7 +45,7 @@ def robot_sn(ctl: Controller, v: Values) -> dict[str, Any]:
 
 def shutdown(ctl: Controller, v: Values) -> dict[str, Any]:
     """Register 10, remote shutdown of the control box OS: acknowledged, the emulator keeps
-    running (documented in the README)."""
+    running (documented in docs/emulated.md)."""
     return {"cmdnum": ctl.executor.cmdnum}
 
 
