@@ -48,6 +48,9 @@ def test_each_profile_page_lists_every_register_that_registers_json_lists(versio
     for r in listed:  # the layouts and since-version of each, in its own section
         text = _section(page, f"## {r['code']} {r['name']} {{#r{r['code']}}}")
         assert f"answered from firmware {r['since']}" in text
+        later = [since for since, c, _ in table.LATER_FORMS if c == r["code"]
+                 and profile_for(version).version.at_least(since)]
+        assert ("as changed at firmware " + ", ".join(dict.fromkeys(later)) in text) == bool(later)
         for form in r["request"] + r["reply"]:
             for f in form["fields"]:
                 assert f"| `{f['name']}` | {f['type']} | {f['count']} | {f['bytes']} |" in text

@@ -9,7 +9,7 @@ from typing import Any
 
 from ..cli.reference import register_record
 from ..protocol.firmware import SUPPORTED_VERSIONS, FirmwareProfile, profile_for
-from ..protocol.registers import Register, all_registers, registers_for
+from ..protocol.registers import LATER_FORMS, Register, all_registers, registers_for
 from .markdown import cell, code, table
 
 __all__ = ["index_page", "listed", "page_path", "pages", "profile_page"]
@@ -76,7 +76,7 @@ def profile_page(profile: FirmwareProfile) -> str:
               ([f"[{r.code}](#r{r.code})", code(r.name), cell(r.title), cell(r.section), r.since,
                 cell(", ".join(register_record(r)["flags"]))] for r in regs.values())),
     ]
-    parts += [_register(r) for r in regs.values()]
+    parts += [_register(r, _changed(profile, r.code)) for r in regs.values()]
     return "\n".join(parts)
 
 
@@ -91,10 +91,17 @@ def _switches(profile: FirmwareProfile) -> str:
     return table(["property", "value", "meaning"], rows)
 
 
-def _register(reg: Register) -> str:
+def _changed(profile: FirmwareProfile, code_: int) -> list[str]:
+    """The versions up to ``profile`` whose later form of register ``code_`` (LATER_FORMS) applies."""
+    return [since for since, c, _ in LATER_FORMS if c == code_ and profile.version.at_least(since)]
+
+
+def _register(reg: Register, changed: list[str]) -> str:
     rec = register_record(reg)
     head = [f"## {reg.code} {reg.name} {{#r{reg.code}}}", "", f"**{cell(reg.title)}**", "",
             f"Manual section {cell(reg.section)}; answered from firmware {reg.since}."]
+    if changed:
+        head[-1] += " Layout or flags as changed at firmware " + ", ".join(dict.fromkeys(changed)) + "."
     if rec["flags"]:
         head[-1] += " Flags: " + ", ".join(rec["flags"]) + "."
     if reg.doc:
