@@ -44,7 +44,7 @@ from .devices.ft_sensor import state_of as sensor_state_of
 from .devices.gripper import GripperModule, ToolDevice
 from .devices.inspire_hand import InspireHand
 from .devices.io import IOModule
-from .devices.linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
+from .devices.linear_track import TRACK_BAUD_INDEX, TRACK_ID, LinearTrack
 from .devices.lite6_gripper import Lite6Gripper
 from .devices.robotiq import MODELS as ROBOTIQ_MODELS
 from .devices.robotiq import RobotiqGripper
@@ -89,12 +89,21 @@ def _bits(flags: list[bool]) -> int:
     return out
 
 
-def check_firmware(model: RobotModel, firmware: FirmwareProfile) -> None:
-    """Refuse a firmware older than the arm ships with (the UFACTORY 850 needs 2.1.0, the xArm 7T 2.4.0)."""
-    if firmware.version.parts < model.min_firmware:
-        need = ".".join(str(x) for x in model.min_firmware)
-        raise ValueError(f"the {model.name} arm ships with firmware {need} or later, not {firmware}: "
-                         "choose a later --firmware")
+def box_parts(model: RobotModel, *, gripper: str = "xarm", vacuum: bool = False,
+              linear_track: int | None = None, ft_sensor: bool = False) -> tuple[str, ...]:
+    """The parts a box is built with, by the names of protocol/firmware.py's ``PARTS``: the arm, the
+    tool-bus gripper, the vacuum gripper, the linear track, the F/T sensor."""
+    return (f"{model.name} arm", f"{gripper} gripper") + ("vacuum gripper",) * vacuum + (
+        ("linear track",) * (linear_track is not None) + ("F/T sensor",) * ft_sensor)
+
+
+def check_firmware(model: RobotModel, firmware: FirmwareProfile, *, gripper: str = "xarm",
+                   vacuum: bool = False, linear_track: int | None = None, ft_sensor: bool = False) -> None:
+    """Refuse a box whose firmware cannot drive one of its parts (the one rule of
+    ``FirmwareProfile.check_parts``: the UFACTORY 850 needs 2.1.0, the xArm 7T 2.4.0, the linear track
+    1.8.0, the F/T sensor 1.8.3): a ``FirmwareRefusal`` (a ValueError) with one line."""
+    firmware.check_parts(*box_parts(model, gripper=gripper, vacuum=vacuum, linear_track=linear_track,
+                                    ft_sensor=ft_sensor))
 
 
 @dataclass(frozen=True)
@@ -194,7 +203,8 @@ class Emulator:
         box_sn = box_sn or self.model.default_box_sn
         #: The firmware version this box claims (register 1) and whose behaviour it has.
         self.firmware = firmware if isinstance(firmware, FirmwareProfile) else profile_for(firmware)
-        check_firmware(self.model, self.firmware)
+        check_firmware(self.model, self.firmware, gripper=gripper, vacuum=vacuum, linear_track=linear_track,
+                       ft_sensor=ft_sensor)
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD,
                                      firmware=self.firmware)
         self._plug_io_and_tools(box_sn, device, vacuum)
@@ -272,9 +282,6 @@ class Emulator:
         #: mm long, when attached.
         self.linear_track: LinearTrack | None = None
         if linear_track is not None:
-            if not self.firmware.version.at_least(TRACK_FIRMWARE):
-                raise ValueError(f"the linear track needs firmware {TRACK_FIRMWARE} or later, not "
-                                 f"{self.firmware}: choose a later --firmware")
             self.linear_track = track = LinearTrack(linear_track)
             self.controller.add_component(track)
             self.gripper.box_devices = lambda: (
@@ -546,7 +553,7 @@ class Emulator:
             snap.ft_ext_force = tuple(float(x) for x in ft_sensor.reading(c))
             snap.ft_raw_force = tuple(float(x) for x in ft_sensor.raw_reading(c))
             snap.ft_enabled = True
-        if not self.firmware.is_v1:  # what the 2.x frames carry beyond the manual's
+        if self.firmware.reports_2x:  # what the 2.x frames carry beyond the manual's
             firmware2_fields(c, snap)
         return snap
 
@@ -747,11 +754,12 @@ class Emulator:
 
     # -- the F/T sensor and the contact scene (devices/ft_sensor.py, scene/contact.py) ----
     def attach_ft_sensor(self, *, noise: bool = True) -> None:
-        """Mount the six-axis F/T sensor between flange and tool (once)."""
+        """Mount the six-axis F/T sensor between flange and tool (once); a firmware that cannot drive
+        it is refused (``FirmwareRefusal``, as at construction)."""
+        self.firmware.check_parts("F/T sensor")
         self.generation += 1
         if not ft_sensor.attached(self.controller):
             ft_sensor.attach(self.controller, noise=noise)
-            self.controller.answer_also(150)  # the sensor's data register on a box older than 1.8.3
             self.controller.add_component(ft_sensor.FtSensorComponent(self.controller))
 
     @property

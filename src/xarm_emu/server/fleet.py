@@ -147,7 +147,8 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     cfg = replace(ServerConfig(host=host, speed=speed, admin=admin, trace=paths["trace"],
                                faults=paths["faults"]), **ports)
     try:
-        check_firmware(robot, profile)
+        check_firmware(robot, profile, gripper=gripper, vacuum=vacuum, linear_track=track,
+                       ft_sensor=ft_sensor)
     except ValueError as exc:
         raise FleetError(f"{where}: {exc}") from None
     scene, calibration = _files(paths, robot, where)

@@ -67,8 +67,6 @@ from ..core.interface import C_ESTOP, NOT_IDLE, ControllerView
 
 TRACK_ID = 1  # the SDK's linear motor slave id on the control box RS-485
 TRACK_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default baud for the track
-#: The SDK documents its linear motor calls for firmware 1.8.0 and later; an older box has no track.
-TRACK_FIRMWARE = "1.8.0"
 
 #: Stroke (mm) of each model, by serial number prefix.
 MODELS = {700: "AL1300", 1000: "AL1301", 1500: "AL1302"}
