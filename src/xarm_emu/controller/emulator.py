@@ -8,6 +8,7 @@ as the CPU allows, deterministically).
 
 from __future__ import annotations
 
+import functools
 import heapq
 import logging
 import math
@@ -32,6 +33,7 @@ from .controller import Controller, joint_torques, tcp_matrix
 from .core import safety, state_bytes
 from .core.config import ConfigStore
 from .core.controller_state import ControllerState
+from .core.device import Device
 from .core.faults import Faults
 from .core.feedback import FeedbackQueue, feedback_queue, find_feedback_queue
 from .core.interface import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
@@ -59,26 +61,28 @@ JUMP_CHUNK = 64
 
 log = logging.getLogger("xarm_emu.emulator")
 
-#: The end grippers that can be attached on the tool RS-485 (``Emulator(gripper=...)``,
-#: ``serve --gripper``): the xArm gripper (controller/devices/gripper.py), the Robotiq 2F-85 and 2F-140
-#: (controller/devices/robotiq.py) and the BIO gripper (controller/devices/bio_gripper.py).
-GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio", "bio-g1", "inspire-rh56")
+#: The devices that can be attached on the tool RS-485 (``Emulator(gripper=...)``, ``serve --gripper``),
+#: each with what makes one: the xArm gripper (controller/devices/gripper.py, which the gripper module
+#: always has), the Robotiq 2F-85 and 2F-140 (robotiq.py), the BIO gripper G2 (bio_gripper.py) and G1
+#: (bio_gripper_g1.py) and the Inspire RH56 hand (inspire_hand.py).
+TOOL_DEVICES: Mapping[str, Callable[[], ToolDevice] | None] = {
+    "xarm": None,
+    **{name: functools.partial(RobotiqGripper, model) for name, model in ROBOTIQ_MODELS.items()},
+    "bio": BioGripper,
+    "bio-g1": BioGripperG1,
+    "inspire-rh56": InspireHand,
+}
+#: Their names, in that order.
+GRIPPERS = tuple(TOOL_DEVICES)
 
 
 def tool_device(gripper: str) -> ToolDevice | None:
     """The tool-bus device of ``gripper`` (one of :data:`GRIPPERS`); None for the xArm gripper,
     which the gripper module always has. Raises ValueError for an unknown name."""
-    if gripper not in GRIPPERS:
+    if gripper not in TOOL_DEVICES:
         raise ValueError(f"gripper {gripper!r}: one of {', '.join(GRIPPERS)}")
-    if gripper == "bio":
-        return BioGripper()
-    if gripper == "bio-g1":
-        return BioGripperG1()
-    if gripper == "inspire-rh56":
-        return InspireHand()
-    if gripper in ROBOTIQ_MODELS:
-        return RobotiqGripper(ROBOTIQ_MODELS[gripper])
-    return None
+    make = TOOL_DEVICES[gripper]
+    return None if make is None else make()
 
 
 def _bits(flags: list[bool]) -> int:
@@ -207,6 +211,8 @@ class Emulator:
                        ft_sensor=ft_sensor)
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD,
                                      firmware=self.firmware)
+        #: Every device plugged in (controller/core/device.py), in the order they step.
+        self.devices: list[Device] = []
         self._plug_io_and_tools(box_sn, device, vacuum)
         self._plug_linear_track(linear_track)
         #: The feedback queue of firmware 2.x (registers 253/254, 0xFF frames), part of the box
@@ -260,21 +266,26 @@ class Emulator:
         self.io = IOModule(n_digital=16 if box_number >= 1300 else 8,
                            tool_ti2=self.model.tool_io.ti2_address is not None)
         self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9], device=device)
-        self.controller.add_component(self.io)
+        self._plug(self.io)
         self.io.attach(self.controller)
-        self.controller.add_component(self.gripper)
+        self._plug(self.gripper)
         self.controller.hooks.tool_error = self._tool_error
         #: The vacuum gripper's pressure switch on TI0 (controller/devices/vacuum.py), when attached.
         self.vacuum: VacuumGripper | None = None
         if vacuum:
             self.vacuum = VacuumGripper(self.io.tool)
-            self.controller.add_component(self.vacuum)
+            self._plug(self.vacuum)
         #: The Lite 6 gripper's jaws on TO0/TO1 (controller/devices/lite6_gripper.py), on the arms
         #: wired for it.
         self.lite6_gripper: Lite6Gripper | None = None
         if self.model.tool_io.gripper is not None:
             self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
-            self.controller.add_component(self.lite6_gripper)
+            self._plug(self.lite6_gripper)
+
+    def _plug(self, device: Device) -> None:
+        """Plug ``device`` in: it steps with the controller and answers its registers' bindings."""
+        self.controller.add_component(device)
+        self.devices.append(device)
 
     def _plug_linear_track(self, linear_track: int | None) -> None:
         """The linear track of ``linear_track`` mm on the control box RS-485, when given."""
@@ -283,15 +294,14 @@ class Emulator:
         self.linear_track: LinearTrack | None = None
         if linear_track is not None:
             self.linear_track = track = LinearTrack(linear_track)
-            self.controller.add_component(track)
+            self._plug(track)
             self.gripper.box_devices = lambda: (
                 {TRACK_ID: track} if self.io.tool.baud_index[CONTROL_BOX_HOST] == TRACK_BAUD_INDEX else {})
 
     def _tool_error(self) -> int:
-        """The end tool's error code (register 106): the xArm gripper's, which the box knows; a
-        Robotiq or BIO gripper's faults are read by the SDK over register 124 only."""
-        g = self.gripper
-        return g.gripper.error if g.device is g.gripper else 0
+        """The end tool's error code (register 106): what the box reports of the device on the tool
+        bus (``ToolDevice.reported_error``)."""
+        return self.gripper.device.reported_error
 
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
@@ -652,23 +662,11 @@ class Emulator:
         return self.controller.q.copy()
 
     def gripper_status(self) -> dict[str, Any]:
-        """The attached gripper as the status output and the view show it: its kind, opening or
-        position, whether it is enabled or activated, whether it holds an object, its error code."""
+        """The device on the tool bus as the status output and the view show it: its kind, its error
+        code and what it shows of itself (``status_fields``: opening or position, enabled or
+        activated, an object held)."""
         dev = self.gripper.device
-        out: dict[str, Any] = {"gripper": self.gripper_kind, "error": dev.error}
-        if isinstance(dev, RobotiqGripper):
-            out.update(activated=dev.gSTA == 3, position=int(round(dev.position)),
-                       opening_mm=round(dev.opening_mm, 1), object=dev.gOBJ in (1, 2),
-                       force_n=round(dev.grip_force, 1))
-        elif isinstance(dev, BioGripper):
-            out.update(enabled=dev.enabled, mode=dev.mode, opening_mm=round(dev.opening_mm, 1),
-                       object=dev.detected)
-        elif isinstance(dev, InspireHand):
-            out.update(angles=[int(round(a)) for a in dev.data.angle])
-        else:
-            g = self.gripper.gripper
-            out.update(enabled=g.enabled, position=g.position_pulses)
-        return out
+        return {"gripper": self.gripper_kind, "error": dev.error, **dev.status_fields()}
 
     # -- fault injection and inputs from outside (the admin channel calls these) -------------
     def inject_error(self, code: int) -> None:
@@ -746,11 +744,8 @@ class Emulator:
         self.generation += 1
         ctl = self.controller
         ctl.faults = Faults.none(ctl.dof)
-        self.gripper.gripper.clear_error()
-        self.gripper.device.clear_error()
-        if self.linear_track is not None:
-            self.linear_track.clear_error()
-        ft_sensor.state_of(ctl).error = 0
+        for device in self.devices:
+            device.clear_error()
 
     # -- the F/T sensor and the contact scene (devices/ft_sensor.py, scene/contact.py) ----
     def attach_ft_sensor(self, *, noise: bool = True) -> None:
@@ -760,7 +755,7 @@ class Emulator:
         self.generation += 1
         if not ft_sensor.attached(self.controller):
             ft_sensor.attach(self.controller, noise=noise)
-            self.controller.add_component(ft_sensor.FtSensorComponent(self.controller))
+            self._plug(ft_sensor.FtSensorComponent(self.controller))
 
     @property
     def has_ft_sensor(self) -> bool:
@@ -841,7 +836,7 @@ class Emulator:
         if kind == "gripper-object":
             if self.gripper.device is self.gripper.gripper:
                 raise ValueError("gripper-object needs a Robotiq or BIO gripper (serve --gripper "
-                                 "robotiq-2f85, robotiq-2f140 or bio)")
+                                 "robotiq-2f85, robotiq-2f140, bio or bio-g1)")
             if index not in (0, 1) or (index == 1 and self.gripper_kind.startswith("bio")):
                 around = "" if self.gripper_kind.startswith("bio") else " or 1 (around them)"
                 raise ValueError(f"index 0 (an object between the fingers){around}, not {index}")
