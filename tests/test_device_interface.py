@@ -116,3 +116,15 @@ def test_gripper_status_is_what_the_device_shows(gripper: str, keys: set[str]):
     emu = Emulator(6, gripper=gripper)
     status = emu.gripper_status()
     assert set(status) == {"gripper", "error"} | keys and status["gripper"] == gripper
+
+
+@pytest.mark.parametrize("gripper, places", [("xarm", ()), ("robotiq-2f85", (0, 1)), ("bio", (0,)),
+                                             ("bio-g1", (0,)), ("inspire-rh56", ())])
+def test_where_a_device_takes_an_object_is_its_own(gripper: str, places: tuple[int, ...]):
+    emu = Emulator(6, gripper=gripper)
+    for index in (0, 1, 2):
+        if index in places:
+            emu.check_input("gripper-object", index, 0.0)
+        else:
+            with pytest.raises(ValueError, match="needs a Robotiq or BIO" if not places else "index 0"):
+                emu.check_input("gripper-object", index, 0.0)

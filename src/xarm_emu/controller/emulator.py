@@ -834,11 +834,12 @@ class Emulator:
         """Raise ValueError (or ParameterError) unless :meth:`set_input` can play ``kind`` ``index``
         (and, where given, ``value``)."""
         if kind == "gripper-object":
-            if self.gripper.device is self.gripper.gripper:
+            places = self.gripper.device.object_places
+            if not places:
                 raise ValueError("gripper-object needs a Robotiq or BIO gripper (serve --gripper "
                                  "robotiq-2f85, robotiq-2f140, bio or bio-g1)")
-            if index not in (0, 1) or (index == 1 and self.gripper_kind.startswith("bio")):
-                around = "" if self.gripper_kind.startswith("bio") else " or 1 (around them)"
+            if index not in places:
+                around = " or 1 (around them)" if 1 in places else ""
                 raise ValueError(f"index 0 (an object between the fingers){around}, not {index}")
             if value is not None and not math.isfinite(value):
                 raise ValueError(f"object width must be finite, got {value!r}")

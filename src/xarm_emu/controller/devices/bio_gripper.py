@@ -138,6 +138,7 @@ class BioGripper:
     :meth:`step` (a :class:`~xarm_emu.controller.devices.gripper.ToolDevice`)."""
 
     slave_id = BIO_ID
+    object_places: tuple[int, ...] = (0,)  # between the fingers only
     #: The registers this gripper answers (below the class; the G1 has its own).
     REGISTER_MAP: ClassVar[regmap.RegisterMap]
 

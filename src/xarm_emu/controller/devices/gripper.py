@@ -132,6 +132,9 @@ class ToolDevice(Device, rtu.RegisterDevice, Protocol):
     baud_index: int
     #: Its state, handed back whole by a restore (``Emulator._adopt``).
     data: Any
+    #: Where ``set-input gripper-object`` may put an object: 0 between the fingers, 1 around them
+    #: (gripped by opening); empty for a device that detects none.
+    object_places: tuple[int, ...]
 
     #: Register 106 and the reports' end-tool code: the device's error where the box knows it, else 0.
     @property
@@ -164,6 +167,7 @@ class XArmGripper:
 
     slave_id = GRIPPER_ID
     REGISTER_MAP: ClassVar[regmap.RegisterMap]  # below the class
+    object_places: tuple[int, ...] = ()  # no object detection the SDK reads
 
     def __init__(self, version: tuple[int, int, int] = (3, 4, 3),
                  baud_index: int = GRIPPER_BAUD_INDEX) -> None:

@@ -75,6 +75,7 @@ class InspireHand:
 
     slave_id = HAND_SLAVE
     REGISTER_MAP: ClassVar[regmap.RegisterMap]  # below the class
+    object_places: tuple[int, ...] = ()  # the emulated hand takes no object
 
     def __init__(self, baud_index: int = HAND_BAUD_INDEX) -> None:
         self.baud_index = baud_index

@@ -122,6 +122,7 @@ class RobotiqGripper:
 
     slave_id = ROBOTIQ_ID
     REGISTER_MAP: ClassVar[regmap.RegisterMap]  # below the class
+    object_places: tuple[int, ...] = (0, 1)  # between the fingers, or around them (internal grip)
 
     def __init__(self, model: RobotiqModel = ROBOTIQ_2F85, baud_index: int = ROBOTIQ_BAUD_INDEX) -> None:
         self.data = RobotiqState()
