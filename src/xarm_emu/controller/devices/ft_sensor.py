@@ -158,11 +158,10 @@ def attached(ctl: Controller) -> bool:
 
 
 def enabled(ctl: Controller) -> bool:
-    """The sensor is mounted and register 201 switched it on. A box of a firmware without register
-    201 (below 1.8.3, where the SDK reads the sensor through register 150 alone) has no switch:
-    a mounted sensor always reads there."""
+    """The sensor is mounted and register 201 switched it on (a box whose firmware lacks register 201
+    cannot have the sensor: protocol/firmware.py's ``PARTS``)."""
     st = state_of(ctl)
-    return st.attached and (st.enabled or 201 not in ctl.registers)
+    return st.attached and st.enabled
 
 
 def set_noise(ctl: Controller, on: bool) -> None:
