@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from helpers import FakeView  # noqa: F401  (the helpers module sets up the test path)
+from helpers import FakeView
 from test_robotiq_sdk import MODBUS_ERR_LENG, run_sdk_example, sdk_arm_with
 
 from xarm_emu.controller.devices.bio_gripper_g1 import CLOSED, OPEN, REGISTER_MAP, BioGripperG1
@@ -46,7 +46,7 @@ def position(mod: GripperModule) -> int:
 
 def run(mod: GripperModule, dev: BioGripperG1, seconds: float) -> None:
     for _ in range(round(seconds / 0.004)):
-        dev.step(0.004)
+        dev.step(0.004, FakeView())
 
 
 def test_the_g1_has_its_own_map() -> None:

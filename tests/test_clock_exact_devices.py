@@ -205,13 +205,13 @@ def test_ft_sensor_program_identical_and_jumped() -> None:
     assert fast.periods_jumped > 0.6 * fast.controller.steps
 
 
-def test_ft_sensor_on_the_manual_firmware_identical_and_jumped() -> None:
-    """Firmware 1.6.0: a mounted sensor reads without a switch (register 150); a wrench that ends."""
+def test_ft_sensor_on_a_1x_firmware_identical_and_jumped() -> None:
+    """Firmware 1.11.100 (the manual's frames): the sensor switched on, a wrench that ends."""
     script: dict[int, list[Action]] = {
-        0: [ready, lambda e: e.apply_wrench((1.0, 2.0, 3.0, 0.0, 0.0, 0.0), duration_s=2.0)],
+        0: [ready, sensor_on, lambda e: e.apply_wrench((1.0, 2.0, 3.0, 0.0, 0.0, 0.0), duration_s=2.0)],
         1000: [move((0.1, 0.1, -0.1, 0.0, 0.2, 0.0))],
     }
-    _, fast = run_both(script, 3000, (1, 3, 400, 50), firmware="1.6.0", ft_sensor=True)
+    _, fast = run_both(script, 3000, (1, 3, 400, 50), firmware="1.11.100", ft_sensor=True)
     assert not ft.state_of(fast.controller).wrenches  # it ended and was removed
     assert fast.periods_jumped > 0.6 * fast.controller.steps
 

@@ -72,7 +72,7 @@ def test_mixed_program_shows_nothing_new_while_unchanged(firmware: str) -> None:
     ({"vacuum": True}, {0: [ready, lambda e: send(e, 143, ionum=0, on=1, delay=1.0)]}),
     ({"gripper": "robotiq-2f85"}, IDLE),
     ({"gripper": "bio"}, IDLE),
-    ({"ft_sensor": True}, IDLE),
+    ({"ft_sensor": True, "firmware": "2.7.103"}, {0: [*IDLE[0], lambda e: e.handle(201, b"\x01")]}),
 ])
 def test_idle_programs_with_devices_show_nothing_new_while_unchanged(
         devices: dict[str, Any], script: dict[int, list[Action]]) -> None:
@@ -103,7 +103,8 @@ def test_a_box_at_rest_stays_unchanged_and_any_change_ends_it() -> None:
     assert not emu.unchanged(rev)  # the gripper moving on its own is a change too
 
 
-@pytest.mark.parametrize("devices", [{}, {"vacuum": True}, {"gripper": "robotiq-2f85"}, {"ft_sensor": True}])
+@pytest.mark.parametrize("devices", [{}, {"vacuum": True}, {"gripper": "robotiq-2f85"},
+                                     {"ft_sensor": True, "firmware": "2.7.103"}])
 def test_next_event_is_a_promise_the_steps_keep(devices: dict[str, Any]) -> None:
     """The periods before ``next_event()``, stepped in any calls, leave the box unchanged, and what
     shows as it was (a server lets the last frame stand for the deadlines they cover); through the
@@ -112,6 +113,8 @@ def test_next_event_is_a_promise_the_steps_keep(devices: dict[str, Any]) -> None
     schedule_faults(emu)
     for action in IDLE[0]:
         action(emu)
+    if devices.get("ft_sensor"):
+        assert not emu.handle(201, b"\x01")[0] & 0x60  # switched on, it reads every period
     kept = 0
     while emu.controller.steps < 60 * 250:
         k = emu.next_event() - emu.controller.steps - 1  # the periods promised quiet

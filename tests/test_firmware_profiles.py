@@ -85,7 +85,8 @@ def test_other_arms_identify_themselves(name: str, firmware: str, version: str) 
 
 @pytest.mark.parametrize("name, too_old", [("850", "2.0.102"), ("7t", "2.0.102")])
 def test_an_arm_refuses_a_firmware_older_than_it_ships_with(name: str, too_old: str) -> None:
-    with pytest.raises(ValueError, match="ships with firmware"):
+    with pytest.raises(ValueError, match=f"the {Emulator(name, firmware='2.7.103').model.name} arm needs "
+                                         "firmware 2.[14].0 or later, not 2.0.102"):
         Emulator(name, firmware=too_old)
 
 

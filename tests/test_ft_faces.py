@@ -108,7 +108,8 @@ def test_fault_schedule_plays_a_wrench(tmp_path: Path) -> None:
         assert np.allclose(st.call(lambda: ft.control_wrench(ctl)), 0.0, atol=1e-9)
     bad = tmp_path / "bad.toml"
     bad.write_text('[[fault]]\nat = 0.5\ndo = "set-input"\nkind = "ft"\nwrench = [0, 0, "x", 0, 0, 0]\n')
-    with pytest.raises(ValueError, match="wrench"), running_emulator(6, ft_sensor=True, faults=bad):
+    with pytest.raises(ValueError, match="wrench"), running_emulator(6, ft_sensor=True, faults=bad,
+                                                                firmware="2.7.103"):
         pass
 
 
@@ -133,7 +134,7 @@ def test_fleet_keys_and_running_emulator_scene(tmp_path: Path) -> None:
     for arm, words in [({"ft_sensor": "yes"}, "ft_sensor"), ({"scene": "none.toml"}, "none.toml")]:
         with pytest.raises(FleetError, match=words):
             parse_fleet({"arm": [arm]}, base=tmp_path)
-    with running_emulator(6, ft_sensor=True, scene=tmp_path / "table.toml") as st:
+    with running_emulator(6, ft_sensor=True, scene=tmp_path / "table.toml", firmware="2.7.103") as st:
         assert st.call(lambda: ft.attached(st.emulator.controller))
         shapes = st.call(lambda: contact.scene_of(st.emulator.controller).shapes)
         assert len(shapes) == 1 and math.isclose(shapes[0].point[2], 100.0)
@@ -146,7 +147,7 @@ def test_3d_view_draws_the_sensor_and_the_contact_scene(make_server: object, tmp
     from xarm_emu.model import kinematics as kin
     from xarm_emu.viewer import scene as view_scene
 
-    emu = Emulator(6, config_dir=tmp_path, ft_sensor=True,
+    emu = Emulator(6, config_dir=tmp_path, ft_sensor=True, firmware="2.7.103",
                    scene=contact.parse_scene({"plane": [{"name": "table", "point": [0, 0, 50],
                                                          "normal": [0, 0, 1], "stiffness": 1}],
                                               "box": [{"name": "part", "min": [300, -50, 0],

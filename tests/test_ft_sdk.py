@@ -1,6 +1,7 @@
 """The six-axis F/T sensor through the unchanged SDK: the gravity of the load in the sensor frame at
 several wrist orientations, zeroing, load identification with and without the sensor, the contact
-force of a plane, the report fields, at firmware 1.6.0 (register 150) and 2.7.103 (register 200)."""
+force of a plane, the report fields, at firmware 1.11.100 and 2.7.103 (register 200; the SDK documents
+every F/T call from 1.8.3, and an older box is refused the sensor: tests/test_device_gate.py)."""
 
 from __future__ import annotations
 
@@ -23,10 +24,8 @@ PAYLOAD_COM = (12.0, -8.0, 60.0)  # mm, flange frame
 #: Wrist orientations (deg) the gravity is checked at.
 POSES = ([0, -20, -30, 0, 50, 0], [0, -20, -30, 40, 80, 30], [20, -10, -40, -60, 30, -90],
          [0, 0, -60, 90, 90, 45])
-#: 1.6.0 and 1.8.0: below 1.8.3 the SDK reads register 150 (a box of the manual's 1.6.0 answers
-#: it only with the sensor mounted); 1.11.100: register 200 without the raw form; 2.7.103: 200 and
-#: 200 [01].
-FIRMWARES = ("1.6.0", "1.8.0", "1.11.100", "2.7.103")
+#: 1.11.100: register 200 without the raw form; 2.7.103: 200 and 200 [01].
+FIRMWARES = ("1.11.100", "2.7.103")
 
 
 def expected_gravity(model: Any, q_deg: list[float], mass: float,
@@ -58,10 +57,8 @@ def move(arm: Any, q_deg: list[float]) -> None:
 def test_gravity_of_the_payload_in_the_sensor_frame(make_server: Any, sdk_arm: Any, firmware: str) -> None:
     arm, st = start(make_server, sdk_arm, firmware=firmware)
     st.call(lambda: st.emulator.set_payload(PAYLOAD_MASS, PAYLOAD_COM))
-    switch = firmware not in ("1.6.0", "1.8.0")  # below 1.8.3 no register 201: the sensor always reads
-    if switch:
-        assert arm.get_ft_sensor_data() == (0, [0.0] * 6)  # switched off: zeros
-        assert arm.set_ft_sensor_enable(1) == 0
+    assert arm.get_ft_sensor_data() == (0, [0.0] * 6)  # switched off: zeros
+    assert arm.set_ft_sensor_enable(1) == 0
     for q in POSES:
         move(arm, q)
         code, data = arm.get_ft_sensor_data()
@@ -69,9 +66,8 @@ def test_gravity_of_the_payload_in_the_sensor_frame(make_server: Any, sdk_arm: A
         want = expected_gravity(st.emulator.model, q, PAYLOAD_MASS, PAYLOAD_COM)
         assert np.allclose(data[:3], want[:3], atol=0.05), (q, data, want)
         assert np.allclose(data[3:], want[3:], atol=0.005), (q, data, want)
-    if switch:
-        assert arm.set_ft_sensor_enable(0) == 0
-        assert arm.get_ft_sensor_data() == (0, [0.0] * 6)
+    assert arm.set_ft_sensor_enable(0) == 0
+    assert arm.get_ft_sensor_data() == (0, [0.0] * 6)
     assert arm.get_err_warn_code()[1] == [0, 0]
 
 

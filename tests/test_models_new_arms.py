@@ -32,6 +32,7 @@ from xarm_emu.model.robots import (
     robot_sn_problem,
 )
 from xarm_emu.model.rotations import matrix_to_axis_angle, matrix_to_pose
+from xarm_emu.protocol.firmware import PARTS, first
 
 PI = math.pi
 H = PI / 2
@@ -258,7 +259,8 @@ def test_speed_payload_and_reach() -> None:
 
 def test_identity_fields() -> None:
     assert [(m.axis, m.robot_type, m.sn_prefix) for m in NEW] == [(6, 9, "LI"), (6, 12, "FX"), (7, 13, "CS")]
-    assert [m.min_firmware for m in NEW] == [(0, 0, 0), (2, 1, 0), (2, 4, 0)]
+    firsts = [first(PARTS[f"{m.name} arm"]) if f"{m.name} arm" in PARTS else None for m in NEW]
+    assert firsts == [None, "2.1.0", "2.4.0"]
     assert LITE6.default_box_sn == "DL1000"
     for m in (*MODELS.values(), *NEW):
         assert robot_sn_problem(m, m.default_robot_sn) is None

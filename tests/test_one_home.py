@@ -117,7 +117,7 @@ def test_ft_sensor_pose_follows_each_models_own_geometry() -> None:
     assert longer.name == XARM6.name
     origins = []
     for model in (XARM6, longer, XARM6, longer):
-        emu = Emulator(model, ft_sensor=True)
+        emu = Emulator(model, ft_sensor=True, firmware="2.7.103")
         _, origin = ft_sensor._sensor_pose(emu.controller)
         T = kinematics.fk(model, emu.controller.q)
         np.testing.assert_allclose(origin, T[:3, 3] + T[:3, 2] * ft_sensor.SENSOR_HEIGHT, atol=1e-9)

@@ -95,7 +95,7 @@ def test_full_range_at_speed_5000_takes_a_second() -> None:
     g.set_target(850)
     n = 0
     while g.position_pulses != 850:
-        g.step(PERIOD)
+        g.step(PERIOD, View())
         n += 1
     assert n * PERIOD == pytest.approx(1.0, abs=PERIOD)
 
@@ -228,7 +228,7 @@ def test_position_without_a_speed_first_moves_at_the_power_on_speed() -> None:
     g.set_target(500)
     steps = 0
     while g.position != 500 and steps < 10000:
-        g.step(0.004)
+        g.step(0.004, View())
         steps += 1
     assert g.position == 500
     assert steps * 0.004 == pytest.approx(500 / 850 * (5000 / DEFAULT_SPEED), abs=0.008)
@@ -243,6 +243,6 @@ def test_speed_above_5000_is_accepted_and_moves_at_the_top_speed(speed: int) -> 
     g.set_target(850)
     n = 0
     while g.position_pulses != 850:
-        g.step(PERIOD)
+        g.step(PERIOD, View())
         n += 1
     assert n * PERIOD == pytest.approx(1.0, abs=PERIOD)  # as at 5000: the fingers top out there

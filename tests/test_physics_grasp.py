@@ -29,7 +29,7 @@ TCP_Z = 172.0  # the xArm gripper's TCP offset: the fingertips
 
 
 def call(emu: Emulator, code: int, **values: Any) -> dict[str, Any]:
-    reg = REGISTERS[code]
+    reg = emu.controller.registers[code]
     state, reply = emu.handle(code, reg.request.encode(values))
     assert not state & 0x60, (code, hex(state))
     return reg.reply.decode(reply) if reg.reply.fields else {}
@@ -255,7 +255,9 @@ def test_a_cube_slipping_out_raises_no_collision(wait_periods: int) -> None:
 def test_the_ft_sensor_reads_the_tables_reaction_in_a_scene_with_objects() -> None:
     from xarm_emu.controller.devices import ft_sensor
 
-    emu = prepare(Emulator(6, scene=contact.parse_scene(SCENE), ft_sensor=True, ft_noise=False))
+    emu = prepare(Emulator(6, scene=contact.parse_scene(SCENE), ft_sensor=True, ft_noise=False,
+                           firmware="1.11.100"))
+    assert not emu.handle(201, b"\x01")[0] & 0x60  # switch the sensor on
     call(emu, 37, sensitivity=0)
     call(emu, 12, state=0)
     line(emu, 200, 0, TZ + 10)

@@ -51,39 +51,42 @@ def test_versions_compare_as_integer_tuples():
 
 def test_default_profile_is_the_manual():
     p = DEFAULT_PROFILE
-    assert str(p) == "1.6.0" and p.is_v1
-    assert not (p.feedback or p.relative_move_register or p.common_move_layout or p.inf_unchanged
-                or p.io_sync_byte or p.protocol_v3 or p.set_mode_detection)
-    assert p.load_center_mm and p.reduced_state_size == 79 and p.blended_joint_register
-    assert p.ft_data_register == 150 and (p.rich_report_size, p.develop_report_size) == (433, 87)
+    assert str(p) == "1.6.0" and not p.reports_2x and p.play_traj_speed
+    assert not (p.feedback or p.common_move_layout or p.inf_unchanged or p.io_sync_byte or p.realtime_report
+                or p.online_modes or p.velocity_duration)
+    assert p.ft_data_register == 150
 
 
 @pytest.mark.parametrize("version, on", [
-    ("2.0.101", {"protocol_v3", "relative_move_register", "common_move_layout", "set_mode_detection"}),
-    ("2.0.102", {"feedback"}), ("2.4.100", {"feedback"}), ("2.4.101", {"inf_unchanged", "io_sync_byte"}),
-    ("2.6.109", {"joint_states_high_nibble", "ft_raw_data"}), ("2.7.1", {"ft_raw_data"}),
-    ("2.7.103", {"servo_error_u16", "ik_limited"}),
+    # the SDK's own thresholds (version_is_ge) and the firmware its API documents for a call
+    ("1.2.11", {"play_traj_speed"}), ("1.8.0", {"velocity_duration"}), ("1.11.100", {"common_move_layout"}),
+    ("2.0.0", {"reports_2x", "online_modes"}), ("2.0.102", {"feedback"}), ("2.1.0", {"realtime_report"}),
+    ("2.4.101", {"inf_unchanged", "io_sync_byte"}),
 ])
 def test_thresholds(version, on):
     p = FirmwareProfile.for_version(version)
+    v = p.version
+    below = FirmwareProfile(FirmwareVersion(v.major, v.minor, v.revision - 1) if v.revision else
+                            FirmwareVersion(v.major, v.minor - 1, 999) if v.minor else
+                            FirmwareVersion(v.major - 1, 99, 999))
     for name in on:
-        assert getattr(p, name) is True, name
-    below = FirmwareVersion(p.version.major, p.version.minor, p.version.revision - 1)
-    if version == "2.0.102":
-        assert not FirmwareProfile(below).feedback
-    if version == "2.4.101":
-        assert not FirmwareProfile(below).inf_unchanged and not FirmwareProfile(below).io_sync_byte
-    if version == "2.7.103":
-        assert not FirmwareProfile(below).ik_limited
+        assert getattr(p, name) is True and getattr(below, name) is False, name
+
+
+def test_ft_data_register_follows_the_sensors_registers():
+    assert FirmwareProfile.for_version("1.8.2").ft_data_register == 150
+    assert FirmwareProfile.for_version("1.8.3").ft_data_register == 200
 
 
 def test_2x_profile_facts():
-    assert (V2.ft_data_register, V2.rich_report_size, V2.develop_report_size) == (200, 587, 135)
-    assert V2.realtime_report and not V2.is_v1 and not V2.ik_limited and not V2.servo_error_u16
+    assert V2.ft_data_register == 200 and V2.realtime_report and V2.reports_2x and V2.online_modes
 
 
 def test_version_text():
-    text = V2.version_text(6, 6, "XI1304", "AC1304")
+    from xarm_emu.controller.controller import version_string
+    from xarm_emu.model.robots import XARM6
+
+    text = version_string(XARM6, "XI1304", "AC1304", V2)
     assert text == "6,6,XI1304,AC1304,v2.7.1"
     # the SDK's own register-1 pattern reads the same parts back
     import re

@@ -47,7 +47,7 @@ def test_top_level_keys_are_defaults_and_config_dir_is_relative_to_the_file() ->
     ({}, "at least one [[arm]]"),
     (fleet({"model": 8}), "arm 1: model is one of 5, 6, 7, lite6, 850, 7t, got 8"),
     (fleet({"model": "850", "firmware": "2.0.102"}),
-     "arm 1: the 850 arm ships with firmware 2.1.0 or later, not 2.0.102"),
+     "arm 1: the 850 arm needs firmware 2.1.0 or later, not 2.0.102"),
     (fleet({"model": 6, "colour": "red"}), "arm 1: unknown key 'colour'"),
     ({"arm": [{}], "robot_sn": "XI0001"}, "unknown key 'robot_sn'; known: speed, config_dir, arm"),
     (fleet({}, {"robot_sn": "xi12"}), "arm 2: robot_sn is two capital letters and four digits"),

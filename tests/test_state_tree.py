@@ -40,6 +40,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Emulator", "vacuum"): WIRING,
     ("Emulator", "lite6_gripper"): WIRING,
     ("Emulator", "linear_track"): WIRING,
+    ("Emulator", "devices"): WIRING,  # the devices plugged in (controller/core/device.py)
     ("Emulator", "thermal"): WIRING,
     ("Emulator", "feedback"): WIRING,
     ("Emulator", "modbus"): WIRING,  # the tree's part (checked to be the tree's own object)

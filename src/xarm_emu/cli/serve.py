@@ -181,7 +181,7 @@ def serve(
     cfg.limits = Limits(max_connections=max_connections, frame_timeout=frame_timeout, backlog=backlog)
     cfg.trace_max_bytes, cfg.report_priority = trace_max_bytes, report_priority
     tune_process()  # a process that only serves arms: the report sender's interpreter settings
-    profile, robot = checked_arm(model, firmware, calibration, linear_track, gripper, vacuum)
+    profile, robot = checked_arm(model, firmware, calibration, linear_track, gripper, vacuum, ft_sensor)
     if fleet is not None:
         refuse_per_arm_flags(cfg, robot is not get_model(6), vacuum or gripper is not None,
                              firmware != SERVE_VERSION,
@@ -241,34 +241,37 @@ def calibrated_model(robot: RobotModel, path: Path | None) -> RobotModel:
 
 
 def checked_arm(model: str, firmware: str, calibration: Path | None, linear_track: int | None,
-                gripper: str | None, vacuum: bool) -> tuple[FirmwareProfile, RobotModel]:
+                gripper: str | None, vacuum: bool,
+                ft_sensor: bool = False) -> tuple[FirmwareProfile, RobotModel]:
     """The firmware profile and the arm's model (calibrated if asked) after every check of the box's
-    options: exit 2 with one line for a firmware, model, linear track or gripper it cannot have."""
+    options: exit 2 with one line for a firmware, model, linear track or gripper it cannot have. A
+    part the firmware cannot drive (the arm or any device) is refused by the one rule of
+    ``FirmwareProfile.check_parts``, in the same words for every part."""
     from ..controller.emulator import GRIPPERS, check_firmware
+    from ..protocol.firmware import FirmwareRefusal
 
     try:
         profile = profile_for(firmware)
     except VersionError as exc:
-        err_console.print(f"--firmware: {exc}")
-        raise typer.Exit(2) from None
+        user_error(f"--firmware: {exc}")
     try:
-        robot = get_model(model)
-        check_firmware(robot, profile)
-        robot = calibrated_model(robot, calibration)
+        robot = calibrated_model(get_model(model), calibration)
     except ValueError as exc:
-        err_console.print(f"--model: {exc}")
-        raise typer.Exit(2) from None
+        user_error(f"--model: {exc}")
     if linear_track is not None:
-        from ..controller.devices.linear_track import TRACK_FIRMWARE, check_length
+        from ..controller.devices.linear_track import check_length
 
         try:
             check_length(linear_track)
         except ValueError as exc:
             user_error(f"--linear-track: {exc}")
-        if not profile.version.at_least(TRACK_FIRMWARE):
-            user_error(f"--linear-track: needs firmware {TRACK_FIRMWARE} or later, not {profile}")
     if gripper is not None and gripper not in GRIPPERS:
         user_error(f"--gripper: one of {', '.join(GRIPPERS)}, got {gripper!r}")
     if gripper is not None and vacuum:
         user_error("--gripper and --vacuum: one end tool at a time")
+    try:
+        check_firmware(robot, profile, gripper=gripper or "xarm", vacuum=vacuum, linear_track=linear_track,
+                       ft_sensor=ft_sensor)
+    except FirmwareRefusal as exc:
+        user_error(f"--firmware: {exc}")
     return profile, robot

@@ -128,21 +128,21 @@ def _status_table(box: dict[str, Any], mode: int | None, axis: int, linear_track
 
 
 def _ft_status(c: Any, version: str) -> dict[str, Any] | None:
-    """The F/T sensor as registers 212 and 200 show it (firmware 1.8.3 and later: an older box has
-    no register 212, and asking would raise its warning 13); None without a sensor."""
-    from ..protocol.firmware import FirmwareVersion
+    """The F/T sensor as register 212 and the data register show it (a box without the sensor's
+    registers has no register 212, and asking would raise its warning 13); None without a sensor."""
+    from ..protocol.firmware import FirmwareProfile
 
     try:
-        fw = FirmwareVersion.parse(version.rsplit(",v", 1)[-1].lstrip("v"))
+        profile = FirmwareProfile.for_version(version.rsplit(",v", 1)[-1].lstrip("v"))
     except ValueError:
         return None
-    if fw.parts < (1, 8, 3):
+    if profile.ft_data_register != 200:  # no register 212 below the F/T sensor's registers
         return None
     config = c.call(212)
     if not config.values.get("type"):
         return None
     enabled = bool(config.values.get("started"))
-    forces = list(c.call(200).values.get("forces", (0.0,) * 6)) if enabled else [0.0] * 6
+    forces = list(c.call(profile.ft_data_register).values.get("forces", (0.0,) * 6)) if enabled else [0.0] * 6
     return {"enabled": enabled, "reading": [float(x) for x in forces],
             "units": "Fx, Fy, Fz N; Tx, Ty, Tz N m"}
 

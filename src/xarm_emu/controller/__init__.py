@@ -11,12 +11,13 @@ Its rooms, by subject:
 - :mod:`.firmware2_report`: the fields a 2.x box's report frames carry beyond the manual's.
 - :mod:`.modbus_map`: the standard Modbus map bound to a live box.
 - :mod:`.core`: what everything else stands on: the control period, command outcomes and the
-  interface components plug in through; the motion state machine; the controller's mutable state;
+  interface components plug in through, the device interface every device implements; the motion
+  state machine; the controller's mutable state;
   the fault group; settings and their saved files; the command buffer, poses and the executor;
   safety checks; the feedback queue of firmware 2.x; the joints' thermal model.
 - :mod:`.handlers`: register handlers as plain functions, bound to codes in one table.
-- :mod:`.devices`: the IO of box and tool, the end tools (xArm, vacuum, Lite 6, Robotiq, BIO
-  grippers, Inspire hand), the linear track and the six-axis F/T sensor.
+- :mod:`.devices`: the IO of box and tool, the end tools (xArm, vacuum, Lite 6, Robotiq, BIO G2 and
+  G1 grippers, Inspire hand), the linear track and the six-axis F/T sensor.
 - :mod:`.applications`: admittance and force control, velocity control, online planning,
   trajectories, reduced mode, load identification, and the modes of register 19 beyond the manual's.
 - :mod:`.motion`: trajectory generation, pure math.

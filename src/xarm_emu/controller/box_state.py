@@ -15,9 +15,12 @@ A checkpoint is this tree copied as a whole, and restoring one hands every part 
 component as a whole (:meth:`~.emulator.Emulator.restore`), like MuJoCo's ``mjData`` beside the
 constant ``mjModel``.
 
-Adding a component's state is one step: declare its dataclass beside the component, decorate the
-component with :func:`~.core.controller_state.holds`, and give :class:`EmulatorState` a field for it (``None``
-when the component is optional); :meth:`~.emulator.Emulator.state` and ``_adopt`` name the field.
+Adding a component's state takes five edits: declare its dataclass beside the component, decorate
+the component with :func:`~.core.controller_state.holds` and set ``self.data`` first thing in its
+``__init__``, give :class:`EmulatorState` a field for it (``None`` when the component is optional),
+and name the field in :meth:`~.emulator.Emulator.state` and in ``Emulator._adopt`` (with any wiring
+the component needs again after a restore, as the vacuum and Lite 6 grippers take the IO's tool
+board back); ``tests/test_state_tree.py`` fails until each is done.
 """
 
 from __future__ import annotations
@@ -88,7 +91,8 @@ class EmulatorState:
     thermal: ThermalState
     modbus: ModbusUserState
     schedule: Schedule
-    #: The Robotiq or BIO gripper on the tool bus, when one is attached instead of the xArm gripper.
+    #: The device on the tool bus (Robotiq 2F-85/2F-140, BIO G2 or G1, Inspire RH56 hand), when one is
+    #: attached instead of the xArm gripper.
     tool_device: ToolDeviceState | None = None
     vacuum: VacuumState | None = None
     lite6_gripper: Lite6GripperState | None = None

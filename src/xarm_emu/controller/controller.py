@@ -15,9 +15,7 @@ teaching (not available).
 
 from __future__ import annotations
 
-import functools
 import logging
-from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -73,10 +71,6 @@ from .devices import ft_sensor
 
 #: Command buffer capacity; the SDK throttles itself at 512 (max_cmdnum).
 BUFFER_CAPACITY = 1024
-
-#: Firmware version the emulator claims. v1.6.0 keeps the SDK on the manual's
-#: layouts (the SDK picks its reply layouts by firmware version).
-FIRMWARE_VERSION = f"v{DEFAULT_PROFILE.version}"
 
 log = logging.getLogger("xarm_emu.controller")
 
@@ -276,20 +270,6 @@ class Controller:
             raise ValueError(f"register {code} of {type(component).__name__} is bound already")
         self.components.append(component)
         self._handlers.update({code: h for code, h in bound.items() if code in self.registers})
-
-    def answer_also(self, code: int) -> None:
-        """Answer register ``code`` although this firmware's table lacks it: an accessory that brings
-        its own register (the F/T sensor's 150 on a box of the manual's firmware, which the SDK
-        reads the sensor through below 1.8.3). The layout is the register table's."""
-        if code in self.registers:
-            return
-        table = dict(self.registers)
-        table[code] = next(r for r in regs.EXTRA_REGISTERS if r.code == code)
-        self.registers = MappingProxyType(table)
-        self._float_checked = regs.float_checked(self.registers)
-        self._inf_unchanged = regs.inf_unchanged(self.registers)
-        self._per_joint = regs.per_joint_fields(self.registers)
-        self._handlers[code] = functools.partial(handlers.TABLE[code].handler, self)
 
     # -- ControllerView ------------------------------------------------------------------------
     @property

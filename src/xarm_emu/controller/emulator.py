@@ -8,6 +8,7 @@ as the CPU allows, deterministically).
 
 from __future__ import annotations
 
+import functools
 import heapq
 import logging
 import math
@@ -32,6 +33,7 @@ from .controller import Controller, joint_torques, tcp_matrix
 from .core import safety, state_bytes
 from .core.config import ConfigStore
 from .core.controller_state import ControllerState
+from .core.device import Device
 from .core.faults import Faults
 from .core.feedback import FeedbackQueue, feedback_queue, find_feedback_queue
 from .core.interface import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
@@ -44,7 +46,7 @@ from .devices.ft_sensor import state_of as sensor_state_of
 from .devices.gripper import GripperModule, ToolDevice
 from .devices.inspire_hand import InspireHand
 from .devices.io import IOModule
-from .devices.linear_track import TRACK_BAUD_INDEX, TRACK_FIRMWARE, TRACK_ID, LinearTrack
+from .devices.linear_track import TRACK_BAUD_INDEX, TRACK_ID, LinearTrack
 from .devices.lite6_gripper import Lite6Gripper
 from .devices.robotiq import MODELS as ROBOTIQ_MODELS
 from .devices.robotiq import RobotiqGripper
@@ -59,26 +61,28 @@ JUMP_CHUNK = 64
 
 log = logging.getLogger("xarm_emu.emulator")
 
-#: The end grippers that can be attached on the tool RS-485 (``Emulator(gripper=...)``,
-#: ``serve --gripper``): the xArm gripper (controller/devices/gripper.py), the Robotiq 2F-85 and 2F-140
-#: (controller/devices/robotiq.py) and the BIO gripper (controller/devices/bio_gripper.py).
-GRIPPERS = ("xarm", "robotiq-2f85", "robotiq-2f140", "bio", "bio-g1", "inspire-rh56")
+#: The devices that can be attached on the tool RS-485 (``Emulator(gripper=...)``, ``serve --gripper``),
+#: each with what makes one: the xArm gripper (controller/devices/gripper.py, which the gripper module
+#: always has), the Robotiq 2F-85 and 2F-140 (robotiq.py), the BIO gripper G2 (bio_gripper.py) and G1
+#: (bio_gripper_g1.py) and the Inspire RH56 hand (inspire_hand.py).
+TOOL_DEVICES: Mapping[str, Callable[[], ToolDevice] | None] = {
+    "xarm": None,
+    **{name: functools.partial(RobotiqGripper, model) for name, model in ROBOTIQ_MODELS.items()},
+    "bio": BioGripper,
+    "bio-g1": BioGripperG1,
+    "inspire-rh56": InspireHand,
+}
+#: Their names, in that order.
+GRIPPERS = tuple(TOOL_DEVICES)
 
 
 def tool_device(gripper: str) -> ToolDevice | None:
     """The tool-bus device of ``gripper`` (one of :data:`GRIPPERS`); None for the xArm gripper,
     which the gripper module always has. Raises ValueError for an unknown name."""
-    if gripper not in GRIPPERS:
+    if gripper not in TOOL_DEVICES:
         raise ValueError(f"gripper {gripper!r}: one of {', '.join(GRIPPERS)}")
-    if gripper == "bio":
-        return BioGripper()
-    if gripper == "bio-g1":
-        return BioGripperG1()
-    if gripper == "inspire-rh56":
-        return InspireHand()
-    if gripper in ROBOTIQ_MODELS:
-        return RobotiqGripper(ROBOTIQ_MODELS[gripper])
-    return None
+    make = TOOL_DEVICES[gripper]
+    return None if make is None else make()
 
 
 def _bits(flags: list[bool]) -> int:
@@ -89,12 +93,21 @@ def _bits(flags: list[bool]) -> int:
     return out
 
 
-def check_firmware(model: RobotModel, firmware: FirmwareProfile) -> None:
-    """Refuse a firmware older than the arm ships with (the UFACTORY 850 needs 2.1.0, the xArm 7T 2.4.0)."""
-    if firmware.version.parts < model.min_firmware:
-        need = ".".join(str(x) for x in model.min_firmware)
-        raise ValueError(f"the {model.name} arm ships with firmware {need} or later, not {firmware}: "
-                         "choose a later --firmware")
+def box_parts(model: RobotModel, *, gripper: str = "xarm", vacuum: bool = False,
+              linear_track: int | None = None, ft_sensor: bool = False) -> tuple[str, ...]:
+    """The parts a box is built with, by the names of protocol/firmware.py's ``PARTS``: the arm, the
+    tool-bus gripper, the vacuum gripper, the linear track, the F/T sensor."""
+    return (f"{model.name} arm", f"{gripper} gripper") + ("vacuum gripper",) * vacuum + (
+        ("linear track",) * (linear_track is not None) + ("F/T sensor",) * ft_sensor)
+
+
+def check_firmware(model: RobotModel, firmware: FirmwareProfile, *, gripper: str = "xarm",
+                   vacuum: bool = False, linear_track: int | None = None, ft_sensor: bool = False) -> None:
+    """Refuse a box whose firmware cannot drive one of its parts (the one rule of
+    ``FirmwareProfile.check_parts``: the UFACTORY 850 needs 2.1.0, the xArm 7T 2.4.0, the linear track
+    1.8.0, the F/T sensor 1.8.3): a ``FirmwareRefusal`` (a ValueError) with one line."""
+    firmware.check_parts(*box_parts(model, gripper=gripper, vacuum=vacuum, linear_track=linear_track,
+                                    ft_sensor=ft_sensor))
 
 
 @dataclass(frozen=True)
@@ -194,9 +207,12 @@ class Emulator:
         box_sn = box_sn or self.model.default_box_sn
         #: The firmware version this box claims (register 1) and whose behaviour it has.
         self.firmware = firmware if isinstance(firmware, FirmwareProfile) else profile_for(firmware)
-        check_firmware(self.model, self.firmware)
+        check_firmware(self.model, self.firmware, gripper=gripper, vacuum=vacuum, linear_track=linear_track,
+                       ft_sensor=ft_sensor)
         self.controller = Controller(self.model, robot_sn=sn, box_sn=box_sn, period=PERIOD,
                                      firmware=self.firmware)
+        #: Every device plugged in (controller/core/device.py), in the order they step.
+        self.devices: list[Device] = []
         self._plug_io_and_tools(box_sn, device, vacuum)
         self._plug_linear_track(linear_track)
         #: The feedback queue of firmware 2.x (registers 253/254, 0xFF frames), part of the box
@@ -250,21 +266,26 @@ class Emulator:
         self.io = IOModule(n_digital=16 if box_number >= 1300 else 8,
                            tool_ti2=self.model.tool_io.ti2_address is not None)
         self.gripper = GripperModule(tool_baud=lambda: self.io.tool.baud_index[9], device=device)
-        self.controller.add_component(self.io)
+        self._plug(self.io)
         self.io.attach(self.controller)
-        self.controller.add_component(self.gripper)
+        self._plug(self.gripper)
         self.controller.hooks.tool_error = self._tool_error
         #: The vacuum gripper's pressure switch on TI0 (controller/devices/vacuum.py), when attached.
         self.vacuum: VacuumGripper | None = None
         if vacuum:
             self.vacuum = VacuumGripper(self.io.tool)
-            self.controller.add_component(self.vacuum)
+            self._plug(self.vacuum)
         #: The Lite 6 gripper's jaws on TO0/TO1 (controller/devices/lite6_gripper.py), on the arms
         #: wired for it.
         self.lite6_gripper: Lite6Gripper | None = None
         if self.model.tool_io.gripper is not None:
             self.lite6_gripper = Lite6Gripper(self.io.tool, self.model.tool_io.gripper)
-            self.controller.add_component(self.lite6_gripper)
+            self._plug(self.lite6_gripper)
+
+    def _plug(self, device: Device) -> None:
+        """Plug ``device`` in: it steps with the controller and answers its registers' bindings."""
+        self.controller.add_component(device)
+        self.devices.append(device)
 
     def _plug_linear_track(self, linear_track: int | None) -> None:
         """The linear track of ``linear_track`` mm on the control box RS-485, when given."""
@@ -272,19 +293,15 @@ class Emulator:
         #: mm long, when attached.
         self.linear_track: LinearTrack | None = None
         if linear_track is not None:
-            if not self.firmware.version.at_least(TRACK_FIRMWARE):
-                raise ValueError(f"the linear track needs firmware {TRACK_FIRMWARE} or later, not "
-                                 f"{self.firmware}: choose a later --firmware")
             self.linear_track = track = LinearTrack(linear_track)
-            self.controller.add_component(track)
+            self._plug(track)
             self.gripper.box_devices = lambda: (
                 {TRACK_ID: track} if self.io.tool.baud_index[CONTROL_BOX_HOST] == TRACK_BAUD_INDEX else {})
 
     def _tool_error(self) -> int:
-        """The end tool's error code (register 106): the xArm gripper's, which the box knows; a
-        Robotiq or BIO gripper's faults are read by the SDK over register 124 only."""
-        g = self.gripper
-        return g.gripper.error if g.device is g.gripper else 0
+        """The end tool's error code (register 106): what the box reports of the device on the tool
+        bus (``ToolDevice.reported_error``)."""
+        return self.gripper.device.reported_error
 
     # -- configuration (register 39/40) -------------------------------------------------------
     def _attach_store(self, directory: Path, load: bool) -> None:
@@ -546,7 +563,7 @@ class Emulator:
             snap.ft_ext_force = tuple(float(x) for x in ft_sensor.reading(c))
             snap.ft_raw_force = tuple(float(x) for x in ft_sensor.raw_reading(c))
             snap.ft_enabled = True
-        if not self.firmware.is_v1:  # what the 2.x frames carry beyond the manual's
+        if self.firmware.reports_2x:  # what the 2.x frames carry beyond the manual's
             firmware2_fields(c, snap)
         return snap
 
@@ -645,23 +662,11 @@ class Emulator:
         return self.controller.q.copy()
 
     def gripper_status(self) -> dict[str, Any]:
-        """The attached gripper as the status output and the view show it: its kind, opening or
-        position, whether it is enabled or activated, whether it holds an object, its error code."""
+        """The device on the tool bus as the status output and the view show it: its kind, its error
+        code and what it shows of itself (``status_fields``: opening or position, enabled or
+        activated, an object held)."""
         dev = self.gripper.device
-        out: dict[str, Any] = {"gripper": self.gripper_kind, "error": dev.error}
-        if isinstance(dev, RobotiqGripper):
-            out.update(activated=dev.gSTA == 3, position=int(round(dev.position)),
-                       opening_mm=round(dev.opening_mm, 1), object=dev.gOBJ in (1, 2),
-                       force_n=round(dev.grip_force, 1))
-        elif isinstance(dev, BioGripper):
-            out.update(enabled=dev.enabled, mode=dev.mode, opening_mm=round(dev.opening_mm, 1),
-                       object=dev.detected)
-        elif isinstance(dev, InspireHand):
-            out.update(angles=[int(round(a)) for a in dev.data.angle])
-        else:
-            g = self.gripper.gripper
-            out.update(enabled=g.enabled, position=g.position_pulses)
-        return out
+        return {"gripper": self.gripper_kind, "error": dev.error, **dev.status_fields()}
 
     # -- fault injection and inputs from outside (the admin channel calls these) -------------
     def inject_error(self, code: int) -> None:
@@ -739,20 +744,18 @@ class Emulator:
         self.generation += 1
         ctl = self.controller
         ctl.faults = Faults.none(ctl.dof)
-        self.gripper.gripper.clear_error()
-        self.gripper.device.clear_error()
-        if self.linear_track is not None:
-            self.linear_track.clear_error()
-        ft_sensor.state_of(ctl).error = 0
+        for device in self.devices:
+            device.clear_error()
 
     # -- the F/T sensor and the contact scene (devices/ft_sensor.py, scene/contact.py) ----
     def attach_ft_sensor(self, *, noise: bool = True) -> None:
-        """Mount the six-axis F/T sensor between flange and tool (once)."""
+        """Mount the six-axis F/T sensor between flange and tool (once); a firmware that cannot drive
+        it is refused (``FirmwareRefusal``, as at construction)."""
+        self.firmware.check_parts("F/T sensor")
         self.generation += 1
         if not ft_sensor.attached(self.controller):
             ft_sensor.attach(self.controller, noise=noise)
-            self.controller.answer_also(150)  # the sensor's data register on a box older than 1.8.3
-            self.controller.add_component(ft_sensor.FtSensorComponent(self.controller))
+            self._plug(ft_sensor.FtSensorComponent(self.controller))
 
     @property
     def has_ft_sensor(self) -> bool:
@@ -831,11 +834,12 @@ class Emulator:
         """Raise ValueError (or ParameterError) unless :meth:`set_input` can play ``kind`` ``index``
         (and, where given, ``value``)."""
         if kind == "gripper-object":
-            if self.gripper.device is self.gripper.gripper:
+            places = self.gripper.device.object_places
+            if not places:
                 raise ValueError("gripper-object needs a Robotiq or BIO gripper (serve --gripper "
-                                 "robotiq-2f85, robotiq-2f140 or bio)")
-            if index not in (0, 1) or (index == 1 and self.gripper_kind.startswith("bio")):
-                around = "" if self.gripper_kind.startswith("bio") else " or 1 (around them)"
+                                 "robotiq-2f85, robotiq-2f140, bio or bio-g1)")
+            if index not in places:
+                around = " or 1 (around them)" if 1 in places else ""
                 raise ValueError(f"index 0 (an object between the fingers){around}, not {index}")
             if value is not None and not math.isfinite(value):
                 raise ValueError(f"object width must be finite, got {value!r}")

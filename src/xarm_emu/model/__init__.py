@@ -1,4 +1,7 @@
-"""Constant robot descriptions and the math over them; nothing here ever mutates.
+"""Constant robot descriptions and the math over them: a model never changes (frozen dataclasses), and
+the only state here is memo caches of pure functions of a model (the generated kinematics code and
+joint limits in :mod:`.kinematics`, the collision layout and its pairs in :mod:`.collision`, the
+dynamic chain in :mod:`.dynamics`), keyed on the model object; what they hold never changes an answer.
 
 - :mod:`.robots`: the arms (joint frames, limits, identity, tool IO) and :func:`~.robots.get_model`.
 - :mod:`.inertials`: link masses, centres of mass, inertia tensors, torque constants.

@@ -13,8 +13,8 @@ manual's (4.1) for the xArm and the SDK's TCP table for Lite 6 and 850.
 Identity (manual 2.2 register 1, "axis,type,robot SN,box SN,version"; register 8): ``axis`` and
 ``robot_type`` are what the control box reports; ``sn_prefix`` is the first two letters of the robot serial
 number the SDK expects of the model (it checks them before friction identification), and
-:func:`robot_sn_problem` states the SDK's rules on the four digits that follow. ``min_firmware`` is the
-first firmware release that runs the model.
+:func:`robot_sn_problem` states the SDK's rules on the four digits that follow. The first firmware
+release that runs a model is protocol/firmware.py's (its ``PARTS``).
 """
 
 from __future__ import annotations
@@ -141,12 +141,10 @@ class RobotModel:
     key: str = ""
     # Reach in mm as the vendor's specifications state it (xArm 5/6/7 700, Lite 6 440, 850 850 mm).
     reach: float = 700.0
-    # Identity (module docstring): robot SN prefix, default robot and control box serial numbers, first
-    # firmware (major, minor, patch) that runs the model; (0, 0, 0) when no minimum applies.
+    # Identity (module docstring): robot SN prefix, default robot and control box serial numbers.
     sn_prefix: str = "XI"
     default_robot_sn: str = "XI1300"
     default_box_sn: str = "AC1300"
-    min_firmware: tuple[int, int, int] = (0, 0, 0)
     tool_io: ToolIO = XARM_TOOL_IO
     # Measured replacements of the emulator's estimated constants (:func:`with_calibration`).
     calibration: Calibration | None = None
@@ -295,7 +293,7 @@ LITE6 = RobotModel(
     sn_prefix="LI",
     default_robot_sn="LI1006",
     default_box_sn="DL1000",
-    # min_firmware stays (0, 0, 0): no minimum is published and the emulator enforces none.
+    # No first firmware is published for the Lite 6 and the emulator enforces none.
     tool_io=LITE6_TOOL_IO,
 )
 
@@ -323,7 +321,6 @@ UF850 = RobotModel(
     reach=850.0,
     sn_prefix="FX",
     default_robot_sn="FX1202",
-    min_firmware=(2, 1, 0),
     tool_io=UF850_TOOL_IO,
 )
 
@@ -351,7 +348,6 @@ XARM7T = RobotModel(
     key="7t",
     sn_prefix="CS",
     default_robot_sn="CS1300",
-    min_firmware=(2, 4, 0),
 )
 
 MODELS: dict[int, RobotModel] = {5: XARM5, 6: XARM6, 7: XARM7}

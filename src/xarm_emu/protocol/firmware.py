@@ -1,22 +1,35 @@
-"""Firmware profiles: the claimed version and what the SDK changes on the wire for it.
+"""Firmware profiles: the claimed version and what the box and the SDK change for it.
 
 The version is the last part of register 1's string ('<axis>,<type>,<robot SN>,<box SN>,vX.Y.Z',
 section 2.1.3.2). The SDK compares (major, minor, revision) as integer tuples, so revisions past
-100 are real releases (2.7.1 is below 2.7.100). A :class:`FirmwareProfile` is pure data: one
-named property per behaviour the SDK ties to a version threshold.
+100 are real releases (2.7.1 is below 2.7.100).
+
+This module is the one home of every version threshold but a register's own: a register's ``since``
+is in the register table (protocol/registers.py), which names a release of :data:`RELEASES` where
+the register comes with one of its behaviours. :data:`RELEASES` states each threshold once; a
+:class:`FirmwareProfile` property per behaviour answers it for a version, and every version
+comparison of the package happens here (and in the register table's ``since``). A new threshold is
+one entry in :data:`RELEASES` and, where code asks about it, a property; a new profile is one entry
+in :data:`SUPPORTED_VERSIONS` (the CLI's choices, the register table, the reports follow from it).
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
-from functools import total_ordering
+from functools import cached_property, total_ordering
+from types import MappingProxyType
 
 _VERSION = re.compile(r"^\s*[vV]?(\d{1,4})\.(\d{1,4})\.(\d{1,4})\s*$")
 
 
 class VersionError(ValueError):
     """Text that is not a firmware version such as '1.6.0' or 'v2.4.101'."""
+
+
+class FirmwareRefusal(ValueError):
+    """A box of this firmware cannot have the part asked for (:meth:`FirmwareProfile.check_parts`)."""
 
 
 @total_ordering
@@ -63,13 +76,62 @@ def parse_version(text: str) -> FirmwareVersion:
     return FirmwareVersion.parse(text)
 
 
-def _ge(v: FirmwareVersion, threshold: str) -> bool:
-    return v >= FirmwareVersion.parse(threshold)
+#: Manual V1.6.0's box: the register table's :data:`~.registers.REGISTERS` and its report frames.
+DEFAULT_VERSION = "1.6.0"
+
+#: What each release brings that the emulator tells apart, oldest first: each threshold written once,
+#: as the behaviours that begin with it (the SDK's ``version_is_ge`` tests and the firmware its API
+#: documents for a call). A behaviour is a :class:`FirmwareProfile` property of that name, a part of
+#: :data:`PARTS`, or the ``since`` of registers that come with it (``registers.py`` reads
+#: :func:`first`).
+RELEASES: Mapping[str, tuple[str, ...]] = MappingProxyType({
+    # register 64 carries (times, speed factor), else times only (SDK playback_trajectory)
+    "1.2.11": ("play_traj_speed",),
+    # registers 81/82 may end with an fp32 duration; the linear motor's calls and load
+    # identification (register 204) are documented from this release
+    "1.8.0": ("velocity_duration", "linear_track", "load_identification"),
+    # the F/T sensor: registers 200-212 (get_ft_sensor_data reads 150 below)
+    "1.8.3": ("ft_sensor",),
+    # the 'common' forms of 21 and 27, the only-check byte of 23/24/25 with 3-byte replies
+    "1.11.100": ("common_move_layout",),
+    # the 2.x controllers: their report frames (135/145/587 bytes), online planning (modes 6 and 7),
+    # the D-H parameters (registers 67/68)
+    "2.0.0": ("reports_2x", "online_modes", "dh_parameters"),
+    # registers 253/254 and the unsolicited 0xFF feedback frames
+    "2.0.102": ("feedback",),
+    # the real-time report on port 30000; the first firmware of the UFACTORY 850
+    "2.1.0": ("realtime_report", "uf850"),
+    # the first firmware of the xArm 7T
+    "2.4.0": ("xarm7t",),
+    # +inf in registers 21/23/83 means 'keep this component'; registers 127/134/135/136 end with a
+    # sync byte (1 queued, 0 immediate)
+    "2.4.101": ("inf_unchanged", "io_sync_byte"),
+})
+
+def first(behaviour: str) -> str:
+    """The first version with ``behaviour`` (one of :data:`RELEASES`); KeyError for an unknown name."""
+    for version, behaviours in RELEASES.items():
+        if behaviour in behaviours:
+            return version
+    raise KeyError(f"no release of firmware.RELEASES has {behaviour!r}")
+
+
+#: The parts a box can be built with that a firmware may be unable to drive, by the name a refusal
+#: gives them, each with its behaviour of :data:`RELEASES`. Every other part (the xArm, Robotiq, BIO
+#: and Inspire grippers on the tool RS-485, register 124 of the manual; the vacuum and Lite 6
+#: grippers on the tool IO; the arms of the manual) every firmware drives.
+PARTS: Mapping[str, str] = MappingProxyType({
+    "linear track": "linear_track",
+    "F/T sensor": "ft_sensor",
+    "850 arm": "uf850",
+    "xArm7T arm": "xarm7t",
+})
 
 
 @dataclass(frozen=True)
 class FirmwareProfile:
-    """What a box claiming ``version`` answers, one property per SDK version threshold.
+    """What a box claiming ``version`` answers: one property per behaviour of :data:`RELEASES` that
+    code asks about.
 
     Build one with :meth:`for_version`; every property follows from the version.
     """
@@ -81,130 +143,77 @@ class FirmwareProfile:
         v = version if isinstance(version, FirmwareVersion) else FirmwareVersion.parse(version)
         return cls(v)
 
-    def _ge(self, threshold: str) -> bool:
-        return _ge(self.version, threshold)
+    def _has(self, behaviour: str) -> bool:
+        return self.version >= FirmwareVersion.parse(first(behaviour))
 
-    # ---- thresholds, oldest first -------------------------------------------------------------
-    @property
-    def load_center_mm(self) -> bool:
-        """>= 0.2.1: the payload centre of mass (register 36, normal report) is in mm."""
-        return self._ge("0.2.1")
+    def check_parts(self, *parts: str) -> None:
+        """The one rule for the parts of a box (its arm and devices, by the names of :data:`PARTS`):
+        raise :class:`FirmwareRefusal` with one line, the same for every part ('the linear track
+        needs firmware 1.8.0 or later, not 1.6.0'), for the first this firmware cannot drive. A part
+        :data:`PARTS` does not name every firmware drives."""
+        for part in parts:
+            behaviour = PARTS.get(part)
+            if behaviour is not None and not self._has(behaviour):
+                raise FirmwareRefusal(f"the {part} needs firmware {first(behaviour)} or later, "
+                                      f"not {self.version}")
 
-    @property
-    def reduced_state_size(self) -> int:
-        """Register 53's reply: 79 bytes from 1.2.11, 21 below."""
-        return 79 if self._ge("1.2.11") else 21
-
-    @property
+    # ---- the behaviours code asks about, oldest first (each worked out once per profile) --------
+    @cached_property
     def play_traj_speed(self) -> bool:
-        """>= 1.2.11: register 64 carries (times, speed factor), else times only."""
-        return self._ge("1.2.11")
+        """Register 64 carries (times, speed factor), else times only."""
+        return self._has("play_traj_speed")
 
-    @property
-    def blended_joint_register(self) -> bool:
-        """>= 1.5.20: blended joint moves use register 24 (7 joints, speed, acc, radius)."""
-        return self._ge("1.5.20")
-
-    @property
+    @cached_property
     def velocity_duration(self) -> bool:
-        """>= 1.8.0: registers 81/82 may end with an fp32 duration."""
-        return self._ge("1.8.0")
+        """Registers 81/82 may end with an fp32 duration."""
+        return self._has("velocity_duration")
 
-    @property
+    @cached_property
     def ft_data_register(self) -> int:
-        """F/T data register: 200 from 1.8.3, 150 below."""
-        return 200 if self._ge("1.8.3") else 150
+        """The register get_ft_sensor_data reads: 200 with the F/T sensor's registers, 150 below."""
+        return 200 if self._has("ft_sensor") else 150
 
-    @property
-    def protocol_v3(self) -> bool:
-        """>= 1.8.6: the SDK switches its command frames to protocol id 3 (heartbeat form)."""
-        return self._ge("1.8.6")
-
-    @property
-    def relative_move_register(self) -> bool:
-        """>= 1.8.100: relative moves use register 83 (MOVE_RELATIVE)."""
-        return self._ge("1.8.100")
-
-    @property
-    def joint_states_num(self) -> bool:
-        """>= 1.9.110: register 42 carries a [num] byte (blocks of 7 fp32 in the reply)."""
-        return self._ge("1.9.110")
-
-    @property
-    def set_mode_detection(self) -> bool:
-        """>= 1.10.0: register 19 carries [mode, detection_param]."""
-        return self._ge("1.10.0")
-
-    @property
+    @cached_property
     def common_move_layout(self) -> bool:
-        """>= 1.11.100: register 21 (43/44 bytes) and 27 (67 bytes) 'common' forms, 3-byte replies;
-        registers 22, 28 and 92 are no longer sent."""
-        return self._ge("1.11.100")
+        """Register 21 (43/44 bytes) and 27 (67 bytes) 'common' forms, 23/24/25 with an only-check
+        byte, 3-byte replies; registers 22, 28 and 92 are no longer sent."""
+        return self._has("common_move_layout")
 
-    @property
+    @cached_property
+    def reports_2x(self) -> bool:
+        """The report frames of the 2.x controllers (develop 135, normal 145, rich 587 bytes) with
+        their fields beyond the manual's; the manual's frames below."""
+        return self._has("reports_2x")
+
+    @cached_property
+    def online_modes(self) -> bool:
+        """Modes 6 and 7 of register 19 (online trajectory planning)."""
+        return self._has("online_modes")
+
+    @cached_property
     def feedback(self) -> bool:
-        """>= 2.0.102: registers 253/254 and unsolicited 0xFF feedback frames."""
-        return self._ge("2.0.102")
+        """Registers 253/254 and unsolicited 0xFF feedback frames."""
+        return self._has("feedback")
 
-    @property
-    def inf_unchanged(self) -> bool:
-        """>= 2.4.101: +inf in registers 21/23/83 means 'keep this component'."""
-        return self._ge("2.4.101")
-
-    @property
-    def io_sync_byte(self) -> bool:
-        """>= 2.4.101: registers 127/134/135/136 end with a sync byte (1 queued, 0 immediate)."""
-        return self._ge("2.4.101")
-
-    @property
-    def joint_states_high_nibble(self) -> bool:
-        """>= 2.6.107: register 42's num byte keeps its high nibble."""
-        return self._ge("2.6.107")
-
-    @property
-    def ft_raw_data(self) -> bool:
-        """>= 2.6.109: register 200 [01] asks for raw F/T data."""
-        return self._ge("2.6.109")
-
-    @property
-    def servo_error_u16(self) -> bool:
-        """>= 2.7.100: the F/T error read (register 102) is the u16 in reply bytes 2..3."""
-        return self._ge("2.7.100")
-
-    @property
-    def ik_limited(self) -> bool:
-        """>= 2.7.103: register 43 may end with [limited] and 7 reference angles."""
-        return self._ge("2.7.103")
-
-    @property
-    def rich_report_size(self) -> int:
-        """Rich report (port 30002) length: 587 bytes for 2.x, the manual's 433 below."""
-        return 587 if self.version.major >= 2 else 433
-
-    @property
-    def develop_report_size(self) -> int:
-        """Develop report (port 30003) length: 135 bytes (F/T tail) for 2.x, 87 below."""
-        return 135 if self.version.major >= 2 else 87
-
-    @property
+    @cached_property
     def realtime_report(self) -> bool:
-        """>= 2.1.0: the real-time report on port 30000."""
-        return self._ge("2.1.0")
+        """The real-time report on port 30000."""
+        return self._has("realtime_report")
 
-    @property
-    def is_v1(self) -> bool:
-        return self.version.major < 2
+    @cached_property
+    def inf_unchanged(self) -> bool:
+        """+inf in registers 21/23/83 means 'keep this component'."""
+        return self._has("inf_unchanged")
 
-    def version_text(self, axis: int, robot_type: int, robot_sn: str, box_sn: str) -> str:
-        """Register 1's string (before NUL padding to 40 bytes): '<axis>,<type>,<SN6>,<SN6>,vX.Y.Z'."""
-        return f"{axis},{robot_type},{robot_sn[:6]},{box_sn[:6]},v{self.version}"
+    @cached_property
+    def io_sync_byte(self) -> bool:
+        """Registers 127/134/135/136 end with a sync byte (1 queued, 0 immediate)."""
+        return self._has("io_sync_byte")
 
     def __str__(self) -> str:
         return str(self.version)
 
 
-#: Manual V1.6.0: today's behaviour.
-DEFAULT_VERSION = "1.6.0"
 DEFAULT_PROFILE = FirmwareProfile.for_version(DEFAULT_VERSION)
 
 #: Versions the CLI accepts for --firmware (1.6.0 first; the newest last).

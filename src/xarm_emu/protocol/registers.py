@@ -26,12 +26,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from .firmware import DEFAULT_VERSION, NEWEST_PROFILE, FirmwareProfile, first
 from .layouts import EMPTY, Field, Layout, fp32, i32, one_of, u8, u16
-
-if TYPE_CHECKING:
-    from .firmware import FirmwareProfile
 
 
 class Flag(enum.Flag):
@@ -62,8 +60,8 @@ class Register:
     flags: Flag = Flag.NONE
     section: str = "2.1.3.2"
     doc: str = field(default="", compare=False)
-    #: The firmware version from which a box answers this register ("1.6.0": in the manual).
-    since: str = "1.6.0"
+    #: The firmware version from which a box answers this register (the manual's: in the manual).
+    since: str = DEFAULT_VERSION
 
     @property
     def system_reset(self) -> bool:
@@ -387,6 +385,9 @@ def inf_unchanged(table: Mapping[int, Register]) -> frozenset[int]:
 AFTER_MANUAL = "1.6.1"
 
 _S_SDK = "SDK"
+#: The ``since`` of registers that come with a behaviour of protocol/firmware.py's releases.
+_FT_SENSOR = first("ft_sensor")
+_FEEDBACK = first("feedback")
 _PER_SDK = "Not in manual V1.6.0; layout as the SDK sends and reads it."
 
 CHECK_REPLY = Layout((u16("cmdnum", "number of commands in the buffer"),
@@ -452,9 +453,9 @@ EXTRA_REGISTERS: tuple[Register, ...] = (
        reply=_r(u8("status", "0 idle, 1 loading, 2 load ok, 3 load failed, 4 saving, 5 save ok, "
                               "6 save failed"))),
     _x(66, "SET_ALLOW_APPROX_MOTION", "Allow approximate motion", since="1.9.0", request=_r(u8("on"))),
-    _x(67, "GET_DH", "Get the D-H parameters", since="2.0.0",
+    _x(67, "GET_DH", "Get the D-H parameters", since=first("dh_parameters"),
        reply=_r(fp32("dh", 28, "d, alpha, a, offset per joint"))),
-    _x(68, "SET_DH", "Set the D-H parameters", since="2.0.0",
+    _x(68, "SET_DH", "Set the D-H parameters", since=first("dh_parameters"),
        request=_r(fp32("dh", 28, "d, alpha, a, offset per joint"), u8("flag", "0-4")),
        reply=_r(u8("result"))),
     _x(69, "GET_MOVEMENT", "Get the movement state", reply=_r(u8("moving")),
@@ -513,32 +514,33 @@ EXTRA_REGISTERS: tuple[Register, ...] = (
     _x(150, "FTSENSOR_GET_DATA_OLD", "Get the F/T sensor data (old register)",
        reply=_r(fp32("forces", 6, "Fx, Fy, Fz N; Tx, Ty, Tz N.m")),
        doc="get_ft_sensor_data sends this below firmware 1.8.3, register 200 from then on."),
-    _x(200, "FTSENSOR_GET_DATA", "Get the F/T sensor data", since="1.8.3",
+    _x(200, "FTSENSOR_GET_DATA", "Get the F/T sensor data", since=_FT_SENSOR,
        request=_r(u8("raw", "1 raw data (firmware >= 2.6.109)"), required=0),
        reply=_r(fp32("forces", 6, "Fx, Fy, Fz N; Tx, Ty, Tz N.m"))),
-    _x(201, "FTSENSOR_ENABLE", "Switch the F/T sensor", since="1.8.3", request=_r(u8("on"))),
-    _x(202, "FTSENSOR_SET_MODE", "Set the F/T application mode", since="1.8.3",
+    _x(201, "FTSENSOR_ENABLE", "Switch the F/T sensor", since=_FT_SENSOR, request=_r(u8("on"))),
+    _x(202, "FTSENSOR_SET_MODE", "Set the F/T application mode", since=_FT_SENSOR,
        request=_r(u8("app", "0 off, 1 impedance/admittance, 2 force control"))),
-    _x(203, "FTSENSOR_GET_MODE", "Get the F/T application mode", since="1.8.3", reply=_r(u8("app"))),
-    _x(204, "IDEN_LOAD", "Identify the payload or the F/T sensor load offset", since="1.8.0",
+    _x(203, "FTSENSOR_GET_MODE", "Get the F/T application mode", since=_FT_SENSOR, reply=_r(u8("app"))),
+    _x(204, "IDEN_LOAD", "Identify the payload or the F/T sensor load offset",
+       since=first("load_identification"),
        request=_r(u8("iden_type", "1 TCP load, 0 F/T load offset"), fp32("mass", doc="estimated kg"),
                   required=1),
        reply=_r(fp32("load", 4, "mass kg, centre x, y, z"), fp32("offsets", 6), required=1),
        doc="TCP load: 4 fp32 back; F/T load offset: 10 fp32. Sent with protocol id 2, long timeouts."),
-    _x(205, "FTSENSOR_SET_LOAD_OFFSET", "Set the F/T sensor load and offsets", since="1.8.3",
+    _x(205, "FTSENSOR_SET_LOAD_OFFSET", "Set the F/T sensor load and offsets", since=_FT_SENSOR,
        request=_r(fp32("mass", doc="kg"), fp32("center", 3, "m"), fp32("offsets", 6))),
-    _x(206, "FTSENSOR_SET_ZERO", "Zero the F/T sensor", since="1.8.3"),
-    _x(207, "ADMITTANCE_CONFIG", "Set the admittance parameters", since="1.8.3",
+    _x(206, "FTSENSOR_SET_ZERO", "Zero the F/T sensor", since=_FT_SENSOR),
+    _x(207, "ADMITTANCE_CONFIG", "Set the admittance parameters", since=_FT_SENSOR,
        request=_r(u8("coord"), _C_AXIS, fp32("M", 6), fp32("K", 6), fp32("B", 6))),
-    _x(208, "FORCE_CTRL_PID", "Set the force-control PID", since="1.8.3",
+    _x(208, "FORCE_CTRL_PID", "Set the force-control PID", since=_FT_SENSOR,
        request=_r(fp32("kp", 6), fp32("ki", 6), fp32("kd", 6), fp32("xe_limit", 6))),
-    _x(209, "FORCE_CTRL_CONFIG", "Set the force-control configuration", since="1.8.3",
+    _x(209, "FORCE_CTRL_CONFIG", "Set the force-control configuration", since=_FT_SENSOR,
        request=_r(u8("coord"), _C_AXIS, fp32("f_ref", 6), fp32("limits", 6))),
-    _x(210, "ADMITTANCE_CTRL_MKB", "Set the admittance M, K, B", since="1.8.3",
+    _x(210, "ADMITTANCE_CTRL_MKB", "Set the admittance M, K, B", since=_FT_SENSOR,
        request=_r(fp32("M", 6), fp32("K", 6), fp32("B", 6))),
-    _x(211, "ADMITTANCE_CTRL_CONFIG", "Set the admittance frame and axes", since="1.8.3",
+    _x(211, "ADMITTANCE_CTRL_CONFIG", "Set the admittance frame and axes", since=_FT_SENSOR,
        request=_r(u8("coord"), _C_AXIS)),
-    _x(212, "FTSENSOR_GET_CONFIG", "Get the F/T sensor configuration", since="1.8.3",
+    _x(212, "FTSENSOR_GET_CONFIG", "Get the F/T sensor configuration", since=_FT_SENSOR,
        reply=_r(u8("app_status"), u8("started"), u8("type"), u8("id"), u16("freq"), fp32("mass"),
                 fp32("dir_bias"), fp32("centroid", 3), fp32("zero", 6),
                 u8("imp_coord"), Field("imp_c_axis", "u8", 6), fp32("M", 6), fp32("K", 6), fp32("B", 6),
@@ -563,8 +565,8 @@ EXTRA_REGISTERS: tuple[Register, ...] = (
     _x(241, "RS485_AGENT", "Transparent RS-485 transfer", request=_HOST_RAW,
        reply=Layout((u8("host"),), rest="data")),
     _x(253, "FEEDBACK_CHECK", "Ask for a feedback frame once every earlier task has finished",
-       since="2.0.102", doc="Answered at once; the MOTION_FINISH frame follows when the queue is done."),
-    _x(254, "SET_FEEDBACK_TYPE", "Set the feedback-type mask of this connection", since="2.0.102",
+       since=_FEEDBACK, doc="Answered at once; the MOTION_FINISH frame follows when the queue is done."),
+    _x(254, "SET_FEEDBACK_TYPE", "Set the feedback-type mask of this connection", since=_FEEDBACK,
        request=_r(u8("mask", "1 motion start, 2 motion finish, 4 trigger, 32 other start, 64 other finish"))),
 )
 
@@ -592,32 +594,30 @@ _JOINT_MOVE_CHECK = _r(JOINTS, fp32("speed", doc="rad/s"), fp32("acc", doc="rad/
 _JOINTB_CHECK = _r(JOINTS, fp32("speed"), fp32("acc"), fp32("radius"), u8("only_check_type"), required=4)
 _HOME_CHECK = _r(fp32("speed"), fp32("acc"), fp32("mvtime"), u8("only_check_type"), required=3)
 
-#: Later forms of registers, as (since, code, changed Register fields), oldest first.
+#: Later forms of registers, as (the FirmwareProfile property that has them, code, changed Register
+#: fields), oldest first: the version is the property's (protocol/firmware.py).
 LATER_FORMS: tuple[tuple[str, int, Mapping[str, Any]], ...] = (
-    ("1.11.100", 21, {"request": one_of(REGISTERS[21].request, _COMMON_21), "reply": CHECK_REPLY,
-                      "doc": "36 bytes (manual) or the 'common' 43/44 bytes the SDK sends from firmware "
-                             "1.11.100; " + _MOVE_TAIL_DOC}),
-    ("1.11.100", 27, {"request": one_of(REGISTERS[27].request, _COMMON_27), "reply": CHECK_REPLY,
-                      "doc": "64 bytes (manual) or 67 with [coord, is_axis_angle, only_check_type]."}),
-    ("1.11.100", 23, {"request": _JOINT_MOVE_CHECK, "reply": CHECK_REPLY, "doc": _MOVE_TAIL_DOC}),
-    ("1.11.100", 24, {"request": one_of(_r(u8("tau_or_i")), _JOINTB_CHECK), "reply": CHECK_REPLY,
-                      "doc": "One byte (manual) or a blended joint move with an optional only-check byte."}),
-    ("1.11.100", 25, {"request": _HOME_CHECK, "reply": CHECK_REPLY, "doc": _MOVE_TAIL_DOC}),
-    ("2.4.101", 21, {"flags": REGISTERS[21].flags | Flag.INF_UNCHANGED}),
-    ("2.4.101", 23, {"flags": REGISTERS[23].flags | Flag.INF_UNCHANGED}),
-    ("2.4.101", 83, {"flags": Flag.QUEUED | Flag.EXTENSION | Flag.INF_UNCHANGED}),
+    ("common_move_layout", 21, {
+        "request": one_of(REGISTERS[21].request, _COMMON_21), "reply": CHECK_REPLY,
+        "doc": "36 bytes (manual) or the 'common' 43/44 bytes the SDK sends to a box with the common "
+               "forms; " + _MOVE_TAIL_DOC}),
+    ("common_move_layout", 27, {
+        "request": one_of(REGISTERS[27].request, _COMMON_27), "reply": CHECK_REPLY,
+        "doc": "64 bytes (manual) or 67 with [coord, is_axis_angle, only_check_type]."}),
+    ("common_move_layout", 23, {"request": _JOINT_MOVE_CHECK, "reply": CHECK_REPLY, "doc": _MOVE_TAIL_DOC}),
+    ("common_move_layout", 24, {
+        "request": one_of(_r(u8("tau_or_i")), _JOINTB_CHECK), "reply": CHECK_REPLY,
+        "doc": "One byte (manual) or a blended joint move with an optional only-check byte."}),
+    ("common_move_layout", 25, {"request": _HOME_CHECK, "reply": CHECK_REPLY, "doc": _MOVE_TAIL_DOC}),
+    ("inf_unchanged", 21, {"flags": REGISTERS[21].flags | Flag.INF_UNCHANGED}),
+    ("inf_unchanged", 23, {"flags": REGISTERS[23].flags | Flag.INF_UNCHANGED}),
+    ("inf_unchanged", 83, {"flags": Flag.QUEUED | Flag.EXTENSION | Flag.INF_UNCHANGED}),
 )
 
 
 def all_registers() -> Mapping[int, Register]:
     """Every register of any profile, each in its newest form."""
-    return registers_for(_newest())
-
-
-def _newest() -> FirmwareProfile:
-    from .firmware import NEWEST_PROFILE
-
-    return NEWEST_PROFILE
+    return registers_for(NEWEST_PROFILE)
 
 
 @lru_cache(maxsize=32)
@@ -626,14 +626,14 @@ def registers_for(profile: FirmwareProfile) -> Mapping[int, Register]:
 
     Firmware 1.6.0 gives exactly :data:`REGISTERS`; newer versions add the registers of
     :data:`EXTRA_REGISTERS` from their ``since`` version and replace layouts by their later forms
-    (:data:`LATER_FORMS`, newest applicable form wins).
+    (:data:`LATER_FORMS`, where the profile has the form's property; the newest applicable wins).
     """
     table: dict[int, Register] = dict(REGISTERS)
     v = profile.version
     for reg in EXTRA_REGISTERS:
         if v.at_least(reg.since):
             table[reg.code] = reg
-    for since, code, change in LATER_FORMS:
-        if v.at_least(since) and code in table:
+    for has_form, code, change in LATER_FORMS:
+        if getattr(profile, has_form) and code in table:
             table[code] = replace(table[code], **change, since=table[code].since)
     return MappingProxyType(table)

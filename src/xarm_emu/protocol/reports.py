@@ -27,10 +27,8 @@ import math
 import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from .firmware import FirmwareProfile
+from .firmware import DEFAULT_VERSION, FirmwareProfile
 
 DEVELOP_SIZE = 87
 NORMAL_SIZE = 145
@@ -91,7 +89,7 @@ class ReportSnapshot:
     slave_id: int = SLAVE_ID
     motor_tid: int = 0  # byte 150, reserved in the manual
     motor_fid: int = 0  # byte 151, reserved in the manual
-    version: str = "6,6,XI1304,AC1303,v1.6.0"  # 30 bytes, NUL padded, truncated if longer
+    version: str = f"6,6,XI1304,AC1303,v{DEFAULT_VERSION}"  # 30 bytes, NUL padded, truncated if longer
     # Limits default to the ranges of manual table 1.2 (1000 mm/s, 50000 mm/s^2, 10000 mm/s^3,
     # 180 deg/s, 1145 deg/s^2, 28647 deg/s^3).
     tcp_jerk: float = 10000.0  # mm/s^3
@@ -578,7 +576,7 @@ _FW2_CODECS: dict[int, tuple[Encoder, Decoder]] = {
 
 def _codecs_for(profile: FirmwareProfile) -> dict[int, tuple[Encoder, Decoder]]:
     """Report port -> (encoder, decoder) for a box of ``profile``'s firmware."""
-    if profile.version.major < 2:
+    if not profile.reports_2x:
         return {port: (ENCODERS[port], DECODERS[port]) for port in ENCODERS}
     out = dict(_FW2_CODECS)
     if profile.realtime_report:

@@ -27,7 +27,9 @@ warning            code 11 (or "W11")                            warning (3.2.2)
 servo-error        joint 1..dof, code "S23"                      servo error, error C10+joint
 gripper-error      code "G11" (or 11)                            an error of the attached gripper:
                                                                  3.3 for the xArm gripper, gFLT for
-                                                                 a Robotiq, 11/12 for the BIO
+                                                                 a Robotiq, 11/12 for the BIO G2
+                                                                 and G1, an error byte for the
+                                                                 Inspire hand
 track-error        code 12                                       linear track drive error
 end-module-lost    -                                             error C28
 collision          joint 1..dof, torque (N m)                    external torque: C31 when the
@@ -277,20 +279,11 @@ def _status(server: AdminTarget, a: Args) -> str:
            "servo_errors": list(ctl.servo_errors), "reply_delay": server.reply_delay,
            "reports_paused": server.reports_paused(), "gripper": emu.gripper_status()}
     if emu.has_ft_sensor:
-        out["ft_sensor"] = _ft_status(emu)
+        out["ft_sensor"] = ft.status(ctl)
     health = getattr(server, "health", None)  # disk and trace state, where the server has it
     if callable(health):
         out.update(health())
     return json.dumps(out)
-
-
-def _ft_status(emu: Emulator) -> dict[str, Any]:
-    """The F/T sensor in ``status``: switched on, its error, the compensated and raw readings."""
-    ctl = emu.controller
-    return {"enabled": ft.enabled(ctl), "error": ft.state_of(ctl).error,
-            "reading": [round(float(x), 4) for x in ft.reading(ctl)],
-            "raw": [round(float(x), 4) for x in ft.raw_reading(ctl)],
-            "external": [round(float(x), 4) for x in ft.external_wrench(ctl)]}
 
 
 # -- inputs ----------------------------------------------------------------------------------------

@@ -22,7 +22,8 @@ Arm keys: ``model`` (5, 6, 7, or a name: lite6, 850, 7t), ``host``, ``port``, ``
 ``rich_port``, ``develop_port``,
 ``robot_sn`` (two letters and four digits, the version string's form, manual 2.1.3 register 1),
 ``admin``, ``admin_port``, ``vacuum`` (the xArm Vacuum Gripper, as ``serve --vacuum``), ``gripper``
-(the gripper on the tool RS-485, as ``serve --gripper``: xarm, robotiq-2f85, robotiq-2f140, bio),
+(the device on the tool RS-485, as ``serve --gripper``: xarm, robotiq-2f85, robotiq-2f140, bio, bio-g1,
+inspire-rh56),
 (the version the box claims, as ``serve --firmware``), ``linear_track`` (true or a stroke in mm, as
 ``serve --linear-track``), ``ft_sensor`` (the six-axis F/T sensor, as
 ``serve --ft-sensor``), ``scene`` (a contact scene file, as ``serve --scene``), ``calibration`` (a
@@ -147,7 +148,8 @@ def _arm(values: dict[str, Any], speed: float, where: str, taken: list[str], bas
     cfg = replace(ServerConfig(host=host, speed=speed, admin=admin, trace=paths["trace"],
                                faults=paths["faults"]), **ports)
     try:
-        check_firmware(robot, profile)
+        check_firmware(robot, profile, gripper=gripper, vacuum=vacuum, linear_track=track,
+                       ft_sensor=ft_sensor)
     except ValueError as exc:
         raise FleetError(f"{where}: {exc}") from None
     scene, calibration = _files(paths, robot, where)

@@ -169,7 +169,7 @@ GRIPPER_SHAPES = {
 
 def end_gripper_parts(model: RobotModel, q: Sequence[float] | np.ndarray, kind: str,
                       opening_mm: float) -> list[Part]:
-    """A Robotiq or BIO gripper (``kind``, a key of :data:`GRIPPER_SHAPES`) on the flange: its body
+    """A Robotiq or BIO gripper, G2 or G1 (``kind``, a key of :data:`GRIPPER_SHAPES`) on the flange: its body
     and two fingers apart by ``opening_mm``."""
     shape = GRIPPER_SHAPES[kind]
     T = kin.fk(model, q)

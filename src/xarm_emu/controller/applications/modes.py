@@ -37,9 +37,9 @@ def extra_modes(ctl: Controller) -> tuple[int, ...]:
 
 def extra_modes_of(firmware: FirmwareProfile, registers: Container[int]) -> tuple[int, ...]:
     """Modes 4-7 that a box of ``firmware`` with register table ``registers`` answers: 4/5 where
-    its table has registers 81/82, 6/7 from firmware 2.0.0."""
+    its table has registers 81/82, 6/7 where the firmware has the online modes."""
     out = tuple(m for m, code in velocity.MODE_REGISTERS.items() if code in registers)
-    if firmware.version.at_least(online.SINCE):
+    if firmware.online_modes:
         out += (online.MODE_JOINT_ONLINE, online.MODE_CARTESIAN_ONLINE)
     return out
 

@@ -11,7 +11,7 @@ Mode 7 plans the TCP in six coordinates: the position (mm) and the rotation vect
 frame) from the orientation at the moment of re-planning; each period the pose is solved to joints
 (no solution: C21; a pose needing joints outside their limits: C23).
 
-The modes are answered from firmware 2.0.0 (the SDK documents them for the 2.x controllers).
+The modes are answered by the 2.x controllers (``FirmwareProfile.online_modes``).
 """
 
 from __future__ import annotations
@@ -34,9 +34,6 @@ from . import reduced
 
 MODE_JOINT_ONLINE = 6
 MODE_CARTESIAN_ONLINE = 7
-
-#: The first firmware answering modes 6 and 7.
-SINCE = "2.0.0"
 
 
 
@@ -61,10 +58,6 @@ class OnlinePlanner:
 def planner_of(ctl: Controller) -> OnlinePlanner:
     """The online planner's state of ``ctl`` (modes 6 and 7)."""
     return part_of(ctl.data, "online_planner", OnlinePlanner)
-
-
-def available(ctl: Controller) -> bool:
-    return bool(ctl.firmware.version.at_least(SINCE))
 
 
 def _require(ctl: Controller, mode: int) -> None:

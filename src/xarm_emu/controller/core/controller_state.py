@@ -85,9 +85,12 @@ class ControllerState:
     """Every mutable value of the controller core and its executor (see the module docstring).
 
     Slotted: a value that is not declared here cannot be attached at run time. The application
-    states below start as None and are made by the module that owns them through :func:`part_of`
-    (``reduced.reduced_of`` and the like), all of them at construction
-    (``applications.modes.create_state``)."""
+    states below start as None and are made by the module that owns them, mostly through
+    :func:`part_of` (``reduced.reduced_of`` and the like): the controller's binding
+    (``handlers.bind``) makes those of modes 4-7 and 11, trajectories and reduced mode
+    (``applications.modes.create_state``), the less common registers, the F/T configuration and
+    force control at construction; the emulator the F/T sensor's; the contact scene and the load
+    identification stay None until they are set or run."""
 
     dof: int
     time: float = 0.0  # controller time, s
@@ -120,11 +123,11 @@ class ControllerState:
     ft_config: Slot = None  # FtConfig
     #: Force control and impedance control (register 202, controller/applications/force_control.py).
     force_control: Slot = None  # ForceControl
-    #: Reduced mode and its limits (registers 47-52, controller/applications/reduced.py).
+    #: Reduced mode and its limits (registers 47-50, 53, 58, 60, controller/applications/reduced.py).
     reduced: Slot = None  # ReducedMode
     #: Velocity control (modes 4 and 5, controller/applications/velocity.py).
     velocity_control: Slot = None  # VelocityControl
-    #: The online planner (modes 7 and 11, controller/applications/online.py).
+    #: The online planner (modes 6 and 7, controller/applications/online.py).
     online_planner: Slot = None  # OnlinePlanner
     #: Trajectory recording and playback (registers 61-66, controller/applications/trajectory.py).
     trajectory_store: Slot = None  # TrajectoryStore

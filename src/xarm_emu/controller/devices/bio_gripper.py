@@ -50,6 +50,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 from ...protocol import codes, regmap, rtu
 from ..core.controller_state import holds
@@ -137,6 +138,9 @@ class BioGripper:
     :meth:`step` (a :class:`~xarm_emu.controller.devices.gripper.ToolDevice`)."""
 
     slave_id = BIO_ID
+    object_places: tuple[int, ...] = (0,)  # between the fingers only
+    #: The registers this gripper answers (below the class; the G1 has its own).
+    REGISTER_MAP: ClassVar[regmap.RegisterMap]
 
     def __init__(self, baud_index: int = BIO_BAUD_INDEX) -> None:
         self.data = BioGripperState()
@@ -160,6 +164,15 @@ class BioGripper:
     @property
     def error(self) -> int:
         return self.code
+
+    @property
+    def reported_error(self) -> int:
+        """The SDK reads the errors over register 124 only: the box reports none (register 106)."""
+        return 0
+
+    def status_fields(self) -> dict[str, Any]:
+        return {"enabled": self.enabled, "mode": self.mode, "opening_mm": round(self.opening_mm, 1),
+                "object": self.detected}
 
     @property
     def enabled(self) -> bool:
@@ -241,10 +254,10 @@ class BioGripper:
     # --- Modbus slave ------------------------------------------------------------------------------
 
     def read_registers(self, address: int, count: int) -> list[int]:
-        return regmap.read_registers(self.register_map, self, address, count)
+        return regmap.read_registers(self.REGISTER_MAP, self, address, count)
 
     def write_registers(self, address: int, values: Sequence[int]) -> None:
-        regmap.write_registers(self.register_map, self, address, values)
+        regmap.write_registers(self.REGISTER_MAP, self, address, values)
 
     # --- motion ------------------------------------------------------------------------------------
 
@@ -261,7 +274,7 @@ class BioGripper:
         not move: then :meth:`step` changes nothing until a command, an object or an error comes."""
         return NOT_IDLE if self.enable == ENABLE_ENABLING or self.moving else math.inf
 
-    def step(self, dt: float) -> None:
+    def step(self, dt: float, ctl: ControllerView) -> None:
         if self.enable == ENABLE_ENABLING:
             self.enable_left -= dt
             if self.enable_left <= 1e-9:
@@ -309,11 +322,6 @@ class BioGripper:
     def _enable_read(self) -> int:
         return int(self.enable != ENABLE_OFF)
 
-    #: The registers this gripper answers (:data:`REGISTER_MAP`; the G1 has its own).
-    @property
-    def register_map(self) -> regmap.RegisterMap:
-        return REGISTER_MAP
-
 
 #: The BIO gripper's registers (module docstring): a write that covers any other address, or only part
 #: of the target or the move block, is exception 2; a value outside a range is exception 3.
@@ -333,3 +341,4 @@ REGISTER_MAP: dict[int, regmap.Reg] = {
     **regmap.constants(REG_SN, "serial", [ord(c) for c in SERIAL] + [0] * (SN_REGS - len(SERIAL))),
     REG_MOVE: regmap.Reg("move", "w", put=BioGripper._write_move, block=MOVE_REGS),
 }
+BioGripper.REGISTER_MAP = REGISTER_MAP

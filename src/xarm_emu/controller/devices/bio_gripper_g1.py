@@ -68,10 +68,6 @@ class BioGripperG1(BioGripper):
             raise rtu.RtuError(rtu.ILLEGAL_VALUE)
         return float(raw)
 
-    @property
-    def register_map(self) -> regmap.RegisterMap:
-        return REGISTER_MAP
-
     def _object_position(self, width_mm: float) -> float:
         return float(width_mm)  # objects are given in the G1's own units
 
@@ -89,3 +85,4 @@ REGISTER_MAP: dict[int, regmap.Reg] = {
     REG_SPEED: regmap.Reg("speed", "rw", range=(SPEED_MIN, SPEED_MAX)),
     **regmap.s32(REG_TARGET, "position", access="rw", put=BioGripper._write_target, whole=True),
 }
+BioGripperG1.REGISTER_MAP = REGISTER_MAP

@@ -44,15 +44,17 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from ...model import dynamics as dyn
 from ...model import kinematics as kin
+from ...protocol.regmap import RegisterMap
 from ..core.controller_protocol import Controller
+from ..core.device import NO_REGISTERS
 from ..core.ft_config import ft_config
-from ..core.interface import NOT_IDLE
+from ..core.interface import NOT_IDLE, ControllerView
 from ..scene import contact
 
 #: Sensor thickness, flange to tool face (mm): the offset the SDK adds to an identified centroid.
@@ -156,11 +158,10 @@ def attached(ctl: Controller) -> bool:
 
 
 def enabled(ctl: Controller) -> bool:
-    """The sensor is mounted and register 201 switched it on. A box of a firmware without register
-    201 (below 1.8.3, where the SDK reads the sensor through register 150 alone) has no switch:
-    a mounted sensor always reads there."""
+    """The sensor is mounted and register 201 switched it on (a box whose firmware lacks register 201
+    cannot have the sensor: protocol/firmware.py's ``PARTS``)."""
     st = state_of(ctl)
-    return st.attached and (st.enabled or 201 not in ctl.registers)
+    return st.attached and st.enabled
 
 
 def set_noise(ctl: Controller, on: bool) -> None:
@@ -191,17 +192,47 @@ def inject_error(ctl: Controller, code: int) -> None:
 
 
 class FtSensorComponent:
-    """The controller component that steps the sensor each control period."""
+    """The controller component that steps the sensor each control period, and the sensor as a device
+    (:class:`~..core.device.Device`): its registers are the controller's (handlers/ft_sensor.py's
+    bindings, 150 and 200-212), its state the controller's part :func:`state_of`."""
+
+    REGISTER_MAP: ClassVar[RegisterMap] = NO_REGISTERS
 
     def __init__(self, ctl: Controller) -> None:
         self.ctl = ctl
 
-    def step(self, dt: float, view: Any) -> None:
+    @property
+    def data(self) -> FtSensorState:
+        return state_of(self.ctl)
+
+    def step(self, dt: float, ctl: ControllerView) -> None:
         step(self.ctl, dt)
 
-    def idle_until(self, view: Any) -> float:
+    def idle_until(self, ctl: ControllerView) -> float:
         """Idle as :func:`idle_until` says (:func:`~..core.interface.idle_until`)."""
         return idle_until(self.ctl)
+
+    @property
+    def error(self) -> int:
+        return state_of(self.ctl).error
+
+    def inject_error(self, code: int) -> None:
+        inject_error(self.ctl, code)
+
+    def clear_error(self) -> None:
+        state_of(self.ctl).error = 0
+
+    def status_fields(self) -> dict[str, Any]:
+        return status(self.ctl)
+
+
+def status(ctl: Controller) -> dict[str, Any]:
+    """The sensor as the admin ``status`` shows it: switched on, its error, the compensated, raw and
+    external readings (N, N m)."""
+    return {"enabled": enabled(ctl), "error": state_of(ctl).error,
+            "reading": [round(float(x), 4) for x in reading(ctl)],
+            "raw": [round(float(x), 4) for x in raw_reading(ctl)],
+            "external": [round(float(x), 4) for x in external_wrench(ctl)]}
 
 
 #: The key of the saved configuration (register 40) that holds the sensor's load and zero.

@@ -53,11 +53,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol
 
 from ...protocol import codes, regmap, rtu
 from ...protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from ..core.controller_state import holds
+from ..core.device import NO_REGISTERS, Device
 from ..core.interface import (
     NOT_IDLE,
     Binding,
@@ -65,7 +66,6 @@ from ..core.interface import (
     Handler,
     ParameterError,
     bind_component,
-    idle_until,
 )
 from .io import BAUD_RATES
 
@@ -120,26 +120,25 @@ NEEDS_RESTART = frozenset({G_CURRENT_DETECTION})
 MOTION_STOPPED, MOTION_MOVING, MOTION_GRIPPED, MOTION_FAULT = 0, 1, 2, 3
 
 
-class ToolDevice(rtu.RegisterDevice, Protocol):
-    """A device on the tool RS-485 (register 124, host 9): a Modbus slave with its own slave id and
-    baud rate (register 127 baud table index) that moves in :meth:`step`; the xArm gripper, the
-    Robotiq 2F-85/2F-140 (controller/devices/robotiq.py) or the BIO gripper
-    (controller/devices/bio_gripper.py)."""
+class ToolDevice(Device, rtu.RegisterDevice, Protocol):
+    """A device (:class:`~..core.device.Device`) on the tool RS-485 (register 124, host 9): a Modbus
+    slave with its own slave id and baud rate (register 127 baud table index) whose ``REGISTER_MAP``
+    register 124 reaches; the xArm gripper, the Robotiq 2F-85/2F-140 (controller/devices/robotiq.py),
+    the BIO gripper G2 and G1 (controller/devices/bio_gripper.py, bio_gripper_g1.py) or the Inspire
+    RH56 hand (controller/devices/inspire_hand.py). Beyond the device interface it says what the box
+    reports of it and takes the objects a test plays between its fingers."""
 
     slave_id: int
     baud_index: int
-    #: Every mutable value of the device, one dataclass (:func:`~..core.controller_state.holds`; a
-    #: checkpoint holds it).
+    #: Its state, handed back whole by a restore (``Emulator._adopt``).
     data: Any
+    #: Where ``set-input gripper-object`` may put an object: 0 between the fingers, 1 around them
+    #: (gripped by opening); empty for a device that detects none.
+    object_places: tuple[int, ...]
 
+    #: Register 106 and the reports' end-tool code: the device's error where the box knows it, else 0.
     @property
-    def error(self) -> int: ...  # the device's own error or fault code, 0 = none
-
-    def step(self, dt: float) -> None: ...
-
-    def inject_error(self, code: int) -> None: ...
-
-    def clear_error(self) -> None: ...
+    def reported_error(self) -> int: ...
 
     def check_object(self, width_mm: float, inner: bool = False) -> None: ...
 
@@ -167,6 +166,8 @@ class XArmGripper:
     """The simulated gripper: a Modbus slave (:class:`rtu.RegisterDevice`) that moves in :meth:`step`."""
 
     slave_id = GRIPPER_ID
+    REGISTER_MAP: ClassVar[regmap.RegisterMap]  # below the class
+    object_places: tuple[int, ...] = ()  # no object detection the SDK reads
 
     def __init__(self, version: tuple[int, int, int] = (3, 4, 3),
                  baud_index: int = GRIPPER_BAUD_INDEX) -> None:
@@ -202,6 +203,14 @@ class XArmGripper:
     def position_pulses(self) -> int:
         return int(round(self.position))
 
+    @property
+    def reported_error(self) -> int:
+        """The box knows the xArm gripper's error: register 106 and the reports carry it."""
+        return self.error
+
+    def status_fields(self) -> dict[str, Any]:
+        return {"enabled": self.enabled, "position": self.position_pulses}
+
     def inject_error(self, code: int) -> None:
         """Raise a gripper error (section 3.3): the motor stops and is disabled."""
         if not 0 < code <= 0xFFFF:
@@ -221,7 +230,7 @@ class XArmGripper:
     def set_object(self, width_mm: float | None, inner: bool = False) -> None:
         """The xArm gripper has no object detection the SDK reads: refused."""
         raise ValueError("the xArm gripper reports no object detection; gripper-object needs "
-                         "--gripper robotiq-2f85, robotiq-2f140 or bio")
+                         "--gripper robotiq-2f85, robotiq-2f140, bio or bio-g1")
 
     # --- commands ----------------------------------------------------------------------------------
 
@@ -268,7 +277,11 @@ class XArmGripper:
 
     # --- motion ------------------------------------------------------------------------------------
 
-    def step(self, dt: float) -> None:
+    def idle_until(self, ctl: ControllerView) -> float:
+        """Idle (:func:`~..core.interface.idle_until`) while the fingers do not move."""
+        return NOT_IDLE if self.moving else math.inf
+
+    def step(self, dt: float, ctl: ControllerView) -> None:
         """Move toward the target at ``min(speed, SPEED_TOP) * SPEED_TO_PULSES`` pulse/s."""
         if not self.moving:
             return
@@ -315,6 +328,7 @@ REGISTER_MAP: dict[int, regmap.Reg] = {
     **regmap.items(REG_VERSION, "version", 3),
     REG_ZERO: regmap.Reg("set_zero", "w", put=_set_zero),
 }
+XArmGripper.REGISTER_MAP = REGISTER_MAP
 
 
 #: The gripper's turnaround, ms: from the end of a request to the start of its reply. The public
@@ -362,7 +376,9 @@ class ToolBusState:
 class GripperModule:
     """Controller component for the tool RS-485 bus with the gripper on it: register 124 (Modbus-RTU
     through the bridge), 123 (the bridge's timeout), 240/241 (transparent transfer and its timeout)
-    and the old non-Modbus gripper path, 125/129/130.
+    and the old non-Modbus gripper path, 125/129/130. As a device (:class:`~..core.device.Device`)
+    it is the bridge with the device on the bus: no registers of its own, the device's error and
+    status; clearing clears the xArm gripper's too (the old path's).
 
     ``tool_baud`` returns the tool bus baud index (the IO component's, register 127
     address 0x0A0B); when it differs from the gripper's the gripper does not
@@ -428,15 +444,28 @@ class GripperModule:
             return b""
         return reply + crc16_modbus(reply)
 
+    REGISTER_MAP: ClassVar[regmap.RegisterMap] = NO_REGISTERS
+
     def step(self, dt: float, ctl: ControllerView) -> None:
-        self.device.step(dt)
+        self.device.step(dt, ctl)
 
     def idle_until(self, ctl: ControllerView) -> float:
-        """Idle (:func:`~..core.interface.idle_until`) while the xArm gripper's fingers do not move; another
-        device on the tool bus is idle only as far as it says so itself (never, without a method)."""
-        if self.device is not self.gripper:
-            return idle_until(self.device, ctl)
-        return NOT_IDLE if self.gripper.moving else math.inf
+        """Idle (:func:`~..core.interface.idle_until`) as far as the device on the bus says."""
+        return self.device.idle_until(ctl)
+
+    @property
+    def error(self) -> int:
+        return self.device.error
+
+    def inject_error(self, code: int) -> None:
+        self.device.inject_error(code)
+
+    def clear_error(self) -> None:
+        self.gripper.clear_error()
+        self.device.clear_error()
+
+    def status_fields(self) -> dict[str, Any]:
+        return self.device.status_fields()
 
     # --- register table adapter --------------------------------------------------------------------
 

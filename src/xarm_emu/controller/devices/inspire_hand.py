@@ -35,6 +35,7 @@ import math
 import operator
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 from ...protocol import regmap
 from ..core.interface import NOT_IDLE, ControllerView
@@ -73,6 +74,8 @@ class InspireHand:
     """The RH56 hand as a tool-bus Modbus slave (:class:`~.gripper.ToolDevice`)."""
 
     slave_id = HAND_SLAVE
+    REGISTER_MAP: ClassVar[regmap.RegisterMap]  # below the class
+    object_places: tuple[int, ...] = ()  # the emulated hand takes no object
 
     def __init__(self, baud_index: int = HAND_BAUD_INDEX) -> None:
         self.baud_index = baud_index
@@ -82,6 +85,14 @@ class InspireHand:
     @property
     def error(self) -> int:
         return max(self.data.errors)
+
+    @property
+    def reported_error(self) -> int:
+        """The SDK reads the error bytes over register 124 only: the box reports none (register 106)."""
+        return 0
+
+    def status_fields(self) -> dict[str, Any]:
+        return {"angles": [int(round(a)) for a in self.data.angle]}
 
     def inject_error(self, code: int) -> None:
         """Every finger reports error byte ``code`` and stops."""
@@ -120,7 +131,7 @@ class InspireHand:
         moving = any(not st.errors[i] and st.angle[i] != st.angle_set[i] for i in range(DOF))
         return NOT_IDLE if moving else math.inf
 
-    def step(self, dt: float) -> None:
+    def step(self, dt: float, ctl: ControllerView) -> None:
         st = self.data
         for i in range(DOF):
             if st.errors[i]:
@@ -177,3 +188,4 @@ REGISTER_MAP: dict[int, regmap.Reg] = {
     **_fingers(ERROR, "error", _error_pair, DOF // 2, 2),
     **_fingers(STATUS, "status", _status_pair, DOF // 2, 2),
 }
+InspireHand.REGISTER_MAP = REGISTER_MAP

@@ -38,8 +38,9 @@ import math
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
+from ...protocol import regmap, rtu
 from ...protocol.reports import ANALOG_COUNTS, ANALOG_FULL_SCALE, counts_to_volts
 from ...protocol.rtu import CONTROL_BOX_HOST, TOOL_HOST
 from ..core.controller_protocol import Controller, queue_behind_moves
@@ -174,13 +175,11 @@ class ToolIO:
             self.baud_index[host] = v
         elif host != TOOL_HOST:
             raise ParameterError(f"address {addr:#06x} on host {host}")
-        elif addr == ADDR_TOOL_DO:
-            self.apply_mask(v)
-        elif addr == ADDR_SOFT_REBOOT:
-            if v == 1:
-                self.digital_outputs = 0
         else:
-            raise ParameterError(f"tool address {addr:#06x} is not writable")
+            try:
+                regmap.write_registers(TOOL_REGISTERS, self, addr, [v])
+            except rtu.RtuError:
+                raise ParameterError(f"tool address {addr:#06x} is not writable") from None
 
     def read(self, host: int, addr: int) -> int:
         """Register 128."""
@@ -190,17 +189,32 @@ class ToolIO:
             return self.baud_index[host]
         if host != TOOL_HOST:
             raise ParameterError(f"address {addr:#06x} on host {host}")
-        if addr == ADDR_TOOL_DI:
-            return self.digital_inputs
-        if addr == ADDR_TOOL_TI2 and self.has_ti2:
-            return self.ti2
-        if addr in (ADDR_TOOL_DO, ADDR_TOOL_DO_READ):
-            return self.digital_outputs
-        if addr in ADDR_TOOL_AI:
-            return self.analog_inputs[ADDR_TOOL_AI.index(addr)]
-        if ADDR_VERSION <= addr < ADDR_VERSION + 3:
-            return self.version[addr - ADDR_VERSION]
-        raise ParameterError(f"tool address {addr:#06x} is not readable")
+        try:
+            return regmap.read_registers(TOOL_REGISTERS, self, addr, 1)[0]
+        except rtu.RtuError:
+            raise ParameterError(f"tool address {addr:#06x} is not readable") from None
+
+    def _ti2_value(self) -> int:
+        if not self.has_ti2:
+            raise rtu.RtuError(rtu.ILLEGAL_ADDRESS)
+        return self.ti2
+
+    def _soft_reboot(self, value: int) -> None:
+        if value == 1:
+            self.digital_outputs = 0
+
+
+#: The tool IO board's registers on host 9 (registers 127/128, the module docstring's table); the
+#: RS-485 baud index (0x0A0B read, 0x1A0B write) is answered on host 11 too, by :class:`ToolIO` itself.
+TOOL_REGISTERS: dict[int, regmap.Reg] = {
+    ADDR_TOOL_TI2: regmap.Reg("ti2", get=ToolIO._ti2_value),
+    ADDR_TOOL_DI: regmap.Reg("digital_inputs"),
+    ADDR_TOOL_DO: regmap.Reg("digital_outputs", "rw", put=ToolIO.apply_mask),
+    **regmap.items(ADDR_TOOL_AI[0], "analog_inputs", len(ADDR_TOOL_AI)),
+    ADDR_TOOL_DO_READ: regmap.Reg("digital_outputs"),
+    ADDR_SOFT_REBOOT: regmap.Reg("soft_reboot", "w", put=ToolIO._soft_reboot),
+    **regmap.items(ADDR_VERSION, "version", 3),
+}
 
 
 class ControlBoxGpio:
@@ -339,7 +353,10 @@ class IOState:
 
 @holds(IOState)
 class IOModule:
-    """Controller component: tool IO, control box GPIO and special IO (registers 127-147)."""
+    """Controller component: tool IO, control box GPIO and special IO (registers 127-147); a device
+    (:class:`~..core.device.Device`) whose registers are the tool IO board's, without an error code."""
+
+    REGISTER_MAP: ClassVar[regmap.RegisterMap] = TOOL_REGISTERS
 
     def __init__(self, n_digital: int = 16, tool_version: tuple[int, int, int] = (1, 0, 0),
                  tool_ti2: bool = False) -> None:
@@ -609,6 +626,22 @@ class IOModule:
             elif self._last_tcp != tuple(float(v) for v in ctl.tcp_position):
                 return NOT_IDLE
         return due
+
+    # --- the device interface (core/device.py): the IO has no error code of its own ----------------
+
+    @property
+    def error(self) -> int:
+        return 0
+
+    def inject_error(self, code: int) -> None:
+        raise ValueError("the IO has no error code of its own")
+
+    def clear_error(self) -> None:
+        pass
+
+    def status_fields(self) -> dict[str, Any]:
+        return {"tool_outputs": self.tool.digital_outputs, "tool_inputs": self.tool.digital_inputs,
+                "cgpio_outputs": self.cgpio.digital_outputs, "cgpio_inputs": self.cgpio.digital_inputs}
 
     # --- register table adapter -------------------------------------------------------------------
 

@@ -60,6 +60,7 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 from ...protocol import regmap, rtu
 from ..core.controller_state import holds
@@ -67,8 +68,6 @@ from ..core.interface import C_ESTOP, NOT_IDLE, ControllerView
 
 TRACK_ID = 1  # the SDK's linear motor slave id on the control box RS-485
 TRACK_BAUD_INDEX = 11  # 2,000,000 bps, the SDK's default baud for the track
-#: The SDK documents its linear motor calls for firmware 1.8.0 and later; an older box has no track.
-TRACK_FIRMWARE = "1.8.0"
 
 #: Stroke (mm) of each model, by serial number prefix.
 MODELS = {700: "AL1300", 1000: "AL1301", 1500: "AL1302"}
@@ -221,6 +220,8 @@ class LinearTrack:
     whose carriage moves in :meth:`step`. Its changing values are one :class:`LinearTrackState`
     (``self.data``); the length, version and serial number are fixed."""
 
+    REGISTER_MAP: ClassVar[regmap.RegisterMap]  # below the class
+
     def __init__(self, length: int = DEFAULT_LENGTH, *, position: float = 0.0,
                  version: tuple[int, int, int] = (1, 0, 0), sn: str | None = None) -> None:
         self.data = LinearTrackState()
@@ -298,6 +299,10 @@ class LinearTrack:
     def clear_error(self) -> None:
         if self.error not in NEEDS_RESTART:
             self.error = 0
+
+    def status_fields(self) -> dict[str, Any]:
+        return {"position_mm": round(self.position, 3), "enabled": self.enabled, "on_zero": self.on_zero,
+                "moving": self.moving}
 
     # --- commands ----------------------------------------------------------------------------------
 
@@ -469,3 +474,4 @@ REGISTER_MAP: dict[int, regmap.Reg] = {
        for i in range(SN_LENGTH)},
     **regmap.entries("parameters", PARAMETERS, access="rw"),
 }
+LinearTrack.REGISTER_MAP = REGISTER_MAP

@@ -18,9 +18,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 from ...model.robots import PneumaticGripper
+from ...protocol.regmap import RegisterMap
 from ..core.controller_state import holds
+from ..core.device import NO_REGISTERS
 from ..core.interface import NOT_IDLE, ControllerView
 from .io import ToolIO
 
@@ -42,7 +45,11 @@ class Lite6GripperState:
 
 @holds(Lite6GripperState)
 class Lite6Gripper:
-    """Controller component: the Lite 6 gripper's jaws, following the TO0/TO1 command."""
+    """Controller component: the Lite 6 gripper's jaws, following the TO0/TO1 command; a device
+    (:class:`~..core.device.Device`) without registers or an error code of its own."""
+
+    REGISTER_MAP: ClassVar[RegisterMap] = NO_REGISTERS
+    error = 0  # no error code of its own
 
     def __init__(self, tool: ToolIO, spec: PneumaticGripper | None = None) -> None:
         self.data = Lite6GripperState()
@@ -63,6 +70,15 @@ class Lite6Gripper:
         if self.opening <= 0.0:
             return JAW_CLOSED if self.command != "open" else JAW_OPENING
         return {"open": JAW_OPENING, "close": JAW_CLOSING}.get(self.command or "", JAW_STOPPED)
+
+    def inject_error(self, code: int) -> None:
+        raise ValueError("the Lite 6 gripper has no error code of its own")
+
+    def clear_error(self) -> None:
+        pass
+
+    def status_fields(self) -> dict[str, Any]:
+        return {"jaw": self.jaw, "opening": round(self.opening, 3)}
 
     def step(self, dt: float, ctl: ControllerView) -> None:
         cmd = self.command

@@ -46,6 +46,7 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 from ...protocol import codes, regmap
 from ..core.controller_state import holds
@@ -120,6 +121,8 @@ class RobotiqGripper:
     :meth:`step` (a :class:`~xarm_emu.controller.devices.gripper.ToolDevice`)."""
 
     slave_id = ROBOTIQ_ID
+    REGISTER_MAP: ClassVar[regmap.RegisterMap]  # below the class
+    object_places: tuple[int, ...] = (0, 1)  # between the fingers, or around them (internal grip)
 
     def __init__(self, model: RobotiqModel = ROBOTIQ_2F85, baud_index: int = ROBOTIQ_BAUD_INDEX) -> None:
         self.data = RobotiqState()
@@ -186,6 +189,16 @@ class RobotiqGripper:
     @property
     def error(self) -> int:
         return self.fault
+
+    @property
+    def reported_error(self) -> int:
+        """The SDK reads the faults over register 124 only: the box reports none (register 106)."""
+        return 0
+
+    def status_fields(self) -> dict[str, Any]:
+        return {"activated": self.gSTA == STA_ACTIVATED, "position": int(round(self.position)),
+                "opening_mm": round(self.opening_mm, 1), "object": self.gOBJ in (1, 2),
+                "force_n": round(self.grip_force, 1)}
 
     @property
     def status_bytes(self) -> list[int]:
@@ -288,7 +301,7 @@ class RobotiqGripper:
         then :meth:`step` changes nothing until a request, an object or a fault comes from outside."""
         return NOT_IDLE if self.gSTA == STA_ACTIVATING or self.moving else math.inf
 
-    def step(self, dt: float) -> None:
+    def step(self, dt: float, ctl: ControllerView) -> None:
         if self.gSTA == STA_ACTIVATING:
             self.activation_left -= dt
             if self.activation_left <= 1e-9:
@@ -348,3 +361,4 @@ REGISTER_MAP: dict[int, regmap.Reg] = {
                                  get=functools.partial(_bytes, block="input", index=i))
        for i in range(N_REGS)},
 }
+RobotiqGripper.REGISTER_MAP = REGISTER_MAP

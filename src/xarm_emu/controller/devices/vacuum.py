@@ -25,9 +25,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 from ...model.robots import VACUUM_WIRING, VacuumWiring
+from ...protocol.regmap import RegisterMap
 from ..core.controller_state import holds
+from ..core.device import NO_REGISTERS
 from ..core.interface import NOT_IDLE, ControllerView
 from .io import ToolIO
 
@@ -53,7 +56,11 @@ class VacuumState:
 
 @holds(VacuumState)
 class VacuumGripper:
-    """Controller component: the vacuum gripper's pressure switch, driven through either wiring."""
+    """Controller component: the vacuum gripper's pressure switch, driven through either wiring; a
+    device (:class:`~..core.device.Device`) without registers or an error code of its own."""
+
+    REGISTER_MAP: ClassVar[RegisterMap] = NO_REGISTERS
+    error = 0  # no error code of its own
 
     def __init__(self, tool: ToolIO) -> None:
         self.data = VacuumState()
@@ -92,6 +99,16 @@ class VacuumGripper:
         if self._since[version] >= delay - 1e-9:
             self.tool.set_input(_input_number(w.object_input), 1 if want else 0)
             self._since[version] = 0.0
+
+    def inject_error(self, code: int) -> None:
+        raise ValueError("the vacuum gripper has no error code of its own")
+
+    def clear_error(self) -> None:
+        pass
+
+    def status_fields(self) -> dict[str, Any]:
+        return {"pumping": self.pumping, "pressure_normal": self.pressure_normal,
+                "object": self.object_present}
 
     def step(self, dt: float, ctl: ControllerView) -> None:
         for version, w in VACUUM_WIRING.items():
