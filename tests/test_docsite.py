@@ -20,7 +20,7 @@ from xarm_emu.docsite import tables
 from xarm_emu.docsite.cli import command, command_names
 from xarm_emu.protocol import codes, modbus
 from xarm_emu.protocol import registers as table
-from xarm_emu.protocol.firmware import SUPPORTED_VERSIONS, profile_for
+from xarm_emu.protocol.firmware import SUPPORTED_VERSIONS, first, profile_for
 
 ROOT = Path(__file__).resolve().parent.parent
 runner = CliRunner()
@@ -48,8 +48,8 @@ def test_each_profile_page_lists_every_register_that_registers_json_lists(versio
     for r in listed:  # the layouts and since-version of each, in its own section
         text = _section(page, f"## {r['code']} {r['name']} {{#r{r['code']}}}")
         assert f"answered from firmware {r['since']}" in text
-        later = [since for since, c, _ in table.LATER_FORMS if c == r["code"]
-                 and profile_for(version).version.at_least(since)]
+        later = [first(has_form) for has_form, c, _ in table.LATER_FORMS if c == r["code"]
+                 and getattr(profile_for(version), has_form)]
         assert ("as changed at firmware " + ", ".join(dict.fromkeys(later)) in text) == bool(later)
         for form in r["request"] + r["reply"]:
             for f in form["fields"]:

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..cli.reference import register_record
-from ..protocol.firmware import SUPPORTED_VERSIONS, FirmwareProfile, profile_for
+from ..protocol.firmware import SUPPORTED_VERSIONS, FirmwareProfile, first, profile_for
 from ..protocol.registers import LATER_FORMS, Register, all_registers, registers_for
 from .markdown import cell, code, table
 
@@ -93,7 +93,7 @@ def _switches(profile: FirmwareProfile) -> str:
 
 def _changed(profile: FirmwareProfile, code_: int) -> list[str]:
     """The versions up to ``profile`` whose later form of register ``code_`` (LATER_FORMS) applies."""
-    return [since for since, c, _ in LATER_FORMS if c == code_ and profile.version.at_least(since)]
+    return [first(has_form) for has_form, c, _ in LATER_FORMS if c == code_ and getattr(profile, has_form)]
 
 
 def _register(reg: Register, changed: list[str]) -> str:
