@@ -19,6 +19,7 @@ import dataclasses
 import inspect
 import itertools
 import threading
+import time
 from collections.abc import AsyncIterator, Callable, Iterator
 from contextlib import AbstractAsyncContextManager
 from pathlib import Path
@@ -86,6 +87,10 @@ class _Trace:
 
 
 _TRACE = pytest.StashKey[_Trace]()
+#: The threads of the disconnected SDKs, waited for at the end of their module.
+_SDK_THREADS = pytest.StashKey[list[threading.Thread]]()
+#: How long the end of a module waits for them in all (seconds).
+SDK_THREADS_WAIT = 5.0
 
 
 def _model_arg(text: str) -> str:
@@ -234,10 +239,13 @@ def _describe(settings: dict[str, Any]) -> str:
 
 
 @pytest.fixture
-def xarm_sdk(xarm_emulator: ServerThread) -> Iterator[Any]:
+def xarm_sdk(request: pytest.FixtureRequest, xarm_emulator: ServerThread) -> Iterator[Any]:
     """The official SDK (``xarm.wrapper.XArmAPI``) connected to the emulator, as a user's program
     would connect to 127.0.0.1 (the arm as the box starts: the program enables it); disconnected at
-    the end of the test. Needs ``xarm-python-sdk``."""
+    the end of the test. Needs ``xarm-python-sdk``.
+
+    A disconnected SDK's report thread ends about a second later (and logs it): the plugin waits for
+    those threads after the last test of each module, not after each test."""
     wrapper = pytest.importorskip("xarm.wrapper", reason="xarm_sdk needs the official SDK: "
                                                          "pip install xarm-python-sdk")
     with sdk_pointed_at(xarm_emulator):
@@ -249,8 +257,7 @@ def xarm_sdk(xarm_emulator: ServerThread) -> Iterator[Any]:
             yield arm
         finally:
             arm.disconnect()
-            for thread in set(threading.enumerate()) - before:  # its report thread logs its end
-                thread.join(timeout=5.0)
+            request.config.stash.setdefault(_SDK_THREADS, []).extend(set(threading.enumerate()) - before)
 
 
 @pytest.fixture
@@ -268,6 +275,18 @@ def xarm_async_client(xarm_emulator: ServerThread) -> Callable[[], AbstractAsync
             await client.close()
 
     return connect
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> None:
+    """After a module's last test, wait for the threads of its disconnected SDKs (while pytest still
+    captures what they log)."""
+    if nextitem is not None and nextitem.path == item.path:
+        return
+    threads = item.config.stash.get(_SDK_THREADS, [])
+    deadline = time.monotonic() + SDK_THREADS_WAIT
+    while threads:
+        threads.pop().join(timeout=max(0.0, deadline - time.monotonic()))
 
 
 @pytest.hookimpl(hookwrapper=True)
