@@ -23,15 +23,16 @@ import time
 from collections.abc import AsyncIterator, Callable, Iterator
 from contextlib import AbstractAsyncContextManager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from .client import AsyncClient
-from .model.robots import get_model
-from .protocol.firmware import DEFAULT_VERSION, profile_for
-from .server.app import ServerConfig, ServerThread
-from .testing import running_emulator, sdk_pointed_at
+if TYPE_CHECKING:
+    from .client import AsyncClient
+    from .server.app import ServerThread
+
+# The emulator is imported where a fixture or an option needs it: a pytest run that uses none of them
+# (any project in an environment where xarm-emu is installed) loads this module only.
 
 #: The axes the command line and a marker's lists turn into a matrix.
 AXES = ("model", "firmware")
@@ -94,6 +95,8 @@ SDK_THREADS_WAIT = 5.0
 
 
 def _model_arg(text: str) -> str:
+    from .model.robots import get_model
+
     try:
         get_model(text)
     except ValueError as exc:
@@ -102,6 +105,8 @@ def _model_arg(text: str) -> str:
 
 
 def _firmware_arg(text: str) -> str:
+    from .protocol.firmware import profile_for
+
     try:
         return str(profile_for(text).version)
     except ValueError as exc:
@@ -180,6 +185,9 @@ def xarm_profile(request: pytest.FixtureRequest) -> Profile:
 
 
 def _known_keys() -> set[str]:
+    from .server.app import ServerConfig
+    from .testing import running_emulator
+
     own = {name for name, p in inspect.signature(running_emulator).parameters.items()
            if p.kind is not p.VAR_KEYWORD}
     return (own | {f.name for f in dataclasses.fields(ServerConfig)}) - set(FIXED_KEYS)
@@ -189,6 +197,8 @@ def _known_keys() -> set[str]:
 def xarm_settings(request: pytest.FixtureRequest, xarm_profile: Profile) -> dict[str, Any]:
     """The keywords this test's emulator starts with (``running_emulator``'s): the marker's over
     the command line's over the defaults (model 6, firmware 1.6.0, speed 1)."""
+    from .protocol.firmware import DEFAULT_VERSION
+
     options = _marker_options(request.node)
     unknown = sorted(set(options) - _known_keys())
     if unknown:
@@ -219,6 +229,8 @@ def xarm_emulator(request: pytest.FixtureRequest, xarm_settings: dict[str, Any],
                   tmp_path_factory: pytest.TempPathFactory) -> Iterator[ServerThread]:
     """The emulated control box of this test on free loopback ports, its wire trace kept (attached to
     the report when the test fails); stopped at the end of the test."""
+    from .testing import running_emulator
+
     settings = dict(xarm_settings)
     trace = Path(settings.pop("trace", None) or tmp_path_factory.mktemp("xarm-trace") / "trace.jsonl")
     with contextlib.ExitStack() as stack:
@@ -248,6 +260,8 @@ def xarm_sdk(request: pytest.FixtureRequest, xarm_emulator: ServerThread) -> Ite
     those threads after the last test of each module, not after each test."""
     wrapper = pytest.importorskip("xarm.wrapper", reason="xarm_sdk needs the official SDK: "
                                                          "pip install xarm-python-sdk")
+    from .testing import sdk_pointed_at
+
     with sdk_pointed_at(xarm_emulator):
         before = set(threading.enumerate())
         arm = wrapper.XArmAPI("127.0.0.1", forbid_uds=True)
@@ -264,6 +278,8 @@ def xarm_sdk(request: pytest.FixtureRequest, xarm_emulator: ServerThread) -> Ite
 def xarm_async_client(xarm_emulator: ServerThread) -> Callable[[], AbstractAsyncContextManager[AsyncClient]]:
     """``async with xarm_async_client() as client``: the project's async client on the emulator's
     command port, in the running event loop (pytest-asyncio, anyio or ``asyncio.run`` in the test)."""
+    from .client import AsyncClient
+
     port = xarm_emulator.ports["command"]
 
     @contextlib.asynccontextmanager
