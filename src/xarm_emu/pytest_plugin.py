@@ -219,8 +219,8 @@ def xarm_settings(request: pytest.FixtureRequest, xarm_profile: Profile) -> dict
     base = Path(str(request.node.path)).parent
     for key in PATH_KEYS:
         value = settings.get(key)
-        if isinstance(value, (str, Path)) and not Path(value).is_absolute():
-            settings[key] = base / value
+        if isinstance(value, (str, Path)):
+            settings[key] = base / value  # an absolute path stays as it is
     return settings
 
 
