@@ -62,9 +62,12 @@ class _Trace:
 
     server: ServerThread
     path: Path
+    running: bool = True  # False once the fixture has stopped the server (the file is complete)
 
     def settle(self) -> None:
         """Have the server write every line it has collected (while it still runs)."""
+        if not self.running:
+            return
         srv = self.server.server
 
         def flush() -> Any:
@@ -73,7 +76,7 @@ class _Trace:
             srv.trace.flush()
             return srv.disk.submit(lambda: None)  # done when the lines before it are written
 
-        with contextlib.suppress(Exception):  # stopped already: the file is complete
+        with contextlib.suppress(Exception):  # a server that failed: what it wrote is what there is
             done = self.server.call(flush)
             if done is not None:
                 done.result(5.0)  # type: ignore[attr-defined]
@@ -208,10 +211,6 @@ def xarm_settings(request: pytest.FixtureRequest, xarm_profile: Profile) -> dict
     speed = config.getoption("xarm_speed", default=None)
     settings: dict[str, Any] = {"model": "6", "firmware": DEFAULT_VERSION,
                                 "speed": 1.0 if speed is None else speed}
-    for key in AXES:
-        cli = config.getoption(f"xarm_{key}", default=[])
-        if len(cli) == 1:
-            settings[key] = cli[0]
     settings.update(options)
     for key in AXES:
         if getattr(xarm_profile, key) is not None:
@@ -242,8 +241,9 @@ def xarm_emulator(request: pytest.FixtureRequest, xarm_settings: dict[str, Any],
         if problem is not None:
             pytest.fail(f"xarm-emu could not start the emulator ({_describe(settings)}): {problem}",
                         pytrace=False)
-        request.node.stash[_TRACE] = _Trace(st, trace)
+        handle = request.node.stash[_TRACE] = _Trace(st, trace)
         yield st
+    handle.running = False
 
 
 def _describe(settings: dict[str, Any]) -> str:
