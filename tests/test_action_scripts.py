@@ -91,15 +91,19 @@ def test_bad_inputs_are_one_line_and_exit_2(tmp_path: Path) -> None:
 
 
 def test_an_emulator_that_refuses_to_start_is_one_line(tmp_path: Path) -> None:
-    """serve's own refusal (firmware 1.6.0 has no linear track) comes back as its exit status and
-    its last log line, without waiting for readiness."""
-    base = free_block(5)
-    env = {"XARM_EMU_BIN": XARM_EMU, "XARM_EMU_DIR": str(tmp_path / "emu"), "XARM_EMU_FIRMWARE": "1.6.0",
-           "XARM_EMU_DEVICES": "linear-track", "XARM_EMU_PORT": str(base + 4),
-           "XARM_EMU_ARGS": f"--normal-port {base + 1} --rich-port {base + 2} --develop-port {base + 3}"}
+    """serve's own refusal comes back as its exit status and its last log line, at once (serve
+    played by a script that refuses as serve refuses a linear track on firmware 1.6.0, exit 2)."""
+    fake = tmp_path / "xarm-emu"
+    fake.write_text("#!/usr/bin/env bash\n"
+                    "[ \"$1\" = serve ] || exit 1\n"
+                    "echo 'Error: --linear-track: needs firmware 1.8.0 or later, not 1.6.0' >&2\n"
+                    "exit 2\n")
+    fake.chmod(0o755)
+    env = {"XARM_EMU_BIN": str(fake), "XARM_EMU_DIR": str(tmp_path / "emu"), "XARM_EMU_FIRMWARE": "1.6.0",
+           "XARM_EMU_DEVICES": "linear-track", "XARM_EMU_PORT": "5020", "XARM_EMU_WAIT": "30"}
     proc = script("action-start", env)
-    assert proc.returncode == 2, proc.stdout + proc.stderr
-    line, = proc.stderr.splitlines()
-    assert line.startswith("action-start: xarm-emu serve exited 2 before it answered: ")
-    assert "--linear-track: needs firmware 1.8.0 or later, not 1.6.0 (log: " in line
+    assert (proc.returncode, proc.stdout) == (2, ""), proc.stderr
+    log = tmp_path / "emu" / "serve.log"
+    assert proc.stderr == ("action-start: xarm-emu serve exited 2 before it answered: Error: --linear-track: "
+                           f"needs firmware 1.8.0 or later, not 1.6.0 (log: {log})\n")
     assert not (tmp_path / "emu" / "pid").exists()
