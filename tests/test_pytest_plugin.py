@@ -154,3 +154,19 @@ def test_bad_command_line_values_are_usage_errors(pytester: pytest.Pytester) -> 
     result = pytester.runpytest_inprocess(*PLUGIN, "--xarm-model", "9")
     assert result.ret == pytest.ExitCode.USAGE_ERROR
     result.stderr.fnmatch_lines(["*--xarm-model: unknown robot model '9'; known: 5, 6, 7, lite6, 850, 7t*"])
+
+
+def test_a_settings_fixture_of_ones_own_replaces_the_plugins(pytester: pytest.Pytester) -> None:
+    pytester.makeconftest("""
+import pytest
+
+@pytest.fixture(params=[{"model": "7", "firmware": "2.4.101"}, {"model": "5", "firmware": "1.6.0"}],
+                ids=["xarm7", "xarm5"])
+def xarm_settings(request):
+    return request.param
+""")
+    pytester.makepyfile(test_versions=VERSION_TESTS)
+    got = outcomes(pytester, "-k", "claims")
+    claims = "test_the_box_claims_the_profile"
+    assert got == {f"{claims}[xarm7]": ("passed", "VERSION - 7,7,XS1300,AC1300,v2.4.101\n"),
+                   f"{claims}[xarm5]": ("passed", "VERSION - 5,5,XF1300,AC1300,v1.6.0\n")}
