@@ -24,7 +24,7 @@ def plugin_check(*args: str) -> subprocess.CompletedProcess[str]:
 def test_the_scratch_project_runs_once_per_profile_and_passes() -> None:
     proc = plugin_check(VENV)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert proc.stdout == (f"plugin-check: ok: 3 tests x 2 firmware profiles (1.6.0, 2.7.103) passed "
+    assert proc.stdout == (f"plugin-check: ok: 3 tests x 2 firmware profiles (1.6.0, 2.7.103), 6 passed, "
                            f"with the plugin {VENV} registers\n")
 
 
