@@ -1,0 +1,109 @@
+"""The jump over idle control periods: what ``Emulator.step`` runs instead of periods in which
+nothing but the clock would change.
+
+With the controller at rest (``Controller.at_rest``) and every component idle
+(:func:`~.interface.idle_until`), a control period changes the time and the period count, a running
+dwell's path time (register 26) and, every :data:`~.thermal.THERMAL_EVERY` periods, the joint
+temperatures, nothing else. :func:`jump` takes such periods by arithmetic: the controller time (and
+a dwell's path time) summed period by period, as a step sums it (``itertools.accumulate``: the
+same additions in the same order), and the thermal steps due among them with the currents of the
+arm at rest, so every value comes out bit for bit as if the periods had run
+(``tests/test_clock_exact.py``). :func:`tick` is the same sum for a call whose periods all come
+before the box's next event (``Emulator.next_event``).
+
+One walk goes over the periods skipped, :data:`CHUNK` of them at a time: the sums of a chunk, then
+the first of them that meets the horizon (a component's time, a scheduled action, the dwell's end)
+found by bisection, since the sums only grow.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_left
+from collections.abc import Callable, Sequence
+from functools import reduce
+from itertools import accumulate, repeat
+from operator import add
+
+import numpy as np
+
+from .controller_protocol import Controller
+from .controller_state import ControllerState
+from .interface import idle_until
+from .thermal import THERMAL_EVERY, ThermalModel
+
+#: Periods summed at once by :func:`jump` (the sums of a longer jump are made a chunk at a time, so a
+#: jump that ends early costs at most one chunk more than the periods it took).
+CHUNK = 1024
+
+#: Chunks of at least this many periods are summed by numpy, shorter ones in Python (:func:`_sums`).
+NUMPY_FROM = 64
+
+#: How much before a scheduled action's time a period counts as reaching it (``Emulator.at``).
+SCHEDULE_SLACK = 1e-9
+
+
+def tick(data: ControllerState, dt: float, n: int) -> None:
+    """Run ``n`` control periods of length ``dt`` in which nothing changes but the clock: the time
+    summed period by period, as a step sums it."""
+    data.time = reduce(add, repeat(dt, n), data.time)
+    data.steps += n
+
+
+def _sums(start: float, step: float, m: int) -> Sequence[float]:
+    """``start`` and the ``m`` values after it, ``step`` added one at a time as period after period
+    adds it: by numpy's accumulation (which adds in order) from :data:`NUMPY_FROM` values, below
+    that in Python, whose call costs less than numpy's for so few."""
+    if m < NUMPY_FROM:
+        return list(accumulate(repeat(step, m), initial=start))
+    a = np.full(m + 1, step)
+    a[0] = start
+    return np.add.accumulate(a, out=a)  # type: ignore[return-value]  # an array of floats
+
+
+def _periods(left: float, step: float) -> float:
+    """About how many steps of ``step`` fit in ``left`` (``inf``: no end)."""
+    return left / step if step > 0.0 else math.inf
+
+
+def jump(ctl: Controller, thermal: ThermalModel, due: float, most: int,
+         rest_currents: Callable[[], np.ndarray]) -> int:
+    """Jump over at most ``most`` control periods of the controller ``ctl`` at rest, each one before
+    every component's :func:`~.interface.idle_until`, before the scheduled action at time ``due``
+    (``math.inf``: none) and, for a running dwell, before the dwell's last period; returns the number
+    of periods jumped. ``rest_currents()`` gives the joint currents (absolute) of the arm at rest,
+    asked for only when a thermal step falls due."""
+    d = ctl.data
+    dt = ctl.period
+    t = d.time
+    horizon = min((idle_until(c, ctl) for c in ctl.components), default=math.inf)
+    if not t + dt < horizon:
+        return 0
+    plan = d.motion
+    path_t, path_dt, end = plan.t, 0.0, math.inf  # a running dwell's path time, its step and end
+    if plan.plan is not None and (rate := ctl.executor.dwell_rate(d.q)) is not None:
+        path_dt, end = dt * rate, plan.plan.duration
+    k = 0
+    while k < most:
+        # a chunk that reaches about as far as the nearest end, so that a short jump sums no more
+        ahead = min(_periods(min(horizon, due) - t, dt), _periods(end - path_t, path_dt))
+        m = min(most - k, CHUNK, int(max(0.0, min(ahead, CHUNK))) + 2)
+        times = _sums(t, dt, m)  # times[i]: the time after i periods of the chunk
+        taken = bisect_left(times, horizon, 1) - 1
+        if due < math.inf:
+            taken = min(taken, bisect_left(times, due, 1, key=lambda x: x + SCHEDULE_SLACK) - 1)
+        if end < math.inf:
+            paths = _sums(path_t, path_dt, m)
+            taken = min(taken, bisect_left(paths, end, 1) - 1)
+            path_t = float(paths[taken])
+        t = float(times[taken])
+        k += taken
+        if taken < m:
+            break
+    steps = d.steps
+    for _ in range((steps + k) // THERMAL_EVERY - steps // THERMAL_EVERY):
+        thermal.step(THERMAL_EVERY * dt, rest_currents())
+    d.time, d.steps = t, steps + k
+    if end < math.inf:
+        plan.t = path_t
+    return k
