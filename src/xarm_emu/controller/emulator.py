@@ -344,7 +344,7 @@ class Emulator:
             self._settled = self.generation
             return
         settled = self.generation == self._settled  # nothing changed the box since the last call
-        at_rest, scheduled = ctl.at_rest, self._scheduled
+        step, at_rest, scheduled, slack = ctl.step, ctl.at_rest, self._scheduled, jump.SCHEDULE_SLACK
         i = 0
         while i < n:
             if fast and i < n - 1 and at_rest(settled):
@@ -354,22 +354,17 @@ class Emulator:
                     self.periods_jumped += k
                     i += k
                     continue
-            settled = self._step_in_full()
+            # one period in full, with the thermal step and the scheduled actions due in it
+            step()
+            settled = True  # nothing but the period changed the box
+            d = ctl.data
+            if d.steps % THERMAL_EVERY == 0:
+                self.thermal.step(THERMAL_EVERY * ctl.period, np.abs(ctl.joint_currents()))
+            if scheduled and scheduled[0][0] <= d.time + slack:
+                self._run_scheduled()
+                settled = False
             i += 1
         self._settled = self.generation
-
-    def _step_in_full(self) -> bool:
-        """Run one control period in full, with the thermal step and the scheduled actions due in it;
-        whether nothing but the period changed the box (no scheduled action ran)."""
-        ctl = self.controller
-        ctl.step()
-        d = ctl.data
-        if d.steps % THERMAL_EVERY == 0:
-            self.thermal.step(THERMAL_EVERY * ctl.period, np.abs(ctl.joint_currents()))
-        if self._scheduled and self._scheduled[0][0] <= d.time + jump.SCHEDULE_SLACK:
-            self._run_scheduled()
-            return False
-        return True
 
     # -- when the box next changes on its own --------------------------------------------------
     def next_event(self) -> float:

@@ -100,10 +100,17 @@ def jump(ctl: Controller, thermal: ThermalModel, due: float, most: int,
         k += taken
         if taken < m:
             break
-    steps = d.steps
-    for _ in range((steps + k) // THERMAL_EVERY - steps // THERMAL_EVERY):
-        thermal.step(THERMAL_EVERY * dt, rest_currents())
-    d.time, d.steps = t, steps + k
+    _thermal_steps(thermal, d.steps, k, dt, rest_currents)
+    d.time, d.steps = t, d.steps + k
     if end < math.inf:
         plan.t = path_t
     return k
+
+
+def _thermal_steps(thermal: ThermalModel, steps: int, k: int, dt: float,
+                   rest_currents: Callable[[], np.ndarray]) -> None:
+    """The thermal steps (one every :data:`~.thermal.THERMAL_EVERY` periods, as ``Emulator.step``
+    takes them) due in the ``k`` periods after period ``steps``, with the currents of the arm at
+    rest: the temperatures do not depend on the clock, only on how many steps were taken."""
+    for _ in range((steps + k) // THERMAL_EVERY - steps // THERMAL_EVERY):
+        thermal.step(THERMAL_EVERY * dt, rest_currents())
