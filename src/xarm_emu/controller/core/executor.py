@@ -159,10 +159,8 @@ class _CartesianPlan(_Plan):
         #: For a line (chain) whose last move has a blend radius: (its target, the radius, the first
         #: command of the chain), so that a linear move arriving later can still be blended into.
         self.blend_into = blend_into
-        #: The last answers along the path: (path time, joints as floats), oldest first, at most four,
-        #: and the array of the last one (what the executor hands back as the next seed).
+        #: The last answers along the path: (path time, joints as floats), oldest first, at most four.
         self._hist: tuple[tuple[float, tuple[float, ...]], ...] = ()
-        self._last: np.ndarray | None = None
         #: The step matrix of the chord solve (kinematics.track), kept from period to period.
         self._matrix: tuple[float, ...] | None = None
         #: Path samples of upcoming periods (:meth:`sample`): path times, poses (N, 4, 4), TCP speeds;
@@ -209,12 +207,14 @@ class _CartesianPlan(_Plan):
     def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> Answer | None:
         """The joints that put the TCP on the path at ``t``: with no answer of the plan to go on from
         (its first period, or the joints were changed under it: ``seed`` is not the plan's last
-        answer) or on the xArm5 (its closed form needs no start), the full solve from ``seed``; in
-        the period that ends the plan, the full solve from the last answer (:meth:`_solve`); else the
-        chord solve from the extrapolated answers (:meth:`_track`)."""
+        answer, value for value) or on the xArm5 (its closed form needs no start), the full solve
+        from ``seed``; in the period that ends the plan, the full solve from the last answer
+        (:meth:`_solve`); else the chord solve from the extrapolated answers (:meth:`_track`)."""
         pose, self.tcp_speed = self.sample(t, increment)
         target = self.to_flange(pose)
-        h = self._hist if seed is self._last else ()
+        h = self._hist
+        if h and tuple(seed.tolist()) != h[-1][1]:
+            h = ()  # the joints were changed under the plan: its answers are no start
         if not h or self.model.fixed_roll_pitch:
             q = self._solve(target, (seed,))
         elif t >= self.duration:
@@ -222,11 +222,10 @@ class _CartesianPlan(_Plan):
         else:
             q = self._track(target, h, t)
         if q is None:
-            self._hist, self._last = (), None
+            self._hist = ()
             return None
         self._hist = (*h[-3:], (t, q))
-        self._last = np.array(q)
-        return self._last, q
+        return np.array(q), q
 
     def _solve(self, target: np.ndarray, starts: tuple[Sequence[float] | np.ndarray, ...]
                ) -> tuple[float, ...] | None:
