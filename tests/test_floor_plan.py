@@ -219,11 +219,11 @@ def _loops(fn: ast.FunctionDef) -> int:
 
 
 def test_the_jump_is_one_walk() -> None:
-    """The jump over idle periods walks the periods it skips in one loop (core/jump.py), the box's
-    step in one loop over the periods of a call (each jumped, ticked or run in full), and the clock
-    alone is summed without a loop of its own; the box keeps no jump of its own."""
+    """The jump over idle periods walks the periods it skips in one loop (core/jump.py; the clock
+    alone, for a call with nothing due in it, is one sum), the box's step in one loop over the
+    periods of a call (each jumped or run in full); the box keeps no jump or tick of its own."""
     jump = _functions(CONTROLLER / "core/jump.py")
-    assert (_loops(jump["jump"]), _loops(jump["tick"])) == (1, 0)
+    assert (_loops(jump["jump"]), _loops(jump["tick"])) == (1, 1)
     box = _functions(CONTROLLER / "emulator.py")
     assert _loops(box["Emulator.step"]) == 1
     assert not {"Emulator._jump", "Emulator._tick"} & set(box)

@@ -29,12 +29,14 @@ from . import physics
 from .applications import identification, trajectory
 from .box_state import EmulatorState, ModbusUserState, Schedule
 from .controller import Controller, joint_torques, tcp_matrix
-from .core import jump, safety, state_bytes
+from .core import safety, state_bytes
 from .core.config import ConfigStore
 from .core.controller_state import ControllerState
 from .core.faults import Faults
 from .core.feedback import FeedbackQueue, feedback_queue, find_feedback_queue
 from .core.interface import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
+from .core.jump import SCHEDULE_SLACK, tick
+from .core.jump import jump as jump_over
 from .core.settings import Settings
 from .core.thermal import THERMAL_EVERY, ThermalModel
 from .devices import ft_sensor
@@ -331,25 +333,25 @@ class Emulator:
         call and the period in which anything falls due run in full. Everything anyone can observe,
         and the whole state tree, comes out as if every period had run
         (``tests/test_clock_exact.py``, ``tests/test_state_bytes.py``)."""
-        if n <= 0:
-            return
         ctl = self.controller
         fast = not self.exact_steps
-        if fast and ctl.data.steps + n < self.next_event():
+        if n > 0 and fast and ctl.data.steps + n < self.next_event():
             # Every period of the call comes before the next event: none would change anything but
             # the clock (:meth:`next_event`), so only the clock runs, the last period too. This is
             # what a report frame or a command costs an arm at rest.
-            jump.tick(ctl.data, ctl.period, n)
+            tick(ctl.data, ctl.period, n)
             self.periods_jumped += n
             self._settled = self.generation
             return
+        if n <= 0:
+            return
         settled = self.generation == self._settled  # nothing changed the box since the last call
-        step, at_rest, scheduled, slack = ctl.step, ctl.at_rest, self._scheduled, jump.SCHEDULE_SLACK
+        step, at_rest, scheduled = ctl.step, ctl.at_rest, self._scheduled
         i = 0
         while i < n:
             if fast and i < n - 1 and at_rest(settled):
                 due = scheduled[0][0] if scheduled else math.inf
-                k = jump.jump(ctl, self.thermal, due, n - 1 - i, self._rest_currents)
+                k = jump_over(ctl, self.thermal, due, n - 1 - i, self._rest_currents)
                 if k:
                     self.periods_jumped += k
                     i += k
@@ -360,7 +362,7 @@ class Emulator:
             d = ctl.data
             if d.steps % THERMAL_EVERY == 0:
                 self.thermal.step(THERMAL_EVERY * ctl.period, np.abs(ctl.joint_currents()))
-            if scheduled and scheduled[0][0] <= d.time + slack:
+            if scheduled and scheduled[0][0] <= d.time + SCHEDULE_SLACK:
                 self._run_scheduled()
                 settled = False
             i += 1
@@ -399,7 +401,7 @@ class Emulator:
         count: float = THERMAL_EVERY - 1 - d.steps % THERMAL_EVERY  # the thermal step's period is not
         due = min((idle_until(c, ctl) for c in ctl.components), default=math.inf)
         if self._scheduled:
-            due = min(due, self._scheduled[0][0] - 1e-9)
+            due = min(due, self._scheduled[0][0] - SCHEDULE_SLACK)
         span = (due - d.time) / dt  # periods to the next event (inf: none; -inf: a busy component)
         if span < count + 2:
             count = math.floor(span) - 1 if span > 1.0 else 0
@@ -442,7 +444,7 @@ class Emulator:
         heapq.heappush(self._scheduled, (float(seconds), self.schedule.seq, action))
 
     def _run_scheduled(self) -> None:
-        now = self.controller.time + 1e-9
+        now = self.controller.time + SCHEDULE_SLACK
         while self._scheduled and self._scheduled[0][0] <= now:
             _, _, action = heapq.heappop(self._scheduled)
             try:
