@@ -120,6 +120,9 @@ IDLE_WAKE = 0.02
 UNOBSERVED_WAKE = 0.8
 #: Most control periods one catch-up runs (1 s of controller time): beyond it the rest stays due for
 #: the next one, so at a --speed the machine cannot sustain the emulator runs slower, not stalled.
+#: A report frame whose deadline one catch-up cannot reach is not sent (counted missed), never one
+#: of an earlier period (:meth:`EmulatorServer.report_instant`): while the controller lags that far
+#: behind its clock, its reports pause.
 MAX_CATCH_UP = 250
 
 
