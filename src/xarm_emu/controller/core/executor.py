@@ -122,6 +122,8 @@ class _Plan:
 
 
 class _JointPlan(_Plan):
+    """A joint move (registers 23-25, and a line made a joint move): its jerk-limited trajectory."""
+
     def __init__(self, traj: motion.JointTrajectory, blend: tuple[float, np.ndarray] | None = None) -> None:
         self.traj = traj
         self.duration = traj.duration
@@ -138,6 +140,8 @@ class _JointPlan(_Plan):
 
 
 class _DwellPlan(_Plan):
+    """A dwell (register 26), or a task queued behind moves (no time): the joints held."""
+
     def __init__(self, q: np.ndarray, seconds: float) -> None:
         self.q = q.copy()
         self.duration = seconds
