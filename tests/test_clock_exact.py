@@ -347,7 +347,7 @@ def test_a_long_jump_taken_in_chunks_is_the_jump_period_by_period(monkeypatch: p
     thermal steps that fall due in between: the clock, the period count, the dwell and the
     temperatures come out bit for bit as when every jumped period is summed alone, for jumps that
     end on a scheduled action, a dwell's end, a batch's last period or a move."""
-    from xarm_emu.controller import emulator as emulator_module
+    from xarm_emu.controller.core import jump
 
     def run() -> list[tuple[Any, ...]]:
         emu = Emulator(6)
@@ -367,6 +367,6 @@ def test_a_long_jump_taken_in_chunks_is_the_jump_period_by_period(monkeypatch: p
         return seen
 
     chunked = run()
-    monkeypatch.setattr(emulator_module, "JUMP_CHUNK", 10 ** 9)  # every jumped period summed alone
+    monkeypatch.setattr(jump, "CHUNK", 1)  # every jumped period summed alone
     assert run() == chunked
     assert chunked[-1][5] > 30000  # most periods were jumped

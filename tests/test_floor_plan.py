@@ -183,3 +183,47 @@ def test_functions_fit_on_a_screen() -> None:
             for n in ast.walk(ast.parse(p.read_text(encoding="utf-8")))
             if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef) and _lines(n) > 80]
     assert long == []
+
+
+#: The machinery every control period runs through: the box's step, the controller's, the planner's.
+MACHINERY = ("emulator.py", "controller.py", "core/executor.py", "core/jump.py")
+
+
+def _functions(path: Path) -> dict[str, ast.FunctionDef]:
+    """The functions and methods of a module by qualified name (``Class.method``)."""
+    found: dict[str, ast.FunctionDef] = {}
+
+    def visit(node: ast.AST, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.ClassDef):
+                visit(child, f"{prefix}{child.name}.")
+            elif isinstance(child, ast.FunctionDef):
+                found[f"{prefix}{child.name}"] = child
+                visit(child, f"{prefix}{child.name}.")
+
+    visit(ast.parse(path.read_text(encoding="utf-8")), "")
+    return found
+
+
+def test_the_machinery_fits_on_a_page() -> None:
+    """No function of the machinery (:data:`MACHINERY`) is longer than 60 lines, decorators
+    included."""
+    long = [f"{name} in {module} ({_lines(fn)} lines)" for module in MACHINERY
+            for name, fn in _functions(CONTROLLER / module).items() if _lines(fn) > 60]
+    assert long == []
+
+
+def _loops(fn: ast.FunctionDef) -> int:
+    """The loop statements of a function (``for``, ``while``; a comprehension over its parts aside)."""
+    return sum(isinstance(n, ast.For | ast.While) for n in ast.walk(fn))
+
+
+def test_the_jump_is_one_walk() -> None:
+    """The jump over idle periods walks the periods it skips in one loop (core/jump.py; the clock
+    alone, for a call with nothing due in it, is one sum), the box's step in one loop over the
+    periods of a call (each jumped or run in full); the box keeps no jump or tick of its own."""
+    jump = _functions(CONTROLLER / "core/jump.py")
+    assert (_loops(jump["jump"]), _loops(jump["tick"])) == (1, 1)
+    box = _functions(CONTROLLER / "emulator.py")
+    assert _loops(box["Emulator.step"]) == 1
+    assert not {"Emulator._jump", "Emulator._tick"} & set(box)

@@ -127,7 +127,7 @@ def test_xarm7_keeps_the_full_solve(name: str, monkeypatch: pytest.MonkeyPatch) 
 
 
 def previous_joints(self: ex._CartesianPlan, t: float, seed: np.ndarray, increment: float = 0.0
-                    ) -> np.ndarray | None:
+                    ) -> ex.Answer | None:
     """A Cartesian plan's period as it was before the chord solve: the full solve from the first-order
     extrapolation of the last two answers, then from the previous joints (each pose sampled alone)."""
     pose, speed = self.move.at(t)
@@ -142,7 +142,7 @@ def previous_joints(self: ex._CartesianPlan, t: float, seed: np.ndarray, increme
         sol = kin.ik(self.model, target, seed, limited=False)
     self._old = None if sol is None else (  # type: ignore[attr-defined]
         (h[2], h[3], t, sol) if h is not None and seed is h[3] else (t - 1.0, sol, t, sol))
-    return sol
+    return None if sol is None else (sol, sol.tolist())
 
 
 def run_into(start: tuple[float, ...], pose: tuple[float, ...]) -> tuple[int, int, np.ndarray]:

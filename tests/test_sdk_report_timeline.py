@@ -181,6 +181,32 @@ def test_a_frame_whose_deadline_is_two_periods_gone_is_not_sent(make_server) -> 
         assert core.report_instant(end - 0.5 * PERIOD + to_perf, 0.01) is True
 
 
+def test_a_controller_held_back_beyond_one_catch_up_sends_no_earlier_state(make_server) -> None:  # type: ignore[no-untyped-def]
+    """The controller is held back (its lock held) for more periods than one catch-up runs
+    (``MAX_CATCH_UP``): the develop frame of a deadline it cannot reach is not made (the sender counts
+    it missed) rather than show an earlier period's state; the next catch-up reaches the deadline's
+    period and that frame is made."""
+    from xarm_emu.controller.core.interface import PERIOD
+    from xarm_emu.server.core import MAX_CATCH_UP
+
+    speed = 10.0  # one catch-up is 0.1 s of wall time
+    core = make_server(speed=speed).server
+    stream = core.reports.streams["develop"]
+    time.sleep(0.02)
+    with core.lock:  # nothing else runs the controller meanwhile
+        core.catch_up()
+        held = core.clock.steps
+        time.sleep(1.5 * MAX_CATCH_UP * PERIOD / speed)  # 1.5 catch-ups due
+        deadline = time.perf_counter()
+        own = core.clock.steps_at(deadline + time.monotonic() - time.perf_counter())
+        assert own > held + MAX_CATCH_UP
+        assert stream.frame(deadline) == b""  # not sent: one catch-up left it short of the deadline
+        assert core.clock.steps == held + MAX_CATCH_UP
+        frame = stream.frame(deadline)
+        assert frame and core.clock.steps == own  # the next catch-up reaches the deadline's period
+        assert frame == reports.encode_develop(core.emulator.snapshot())  # the state of that period
+
+
 def test_a_250_hz_servo_stream_is_reported_within_a_degree_20_ms_later(  # type: ignore[no-untyped-def]
         make_server, sdk_arm) -> None:
     """Mode 1 (servo motion, manual register 19 / 29): ``set_servo_angle_j`` at 250 Hz moving joint 1

@@ -37,8 +37,10 @@ from .core.device import Device
 from .core.faults import Faults
 from .core.feedback import FeedbackQueue, feedback_queue, find_feedback_queue
 from .core.interface import C_COLLISION, C_END_MODULE, C_ESTOP, C_SERVO_BASE, PERIOD, idle_until
+from .core.jump import SCHEDULE_SLACK, tick
+from .core.jump import jump as jump_over
 from .core.settings import Settings
-from .core.thermal import ThermalModel
+from .core.thermal import THERMAL_EVERY, ThermalModel
 from .devices import ft_sensor
 from .devices.bio_gripper import BioGripper
 from .devices.bio_gripper_g1 import BioGripperG1
@@ -53,11 +55,6 @@ from .devices.robotiq import RobotiqGripper
 from .devices.vacuum import VacuumGripper
 from .firmware2_report import firmware2_fields
 from .scene import contact
-
-#: The thermal model is advanced every this many control periods (1 s; its time constants are minutes).
-THERMAL_EVERY = 250
-#: Jumps over at least this many periods take them a chunk at a time (:meth:`Emulator._jump`).
-JUMP_CHUNK = 64
 
 log = logging.getLogger("xarm_emu.emulator")
 
@@ -234,15 +231,7 @@ class Emulator:
         if self.physics is not None:
             self.controller.add_component(self.physics)
         self.thermal = ThermalModel.for_model(self.model)
-        #: Run every control period one by one, never jumping over idle ones (:meth:`step`); the
-        #: results are the same either way, this switch is there to show it.
-        self.exact_steps = exact_steps
-        #: Control periods jumped over so far (not stepped one by one; :meth:`_jump`).
-        self.periods_jumped = 0
-        self._rest_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
-        self._settled = -1  # the generation at the end of the last step() call
-        #: (generation, period) of the last :meth:`next_event` answer, kept while it holds.
-        self._next_event: tuple[int, float] = (-1, -math.inf)
+        self._start_clock(exact_steps)
         #: Actions due at a controller time (:meth:`at`); ``_scheduled`` is its heap.
         self.schedule = Schedule()
         self._scheduled = self.schedule.heap
@@ -257,6 +246,18 @@ class Emulator:
         self._store: Any = None
         if config_dir is not None:
             self._attach_store(Path(config_dir), load_config)
+
+    def _start_clock(self, exact_steps: bool) -> None:
+        """What :meth:`step` keeps between calls."""
+        #: Run every control period one by one, never jumping over idle ones (:meth:`step`); the
+        #: results are the same either way, this switch is there to show it.
+        self.exact_steps = exact_steps
+        #: Control periods jumped over so far (not stepped one by one; :mod:`.core.jump`).
+        self.periods_jumped = 0
+        self._rest_cache: tuple[tuple[Any, ...], np.ndarray] | None = None
+        self._settled = -1  # the generation at the end of the last step() call
+        #: (generation, period) of the last :meth:`next_event` answer, kept while it holds.
+        self._next_event: tuple[int, float] = (-1, -math.inf)
 
     def _plug_io_and_tools(self, box_sn: str, device: ToolDevice | None, vacuum: bool) -> None:
         """The IO, the tool RS-485 bus with ``device`` on it, and the end tools on the tool IO (the
@@ -344,53 +345,47 @@ class Emulator:
         """Run ``n`` control periods.
 
         Unless :attr:`exact_steps` is set: a call whose periods all come before :meth:`next_event`
-        runs only the clock (:meth:`_tick`); otherwise periods in which nothing would change but the
-        clock are jumped over (:meth:`_jump`), and the last period of the call and the period in
-        which anything falls due run in full. Everything anyone can observe, and the whole state
-        tree, comes out as if every period had run (``tests/test_clock_exact.py``,
-        ``tests/test_state_bytes.py``)."""
+        runs only the clock (:func:`.core.jump.tick`); otherwise periods in which nothing would
+        change but the clock are jumped over (:func:`.core.jump.jump`), and the last period of the
+        call and the period in which anything falls due run in full. Everything anyone can observe,
+        and the whole state tree, comes out as if every period had run
+        (``tests/test_clock_exact.py``, ``tests/test_state_bytes.py``)."""
         ctl = self.controller
-        if n > 0 and not self.exact_steps and ctl.data.steps + n < self.next_event():
+        fast = not self.exact_steps
+        if n > 0 and fast and ctl.data.steps + n < self.next_event():
             # Every period of the call comes before the next event: none would change anything but
             # the clock (:meth:`next_event`), so only the clock runs, the last period too. This is
             # what a report frame or a command costs an arm at rest.
-            self._tick(n)
+            tick(ctl.data, ctl.period, n)
+            self.periods_jumped += n
             self._settled = self.generation
+            return
+        if n <= 0:
             return
         settled = self.generation == self._settled  # nothing changed the box since the last call
         step, at_rest, scheduled = ctl.step, ctl.at_rest, self._scheduled
-        last = n - 1
         i = 0
         while i < n:
-            if i < last and not self.exact_steps and at_rest(settled):
-                k = self._jump(last - i)
+            if fast and i < n - 1 and at_rest(settled):
+                due = scheduled[0][0] if scheduled else math.inf
+                k = jump_over(ctl, self.thermal, due, n - 1 - i, self._rest_currents)
                 if k:
+                    self.periods_jumped += k
                     i += k
                     continue
+            # one period in full, with the thermal step and the scheduled actions due in it
             step()
-            settled = True
+            settled = True  # nothing but the period changed the box
             d = ctl.data
             if d.steps % THERMAL_EVERY == 0:
                 self.thermal.step(THERMAL_EVERY * ctl.period, np.abs(ctl.joint_currents()))
-            if scheduled and scheduled[0][0] <= d.time + 1e-9:
+            if scheduled and scheduled[0][0] <= d.time + SCHEDULE_SLACK:
                 self._run_scheduled()
                 settled = False
             i += 1
-        if n > 0:
-            self._settled = self.generation
+        self._settled = self.generation
 
     # -- when the box next changes on its own --------------------------------------------------
-    def _tick(self, n: int) -> None:
-        """Run ``n`` control periods in which nothing changes but the clock: the time summed period
-        by period, as a step sums it."""
-        d = self.controller.data
-        t, dt = d.time, self.controller.period
-        for _ in range(n):
-            t += dt
-        d.time = t
-        d.steps += n
-        self.periods_jumped += n
-
     def next_event(self) -> float:
         """The first control period (numbered as ``controller.steps`` counts them) whose step may
         change anything but the clock, unless something outside changes the box first
@@ -423,7 +418,7 @@ class Emulator:
         count: float = THERMAL_EVERY - 1 - d.steps % THERMAL_EVERY  # the thermal step's period is not
         due = min((idle_until(c, ctl) for c in ctl.components), default=math.inf)
         if self._scheduled:
-            due = min(due, self._scheduled[0][0] - 1e-9)
+            due = min(due, self._scheduled[0][0] - SCHEDULE_SLACK)
         span = (due - d.time) / dt  # periods to the next event (inf: none; -inf: a busy component)
         if span < count + 2:
             count = math.floor(span) - 1 if span > 1.0 else 0
@@ -446,75 +441,6 @@ class Emulator:
         ctl = self.controller
         return ctl.at_rest(settled) and not ctl.executor.active and not ft_sensor.attached(ctl)
 
-    def _jump(self, most: int) -> int:
-        """Jump over at most ``most`` control periods while the controller is at rest
-        (:meth:`Controller.at_rest`), each component idle (:func:`~.core.interface.idle_until`) and no
-        scheduled action due; returns the number of periods jumped.
-
-        Nothing changes in such a period but the clock and, every :data:`THERMAL_EVERY` periods, the
-        temperatures: the time is summed period by period as a step sums it, and the thermal model
-        takes the same steps with the same currents, so every value comes out bit for bit as if the
-        periods had run."""
-        ctl = self.controller
-        horizon = min((idle_until(c, ctl) for c in ctl.components), default=math.inf)
-        d = ctl.data
-        dt = ctl.period
-        t = d.time
-        if not t + dt < horizon:
-            return 0
-        due = self._scheduled[0][0] if self._scheduled else math.inf
-        steps = d.steps
-        currents: np.ndarray | None = None
-        # A running dwell (register 26) counts its path time as a step does; it ends in a full step.
-        plan = d.motion
-        rate = ctl.executor.dwell_rate(d.q) if plan.plan is not None else None
-        path_t = plan.t
-        k = 0
-        while most - k >= JUMP_CHUNK:
-            # Many periods: the same sums and tests on a chunk at once (an accumulation adds in order,
-            # as the loop below), then the thermal steps that fell due within the periods taken.
-            m = min(most - k, 16 * JUMP_CHUNK)
-            times = np.add.accumulate(np.concatenate(((t,), np.full(m, dt))))[1:]
-            ok = (times < horizon) & ~(due <= times + 1e-9)
-            if rate is not None:
-                paths = np.add.accumulate(np.concatenate(((path_t,), np.full(m, dt * rate))))[1:]
-                ok &= paths < plan.plan.duration
-            taken = m if ok.all() else int(np.argmin(ok))
-            if taken:
-                t = float(times[taken - 1])
-                if rate is not None:
-                    path_t = float(paths[taken - 1])
-                first = THERMAL_EVERY - steps % THERMAL_EVERY  # periods to the next thermal step
-                for _ in range(first, taken + 1, THERMAL_EVERY):
-                    if currents is None:
-                        currents = self._rest_currents()
-                    self.thermal.step(THERMAL_EVERY * dt, currents)
-                steps += taken
-                k += taken
-            if taken < m:
-                most = k  # a period that cannot be jumped: stop here
-        while k < most:
-            t_next = t + dt
-            if not t_next < horizon or due <= t_next + 1e-9:
-                break
-            if rate is not None:
-                path_next = path_t + dt * rate
-                if not path_next < plan.plan.duration:
-                    break
-                path_t = path_next
-            t = t_next
-            steps += 1
-            k += 1
-            if steps % THERMAL_EVERY == 0:
-                if currents is None:
-                    currents = self._rest_currents()
-                self.thermal.step(THERMAL_EVERY * dt, currents)
-        d.time, d.steps = t, steps
-        if rate is not None:
-            plan.t = path_t
-        self.periods_jumped += k
-        return k
-
     def _rest_currents(self) -> np.ndarray:
         """``abs(joint_currents())`` of the arm at rest, kept while the joints and the load stay (what
         the torques depend on besides the speeds and accelerations, zero at rest)."""
@@ -535,7 +461,7 @@ class Emulator:
         heapq.heappush(self._scheduled, (float(seconds), self.schedule.seq, action))
 
     def _run_scheduled(self) -> None:
-        now = self.controller.time + 1e-9
+        now = self.controller.time + SCHEDULE_SLACK
         while self._scheduled and self._scheduled[0][0] <= now:
             _, _, action = heapq.heappop(self._scheduled)
             try:

@@ -120,6 +120,9 @@ IDLE_WAKE = 0.02
 UNOBSERVED_WAKE = 0.8
 #: Most control periods one catch-up runs (1 s of controller time): beyond it the rest stays due for
 #: the next one, so at a --speed the machine cannot sustain the emulator runs slower, not stalled.
+#: A report frame whose deadline one catch-up cannot reach is not sent (counted missed), never one
+#: of an earlier period (:meth:`EmulatorServer.report_instant`): while the controller lags that far
+#: behind its clock, its reports pause.
 MAX_CATCH_UP = 250
 
 
@@ -602,13 +605,15 @@ class EmulatorServer:
         one after it. ``False`` when the controller already runs a later period (the sender was
         late and a command or the loop ran on meanwhile) or the period of the stream's next
         deadline: the deadline's state is gone, so the frame is not sent rather than show a later
-        state; a report never repeats a state for two deadlines."""
+        state; a report never repeats a state for two deadlines. ``False`` too when the controller
+        was held back so long that one catch-up (:data:`MAX_CATCH_UP` periods) does not bring it to
+        the deadline's period: the frame is not sent rather than show an earlier state."""
         if self._loop is None or self.config.stepped:
             return True
         until = deadline + (time.monotonic() - time.perf_counter())
         self.catch_up(until)
-        steps = self.clock.steps
-        return steps <= self.clock.steps_at(until) + 1 and steps < self.clock.steps_at(until + interval)
+        steps, own = self.clock.steps, self.clock.steps_at(until)
+        return own <= steps <= own + 1 and steps < self.clock.steps_at(until + interval)
 
     def answer(self, tid: int, protocol: int, register: int, params: bytes, peer: str = "",
                client: int = 0) -> bytes:

@@ -89,7 +89,8 @@ class ReportStreams:
 
     def _framer(self, kind: str) -> Callable[[float], bytes | None]:
         """The frame of ``kind`` for ``deadline`` (sender thread, under the lock): ``None`` while
-        reports are paused or closing, ``b""`` when the deadline's state is gone (not sent)."""
+        reports are paused or closing, ``b""`` when the deadline's state is gone or not reached
+        (not sent)."""
         encode = self.encoders[kind]
         interval = 1.0 / self.rates[kind]
         quiet = None if ALL_KIND_PORTS[kind] in reports.CLOCKED_PORTS else self.quiet
@@ -122,8 +123,9 @@ class ReportStreams:
 
     @property
     def frames_missed(self) -> dict[str, int]:
-        """Due frames never sent because the sender fell more than ``report_sender.LATE_FRAMES``
-        periods behind (the process was suspended or starved of CPU); counted, not sent late."""
+        """Due frames never sent: the sender fell more than ``report_sender.LATE_FRAMES`` periods
+        behind (the process was suspended or starved of CPU), or the deadline's state was gone or
+        not reached when the sender came (``EmulatorServer.report_instant``); counted, not sent."""
         return {k: s.frames_missed for k, s in self.streams.items()}
 
     @property

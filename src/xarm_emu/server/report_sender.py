@@ -164,8 +164,9 @@ class SendStream:
 
     At each deadline the sender calls ``frame(deadline)`` holding ``lock`` (the arm's lock) and
     writes what it returns to every reader before letting go of the lock (``None``: no frame, e.g.
-    reports paused; empty: the deadline's state is gone, the sender was too late, counted in
-    ``frames_missed``). The counters are the sender's to write."""
+    reports paused; empty: the deadline's state is gone, the sender was too late, or the
+    controller cannot reach it in one catch-up, counted in ``frames_missed``). The counters are the
+    sender's to write."""
 
     def __init__(self, kind: str, interval: float, frame: Callable[[float], bytes | None],
                  lock: threading.RLock | None = None) -> None:

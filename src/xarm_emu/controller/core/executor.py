@@ -9,13 +9,29 @@ same path (manual register 12). The buffer and the plan live in a
 From firmware 2.4.101 a +inf value of a pose (register 21) or joint target (23) keeps
 that component where the move starts (:func:`keep_unchanged_pose`,
 :func:`keep_unchanged_joints`).
+
+A period (:meth:`Executor.step`): the running plan (a queued command planned when it starts, a
+blended move re-planned when the next one can join it), its joints at the path time, the joint
+limits (C23) and, on a TCP path, the joint speed (C24). Speed comes from three mechanisms, none of
+which changes a value:
+
+- floats beside arrays: a plan answers a period with the joints as an array and as floats
+  (:data:`Answer`), and the limit and speed checks run on the floats (CPU time of one period of an
+  xArm6, best of 45: a joint move 6.4 us against 9.2 us with the checks on arrays, a TCP line 18.5
+  us against 23.4 us);
+- a Cartesian plan samples its path for :data:`SAMPLE_BATCH` periods at once while the path rate
+  is steady (:meth:`_CartesianPlan.sample`; ``bench/bench_sample_many.py``: 1.2 us a period for 64
+  samples at once, 0.6 us for 256, against 5 to 7.5 us sampling one pose at a time);
+- it solves a period by the chord solve from the extrapolation of its last answers, with the step
+  matrix kept (:meth:`_CartesianPlan._track`, ``kinematics.track``; ``bench/bench_kinematics.py``,
+  the Cartesian period's joints, against the full solve every period).
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from operator import le, sub
 
@@ -43,6 +59,10 @@ SAMPLE_BATCH = 128
 
 #: Largest ratio of path-time steps over which a Cartesian plan extrapolates its IK seed.
 _EXTRAPOLATE_MAX = 2.0
+
+#: A plan's answer for one period: the joints as an array (the controller keeps it) and the same
+#: joints as floats (the per-period checks read them; see the module's docstring).
+Answer = tuple[np.ndarray, Sequence[float]]
 
 
 def keep_unchanged_joints(target: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -86,16 +106,14 @@ class Limits:
 
 
 class _Plan:
-    """One planned command: a duration and joint positions at a path time."""
+    """One planned command: a duration and the joints at a path time (:meth:`joints`)."""
 
     duration: float = 0.0
     tcp_speed: float = 0.0
-    #: The array :meth:`joints` answered last and its floats (the executor's checks read them), when
-    #: the plan keeps them.
-    _last: np.ndarray | None = None
-    values: tuple[float, ...] | list[float] = ()
 
-    def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
+    def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> Answer | None:
+        """The joints at path time ``t`` from the joints ``seed`` of the period before (``None``: no
+        solution); ``increment`` > 0: the path time goes on growing by this much a period."""
         raise NotImplementedError
 
     def stop_time(self, t: float, limits: Limits) -> float:
@@ -104,6 +122,8 @@ class _Plan:
 
 
 class _JointPlan(_Plan):
+    """A joint move (registers 23-25, and a line made a joint move): its jerk-limited trajectory."""
+
     def __init__(self, traj: motion.JointTrajectory, blend: tuple[float, np.ndarray] | None = None) -> None:
         self.traj = traj
         self.duration = traj.duration
@@ -111,10 +131,8 @@ class _JointPlan(_Plan):
         #: asked to blend into the next joint move (register 24 with a radius).
         self.blend = blend
 
-    def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
-        q, self.values = self.traj.position(t)
-        self._last = q
-        return q
+    def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> Answer | None:
+        return self.traj.position(t)
 
     def stop_time(self, t: float, limits: Limits) -> float:
         qd = self.traj.at(min(t, self.duration))[1]
@@ -122,15 +140,19 @@ class _JointPlan(_Plan):
 
 
 class _DwellPlan(_Plan):
+    """A dwell (register 26), or a task queued behind moves (no time): the joints held."""
+
     def __init__(self, q: np.ndarray, seconds: float) -> None:
         self.q = q.copy()
         self.duration = seconds
 
-    def joints(self, t: float, seed: np.ndarray) -> np.ndarray | None:
-        return self.q
+    def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> Answer | None:
+        return self.q, self.q.tolist()
 
 
 class _CartesianPlan(_Plan):
+    """A TCP path (a line, an arc, a blended chain) solved for the joints period by period."""
+
     def __init__(self, move: motion.CartesianMove | motion.MoveChain,
                  to_flange: Callable[[np.ndarray], np.ndarray], model: RobotModel,
                  blend_into: tuple[np.ndarray, float, LineMove] | None = None) -> None:
@@ -141,13 +163,8 @@ class _CartesianPlan(_Plan):
         #: For a line (chain) whose last move has a blend radius: (its target, the radius, the first
         #: command of the chain), so that a linear move arriving later can still be blended into.
         self.blend_into = blend_into
-        #: The last answers along the path: (path time, joints as floats), oldest first, at most four,
-        #: and the array of the last one (the executor hands it back as the next seed).
+        #: The last answers along the path: (path time, joints as floats), oldest first, at most four.
         self._hist: tuple[tuple[float, tuple[float, ...]], ...] = ()
-        self._last = None
-        #: The floats of the seed the last answer started from when that seed was the plan's own
-        #: answer before (else None), for the executor's speed check.
-        self.seed_values: tuple[float, ...] | None = None
         #: The step matrix of the chord solve (kinematics.track), kept from period to period.
         self._matrix: tuple[float, ...] | None = None
         #: Path samples of upcoming periods (:meth:`sample`): path times, poses (N, 4, 4), TCP speeds;
@@ -191,52 +208,58 @@ class _CartesianPlan(_Plan):
         self._batch = None
         return self.move.at(t)
 
-    def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> np.ndarray | None:
-        b = self._batch
-        i = self._next
-        if b is not None and i < len(b[0]) and b[0][i] == t:  # sample's usual case, inline
-            self._next = i + 1
-            pose, speed = b[1][i], b[2][i]
-        else:
-            pose, speed = self.sample(t, increment)
-        self.tcp_speed = speed
+    def joints(self, t: float, seed: np.ndarray, increment: float = 0.0) -> Answer | None:
+        """The joints that put the TCP on the path at ``t``: with no answer of the plan to go on from
+        (its first period, or the joints were changed under it: ``seed`` is not the plan's last
+        answer, value for value) or on the xArm5 (its closed form needs no start), the full solve
+        from ``seed``; in the period that ends the plan, the full solve from the last answer
+        (:meth:`_solve`); else the chord solve from the extrapolated answers (:meth:`_track`)."""
+        pose, self.tcp_speed = self.sample(t, increment)
         target = self.to_flange(pose)
-        model = self.model
-        h = self._hist if seed is self._last else ()
-        if not h or model.fixed_roll_pitch:
-            # No answer of this plan to start from (its first period, or the joints changed under it);
-            # the xArm5's closed form needs no start and picks the branch nearest the previous joints.
-            sol = kin.ik(model, target, seed, limited=False)
-            self._matrix = None
-            q = None if sol is None else tuple(sol.tolist())
+        h = self._hist
+        if h and tuple(seed.tolist()) != h[-1][1]:
+            h = ()  # the joints were changed under the plan: its answers are no start
+        if not h or self.model.fixed_roll_pitch:
+            q = self._solve(target, (seed,))
         elif t >= self.duration:
-            # The period that ends the plan takes the full solve (from the previous joints, then the
-            # first-order start), whose quadratic convergence puts the arm at rest on its target some
-            # orders of magnitude closer than the convergence test asks, as it always did.
-            for start in (h[-1][1], *_first_order(h, t)):
-                sol = kin.ik(model, target, start, limited=False)
-                if sol is not None:
-                    break
-            self._matrix = None
-            q = None if sol is None else tuple(sol.tolist())
+            q = self._solve(target, (h[-1][1], *_first_order(h, t)))
         else:
-            matrix = self._matrix
-            if matrix is not None and model.dof == 6 and _steps(h, t) == _EQUAL:
-                # the usual period: the third-order start computed in the generated code itself
-                q, self._matrix = kin.track_steady(model, target, (h[0][1], h[1][1], h[2][1], h[3][1]),
-                                                   matrix, lambda: _first_order(h, t))
-            else:
-                q, self._matrix = kin.track(model, target, _start(h, t), matrix, h[-1][1],
-                                            lambda: _first_order(h, t))
-            sol = None if q is None else np.array(q)
+            q = self._track(target, h, t)
         if q is None:
-            self._hist, self._last = (), None
+            self._hist = ()
             return None
-        self.seed_values = h[-1][1] if h else None
-        self.values = q
         self._hist = (*h[-3:], (t, q))
-        self._last = sol
-        return sol
+        return np.array(q), q
+
+    def _solve(self, target: np.ndarray, starts: tuple[Sequence[float] | np.ndarray, ...]
+               ) -> tuple[float, ...] | None:
+        """The full solve (``kinematics.ik``) from the first of ``starts`` it converges from. In the
+        period that ends the plan its quadratic convergence puts the arm at rest on the target some
+        orders of magnitude closer than the convergence test asks; the chord solve starts afresh."""
+        self._matrix = None
+        for start in starts:
+            sol = kin.ik(self.model, target, start, limited=False)
+            if sol is not None:
+                return tuple(sol.tolist())
+        return None
+
+    def _track(self, target: np.ndarray, h: tuple[tuple[float, tuple[float, ...]], ...],
+               t: float) -> tuple[float, ...] | None:
+        """The chord solve (``kinematics.track``) from the extrapolation of the answers ``h`` to ``t``
+        (:func:`_start`), with the step matrix kept; the full solve from the first-order start and
+        the last answer decides when it does not converge. On equal steps with a kept matrix (the
+        usual period of a six-joint arm) the third-order start is computed in the generated code
+        itself (``kinematics.track_steady``)."""
+        model, matrix = self.model, self._matrix
+        def fallbacks() -> tuple[tuple[float, ...], ...]:
+            return _first_order(h, t)
+
+        if matrix is not None and model.dof == 6 and _steps(h, t) == _EQUAL:
+            q, self._matrix = kin.track_steady(model, target, (h[0][1], h[1][1], h[2][1], h[3][1]),
+                                               matrix, fallbacks)
+        else:
+            q, self._matrix = kin.track(model, target, _start(h, t), matrix, h[-1][1], fallbacks)
+        return q
 
     def stop_time(self, t: float, limits: Limits) -> float:
         return self.tcp_speed / limits.tcp_maxacc
@@ -440,56 +463,22 @@ class Executor:
         if d.stopping and self.at_rest:
             self.clear()
             return q
-        plan = d.plan
+        plan = self._running_plan(q, limits, to_flange, tcp_pose)
         if plan is None:
-            if not d.buffer or d.rate == 0.0:
-                d.tcp_speed = 0.0
-                return q
-            d.current = d.buffer.popleft()
-            d.t = 0.0
-            plan = d.plan = self._plan(d.current, q, limits, to_flange, tcp_pose)
-        else:
-            kind = type(plan)
-            if kind is _CartesianPlan and plan.blend_into is not None:
-                self._blend_late_arrival(q, limits, to_flange)
-                plan = d.plan
-            elif kind is _JointPlan and plan.blend is not None:
-                self._blend_joint_moves(q, limits, tcp_pose)
-                plan = d.plan
+            d.tcp_speed = 0.0
+            return q
         d.t += dt * d.rate
         t = d.t
         duration = plan.duration
-        cartesian = type(plan) is _CartesianPlan
-        if cartesian:
-            # a steady path rate (no ramp, no stop): the plan may sample the next periods at once
-            steady = d.ramp_u >= 1.0 and not d.stopping
-            new_q = plan.joints(t if t < duration else duration, q, dt * d.rate if steady else 0.0)
-        else:
-            new_q = plan.joints(t if t < duration else duration, q)
-        if new_q is None:
+        steady = d.ramp_u >= 1.0 and not d.stopping  # the plan may sample the next periods at once
+        answer = plan.joints(t if t < duration else duration, q, dt * d.rate if steady else 0.0)
+        if answer is None:
             self.clear()
             raise CommandError(C_KINEMATIC, "no inverse kinematics solution along the path")
-        values: tuple[float, ...] | list[float]
-        prev: tuple[float, ...] | None = None
-        if new_q is plan._last:  # the plan's own answer: its floats are already at hand
-            values = plan.values
-            if cartesian:
-                prev = plan.seed_values
-        else:
-            new_q = np.asarray(new_q, dtype=float)
-            values = new_q.tolist()
-        lo, hi = self._bounds
-        # Inside the limits (manual 1.3), finite (a NaN compares false), the arm's own joint count.
-        if not (len(values) == len(lo) and all(map(le, lo, values)) and all(map(le, values, hi))):
-            if not kin.within_limits(self.model, new_q):
-                self.clear()
-                raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
-        if dt > 0.0 and cartesian:
-            # Near a singularity a TCP path can need joint speeds beyond the limit (section 3.2.1, C24).
-            speed = max(map(abs, map(sub, values, q.tolist() if prev is None else prev))) / dt
-            if speed > limits.max_joint_speed * SPEED_TOLERANCE:
-                self.clear()
-                raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")
+        new_q, values = answer
+        self._check_limits(new_q, values)
+        if dt > 0.0 and isinstance(plan, _CartesianPlan):
+            self._check_speed(values, q.tolist(), dt, limits)
         d.tcp_speed = plan.tcp_speed * d.rate
         if t >= duration:
             d.completed += 1 + d.merged
@@ -497,6 +486,43 @@ class Executor:
             d.current = None
             d.merged = 0
         return new_q
+
+    def _running_plan(self, q: np.ndarray, limits: Limits, to_flange: Callable[[np.ndarray], np.ndarray],
+                      tcp_pose: Callable[[np.ndarray], np.ndarray]) -> _Plan | None:
+        """The plan this period runs: the running one, blended into the next queued move once that
+        can be done (:meth:`_blend_late_arrival`, :meth:`_blend_joint_moves`); else the next queued
+        command's, planned from the joints ``q`` (``None``: nothing queued, or the path rate is 0)."""
+        d = self.data
+        plan = d.plan
+        if plan is None:
+            if not d.buffer or d.rate == 0.0:
+                return None
+            d.current = d.buffer.popleft()
+            d.t = 0.0
+            d.plan = self._plan(d.current, q, limits, to_flange, tcp_pose)
+        elif isinstance(plan, _CartesianPlan) and plan.blend_into is not None:
+            self._blend_late_arrival(q, limits, to_flange)
+        elif isinstance(plan, _JointPlan) and plan.blend is not None:
+            self._blend_joint_moves(q, limits, tcp_pose)
+        return d.plan
+
+    def _check_limits(self, q: np.ndarray, values: Sequence[float]) -> None:
+        """C23 unless the joints ``q`` (``values`` as floats) are finite and inside the limits (manual
+        1.3): on the floats first (a NaN compares false), the arm's own joint count."""
+        lo, hi = self._bounds
+        if not (len(values) == len(lo) and all(map(le, lo, values)) and all(map(le, values, hi))):
+            if not kin.within_limits(self.model, q):
+                self.clear()
+                raise CommandError(C_JOINT_LIMIT, "path leaves the joint limits")
+
+    def _check_speed(self, values: Sequence[float], previous: Sequence[float], dt: float,
+                     limits: Limits) -> None:
+        """C24 when a TCP path needs a joint speed beyond the limit (near a singularity, section
+        3.2.1): the joints ``values`` after the period against ``previous`` before it, as floats."""
+        speed = max(map(abs, map(sub, values, previous))) / dt
+        if speed > limits.max_joint_speed * SPEED_TOLERANCE:
+            self.clear()
+            raise CommandError(C_SPEED, f"path needs {speed:.2f} rad/s at a joint")
 
     def _blend_late_arrival(self, q: np.ndarray, limits: Limits,
                             to_flange: Callable[[np.ndarray], np.ndarray]) -> None:
@@ -511,7 +537,7 @@ class Executor:
         assert isinstance(plan, _CartesianPlan) and plan.blend_into is not None
         if not d.buffer or not isinstance(d.buffer[0], LineMove) or d.rate != 1.0 or d.stopping:
             return
-        found = plan.last_run(self.data.t)
+        found = plan.last_run(d.t)
         if found is None:
             return
         run, t_run = found
@@ -523,24 +549,8 @@ class Executor:
             return  # still before the last straight piece, or already inside the blend zone
         poses = [path.pose(s), target]
         radii: list[float | None] = [radius]
-        last: LineMove | None = None
-        extra = 0
-        while d.buffer and isinstance(d.buffer[0], LineMove) and (last is None or last.radius > 0.0):
-            nxt = self.data.buffer.popleft()
-            assert isinstance(nxt, LineMove)
-            poses.append(line_target(nxt, poses[-1]))
-            radii.append(nxt.radius if nxt.radius > 0.0 else None)
-            extra += 1
-            last = nxt
-        seed = q
-        for pose in poses[2:]:
-            sol = kin.ik(self.model, to_flange(pose), seed, limited=False, restarts=True)
-            if sol is None:
-                self.clear()
-                raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
-            seed = sol
-        assert last is not None
-        radii[-1] = None
+        last = self._chain(poses, radii)
+        self._reachable(poses[2:], q, to_flange)
         acc = min(first.acc, limits.tcp_maxacc)
         runs = motion.blend_runs(poses, radii)
         speed = min(first.speed, limits.tcp_speed_cap)
@@ -550,9 +560,39 @@ class Executor:
         move: motion.CartesianMove | motion.MoveChain = (moves[0] if len(moves) == 1
                                                          else motion.MoveChain(moves))
         blend = (poses[-1], last.radius, first) if last.radius > 0.0 else None
-        self.data.plan = _CartesianPlan(move, to_flange, self.model, blend)
-        self.data.t = 0.0
-        self.data.merged += extra
+        d.plan = _CartesianPlan(move, to_flange, self.model, blend)
+        d.t = 0.0
+
+    def _chain(self, poses: list[np.ndarray], radii: list[float | None]) -> LineMove:
+        """Register 22: take from the buffer the linear moves that go on from a blended one (at least
+        one is queued), each while the one before it has a blend radius, into one chain: each target
+        (from the one before, ``poses[-1]``) appended to ``poses``, each radius to ``radii`` (``None``:
+        a sharp corner), the last one ``None`` (the chain ends at rest on its last target); the
+        buffer count drops by the whole chain when it ends (``merged``). Returns the last move."""
+        buffer = self.data.buffer
+        last: LineMove | None = None
+        while buffer and isinstance(buffer[0], LineMove) and (last is None or last.radius > 0.0):
+            nxt = buffer.popleft()
+            assert isinstance(nxt, LineMove)
+            poses.append(line_target(nxt, poses[-1]))
+            radii.append(nxt.radius if nxt.radius > 0.0 else None)
+            self.data.merged += 1
+            last = nxt
+        assert last is not None
+        radii[-1] = None
+        return last
+
+    def _reachable(self, targets: list[np.ndarray], q: np.ndarray,
+                   to_flange: Callable[[np.ndarray], np.ndarray]) -> None:
+        """C_KINEMATIC unless every TCP pose of ``targets`` has joints, each solved from the one
+        before (the first from ``q``)."""
+        seed = q
+        for pose in targets:
+            sol = kin.ik(self.model, to_flange(pose), seed, limited=False, restarts=True)
+            if sol is None:
+                self.clear()
+                raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
+            seed = sol
 
     def _blend_joint_moves(self, q: np.ndarray, limits: Limits,
                            tcp_pose: Callable[[np.ndarray], np.ndarray]) -> None:
@@ -669,30 +709,13 @@ class Executor:
 
     def _plan_blended(self, cmd: LineMove, start: np.ndarray, q: np.ndarray, acc: float, limits: Limits,
                       to_flange: Callable[[np.ndarray], np.ndarray]) -> _Plan:
-        """Register 22: linear moves with arc blending become one continuous move.
-
-        The chain takes every following linear move while the previous one has a blend radius;
-        the corner after a move is rounded with that move's radius (paths.blend_runs), and the
-        TCP does not stop there. The chain uses the first move's speed and acceleration, and the
-        buffer count drops by the whole chain when it ends.
-        """
+        """Register 22: linear moves with arc blending become one continuous move (:meth:`_chain`):
+        the corner after a move is rounded with that move's radius (paths.blend_runs), and the TCP
+        does not stop there. The chain uses the first move's speed and acceleration."""
         poses = [start, line_target(cmd, start)]
         radii: list[float | None] = [cmd.radius]
-        last = cmd
-        while self.data.buffer and isinstance(self.data.buffer[0], LineMove) and last.radius > 0.0:
-            nxt = self.data.buffer.popleft()
-            assert isinstance(nxt, LineMove)
-            poses.append(line_target(nxt, poses[-1]))
-            radii.append(nxt.radius if nxt.radius > 0.0 else None)
-            self.data.merged += 1
-            last = nxt
-        radii[-1] = None  # the chain ends at rest on its last target
-        seed = q
-        for target in poses[1:]:
-            sol = kin.ik(self.model, to_flange(target), seed, limited=False, restarts=True)
-            if sol is None:
-                raise CommandError(C_KINEMATIC, "target pose has no inverse kinematics solution")
-            seed = sol
+        last = self._chain(poses, radii)
+        self._reachable(poses[1:], q, to_flange)
         move = motion.plan_blended(poses, radii, min(cmd.speed, limits.tcp_speed_cap), acc, limits.tcp_jerk)
         blend = (poses[-1], last.radius, cmd) if last.radius > 0.0 else None
         return _CartesianPlan(move, to_flange, self.model, blend)

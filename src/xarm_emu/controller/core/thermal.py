@@ -23,6 +23,9 @@ from .controller_state import holds
 
 #: Ambient temperature (C); the manual's operating range is 0-50 C.
 AMBIENT_C = 25.0
+#: The box advances the thermal model every this many control periods (1 s; its time constants are
+#: minutes).
+THERMAL_EVERY = 250
 
 
 @dataclass(frozen=True)
