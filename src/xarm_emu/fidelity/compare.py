@@ -118,7 +118,10 @@ class Comparison:
     totals: dict[str, float] = field(default_factory=dict)
     per_joint: dict[str, list[float]] = field(default_factory=dict)
     codes: dict[str, list[Any]] = field(default_factory=dict)  # see _codes
-    rates: dict[str, list[float]] = field(default_factory=dict)  # port -> recorded, emulator's
+    #: port -> recorded (of its connection farthest from the emulator's rate), emulator's
+    rates: dict[str, list[float]] = field(default_factory=dict)
+    #: every report connection's rate: conn, port, frames, rate (frames per second)
+    rate_connections: list[dict[str, float]] = field(default_factory=list)
     failures: list[str] = field(default_factory=list)
     recorded: list[Sample] = field(default_factory=list, repr=False)
     replayed: list[Sample] = field(default_factory=list, repr=False)
@@ -130,6 +133,7 @@ class Comparison:
     def to_json(self) -> dict[str, Any]:
         return {"model": self.model, "firmware": self.firmware, "notes": self.notes, "totals": self.totals,
                 "per_joint": self.per_joint, "codes": self.codes, "rates": self.rates,
+                "rate_connections": self.rate_connections,
                 "failures": self.failures, "commands": [asdict(c) for c in self.commands]}
 
 
@@ -185,6 +189,8 @@ class Session:
     realtime: RealtimeFrames
     frames: dict[int, list[float]]  # report port -> proxy times
     status: list[StatusFrame] = field(default_factory=list)
+    #: Report connection -> its port and the proxy times of its frames (rates are per connection).
+    streams: dict[int, tuple[int, list[float]]] = field(default_factory=dict)
 
     def controller_times(self, proxy_times: np.ndarray | list[float]) -> np.ndarray:
         """Controller times of moments on the proxy's clock: read from the real-time frames around
@@ -258,6 +264,7 @@ def read_session(path: Path) -> Session:
     rt_recv: list[float] = []
     rt_frames: list[bytes] = []
     frames: dict[int, list[float]] = {}
+    streams: dict[int, tuple[int, list[float]]] = {}
     status: list[StatusFrame] = []
     try:
         for rec in xrec.read(path):
@@ -273,6 +280,7 @@ def read_session(path: Path) -> Session:
                     profile = xrec.firmware_of(version) or profile
             elif isinstance(rec, xrec.Rpt):
                 frames.setdefault(rec.port, []).append(rec.t)
+                streams.setdefault(rec.conn, (rec.port, []))[1].append(rec.t)
                 decode = _STATUS_DECODERS.get(len(rec.frame))
                 if rec.port in (reports.NORMAL_PORT, reports.RICH_PORT) and decode is not None:
                     try:
@@ -293,7 +301,7 @@ def read_session(path: Path) -> Session:
     realtime = RealtimeFrames.read(rt_recv, rt_frames)
     if not realtime and not requests:
         raise CompareError(f"{path} has neither requests nor real-time report frames: nothing to compare")
-    return Session(version, profile, requests, realtime, frames, status)
+    return Session(version, profile, requests, realtime, frames, status, streams)
 
 
 def _controller_times(session: Session) -> list[tuple[float, float, float]]:
@@ -838,11 +846,14 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     t["code_differences"], t["code_timing_s"] = _codes(result, session, emu_codes)
     nominal = reports.rates_for(session.profile)
     worst_rate = 0.0
-    for port, stamps in sorted(session.frames.items()):
-        if len(stamps) > 10 and port in nominal:
+    for conn, (port, stamps) in sorted(session.streams.items()):  # each reader sees the whole stream
+        if len(stamps) > 10 and port in nominal and stamps[-1] > stamps[0]:
             rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
-            result.rates[str(port)] = [rate, nominal[port]]
-            worst_rate = max(worst_rate, abs(rate - nominal[port]) / nominal[port])
+            rel = abs(rate - nominal[port]) / nominal[port]
+            result.rate_connections.append({"conn": conn, "port": port, "frames": len(stamps), "rate": rate})
+            if str(port) not in result.rates or rel >= abs(result.rates[str(port)][0] / nominal[port] - 1):
+                result.rates[str(port)] = [rate, nominal[port]]
+            worst_rate = max(worst_rate, rel)
     t["report_rate_rel"] = worst_rate
     for key, limit in tol.items():
         if t.get(key, 0.0) > limit:
