@@ -627,48 +627,57 @@ class _Replay:
         """The place (controller time, slot) of command ``i`` among those its frames leave open
         (:func:`.placement.candidates`) and how it was chosen (:data:`PLACEMENTS`): the one after
         which the replayed joints, then the joint torques, follow the recorded frames most closely up
-        to the first frame that may show the next command (:meth:`score`); among places alike, the
-        one nearest the proxy clock's estimate."""
-        cands = placement.candidates(self.ts, self.windows[i], (self.previous, self.slot))
+        over the frames after them, the commands after it applied (:meth:`score`); of places that
+        give the same frames the earliest, of others alike the one nearest the proxy clock's estimate."""
+        t_est = self.spans[i][0]
+        cands = placement.nearest(placement.candidates(self.ts, self.windows[i], (self.previous, self.slot)),
+                                  t_est)
         s0 = min(s for _, s in cands)
         self.sample_until(cands[0][0], s0)  # the frames before every candidate: alike for all
         if len(cands) == 1:
             return (*cands[0], "bounds")
         for frames in (FIRST_FRAMES, SEARCH_FRAMES):  # a few frames tell most places apart
             end = min(len(self.recorded), max(s for _, s in cands) + frames)
-            scores, same = self.score(req, cands, s0, end, self.followers(i, end))
+            scores, twins = self.score(req, cands, s0, end, self.followers(i, end))
             best_q = min(q for q, _ in scores)
             alike = [n for n, (q, _) in enumerate(scores) if q <= best_q + 1e-9]
             best_tau = min(scores[n][1] for n in alike)
             alike = [n for n in alike if scores[n][1] <= best_tau + 1e-9]
-            if len(alike) == 1 or same:
-                break
-        t_est = self.spans[i][0]
-        best = min(alike, key=lambda n: (abs(cands[n][0] - t_est), n))
-        return (*cands[best], "frames" if len(alike) == 1 else "estimate")
+            decided = len({twins[n] for n in alike}) == 1  # the best places gave the same frames
+            if decided and len(set(twins)) > 1 or len(set(twins)) == 1 and not _is_queued(req.register):
+                break  # told apart, or a setting that every place shows alike (a move may show later)
+        if len({twins[n] for n in alike}) == 1:  # places alike in every frame: the earliest, which
+            best = alike[0]  # leaves the commands after it every place they can have
+        else:
+            best = min(alike, key=lambda n: (abs(cands[n][0] - t_est), n))
+        return (*cands[best], "frames" if decided and len(set(twins)) > 1 else
+                "alike" if len(set(twins)) == 1 else "estimate")
 
     def followers(self, i: int, end: int) -> list[tuple[xrec.Req, float, int]]:
-        """The commands after request ``i`` that may show in frames before ``end``, each with its
-        earliest place (its request, controller time, slot), for :meth:`score`."""
+        """The commands after request ``i`` that may show in frames before ``end``, each with the
+        place of the proxy clock's estimate (its request, controller time, slot), for :meth:`score`."""
         out = []
         n = i + 1
         while n < len(self.windows) and self.windows[n].first < end:
             req = self.session.requests[n][0]
-            if not _pure_read(req):
-                first = self.windows[n].first
-                out.append((req, float(self.ts[first - 1]) if first else 0.0, first))
+            if not _pure_read(req):  # at the proxy clock's estimate within its window
+                w, ts = self.windows[n], self.ts
+                lo = float(ts[w.first - 1]) if w.first else 0.0
+                hi = float(ts[w.last]) if w.last < len(ts) else math.inf
+                t = min(max(self.spans[n][0], lo), hi)
+                out.append((req, t, max(w.first, int(np.searchsorted(ts, t - 1e-9)))))
             n += 1
         return out
 
     def score(self, req: xrec.Req, cands: list[tuple[float, int]], s0: int, end: int,
-              after: list[tuple[xrec.Req, float, int]]) -> tuple[list[tuple[float, float]], bool]:
+              after: list[tuple[xrec.Req, float, int]]) -> tuple[list[tuple[float, float]], list[int]]:
         """For each candidate place of ``req``: how far the replayed joints (rad, beyond a float32's
         rounding) and joint torques (N m) are from the recorded frames ``s0``..``end``, the command
         answered at its place and the commands ``after`` it at their earliest places (alike for
         every candidate), from a checkpoint restored after each try. The torques, computed in a
-        batch, only of the places whose joints follow the frames best (else ``inf``). And whether
-        every place gave the same joints, speeds, accelerations and settings at every frame (the
-        command shows nowhere near it)."""
+        batch, only of the places whose joints follow the frames best (else ``inf``). And each
+        place's first twin: the first place that gave the same joints, speeds, accelerations and
+        settings at every frame."""
         emu, server, rec = self.emu, self.server, self.recorded
         model, dof = emu.controller.model, self.dof
         rec_q = np.array([x.joints for x in rec[s0:end]])
@@ -705,27 +714,25 @@ class _Replay:
             err_q = float(np.maximum(np.abs(x[:, 0] - rec_q) - JOINT_ROUNDING, 0.0).sum()) if len(x) else 0.0
             runs.append((err_q, x, settings, kinds))
         emu.restore(cp)
-        same = all(np.array_equal(r[1], runs[0][1]) and r[2] == runs[0][2] for r in runs)
+        twins = [next(m for m in range(n + 1) if np.array_equal(runs[m][1], runs[n][1])
+                      and runs[m][2] == runs[n][2]) for n in range(len(runs))]
         best_q = min(r[0] for r in runs)
         best = [n for n, r in enumerate(runs) if r[0] <= best_q + 1e-9 and len(r[1])]
         out = [(r[0], math.inf if len(r[1]) else 0.0) for r in runs]
         if len(best) == 1:
             out[best[0]] = (best_q, 0.0)
-        done: list[int] = []
         for n in best if len(best) > 1 else []:
-            err_q, x, settings, kinds = runs[n]
-            twin = next((m for m in done if np.array_equal(runs[m][1], x) and runs[m][2] == settings), None)
-            if twin is not None:  # the same frames as a place scored already
-                out[n] = out[twin]
+            if twins[n] != n:  # the same frames as a place scored already
+                out[n] = out[twins[n]]
                 continue
+            err_q, x, settings, kinds = runs[n]
             tau = np.empty((len(x), dof))
             for key, st in kinds.items():  # the frames under each settings, in a batch
                 rows = np.array([x_key == key for x_key in settings])
                 tau[rows] = joint_torques_many(model, x[rows, 0], x[rows, 1], x[rows, 2], st)
             rec_tau = np.array([r.torques for r in rec[s0:s0 + len(x)]])
             out[n] = (err_q, float(np.abs(tau - rec_tau).sum()))
-            done.append(n)
-        return out, same
+        return out, twins
 
     def place(self, i: int, req: xrec.Req, rep: xrec.Rep | None) -> CommandResult:
         """Answer request ``i`` at its place and compare the reply with the recorded one."""
@@ -951,11 +958,13 @@ FIRST_FRAMES, SEARCH_FRAMES = 4, 25
 #: it counts against a candidate place.
 JOINT_ROUNDING = 1e-6
 #: How a command's period was chosen (``placed_by``): ``bounds`` (its frames leave one place),
-#: ``frames`` (the one place after which the replay follows the recorded frames best), ``estimate``
-#: (several places follow them alike: the proxy clock's estimate, ``undecided``), ``read`` (a pure
+#: ``frames`` (the place after which the replay follows the recorded frames best, or places that
+#: give the same frames), ``alike`` (every place gives the same frames: the command shows nowhere
+#: near it; the proxy clock's estimate), ``estimate`` (places that give different frames follow the
+#: recorded ones alike: the proxy clock's estimate, ``undecided``), ``read`` (a pure
 #: read, tried at every period its round trip leaves open), ``clock`` (no real-time report: the
 #: proxy's clock, ``undecided`` when its round trip leaves more than one period open).
-PLACEMENTS = ("bounds", "frames", "estimate", "read", "clock")
+PLACEMENTS = ("bounds", "frames", "alike", "estimate", "read", "clock")
 
 
 def code_lines(result: Comparison) -> list[str]:

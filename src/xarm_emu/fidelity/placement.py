@@ -29,8 +29,9 @@ from ..controller.core.interface import PERIOD
 
 #: Frames received after a reply that may still have been made before the request was answered.
 SLACK_FRAMES = 1
-#: The most places tried for one request.
-MAX_CANDIDATES = 12
+#: The most places listed for one request (a box starved of its processor sends no frames for a
+#: while, so a window can be long), and the most tried: those nearest the proxy clock's estimate.
+MAX_CANDIDATES, MAX_TRIED = 64, 12
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,14 @@ def windows(recv: np.ndarray, requests: list[tuple[float, float | None]]) -> lis
         last = n if rep_t is None else min(n, bisect.bisect_right(times, rep_t) + SLACK_FRAMES)
         out.append(Window(first, max(first, last)))
     return out
+
+
+def nearest(cands: list[tuple[float, int]], t_est: float) -> list[tuple[float, int]]:
+    """The :data:`MAX_TRIED` places of ``cands`` nearest the controller time ``t_est``, in order."""
+    if len(cands) <= MAX_TRIED:
+        return cands
+    keep = sorted(range(len(cands)), key=lambda n: (abs(cands[n][0] - t_est), n))[:MAX_TRIED]
+    return [cands[n] for n in sorted(keep)]
 
 
 def candidates(ts: np.ndarray, window: Window, after: tuple[float, int]) -> list[tuple[float, int]]:
