@@ -442,6 +442,12 @@ def _rms_where(d: np.ndarray, use: np.ndarray) -> float:
     return float(np.sqrt(np.mean(d[use] ** 2, axis=0)).max()) if use.any() else 0.0
 
 
+def _blends(req: xrec.Req) -> bool:
+    """Whether a request is a move with a blend radius (its path depends on when it arrived)."""
+    radius = (req.values or {}).get("radius", 0)
+    return isinstance(radius, (int, float)) and radius > 0
+
+
 def _is_queued(register: int) -> bool:
     reg = regs.get(register)
     return reg is not None and reg.queued
@@ -636,7 +642,8 @@ class _Replay:
         self.sample_until(cands[0][0], s0)  # the frames before every candidate: alike for all
         if len(cands) == 1:
             return (*cands[0], "bounds")
-        for frames in (FIRST_FRAMES, SEARCH_FRAMES):  # a few frames tell most places apart
+        lengths = (FIRST_FRAMES, SEARCH_FRAMES) + ((BLEND_FRAMES,) if _blends(req) else ())
+        for frames in lengths:  # a few frames tell most places apart
             end = min(len(self.recorded), max(s for _, s in cands) + frames)
             scores, twins = self.score(req, cands, s0, end, self.followers(i, end))
             best_q = min(q for q, _ in scores)
@@ -952,8 +959,9 @@ def _codes(result: Comparison, session: Session, emu_codes: list[tuple[int, int]
 #: answered after it was received (a frame is prepared for its deadline ahead of sending it).
 LEAD_PERIODS = 2
 #: Real-time frames after a command's latest candidate place over which the places are told apart:
-#: first a few, then, when they leave several places alike, more.
-FIRST_FRAMES, SEARCH_FRAMES = 4, 25
+#: first a few, then, when they leave several places alike, more; for a move blended into the one
+#: before it (its arrival decides the blend, which shows when the arm gets there), up to 2 s.
+FIRST_FRAMES, SEARCH_FRAMES, BLEND_FRAMES = 4, 25, 500
 #: Joints (rad) a replayed frame may be from a recorded one, the recorded float32's rounding, before
 #: it counts against a candidate place.
 JOINT_ROUNDING = 1e-6
