@@ -13,6 +13,7 @@ from helpers import run_cli
 
 from xarm_emu.fidelity.compare import compare
 
+
 @pytest.mark.parametrize("name", list(PROGRAMS))
 def test_program_compares_equal_with_the_emulator_itself(name: str, tmp_path: Path) -> None:
     path = tmp_path / f"{name}.xrec"
