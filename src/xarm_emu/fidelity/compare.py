@@ -636,8 +636,10 @@ class _Replay:
         over the frames after them, the commands after it applied (:meth:`score`); of places that
         give the same frames the earliest, of others alike the one nearest the proxy clock's estimate."""
         t_est = self.spans[i][0]
+        rep = self.session.requests[i][1]
+        late = t_est + (rep.t - req.t if rep is not None else 0.0)  # answered when the reply left
         cands = placement.nearest(placement.candidates(self.ts, self.windows[i], (self.previous, self.slot)),
-                                  t_est)
+                                  (t_est, late))
         s0 = min(s for _, s in cands)
         self.sample_until(cands[0][0], s0)  # the frames before every candidate: alike for all
         if len(cands) == 1:

@@ -31,7 +31,7 @@ from ..controller.core.interface import PERIOD
 SLACK_FRAMES = 1
 #: The most places listed for one request (a box starved of its processor sends no frames for a
 #: while, so a window can be long), and the most tried: those nearest the proxy clock's estimate.
-MAX_CANDIDATES, MAX_TRIED = 64, 12
+MAX_CANDIDATES, MAX_TRIED = 2000, 12
 
 
 @dataclass(frozen=True)
@@ -57,12 +57,14 @@ def windows(recv: np.ndarray, requests: list[tuple[float, float | None]]) -> lis
     return out
 
 
-def nearest(cands: list[tuple[float, int]], t_est: float) -> list[tuple[float, int]]:
-    """The :data:`MAX_TRIED` places of ``cands`` nearest the controller time ``t_est``, in order."""
+def nearest(cands: list[tuple[float, int]], estimates: tuple[float, ...]) -> list[tuple[float, int]]:
+    """The :data:`MAX_TRIED` places of ``cands`` nearest any of the controller times ``estimates``
+    (the proxy clock's for the request and for its reply: a box starved of the processor answers
+    late, at the period it resumed in), in order."""
     if len(cands) <= MAX_TRIED:
         return cands
-    keep = sorted(range(len(cands)), key=lambda n: (abs(cands[n][0] - t_est), n))[:MAX_TRIED]
-    return [cands[n] for n in sorted(keep)]
+    keep = sorted(range(len(cands)), key=lambda n: (min(abs(cands[n][0] - e) for e in estimates), n))
+    return [cands[n] for n in sorted(keep[:MAX_TRIED])]
 
 
 def candidates(ts: np.ndarray, window: Window, after: tuple[float, int]) -> list[tuple[float, int]]:
