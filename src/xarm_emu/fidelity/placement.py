@@ -7,7 +7,7 @@ period, stamped with the box's clock. The proxy's clock orders a request, its re
   shows the state before the request's effect: the request was answered no earlier than its stamp;
 - a frame received after the reply was, as a rule, made after the request was answered; but the box
   writes its report and its reply on separate connections and the proxy may read the reply first, so
-  one more frame may still show the state before (:data:`SLACK_FRAMES`).
+  a frame that came right after the reply may still show the state before (:data:`SLACK_FRAMES`).
 
 A request's place is a *slot*, the index of the first frame that shows its effect, and a controller
 time ``t`` between the stamps of the frames either side of the slot (a request answered at the very
@@ -27,8 +27,10 @@ import numpy as np
 
 from ..controller.core.interface import PERIOD
 
-#: Frames received after a reply that may still have been made before the request was answered.
-SLACK_FRAMES = 1
+#: Frames received after a reply that may still have been made before the request was answered, when
+#: the first of them came within ``SLACK_SECONDS`` of the reply (the box wrote it before the reply and
+#: the proxy read the reply's connection first; one that came later was made after).
+SLACK_FRAMES, SLACK_SECONDS = 1, PERIOD / 2
 #: The most places listed for one request (a box starved of its processor sends no frames for a
 #: while, so a window can be long), and the most tried: those nearest the proxy clock's estimate.
 MAX_CANDIDATES, MAX_TRIED = 2000, 12
@@ -52,7 +54,12 @@ def windows(recv: np.ndarray, requests: list[tuple[float, float | None]]) -> lis
     out = []
     for req_t, rep_t in requests:
         first = bisect.bisect_right(times, req_t)
-        last = n if rep_t is None else min(n, bisect.bisect_right(times, rep_t) + SLACK_FRAMES)
+        if rep_t is None:
+            last = n
+        else:
+            last = bisect.bisect_right(times, rep_t)
+            if last < n and times[last] - rep_t <= SLACK_SECONDS:  # read with the reply: maybe made before
+                last = min(n, last + SLACK_FRAMES)
         out.append(Window(first, max(first, last)))
     return out
 
