@@ -464,6 +464,8 @@ def _duration(samples: list[Sample], start: int, end: int, t0: float) -> float |
     return None
 
 
+#: Each candidate place's (joint, torque) distances from the frames, its first twin, its reply.
+_Scores = tuple[list[tuple[float, float]], list[int], list[bytes]]
 #: A read waiting to be answered again (``_Replay.retry``): its result, request, recorded reply, the
 #: controller time after which it is given up, and the replayed answers it got so far.
 _Pending = tuple[CommandResult, xrec.Req, xrec.Rep, float, list[bytes]]
@@ -636,25 +638,31 @@ class _Replay:
         over the frames after them, the commands after it applied (:meth:`score`); of places that
         give the same frames the earliest, of others alike the one nearest the proxy clock's estimate."""
         t_est = self.spans[i][0]
-        rep = self.session.requests[i][1]
-        late = t_est + (rep.t - req.t if rep is not None else 0.0)  # answered when the reply left
+        answer = self.session.requests[i][1]
+        late = t_est + (answer.t - req.t if answer is not None else 0.0)  # answered when the reply left
         cands = placement.nearest(placement.candidates(self.ts, self.windows[i], (self.previous, self.slot)),
                                   (t_est, late))
         s0 = min(s for _, s in cands)
         self.sample_until(cands[0][0], s0)  # the frames before every candidate: alike for all
         if len(cands) == 1:
             return (*cands[0], "bounds")
+        moving = self.emu.controller.data.motion_state == 1
         lengths = (FIRST_FRAMES, SEARCH_FRAMES) + ((BLEND_FRAMES,) if _blends(req) else ())
         for frames in lengths:  # a few frames tell most places apart
             end = min(len(self.recorded), max(s for _, s in cands) + frames)
-            scores, twins = self.score(req, cands, s0, end, self.followers(i, end))
+            scores, twins, replies = self.score(req, cands, s0, end, self.followers(i, end))
+            rep = self.session.requests[i][1]
+            if rep is not None and any(r == rep.frame[6:] for r in replies):  # answered as recorded
+                scores = [sc if r == rep.frame[6:] else (math.inf, math.inf) for sc, r in zip(scores, replies,
+                                                                                             strict=True)]
             best_q = min(q for q, _ in scores)
             alike = [n for n, (q, _) in enumerate(scores) if q <= best_q + 1e-9]
             best_tau = min(scores[n][1] for n in alike)
             alike = [n for n in alike if scores[n][1] <= best_tau + 1e-9]
             decided = len({twins[n] for n in alike}) == 1  # the best places gave the same frames
-            if decided and len(set(twins)) > 1 or len(set(twins)) == 1 and not _is_queued(req.register):
-                break  # told apart, or a setting that every place shows alike (a move may show later)
+            if decided and len(set(twins)) > 1 or len(set(twins)) == 1 and (not _is_queued(req.register)
+                                                                             or moving and not _blends(req)):
+                break  # told apart, or alike: a setting, or a move queued behind one (starts when it ends)
         if len({twins[n] for n in alike}) == 1:  # places alike in every frame: the earliest, which
             best = alike[0]  # leaves the commands after it every place they can have
         else:
@@ -679,19 +687,20 @@ class _Replay:
         return out
 
     def score(self, req: xrec.Req, cands: list[tuple[float, int]], s0: int, end: int,
-              after: list[tuple[xrec.Req, float, int]]) -> tuple[list[tuple[float, float]], list[int]]:
+              after: list[tuple[xrec.Req, float, int]]) -> _Scores:
         """For each candidate place of ``req``: how far the replayed joints (rad, beyond a float32's
         rounding) and joint torques (N m) are from the recorded frames ``s0``..``end``, the command
         answered at its place and the commands ``after`` it at their earliest places (alike for
         every candidate), from a checkpoint restored after each try. The torques, computed in a
         batch, only of the places whose joints follow the frames best (else ``inf``). And each
         place's first twin: the first place that gave the same joints, speeds, accelerations and
-        settings at every frame."""
+        settings at every frame; and the reply each place got (from the state byte on)."""
         emu, server, rec = self.emu, self.server, self.recorded
         model, dof = emu.controller.model, self.dof
         rec_q = np.array([x.joints for x in rec[s0:end]])
         cp = emu.checkpoint()
         runs = []
+        replies: list[bytes] = []
         for n, (t, s) in enumerate(cands):
             if n:
                 emu.restore(cp)
@@ -707,7 +716,9 @@ class _Replay:
                     when, _, what = todo.pop(0)
                     if when > emu.time + 1e-9:
                         server.advance(when - emu.time)
-                    server.answer(what.tid, what.protocol, what.register, what.params)
+                    frame = server.answer(what.tid, what.protocol, what.register, what.params)
+                    if what is req:
+                        replies.append(bytes(frame[6:]))
                 if k >= end:
                     break
                 if rec[k].t > emu.time + 1e-9:
@@ -741,7 +752,7 @@ class _Replay:
                 tau[rows] = joint_torques_many(model, x[rows, 0], x[rows, 1], x[rows, 2], st)
             rec_tau = np.array([r.torques for r in rec[s0:s0 + len(x)]])
             out[n] = (err_q, float(np.abs(tau - rec_tau).sum()))
-        return out, twins
+        return out, twins, replies
 
     def place(self, i: int, req: xrec.Req, rep: xrec.Rep | None) -> CommandResult:
         """Answer request ``i`` at its place and compare the reply with the recorded one."""
