@@ -2,11 +2,13 @@
 
 The recording (``xarm-emu proxy``, :mod:`xarm_emu.server.xrec`) says which arm and firmware the box is
 (its register 1 reply). A fresh emulator of that arm and firmware (with a calibration when given) runs
-on the stepped clock; every recorded request is answered by it, in order, at the controller time the
-box answered it, and its state is sampled at the controller time of every recorded real-time report
-frame (port 30000, whose timestamp is the box's clock; manual 2.1.6 and firmware 2.x). A request's
-controller time is read from the real-time frames around it: the first frame the box sent after the
-reply shows the state after the command, at the period it was answered in.
+on the stepped clock; every recorded request is answered by it, in order, at the place the box
+answered it, and its state is sampled at the controller time of every recorded real-time report
+frame (port 30000, whose timestamp is the box's clock; manual 2.1.6 and firmware 2.x). A command's
+place is the first real-time frame that shows it and its control period (:mod:`.placement`): of the
+places its round trip leaves open, the one answered as recorded after which the replayed joints,
+then torques, follow the recorded frames (:meth:`_Replay.position`). A pure read is tried at every
+period its round trip leaves open. Report rates are measured per connection.
 
 Reported per command and in total: replies that differ (state byte or parameters); move durations
 (from the command to the first report at rest after it moved); the path deviation (the distance of each
@@ -134,7 +136,14 @@ class Comparison:
         return {"model": self.model, "firmware": self.firmware, "notes": self.notes, "totals": self.totals,
                 "per_joint": self.per_joint, "codes": self.codes, "rates": self.rates,
                 "rate_connections": self.rate_connections,
-                "failures": self.failures, "commands": [asdict(c) for c in self.commands]}
+                "failures": self.failures, "commands": [_command_json(c) for c in self.commands]}
+
+
+def _command_json(c: CommandResult) -> dict[str, Any]:
+    """A command's fields for ``--json``, an open end of its window as ``null``."""
+    out = asdict(c)
+    out["window"] = [x if math.isfinite(x) else None for x in c.window]
+    return out
 
 
 def load_tolerances(path: Path | None) -> dict[str, float]:
@@ -305,7 +314,10 @@ def read_session(path: Path) -> Session:
 
 
 def _controller_times(session: Session) -> list[tuple[float, float, float]]:
-    """The controller time each request was answered at (module docstring).
+    """The proxy clock's estimate of the controller time each request was answered at, and its
+    bounds: the time of a read and of any command of a recording without real-time frames; for a
+    command placed by the frames (:meth:`_Replay.position`), the estimate its candidates are tried
+    nearest and the commands after one being placed are put at.
 
     Bounds: a frame the box sent before the request shows a time no later, the first frame it sent
     after the reply one no earlier. A queued command changes what the next frame shows, so the box
