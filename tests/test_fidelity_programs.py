@@ -26,7 +26,7 @@ def test_programs_compare_equal_with_the_emulator_itself(name: str, tmp_path: Pa
     assert failures == [], (failures, differing)
     t = r.totals
     assert t["reply_differences"] == 0 and t["code_differences"] == 0 and t["code_timing_s"] == 0.0
-    assert t["torque_max"] < 1e-4 and t["current_max"] < 1e-4 and t["duration_s"] == 0.0
+    assert t["torque_max"] < 1e-3 and t["current_max"] < 1e-3 and t["duration_s"] == 0.0  # float32 frames
     assert t["path_mm"] < 1e-3 and t["path_deg"] < 1e-3
     # rates per connection: the rich and develop reports were read by two readers each
     ports = [c["port"] for c in r.rate_connections]

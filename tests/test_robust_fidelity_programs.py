@@ -32,7 +32,7 @@ def assert_equal(r: Comparison, missed: int) -> None:
     assert failures == [], (failures, differing)
     t = r.totals
     assert t["reply_differences"] == 0 and t["code_differences"] == 0 and t["duration_s"] == 0.0
-    assert t["torque_max"] < 1e-4 and t["current_max"] < 1e-4 and t["path_mm"] < 1e-3
+    assert t["torque_max"] < 1e-3 and t["current_max"] < 1e-3 and t["path_mm"] < 1e-3
 
 
 @pytest.mark.parametrize("name", list(PROGRAMS))

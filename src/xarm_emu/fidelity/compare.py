@@ -705,11 +705,13 @@ class _Replay:
         answered at its place and the commands ``after`` it at their earliest places (alike for
         every candidate), from a checkpoint restored after each try. The torques, computed in a
         batch, only of the places whose joints follow the frames best (else ``inf``). And each
-        place's first twin: the first place that gave the same joints, speeds, accelerations and
-        settings at every frame; and the reply each place got (from the state byte on)."""
+        place's first twin: the first place that gave the same joints, speeds, accelerations, state
+        and settings at every frame; and the reply each place got (from the state byte on). A frame
+        whose state differs counts :data:`STATE_WEIGHT` in the joint distance."""
         emu, server, rec = self.emu, self.server, self.recorded
         model, dof = emu.controller.model, self.dof
         rec_q = np.array([x.joints for x in rec[s0:end]])
+        rec_state = [x.state for x in rec[s0:end]]
         cp = emu.checkpoint()
         runs = []
         replies: list[bytes] = []
@@ -717,6 +719,7 @@ class _Replay:
             if n:
                 emu.restore(cp)
             states: list[np.ndarray] = []
+            motion: list[int] = []  # each frame's state (register 13)
             settings: list[tuple[float, ...]] = []  # each frame's settings, by their values
             kinds: dict[tuple[float, ...], Any] = {}
             todo = [(t, s, req)]
@@ -737,6 +740,7 @@ class _Replay:
                     server.advance(rec[k].t - emu.time)
                 d = emu.controller.data
                 states.append(np.concatenate((d.q[:dof], d.qd[:dof], d.qdd[:dof])))
+                motion.append(d.motion_state)
                 st = emu.controller.settings
                 key = (*st.tcp_offset, *st.world_offset, *st.tcp_load, *st.gravity_direction)
                 if key not in kinds:
@@ -744,7 +748,8 @@ class _Replay:
                 settings.append(key)
             x = np.array(states).reshape(len(states), 3, dof)
             err_q = float(np.maximum(np.abs(x[:, 0] - rec_q) - JOINT_ROUNDING, 0.0).sum()) if len(x) else 0.0
-            runs.append((err_q, x, settings, kinds))
+            err_q += STATE_WEIGHT * sum(m != r for m, r in zip(motion, rec_state, strict=False))
+            runs.append((err_q, x, (settings, motion), kinds))
         emu.restore(cp)
         twins = [next(m for m in range(n + 1) if np.array_equal(runs[m][1], runs[n][1])
                       and runs[m][2] == runs[n][2]) for n in range(len(runs))]
@@ -757,7 +762,7 @@ class _Replay:
             if twins[n] != n:  # the same frames as a place scored already
                 out[n] = out[twins[n]]
                 continue
-            err_q, x, settings, kinds = runs[n]
+            err_q, x, (settings, _), kinds = runs[n]
             tau = np.empty((len(x), dof))
             for key, st in kinds.items():  # the frames under each settings, in a batch
                 rows = np.array([x_key == key for x_key in settings])
@@ -990,6 +995,9 @@ FIRST_FRAMES, SEARCH_FRAMES, BLEND_FRAMES = 4, 25, 500
 #: Joints (rad) a replayed frame may be from a recorded one, the recorded float32's rounding, before
 #: it counts against a candidate place.
 JOINT_ROUNDING = 1e-6
+#: What a frame whose state (moving, stopped, ...) differs from the recorded one adds to a candidate
+#: place's joint distance (rad): more than any joint difference a place can make.
+STATE_WEIGHT = 10.0
 #: How a command's period was chosen (``placed_by``): ``bounds`` (its frames leave one place),
 #: ``frames`` (the place after which the replay follows the recorded frames best, or places that
 #: give the same frames), ``alike`` (every place gives the same frames: the command shows nowhere
