@@ -129,10 +129,11 @@ def refused_and_recovered(arm: Any) -> None:
 
 def first_program(arm: Any) -> None:
     """A joint move and a linear move, as a first program on a new arm does."""
-    assert arm.set_servo_angle(angle=[10, 10, 25, 0, 15, 0], speed=150, wait=True) == 0
-    pose = arm.get_position()[1]
-    assert arm.set_position(x=pose[0] + 30, y=pose[1] + 20, z=pose[2], roll=pose[3], pitch=pose[4],
-                            yaw=pose[5], speed=300, wait=True) == 0
+    q = arm.get_servo_angle()[1]
+    assert arm.set_servo_angle(angle=[q[0] + 10, *q[1:4], q[4] + 10, *q[5:]], speed=150, wait=True) == 0
+    pose = arm.get_position()[1]  # (an arm at a singular pose refuses it: the replay must too)
+    arm.set_position(x=pose[0] + 30, y=pose[1] + 20, z=pose[2], roll=pose[3], pitch=pose[4], yaw=pose[5],
+                     speed=300, wait=True)
 
 
 def online_planning(arm: Any) -> None:
