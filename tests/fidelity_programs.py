@@ -22,17 +22,19 @@ READERS = ("realtime", "normal", "rich", "develop", "rich", "develop")
 
 @contextlib.contextmanager
 def recorded(path: Path, model: int | str = 6, firmware: str = SERVE_VERSION,
-             calibration: Calibration | None = None, **emulator: Any) -> Iterator[tuple[ServerThread, Any]]:
+             calibration: Calibration | None = None, check_joint_limit: bool = True,
+             **emulator: Any) -> Iterator[tuple[ServerThread, Any]]:
     """``(server, arm)``: an SDK ``XArmAPI`` through the recording proxy (to ``path``) in front of an
     emulator of ``model`` at ``firmware``, enabled, in mode 0 and state 0; the report readers of
-    :data:`READERS` that the firmware serves read through the proxy too."""
+    :data:`READERS` that the firmware serves read through the proxy too; ``check_joint_limit=False``
+    lets the SDK send joints beyond the arm's limits (the box refuses them)."""
     from xarm.wrapper import XArmAPI
 
     with running_emulator(model, firmware=firmware, calibration=calibration, **emulator) as st, \
             running_proxy(st, path) as px, sdk_pointed_at(px), \
             reading_reports(px, tuple(k for k in READERS if k in px.ports)):  # type: ignore[arg-type]
         time.sleep(0.05)
-        arm = XArmAPI("127.0.0.1", is_radian=False)
+        arm = XArmAPI("127.0.0.1", is_radian=False, check_joint_limit=check_joint_limit)
         try:
             arm.motion_enable(True)
             arm.set_mode(0)
@@ -116,7 +118,14 @@ def velocity(arm: Any) -> None:
 
 
 def refused_and_recovered(arm: Any) -> None:
-    """A move the box refuses (a pose out of reach), the error read and cleared, then a move."""
+    """Moves the box refuses (a joint beyond its limit, a pose out of reach), the error read and
+    cleared, then a move."""
+    arm.set_servo_angle(angle=[400, 0, 0, 0, 0, 0], speed=50, wait=True)
+    arm.get_err_warn_code()
+    arm.clean_error()
+    arm.motion_enable(True)
+    arm.set_state(0)
+    time.sleep(0.25)  # the SDK learns that the error is gone from its report (5 Hz)
     arm.set_position(x=1200, y=0, z=200, roll=180, pitch=0, yaw=0, speed=100, wait=True)
     arm.get_err_warn_code()
     arm.clean_error()
@@ -203,7 +212,7 @@ PROGRAMS = {
     "servo_mode1": Program(servo_stream),
     "blends": Program(blended_lines),
     "velocity": Program(velocity),
-    "refused_1.6.0": Program(refused_and_recovered, {"firmware": "1.6.0"}),
+    "refused_1.6.0": Program(refused_and_recovered, {"firmware": "1.6.0", "check_joint_limit": False}),
     "lite6": Program(first_program, {"model": "lite6"}),
     "online_6_7": Program(online_planning),
     "world_offset_save_reset": Program(world_offset_save_reset, {"model": 7}),
