@@ -33,7 +33,7 @@ from ..controller.core.interface import PERIOD
 SLACK_FRAMES, SLACK_SECONDS = 1, PERIOD / 2
 #: The most places listed for one request (a box starved of its processor sends no frames for a
 #: while, so a window can be long), and the most tried: those nearest the proxy clock's estimate.
-MAX_CANDIDATES, MAX_TRIED = 2000, 12
+MAX_CANDIDATES, MAX_TRIED = 2000, 20
 
 
 @dataclass(frozen=True)
