@@ -124,6 +124,9 @@ def compare(
             console.print(f"  {line}", soft_wrap=True)
         for note in result.notes:
             console.print(f"note: {note}", soft_wrap=True)
+        if t.get("undecided"):
+            console.print(f"note: {int(t['undecided'])} commands the recording could not place to one "
+                          "control period (--json: undecided, window)", soft_wrap=True)
         console.print("within every tolerance" if not result.failures else
                       "outside the tolerances: " + "; ".join(result.failures), soft_wrap=True)
     if result.failures:

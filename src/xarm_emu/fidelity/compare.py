@@ -880,6 +880,7 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     t["requests"] = len(result.commands)
     t["samples"] = len(rec)
     t["reply_differences"] = sum(c.reply_differs for c in result.commands)
+    t["undecided"] = sum(c.undecided for c in result.commands)  # placed within a window, not a period
     t["duration_s"] = max((d if math.isfinite(d) else math.inf for d in durations), default=0.0)
     reads = result.commands  # a read's own distance (a recording without the real-time report)
     t["path_mm"] = max(float(d_mm.max(initial=0.0)), max((c.path_mm for c in reads), default=0.0))
