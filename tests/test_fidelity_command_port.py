@@ -12,6 +12,7 @@ import pytest
 from helpers import run_cli
 from proxy_session import sdk_through_proxy
 
+from xarm_emu.controller.core.interface import PERIOD
 from xarm_emu.fidelity.compare import COMMAND_PORT_ONLY, compare
 
 
@@ -49,6 +50,11 @@ def test_reads_on_the_same_path_compare_equal(recordings: dict[str, Path]) -> No
     assert r.totals["reply_differences"] == 0 and r.totals["code_differences"] == 0
     assert r.totals["path_mm"] < 0.01 and r.totals["path_deg"] < 0.01
     assert r.notes == list(COMMAND_PORT_ONLY) and r.failures == []
+    # every command placed by the proxy's clock, undecided where its round trip spans more than a period
+    others = [c for c in r.commands if c.placed_by != "read"]
+    assert others and all(c.placed_by == "clock" for c in others)
+    assert all(c.undecided == (c.window[1] - c.window[0] > PERIOD + 1e-9) for c in others)
+    assert r.totals["undecided"] == sum(c.undecided for c in others)
     code, out = run_cli("compare", str(recordings["same"]))
     assert code == 0 and "note: no real-time report (port 30000)" in out
     assert "not compared: move durations, joint torques and currents" in out

@@ -124,6 +124,9 @@ def compare(
             console.print(f"  {line}", soft_wrap=True)
         for note in result.notes:
             console.print(f"note: {note}", soft_wrap=True)
+        if t.get("undecided"):
+            console.print(f"note: {int(t['undecided'])} commands the recording could not place to one "
+                          "control period (--json: undecided, window)", soft_wrap=True)
         console.print("within every tolerance" if not result.failures else
                       "outside the tolerances: " + "; ".join(result.failures), soft_wrap=True)
     if result.failures:
@@ -141,13 +144,16 @@ def calibrate(
 
     try:
         result = run_calibrate(recording)
+        kept = f"kept at the emulator's values (not fitted): {', '.join(result.kept)}" if result.kept else ""
         save(result.calibration, output, comment=f"fitted by xarm-emu calibrate to {recording.name} "
                                                  f"({result.samples} real-time frames)\n"
-                                                 + "\n".join(result.notes))
+                                                 + "\n".join([kept, *result.notes] if kept else result.notes))
     except (CompareError, CalibrationError, ValueError) as exc:
         err_console.print(str(exc))
         raise typer.Exit(1) from None
     console.print(dumps(result.calibration), end="")
+    if kept:
+        console.print(kept, soft_wrap=True)
     for note in result.notes:
         console.print(f"note: {note}", soft_wrap=True)
 

@@ -31,6 +31,7 @@ from ..controller.core.interface import PERIOD
 from ..controller.core.thermal import AMBIENT_C, thermal_params
 from ..controller.emulator import THERMAL_EVERY
 from ..model.calibration import Calibration
+from ..model.inertials import torque_constants
 from ..model.robots import get_model
 from . import collision_fit, thermal_fit
 from .compare import Comparison, compare
@@ -43,6 +44,14 @@ MIN_MOVING = 10
 SAME_PATH = 0.01
 #: Joint speed (rad/s) above which a sample counts as moving for the friction fit.
 MOVING = 1e-3
+#: A joint's torque constant is fitted only from frames whose torque reaches this (N.m), when there
+#: are at least ``MIN_EXCITED`` of them and the fit knows it to ``MAX_RELATIVE_SD`` of its value
+#: (current noise against too little torque leaves it wider); else the emulator's is kept.
+EXCITED_TORQUE, MIN_EXCITED, MAX_RELATIVE_SD = 0.05, 10, 0.02
+#: The relative resolution of a ratio of two of the report's float32 values (torque over current):
+#: the least a torque constant's standard deviation can be (rounding that repeats with the values
+#: does not average out).
+FLOAT32_RATIO = 2.0 ** -22
 
 
 @dataclass
@@ -52,6 +61,9 @@ class Fit:
     calibration: Calibration
     notes: list[str] = field(default_factory=list)
     samples: int = 0
+    #: The constants kept at the emulator's values (``name[joint or level]``): the recording did not
+    #: excite them; the file gives them the uncertainty ``inf``.
+    kept: list[str] = field(default_factory=list)
 
 
 def _lstsq(a: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -85,19 +97,30 @@ def fit(comparison: Comparison) -> Fit:
     model_tau = np.array([rep[i].torques for i in use])
     qd = np.array([rep[i].speeds for i in use])
     dof = tau.shape[1]
-    kt, kt_sd = np.zeros(dof), np.zeros(dof)
+    defaults = torque_constants(get_model(comparison.model))
+    kt, kt_sd = defaults.astype(float).copy(), np.full(dof, math.inf)
     off, off_sd = np.zeros(dof), np.zeros(dof)
-    visc, visc_sd = np.zeros(dof), np.zeros(dof)
-    coul, coul_sd = np.zeros(dof), np.zeros(dof)
-    notes = []
+    visc, visc_sd = np.zeros(dof), np.full(dof, math.inf)
+    coul, coul_sd = np.zeros(dof), np.full(dof, math.inf)
+    notes: list[str] = []
+    kept: list[str] = []
     friction_any = False
     for j in range(dof):
-        use = np.abs(cur[:, j]) > 1e-6
-        if use.sum() < 3:
-            raise ValueError(f"joint {j + 1} carried no current in the recording: its torque constant "
-                             "cannot be fitted")
-        x, sd = _lstsq(cur[use, j:j + 1], tau[use, j])
-        kt[j], kt_sd[j] = x[0], sd[0]
+        excited = np.abs(tau[:, j]) >= EXCITED_TORQUE
+        if excited.sum() >= MIN_EXCITED:
+            x, sd = _lstsq(cur[excited, j:j + 1], tau[excited, j])
+            sd[0] = max(sd[0], abs(x[0]) * FLOAT32_RATIO)
+            if x[0] > 0 and sd[0] <= MAX_RELATIVE_SD * x[0]:
+                kt[j], kt_sd[j] = x[0], sd[0]
+            else:
+                kept.append(f"torque_constants[{j + 1}]")
+                notes.append(f"joint {j + 1}: torque constant not fitted (the fit knows it only to "
+                             f"{sd[0]:.3g} of {x[0]:.4g} N.m/A); the emulator's {defaults[j]:.4g} is kept")
+        else:
+            kept.append(f"torque_constants[{j + 1}]")
+            notes.append(f"joint {j + 1}: torque constant not fitted (its torque reached {EXCITED_TORQUE:g} "
+                         f"N.m in {int(excited.sum())} frames, fewer than {MIN_EXCITED}); the emulator's "
+                         f"{defaults[j]:.4g} N.m/A is kept")
         y = tau[:, j] - model_tau[:, j]
         v = qd[:, j]
         both = (v > MOVING).sum() >= MIN_MOVING and (v < -MOVING).sum() >= MIN_MOVING
@@ -121,8 +144,10 @@ def fit(comparison: Comparison) -> Fit:
         values["viscous_friction"] = tuple(max(0.0, x) for x in visc.tolist())
         values["coulomb_friction"] = tuple(max(0.0, x) for x in coul.tolist())
         unc += [("viscous_friction", tuple(visc_sd.tolist())), ("coulomb_friction", tuple(coul_sd.tolist()))]
+    kept += [f"{name}[{j + 1}]" for name, sds in unc if name not in ("torque_constants",)
+             for j, sd in enumerate(sds) if not math.isfinite(sd)]
     cal = Calibration(model=comparison.model, uncertainties=tuple(unc), **values)  # type: ignore[arg-type]
-    return Fit(cal, notes, len(rec))
+    return Fit(cal, notes, len(rec), kept)
 
 
 def _collisions(comparison: Comparison, use: list[int], friction: np.ndarray,

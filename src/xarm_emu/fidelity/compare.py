@@ -2,11 +2,13 @@
 
 The recording (``xarm-emu proxy``, :mod:`xarm_emu.server.xrec`) says which arm and firmware the box is
 (its register 1 reply). A fresh emulator of that arm and firmware (with a calibration when given) runs
-on the stepped clock; every recorded request is answered by it, in order, at the controller time the
-box answered it, and its state is sampled at the controller time of every recorded real-time report
-frame (port 30000, whose timestamp is the box's clock; manual 2.1.6 and firmware 2.x). A request's
-controller time is read from the real-time frames around it: the first frame the box sent after the
-reply shows the state after the command, at the period it was answered in.
+on the stepped clock; every recorded request is answered by it, in order, at the place the box
+answered it, and its state is sampled at the controller time of every recorded real-time report
+frame (port 30000, whose timestamp is the box's clock; manual 2.1.6 and firmware 2.x). A command's
+place is the first real-time frame that shows it and its control period (:mod:`.placement`): of the
+places its round trip leaves open, the one answered as recorded after which the replayed joints,
+then torques, follow the recorded frames (:meth:`_Replay.position`). A pure read is tried at every
+period its round trip leaves open. Report rates are measured per connection.
 
 Reported per command and in total: replies that differ (state byte or parameters); move durations
 (from the command to the first report at rest after it moved); the path deviation (the distance of each
@@ -43,6 +45,7 @@ from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
 from ..server import xrec
 from ..server.command_port import PURE_READS
 from ..tomlfile import check_keys, load_toml
+from . import placement
 
 #: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
 DEFAULT_TOLERANCES: dict[str, float] = {
@@ -99,6 +102,12 @@ class CommandResult:
     samples: tuple[int, int] = (0, 0)  # sample index range [start, end)
     #: A register 15 (get_err_warn_code) reply's codes: recorded error, warning, replayed error, warning.
     reply_codes: tuple[int, int, int, int] | None = None
+    #: The controller times the recording leaves open for it (earliest, latest; inf: no frame after it).
+    window: tuple[float, float] = (0.0, 0.0)
+    #: How its period was chosen (:data:`PLACEMENTS`).
+    placed_by: str = ""
+    #: Whether the recording could not decide its period (:data:`PLACEMENTS`).
+    undecided: bool = False
 
 
 @dataclass
@@ -111,7 +120,10 @@ class Comparison:
     totals: dict[str, float] = field(default_factory=dict)
     per_joint: dict[str, list[float]] = field(default_factory=dict)
     codes: dict[str, list[Any]] = field(default_factory=dict)  # see _codes
-    rates: dict[str, list[float]] = field(default_factory=dict)  # port -> recorded, emulator's
+    #: port -> recorded (of its connection farthest from the emulator's rate), emulator's
+    rates: dict[str, list[float]] = field(default_factory=dict)
+    #: every report connection's rate: conn, port, frames, rate (frames per second)
+    rate_connections: list[dict[str, float]] = field(default_factory=list)
     failures: list[str] = field(default_factory=list)
     recorded: list[Sample] = field(default_factory=list, repr=False)
     replayed: list[Sample] = field(default_factory=list, repr=False)
@@ -123,7 +135,15 @@ class Comparison:
     def to_json(self) -> dict[str, Any]:
         return {"model": self.model, "firmware": self.firmware, "notes": self.notes, "totals": self.totals,
                 "per_joint": self.per_joint, "codes": self.codes, "rates": self.rates,
-                "failures": self.failures, "commands": [asdict(c) for c in self.commands]}
+                "rate_connections": self.rate_connections,
+                "failures": self.failures, "commands": [_command_json(c) for c in self.commands]}
+
+
+def _command_json(c: CommandResult) -> dict[str, Any]:
+    """A command's fields for ``--json``, an open end of its window as ``null``."""
+    out = asdict(c)
+    out["window"] = [x if math.isfinite(x) else None for x in c.window]
+    return out
 
 
 def load_tolerances(path: Path | None) -> dict[str, float]:
@@ -178,6 +198,8 @@ class Session:
     realtime: RealtimeFrames
     frames: dict[int, list[float]]  # report port -> proxy times
     status: list[StatusFrame] = field(default_factory=list)
+    #: Report connection -> its port and the proxy times of its frames (rates are per connection).
+    streams: dict[int, tuple[int, list[float]]] = field(default_factory=dict)
 
     def controller_times(self, proxy_times: np.ndarray | list[float]) -> np.ndarray:
         """Controller times of moments on the proxy's clock: read from the real-time frames around
@@ -251,6 +273,7 @@ def read_session(path: Path) -> Session:
     rt_recv: list[float] = []
     rt_frames: list[bytes] = []
     frames: dict[int, list[float]] = {}
+    streams: dict[int, tuple[int, list[float]]] = {}
     status: list[StatusFrame] = []
     try:
         for rec in xrec.read(path):
@@ -266,6 +289,7 @@ def read_session(path: Path) -> Session:
                     profile = xrec.firmware_of(version) or profile
             elif isinstance(rec, xrec.Rpt):
                 frames.setdefault(rec.port, []).append(rec.t)
+                streams.setdefault(rec.conn, (rec.port, []))[1].append(rec.t)
                 decode = _STATUS_DECODERS.get(len(rec.frame))
                 if rec.port in (reports.NORMAL_PORT, reports.RICH_PORT) and decode is not None:
                     try:
@@ -286,11 +310,14 @@ def read_session(path: Path) -> Session:
     realtime = RealtimeFrames.read(rt_recv, rt_frames)
     if not realtime and not requests:
         raise CompareError(f"{path} has neither requests nor real-time report frames: nothing to compare")
-    return Session(version, profile, requests, realtime, frames, status)
+    return Session(version, profile, requests, realtime, frames, status, streams)
 
 
 def _controller_times(session: Session) -> list[tuple[float, float, float]]:
-    """The controller time each request was answered at (module docstring).
+    """The proxy clock's estimate of the controller time each request was answered at, and its
+    bounds: the time of a read and of any command of a recording without real-time frames; for a
+    command placed by the frames (:meth:`_Replay.position`), the estimate its candidates are tried
+    nearest and the commands after one being placed are put at.
 
     Bounds: a frame the box sent before the request shows a time no later, the first frame it sent
     after the reply one no earlier. A queued command changes what the next frame shows, so the box
@@ -427,6 +454,12 @@ def _rms_where(d: np.ndarray, use: np.ndarray) -> float:
     return float(np.sqrt(np.mean(d[use] ** 2, axis=0)).max()) if use.any() else 0.0
 
 
+def _blends(req: xrec.Req) -> bool:
+    """Whether a request is a move with a blend radius (its path depends on when it arrived)."""
+    radius = (req.values or {}).get("radius", 0)
+    return isinstance(radius, (int, float)) and radius > 0
+
+
 def _is_queued(register: int) -> bool:
     reg = regs.get(register)
     return reg is not None and reg.queued
@@ -443,6 +476,8 @@ def _duration(samples: list[Sample], start: int, end: int, t0: float) -> float |
     return None
 
 
+#: Each candidate place's (joint, torque) distances from the frames, its first twin, its reply.
+_Scores = tuple[list[tuple[float, float]], list[int], list[bytes]]
 #: A read waiting to be answered again (``_Replay.retry``): its result, request, recorded reply, the
 #: controller time after which it is given up, and the replayed answers it got so far.
 _Pending = tuple[CommandResult, xrec.Req, xrec.Rep, float, list[bytes]]
@@ -476,6 +511,18 @@ class _Replay:
         self.st_order = sorted(range(len(status)), key=lambda n: self.st_times[n])
         self.j = self.k = 0
         self.previous = 0.0  # the controller time of the request placed last
+        self.slot = 0  # the slot (first real-time frame after it) of the command placed last
+        self.ts = rt.ts
+        self.windows = placement.windows(rt.recv, [(q.t, p.t if p is not None else None)
+                                                   for q, p in session.requests]) if rt else []
+        #: Each request's end of the frames that tell its candidate places apart: the first frame
+        #: that may show the next command (a read changes nothing).
+        self.until = [len(rt)] * len(session.requests)
+        nxt = len(rt)
+        for n in range(len(self.windows) - 1, -1, -1):
+            self.until[n] = nxt
+            if not _pure_read(session.requests[n][0]):
+                nxt = self.windows[n].first
 
     @classmethod
     def start(cls, model: RobotModel, firmware: str, config_dir: Path, session: Session,
@@ -524,35 +571,42 @@ class _Replay:
             _read_distance(c_read, rep_read, tries, self.cmd_only, self.tol)
         self.pending.clear()
 
-    def sample_until(self, limit: float) -> None:
+    def sample_until(self, limit: float, slot: int | None = None) -> None:
         """Take the replayed state at every recorded frame before ``limit``: the joints, torques
-        and currents at the real-time frames, the error and warning codes at the normal and rich
-        frames."""
-        dof, rec_samples, st_order = self.dof, self.recorded, self.st_order
+        and currents at the real-time frames (those before index ``slot`` when given, the first frame
+        that shows the command about to be answered), the error and warning codes at the normal and
+        rich frames."""
+        rec_samples, st_order = self.recorded, self.st_order
         while True:
             t_rt = rec_samples[self.j].t if self.j < len(rec_samples) else math.inf
             t_st = self.st_times[st_order[self.k]] if self.k < len(st_order) else math.inf
-            if not min(t_rt, t_st) < limit - 1e-9:
+            rt_due = t_rt < limit - 1e-9 if slot is None else self.j < slot
+            st_due = t_st < limit - 1e-9
+            if not (rt_due or st_due):
                 return
-            if t_st <= t_rt:  # the state of the last period begun by then (never one further)
+            if st_due and (not rt_due or t_st <= t_rt):  # the state of the last period begun by then
                 self.advance(math.floor(t_st / PERIOD + 1e-9) * PERIOD)
                 ctl = self.emu.controller
                 self.emu_codes[st_order[self.k]] = (ctl.error_code, ctl.warning_code)
                 self.k += 1
                 continue
-            st = rec_samples[self.j]
-            self.advance(st.t)
-            ctl = self.emu.controller
-            d, s = ctl.data, ctl.settings
-            key = (*s.tcp_offset, *s.world_offset, *s.tcp_load, *s.gravity_direction)
-            group = self.settings.get(key)
-            if group is None:
-                group = self.settings[key] = (len(self.settings), copy.deepcopy(s))
-            self.group.append(group[0])
-            self.qdd.append(d.qdd[:dof].copy())
-            self.replayed.append(Sample(st.t, d.motion_state, d.q[:dof].copy(), self.nan3, self.nan,
-                                        self.nan, d.qd[:dof].copy()))
-            self.j += 1
+            self.take(rec_samples[self.j].t)
+
+    def take(self, t: float) -> None:
+        """Sample the replayed state at the next real-time frame, stamped ``t``."""
+        self.advance(t)
+        ctl = self.emu.controller
+        d, s = ctl.data, ctl.settings
+        key = (*s.tcp_offset, *s.world_offset, *s.tcp_load, *s.gravity_direction)
+        group = self.settings.get(key)
+        if group is None:
+            group = self.settings[key] = (len(self.settings), copy.deepcopy(s))
+        self.group.append(group[0])
+        dof = self.dof
+        self.qdd.append(d.qdd[:dof].copy())
+        self.replayed.append(Sample(t, d.motion_state, d.q[:dof].copy(), self.nan3, self.nan,
+                                    self.nan, d.qd[:dof].copy()))
+        self.j += 1
 
     def derive(self) -> None:
         """The TCP positions, joint torques and currents of every replayed sample, computed in one
@@ -577,26 +631,164 @@ class _Replay:
             x.pos, x.torques, x.currents = pos[i], tau[i], cur[i]
 
     def time_of(self, i: int, req: xrec.Req) -> float:
-        """The controller time request ``i`` is answered at (:func:`_controller_times`), the state
-        sampled up to its lower bound first: a read at its earliest period, a queued command at the
-        period the frames after it fit best (:func:`_best_time`), any other at its lower bound."""
+        """The controller time request ``i`` is answered at when no real-time frames place it
+        (:func:`_controller_times`), the state sampled up to its lower bound first: a read at its
+        earliest period, a queued command at its estimate, any other at its lower bound."""
         t_est, _, lo = self.spans[i]
         lower = max(self.previous, lo - LEAD_PERIODS * PERIOD)
         self.sample_until(lower)  # no command can come before its lower bound
         if _pure_read(req):
             return max(lower, self.emu.time)
-        if _is_queued(req.register) and not self.recorded:  # no frames to place it by
-            return max(t_est, lower)
         if _is_queued(req.register):
-            return _best_time(self.server, self.emu, self.session, max(t_est, lower), self.spans[i][1],
-                              self.recorded, i, self.j)
+            return max(t_est, lower)
         return max(lo, lower)  # the earliest its bounds allow, so a queued command after it can be placed
 
+    def position(self, i: int, req: xrec.Req) -> tuple[float, int, str]:
+        """The place (controller time, slot) of command ``i`` among those its frames leave open
+        (:func:`.placement.candidates`) and how it was chosen (:data:`PLACEMENTS`): the one after
+        which the replayed joints, then the joint torques, follow the recorded frames most closely up
+        over the frames after them, the commands after it applied (:meth:`score`); of places that
+        give the same frames the earliest, of others alike the one nearest the proxy clock's estimate."""
+        t_est = self.spans[i][0]
+        answer = self.session.requests[i][1]
+        late = t_est + (answer.t - req.t if answer is not None else 0.0)  # answered when the reply left
+        cands = placement.nearest(placement.candidates(self.ts, self.windows[i], (self.previous, self.slot)),
+                                  (t_est, late))
+        s0 = min(s for _, s in cands)
+        self.sample_until(cands[0][0], s0)  # the frames before every candidate: alike for all
+        if len(cands) == 1:
+            return (*cands[0], "bounds")
+        moving = self.emu.controller.data.motion_state == 1
+        lengths = (FIRST_FRAMES, SEARCH_FRAMES) + ((BLEND_FRAMES,) if _blends(req) else ())
+        for frames in lengths:  # a few frames tell most places apart
+            end = min(len(self.recorded), max(s for _, s in cands) + frames)
+            scores, twins, replies = self.score(req, cands, s0, end, self.followers(i, end))
+            rep = self.session.requests[i][1]
+            if rep is not None and any(r == rep.frame[6:] for r in replies):  # answered as recorded
+                scores = [sc if r == rep.frame[6:] else (math.inf, math.inf) for sc, r in zip(scores, replies,
+                                                                                             strict=True)]
+            best_q = min(q for q, _ in scores)
+            alike = [n for n, (q, _) in enumerate(scores) if q <= best_q + 1e-9]
+            best_tau = min(scores[n][1] for n in alike)
+            alike = [n for n in alike if scores[n][1] <= best_tau + 1e-9]
+            decided = len({twins[n] for n in alike}) == 1  # the best places gave the same frames
+            if decided and len(set(twins)) > 1 or len(set(twins)) == 1 and (not _is_queued(req.register)
+                                                                             or moving and not _blends(req)):
+                break  # told apart, or alike: a setting, or a move queued behind one (starts when it ends)
+        if len({twins[n] for n in alike}) == 1:  # places alike in every frame: the earliest, which
+            best = alike[0]  # leaves the commands after it every place they can have
+        else:
+            best = min(alike, key=lambda n: (abs(cands[n][0] - t_est), n))
+        return (*cands[best], "frames" if decided and len(set(twins)) > 1 else
+                "alike" if len(set(twins)) == 1 else "estimate")
+
+    def followers(self, i: int, end: int) -> list[tuple[xrec.Req, float, int]]:
+        """The commands after request ``i`` that may show in frames before ``end``, each with the
+        place of the proxy clock's estimate (its request, controller time, slot), for :meth:`score`."""
+        out = []
+        n = i + 1
+        while n < len(self.windows) and self.windows[n].first < end:
+            req = self.session.requests[n][0]
+            if not _pure_read(req):  # at the proxy clock's estimate within its window
+                w, ts = self.windows[n], self.ts
+                lo = float(ts[w.first - 1]) if w.first else 0.0
+                hi = float(ts[w.last]) if w.last < len(ts) else math.inf
+                t = min(max(self.spans[n][0], lo), hi)
+                out.append((req, t, max(w.first, int(np.searchsorted(ts, t - 1e-9)))))
+            n += 1
+        return out
+
+    def score(self, req: xrec.Req, cands: list[tuple[float, int]], s0: int, end: int,
+              after: list[tuple[xrec.Req, float, int]]) -> _Scores:
+        """For each candidate place of ``req``: how far the replayed joints (rad, beyond a float32's
+        rounding) and joint torques (N m) are from the recorded frames ``s0``..``end``, the command
+        answered at its place and the commands ``after`` it at their earliest places (alike for
+        every candidate), from a checkpoint restored after each try. The torques, computed in a
+        batch, only of the places whose joints follow the frames best (else ``inf``). And each
+        place's first twin: the first place that gave the same joints, speeds, accelerations, state
+        and settings at every frame; and the reply each place got (from the state byte on). A frame
+        whose state differs counts :data:`STATE_WEIGHT` in the joint distance."""
+        emu, server, rec = self.emu, self.server, self.recorded
+        model, dof = emu.controller.model, self.dof
+        rec_q = np.array([x.joints for x in rec[s0:end]])
+        rec_state = [x.state for x in rec[s0:end]]
+        cp = emu.checkpoint()
+        runs = []
+        replies: list[bytes] = []
+        for n, (t, s) in enumerate(cands):
+            if n:
+                emu.restore(cp)
+            states: list[np.ndarray] = []
+            motion: list[int] = []  # each frame's state (register 13)
+            settings: list[tuple[float, ...]] = []  # each frame's settings, by their values
+            kinds: dict[tuple[float, ...], Any] = {}
+            todo = [(t, s, req)]
+            for f_req, f_t, f_s in after:
+                t_prev, s_prev = todo[-1][:2]
+                todo.append((max(f_t, t_prev), max(f_s, s_prev), f_req))
+            for k in range(s0, max(end, s + 1)):
+                while todo and todo[0][1] == k:
+                    when, _, what = todo.pop(0)
+                    if when > emu.time + 1e-9:
+                        server.advance(when - emu.time)
+                    frame = server.answer(what.tid, what.protocol, what.register, what.params)
+                    if what is req:
+                        replies.append(bytes(frame[6:]))
+                if k >= end:
+                    break
+                if rec[k].t > emu.time + 1e-9:
+                    server.advance(rec[k].t - emu.time)
+                d = emu.controller.data
+                states.append(np.concatenate((d.q[:dof], d.qd[:dof], d.qdd[:dof])))
+                motion.append(d.motion_state)
+                st = emu.controller.settings
+                key = (*st.tcp_offset, *st.world_offset, *st.tcp_load, *st.gravity_direction)
+                if key not in kinds:
+                    kinds[key] = copy.deepcopy(st)
+                settings.append(key)
+            x = np.array(states).reshape(len(states), 3, dof)
+            err_q = float(np.maximum(np.abs(x[:, 0] - rec_q) - JOINT_ROUNDING, 0.0).sum()) if len(x) else 0.0
+            err_q += STATE_WEIGHT * sum(m != r for m, r in zip(motion, rec_state, strict=False))
+            runs.append((err_q, x, (settings, motion), kinds))
+        emu.restore(cp)
+        twins = [next(m for m in range(n + 1) if np.array_equal(runs[m][1], runs[n][1])
+                      and runs[m][2] == runs[n][2]) for n in range(len(runs))]
+        best_q = min(r[0] for r in runs)
+        best = [n for n, r in enumerate(runs) if r[0] <= best_q + 1e-9 and len(r[1])]
+        out = [(r[0], math.inf if len(r[1]) else 0.0) for r in runs]
+        if len(best) == 1:
+            out[best[0]] = (best_q, 0.0)
+        for n in best if len(best) > 1 else []:
+            if twins[n] != n:  # the same frames as a place scored already
+                out[n] = out[twins[n]]
+                continue
+            err_q, x, (settings, _), kinds = runs[n]
+            tau = np.empty((len(x), dof))
+            for key, st in kinds.items():  # the frames under each settings, in a batch
+                rows = np.array([x_key == key for x_key in settings])
+                tau[rows] = joint_torques_many(model, x[rows, 0], x[rows, 1], x[rows, 2], st)
+            rec_tau = np.array([r.torques for r in rec[s0:s0 + len(x)]])
+            out[n] = (err_q, float(np.abs(tau - rec_tau).sum()))
+        return out, twins, replies
+
     def place(self, i: int, req: xrec.Req, rep: xrec.Rep | None) -> CommandResult:
-        """Answer request ``i`` at its controller time and compare the reply with the recorded one."""
+        """Answer request ``i`` at its place and compare the reply with the recorded one."""
         read = _pure_read(req)
-        t = self.previous = self.time_of(i, req)
-        self.sample_until(t)
+        _, hi, lo = self.spans[i]
+        if read or not self.recorded:
+            t = self.previous = self.time_of(i, req)
+            self.sample_until(t)
+            how = "read" if read else "clock"
+            window = (lo, hi) if read else (min(lo, t), max(hi, t))
+            open_ = not read and placement.undecided(*window)
+        else:
+            t, slot, how = self.position(i, req)
+            self.previous, self.slot = t, slot
+            self.sample_until(t, slot)
+            ts, w = self.ts, self.windows[i]
+            window = (float(ts[w.first - 1]) if w.first else t,
+                      float(ts[w.last]) if w.last < len(ts) else math.inf)
+            open_ = how == "estimate"
         self.advance(t)
         if not read and self.pending:  # a command may change what a read shows: look ahead first
             cp = self.emu.checkpoint()
@@ -604,7 +796,7 @@ class _Replay:
             self.emu.restore(cp)
             self.give_up_reads()
         frame = self.server.answer(req.tid, req.protocol, req.register, req.params)
-        c = CommandResult(i, t, req.register, req.name)
+        c = CommandResult(i, t, req.register, req.name, window=window, placed_by=how, undecided=open_)
         if req.register == ERR_WARN_REGISTER and rep is not None and min(len(rep.frame), len(frame)) > 9:
             c.reply_codes = (rep.frame[8], rep.frame[9], frame[8], frame[9])
         if rep is not None and bytes(frame[6:]) != rep.frame[6:]:
@@ -688,6 +880,7 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     t["requests"] = len(result.commands)
     t["samples"] = len(rec)
     t["reply_differences"] = sum(c.reply_differs for c in result.commands)
+    t["undecided"] = sum(c.undecided for c in result.commands)  # placed within a window, not a period
     t["duration_s"] = max((d if math.isfinite(d) else math.inf for d in durations), default=0.0)
     reads = result.commands  # a read's own distance (a recording without the real-time report)
     t["path_mm"] = max(float(d_mm.max(initial=0.0)), max((c.path_mm for c in reads), default=0.0))
@@ -705,11 +898,14 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     t["code_differences"], t["code_timing_s"] = _codes(result, session, emu_codes)
     nominal = reports.rates_for(session.profile)
     worst_rate = 0.0
-    for port, stamps in sorted(session.frames.items()):
-        if len(stamps) > 10 and port in nominal:
+    for conn, (port, stamps) in sorted(session.streams.items()):  # each reader sees the whole stream
+        if len(stamps) > 10 and port in nominal and stamps[-1] > stamps[0]:
             rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
-            result.rates[str(port)] = [rate, nominal[port]]
-            worst_rate = max(worst_rate, abs(rate - nominal[port]) / nominal[port])
+            rel = abs(rate - nominal[port]) / nominal[port]
+            result.rate_connections.append({"conn": conn, "port": port, "frames": len(stamps), "rate": rate})
+            if str(port) not in result.rates or rel >= abs(result.rates[str(port)][0] / nominal[port] - 1):
+                result.rates[str(port)] = [rate, nominal[port]]
+            worst_rate = max(worst_rate, rel)
     t["report_rate_rel"] = worst_rate
     for key, limit in tol.items():
         if t.get(key, 0.0) > limit:
@@ -793,46 +989,24 @@ def _codes(result: Comparison, session: Session, emu_codes: list[tuple[int, int]
 #: Periods by which a real-time frame's timestamp may lead the controller time of the commands
 #: answered after it was received (a frame is prepared for its deadline ahead of sending it).
 LEAD_PERIODS = 2
-#: Real-time frames after a queued command over which its candidate periods are told apart.
-SEARCH_FRAMES = 25
-#: The most candidate periods tried for one queued command.
-SEARCH_PERIODS = 8
-
-
-def _best_time(server: Any, emu: Any, session: Session, t_est: float, upper: float,
-               samples: list[Sample], i: int, j: int) -> float:
-    """The period a queued command was answered in: of the periods its bounds leave open (on a busy
-    computer a frame sent after the reply may be one the box prepared before it), the one after
-    which the replayed joints follow the recorded frames most closely, the command alone replayed
-    over the next :data:`SEARCH_FRAMES` frames from a checkpoint restored after each try."""
-    req = session.requests[i][0]
-    first = max(emu.time, t_est - LEAD_PERIODS * PERIOD)
-    last = upper + 2 * PERIOD if math.isfinite(upper) else t_est
-    cands = [first + n * PERIOD for n in range(int(round((last - first) / PERIOD)) + 1)][:SEARCH_PERIODS]
-    if len(cands) < 2:
-        return t_est
-    dof = len(samples[0].joints)
-    cp = emu.checkpoint()
-    scores = []
-    for n, c in enumerate(cands):
-        if n:  # the first starts from the state the checkpoint was taken of
-            emu.restore(cp)
-        if c > emu.time + 1e-9:
-            server.advance(c - emu.time)
-        server.answer(req.tid, req.protocol, req.register, req.params)
-        err, n = 0.0, 0
-        for sm in samples[j:j + SEARCH_FRAMES + SEARCH_PERIODS * 2]:
-            if sm.t <= cands[-1] + 1e-9:
-                continue  # the same frames for every candidate
-            if n == SEARCH_FRAMES:
-                break
-            server.advance(sm.t - emu.time)
-            err += float(np.abs(emu.controller.data.q[:dof] - sm.joints).sum())
-            n += 1
-        scores.append(err if n else math.inf)
-    emu.restore(cp)
-    best = min(range(len(cands)), key=lambda n: scores[n])
-    return cands[best] if math.isfinite(scores[best]) else t_est
+#: Real-time frames after a command's latest candidate place over which the places are told apart:
+#: first a few, then, when they leave several places alike, more; for a move blended into the one
+#: before it (its arrival decides the blend, which shows when the arm gets there), up to 2 s.
+FIRST_FRAMES, SEARCH_FRAMES, BLEND_FRAMES = 4, 25, 500
+#: Joints (rad) a replayed frame may be from a recorded one, the recorded float32's rounding, before
+#: it counts against a candidate place.
+JOINT_ROUNDING = 1e-6
+#: What a frame whose state (moving, stopped, ...) differs from the recorded one adds to a candidate
+#: place's joint distance (rad): more than any joint difference a place can make.
+STATE_WEIGHT = 10.0
+#: How a command's period was chosen (``placed_by``): ``bounds`` (its frames leave one place),
+#: ``frames`` (the place after which the replay follows the recorded frames best, or places that
+#: give the same frames), ``alike`` (every place gives the same frames: the command shows nowhere
+#: near it; the proxy clock's estimate), ``estimate`` (places that give different frames follow the
+#: recorded ones alike: the proxy clock's estimate, ``undecided``), ``read`` (a pure
+#: read, tried at every period its round trip leaves open), ``clock`` (no real-time report: the
+#: proxy's clock, ``undecided`` when its round trip leaves more than one period open).
+PLACEMENTS = ("bounds", "frames", "alike", "estimate", "read", "clock")
 
 
 def code_lines(result: Comparison) -> list[str]:
