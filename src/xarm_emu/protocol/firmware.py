@@ -147,6 +147,12 @@ class FirmwareProfile:
         return self._ge("2.0.102")
 
     @property
+    def payload_queued(self) -> bool:
+        """>= 2.0.102: register 36 (the payload) waits its turn in the command buffer, and the SDK
+        waits for its TRIGGER feedback; below, the payload applies when the command arrives."""
+        return self._ge("2.0.102")
+
+    @property
     def inf_unchanged(self) -> bool:
         """>= 2.4.101: +inf in registers 21/23/83 means 'keep this component'."""
         return self._ge("2.4.101")
