@@ -79,7 +79,8 @@ class Contacts:
 
 @dataclass(frozen=True)
 class ObjectPose:
-    """Where an object is: centre (mm, base frame), roll/pitch/yaw (deg), whether the hand holds it."""
+    """Where an object is: centre (mm, base frame), roll/pitch/yaw (deg), whether the hand (both pads)
+    or the vacuum cup holds it."""
 
     name: str
     position: tuple[float, float, float]
@@ -446,9 +447,11 @@ class World:
         return (float(qpos[self._fq[0]]) + float(qpos[self._fq[1]])) / MM
 
     def poses(self) -> list[ObjectPose]:
-        """Every object's pose, in scene order."""
+        """Every object's pose, in scene order; held: both pads touch it, or the cup holds it."""
         self._scan()
         held = {i for i, pads in self._pad_map.items() if len(pads) == 2}
+        if self.state.held >= 0:
+            held.add(self.state.held)
         out = []
         for i, (name, a, _, _) in enumerate(self.objects):
             qp = self.d.qpos
