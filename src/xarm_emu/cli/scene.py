@@ -16,7 +16,8 @@ from .options import AdminPortOpt, HostOpt, PortOpt, admin, console
 def scene(as_json: Annotated[bool, typer.Option("--json", help="One JSON object, for programs.")] = False,
           host: HostOpt = "127.0.0.1", port: PortOpt = COMMAND_PORT,
           admin_port: AdminPortOpt = None) -> None:
-    """Every object's pose (mm, deg, base frame) and whether the hand holds it (admin channel)."""
+    """Every object's pose (mm, deg, base frame) and whether the hand holds it, and the cell's
+    conveyors, sensors and feeders with their state (admin channel)."""
     message = admin(host, port, admin_port, "scene-objects")
     data: dict[str, Any] = json.loads(message)
     if as_json:
@@ -29,6 +30,20 @@ def scene(as_json: Annotated[bool, typer.Option("--json", help="One JSON object,
         table.add_row(o["name"], *(f"{v:.2f}" for v in (*o["position"], *o["rpy"])),
                       "yes" if o["held"] else "no")
     console.print(table)
+    for key, cols, row in (
+            ("conveyors", ("conveyor", "running", "speed mm/s", "output"),
+             lambda e: (e["name"], "yes" if e["running"] else "no", f"{e['speed']:g}",
+                        e["output"] or "always")),
+            ("sensors", ("sensor", "interrupted", "input", "level"),
+             lambda e: (e["name"], "yes" if e["interrupted"] else "no", e["input"], str(e["level"]))),
+            ("feeders", ("feeder", "placed", "of"), lambda e: (e["name"], str(e["count"]), str(e["of"])))):
+        if data.get(key):
+            t = Table()
+            for col in cols:
+                t.add_column(col)
+            for e in data[key]:
+                t.add_row(*row(e))
+            console.print(t)
 
 
 def scene_place(name: Annotated[str, typer.Argument(help="The object's name in the scene file.")],

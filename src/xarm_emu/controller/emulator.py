@@ -212,9 +212,9 @@ class Emulator:
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
             contact.set_scene(self.controller, scene)
-        #: The physics world of a scene with objects (controller/physics/), else None.
-        self.physics = physics.attach(self.model, scene, gripper, self.gripper.device, self.vacuum) if (
-            scene is not None and scene.objects) else None
+        #: The physics world of a scene with objects or cell elements (controller/physics/), else None.
+        self.physics = physics.attach(self.model, scene, gripper, self.gripper.device, self.vacuum,
+                                      io=self.io) if (scene is not None and scene.physical) else None
         if self.physics is not None:
             self.controller.add_component(self.physics)
         self.thermal = ThermalModel.for_model(self.model)

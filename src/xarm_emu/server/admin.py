@@ -364,7 +364,13 @@ def _physics(server: AdminTarget) -> None:
 
 
 def _scene_objects(server: AdminTarget, a: Args) -> str:
-    return json.dumps({"time": server.emulator.time, "objects": server.emulator.scene_objects()})
+    """The objects, and the cell's conveyors, sensors and feeders with their state, if any."""
+    emu = server.emulator
+    out: dict[str, Any] = {"time": emu.time, "objects": emu.scene_objects()}
+    cell = None if emu.physics is None else emu.physics.cell
+    if cell is not None:
+        out.update(cell.status())
+    return json.dumps(out)
 
 
 def _scene_reset(server: AdminTarget, a: Args) -> str:

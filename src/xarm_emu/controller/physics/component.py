@@ -33,6 +33,7 @@ from ..core.controller_protocol import Controller
 from ..core.interface import C_COLLISION, NOT_IDLE
 from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
 from ..scene import contact
+from .cell import CellRunner
 from .driven import driven
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
@@ -73,6 +74,14 @@ class PhysicsComponent:
         #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
         #: (The drive holds finger a, half the opening, and presses with the force of both pads.)
         self.squeeze = (2 * (2 * hand.force / FINGER_KP) / 0.001 + 1.0) if hand is not None else 0.0
+        #: The scene's conveyors, sensors and feeders on the box's IO (:meth:`attach_io`), if any.
+        self.cell: CellRunner | None = None
+
+    def attach_io(self, io: Any) -> None:
+        """Tie the scene's cell elements to ``io``, the box's IO module (ValueError for an input or
+        output the box does not have)."""
+        if self.world.scene.cell:
+            self.cell = CellRunner(self.world, io)
 
     def _driven_ramp(self) -> float:
         """A driven gripper's command: its own fingers' opening (its model moves them and stops them
@@ -175,7 +184,11 @@ class PhysicsComponent:
         w = self.world
         ramp = self._ramp(dt)
         w.state.ramp = ramp
+        if self.cell is not None:
+            self.cell.before(ctl)
         w.step(ctl.data.q, dt, ramp)
+        if self.cell is not None:
+            self.cell.after(ctl)
         if self.driven is not None:
             self._driven_contact()
         if self.vacuum is not None:
@@ -195,7 +208,11 @@ class PhysicsComponent:
             g.position = measured / XARM_MM_PER_PULSE
 
     def idle_until(self, ctl: Controller) -> float:
-        """Idle while the world is settled and neither the arm nor the finger command would move."""
+        """Idle while the world is settled and neither the arm nor the finger command would move,
+        and the cell elements change nothing (up to a feeder's next part)."""
         if not self.world.state.settled:
             return NOT_IDLE
-        return math.inf if self.world.idle(ctl.data.q, self._ramp(ctl.period)) else NOT_IDLE
+        until = math.inf if self.cell is None else self.cell.idle_until(ctl)
+        if until == NOT_IDLE:
+            return NOT_IDLE
+        return until if self.world.idle(ctl.data.q, self._ramp(ctl.period)) else NOT_IDLE
