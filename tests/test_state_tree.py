@@ -60,6 +60,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("CellRunner", "io"): WIRING,
     ("CellRunner", "cell"): FIXED,  # the scene's conveyors, sensors and feeders
     ("CellRunner", "_geomid"): DERIVED,  # a sensor ray's output buffer, written by each ray
+    ("CellRunner", "_looked"): DERIVED,  # keyed on the world's change count
     ("World", "specs"): FIXED,  # the scene's objects and the feeders' parts
     ("World", "feeder_base"): FIXED,
     ("World", "_belts"): FIXED,

@@ -50,10 +50,15 @@ def fresh_cell(scene: Scene) -> CellState:
                      [False] * len(c.sensors), [0.0] * len(c.sensors), [False] * len(c.conveyors))
 
 
-def _output(io: Any, ref: IoRef) -> int:
+def _outputs(io: Any) -> tuple[int, int]:
+    """The output words of the control box and the tool (bit n: output n)."""
     if io is None:
-        return 0
-    return int(io.cgpio.output(ref.index) if ref.kind == "cgpio" else io.tool.output(ref.index))
+        return 0, 0
+    return int(io.cgpio.digital_outputs), int(io.tool.digital_outputs)
+
+
+def _level(words: tuple[int, int], ref: IoRef) -> int:
+    return (words[0 if ref.kind == "cgpio" else 1] >> ref.index) & 1
 
 
 class CellRunner:
@@ -65,6 +70,8 @@ class CellRunner:
         self.io = io
         self.cell = world.scene.cell
         self._geomid = np.zeros(1, dtype=np.int32)  # mj_ray's output: the geom hit
+        #: The world's change count when the sensors last looked (the objects stand still between).
+        self._looked = -1
         if io is not None:
             refs = [(f"sensor {s.name}", s.input) for s in self.cell.sensors]
             refs += [(f"conveyor {c.name}", c.output) for c in self.cell.conveyors]
@@ -91,12 +98,13 @@ class CellRunner:
 
     def before(self, ctl: Controller) -> None:
         """Belts and feeders, before the world steps this period."""
-        st, io, now = self.state, self.io, ctl.time
+        st, now = self.state, ctl.time
+        words = _outputs(self.io)
         for i, c in enumerate(self.cell.conveyors):
-            st.running[i] = c.output is None or bool(_output(io, c.output))
+            st.running[i] = c.output is None or bool(_level(words, c.output))
         for i, f in enumerate(self.cell.feeders):
             if f.trigger is not None:
-                level = _output(io, f.trigger)
+                level = _level(words, f.trigger)
                 due = level and not st.trigger[i]
                 st.trigger[i] = level
             else:
@@ -109,8 +117,10 @@ class CellRunner:
     def after(self, ctl: Controller) -> None:
         """Sensors, after the world stepped this period: their inputs follow after their delay."""
         st, now = self.state, ctl.time
+        version = self.world._version
+        looked, self._looked = self._looked == version, version
         for i, s in enumerate(self.cell.sensors):
-            hit = self._interrupted(s)
+            hit = st.beam[i] if looked else self._interrupted(s)
             if hit != st.beam[i]:
                 st.beam[i], st.since[i] = hit, now
             if st.level[i] != hit and now + 1e-9 >= st.since[i] + s.delay:
@@ -145,16 +155,17 @@ class CellRunner:
     def idle_until(self, ctl: Controller) -> float:
         """Controller time up to which the cell changes nothing: a sensor waiting out its delay or an
         output a belt or a feeder follows changed: not idle; a timed feeder: its next part's time."""
-        st, io = self.state, self.io
+        st = self.state
         if st.level != st.beam:
             return NOT_IDLE
+        words = _outputs(self.io)
         for i, c in enumerate(self.cell.conveyors):
-            if c.output is not None and bool(_output(io, c.output)) != st.running[i]:
+            if c.output is not None and bool(_level(words, c.output)) != st.running[i]:
                 return NOT_IDLE
         until = math.inf
         for i, f in enumerate(self.cell.feeders):
             if f.trigger is not None:
-                if _output(io, f.trigger) != st.trigger[i] and st.fed[i] < f.count:
+                if _level(words, f.trigger) != st.trigger[i] and st.fed[i] < f.count:
                     return NOT_IDLE
             elif st.fed[i] < f.count:
                 assert f.every is not None
