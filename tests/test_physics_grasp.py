@@ -284,3 +284,37 @@ def test_pushing_a_cube_against_a_wall_raises_c31_from_the_contact(sensitivity: 
         tcp = emu.controller.tcp_matrix()[:3, 3]
         assert -60.0 < tcp[1] < -10.0, tcp
         assert cube(emu).position[1] > -36.0
+
+
+#: A block under the elbow (the link-3 capsule) at J2 = 1.2 rad, its top 8 mm below the capsule,
+#: clear of the wrist at the zero pose; the cube (the engine runs for a scene with objects) far off.
+ELBOW_BLOCK = {"name": "block", "min": [280, -80, TZ], "max": [380, 80, 190], "stiffness": 10.0}
+FAR_CUBE = {**CUBE, "position": [-300, 300, TZ + 20]}
+
+
+@pytest.mark.parametrize("sensitivity", [3, 0])
+def test_the_elbow_driven_into_a_block_raises_c31_at_sensitivity_3_not_0(sensitivity: int) -> None:
+    """J2 turns the elbow down into the block at about 50 mm/s: the link's contact in the engine
+    enters the joint torques as ``J^T f``; without detection the arm goes on to its target, the
+    engine never pushing it off."""
+    emu = Emulator(6, scene=contact.parse_scene({"plane": [TABLE], "box": [ELBOW_BLOCK], "object": [FAR_CUBE]}))
+    call(emu, 11, joint=8, enable=1)
+    call(emu, 19, mode=0)
+    call(emu, 37, sensitivity=sensitivity)
+    call(emu, 12, state=0)
+    move = {"speed": 0.5, "acc": 10.0, "mvtime": 0.0}
+    call(emu, 23, joints=(0.0, 1.2, 0.0, 0.0, 0.0, 0.0, 0.0), **move)
+    emu.advance(4.0)
+    assert emu.controller.error_code == 0
+    assert not emu.physics.world.touching_arm()  # type: ignore[union-attr]
+    call(emu, 23, joints=(0.0, 1.35, 0.0, 0.0, 0.0, 0.0, 0.0), speed=0.16, acc=10.0, mvtime=0.0)
+    emu.advance(1.5)
+    (_, reply) = emu.handle(15, b"")
+    error = REGISTERS[15].reply.decode(reply)["error"]
+    q2 = float(emu.controller.q[1])
+    if sensitivity:
+        assert error == 31
+        assert 1.2 < q2 < 1.35  # stopped in the block, short of the target
+    else:
+        assert error == 0
+        assert q2 == pytest.approx(1.35, abs=1e-6)

@@ -9,9 +9,11 @@ Units: the engine works in metres, kilograms and seconds; the tables are in mm.
 An object's friction is that of its every contact (its geoms have the higher priority), so a
 scene's ``friction`` says how the object grips and slides. Collision groups (MuJoCo's
 contype/conaffinity bits): fixtures (planes, boxes) touch objects only;
-objects touch everything; the arm and the hand touch objects only. A conveyor is a fixture on a
-slide joint (:func:`_conveyor`). What the arm presses into a fixture
-is measured apart (:mod:`.world`), as the arm follows the controller and is no body the engine moves.
+objects touch everything; the arm's links (bit ``LINK``) touch objects and fixtures, the hand objects
+only. A conveyor is a fixture on a slide joint (:func:`_conveyor`). What the TCP presses into a fixture
+is measured apart (the spring-damper of controller/scene/contact.py); a link pressing into one is a
+contact of the engine, as an object's, and the arm still follows the controller: the engine never
+moves it.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ FINGER_MASS = 0.05
 FINGER_KP = 6000.0
 FINGER_KV = 40.0
 
-FIXTURE, OBJECT, ARM = 1, 2, 4
+FIXTURE, OBJECT, ARM, LINK = 1, 2, 4, 8
 #: The geom group of objects (what a sensor's beam sees).
 OBJECT_GROUP = 1
 #: An arm or hand this near an object (m) makes the world step (:meth:`.world.World.step`).
@@ -67,10 +69,13 @@ def _rpy_quat(rpy: Sequence[float] | np.ndarray) -> str:
     return _quat(rpy_to_matrix(float(rpy[0]), float(rpy[1]), float(rpy[2])))
 
 
-def _capsule(a: Sequence[float], b: Sequence[float], radius: float, name: str) -> str:
+def _capsule(a: Sequence[float], b: Sequence[float], radius: float, name: str, fixtures: bool) -> str:
+    """A link's capsule; ``fixtures``: it touches the fixtures too (links past the first, whose
+    capsule reaches the mounting face and turns only about the base's axis)."""
     ends = _f(*(np.asarray(a) * MM), *(np.asarray(b) * MM))
-    return (f'<geom name={quoteattr(name)} type="capsule" fromto="{ends}"'
-            f' size="{_f(radius * MM)}" contype="{ARM}" conaffinity="0"/>')
+    touch = (f'contype="{ARM | LINK}" conaffinity="{FIXTURE}"' if fixtures
+             else f'contype="{ARM}" conaffinity="0"')
+    return f'<geom name={quoteattr(name)} type="capsule" fromto="{ends}" size="{_f(radius * MM)}" {touch}/>'
 
 
 def _arm(model: RobotModel, hand: Hand | None) -> tuple[list[str], str]:
@@ -78,7 +83,8 @@ def _arm(model: RobotModel, hand: Hand | None) -> tuple[list[str], str]:
     caps = _link_capsules(model)
     by_frame: dict[int, list[str]] = {}
     for i, c in enumerate(caps):
-        by_frame.setdefault(c.frame, []).append(_capsule(c.a, c.b, c.radius, f"link{c.body}_{i}"))
+        geom = _capsule(c.a, c.b, c.radius, f"link{c.body}_{i}", c.frame >= 1)
+        by_frame.setdefault(c.frame, []).append(geom)
     inertials = get_inertials(model).links
     close = ""
     out = ""

@@ -33,7 +33,7 @@ from ..scene.contact import Scene
 from ..scene.objects import ObjectSpec
 from .cell import CellState, fresh_cell
 from .hands import Hand
-from .mjcf import ARM, MM, NEAR, OBJECT_GROUP, TIMESTEP, world_xml
+from .mjcf import ARM, FIXTURE, LINK, MM, NEAR, OBJECT_GROUP, TIMESTEP, world_xml
 
 #: Object and finger speeds below this are still (m/s, and rad/s for turning).
 STILL_SPEED = 2.0e-4
@@ -158,6 +158,8 @@ class World:
         near.geom_conaffinity[:] = 0
         near.geom_conaffinity[obj_idx] = ARM
         near.geom_contype[obj_idx] = 0
+        # the links see the fixtures (and belts) from NEAR too
+        near.geom_conaffinity[(m.geom_contype & FIXTURE).astype(bool)] = LINK
         self._near_d = mujoco.MjData(near)
         self._flange_body = m.body(f"link{dof}").id
         self._near_key: tuple[bytes, bytes] = (b"", b"")
