@@ -297,7 +297,8 @@ def test_the_elbow_driven_into_a_block_raises_c31_at_sensitivity_3_not_0(sensiti
     """J2 turns the elbow down into the block at about 50 mm/s: the link's contact in the engine
     enters the joint torques as ``J^T f``; without detection the arm goes on to its target, the
     engine never pushing it off."""
-    emu = Emulator(6, scene=contact.parse_scene({"plane": [TABLE], "box": [ELBOW_BLOCK], "object": [FAR_CUBE]}))
+    tables = {"plane": [TABLE], "box": [ELBOW_BLOCK], "object": [FAR_CUBE]}
+    emu = Emulator(6, scene=contact.parse_scene(tables))
     call(emu, 11, joint=8, enable=1)
     call(emu, 19, mode=0)
     call(emu, 37, sensitivity=sensitivity)
@@ -318,3 +319,37 @@ def test_the_elbow_driven_into_a_block_raises_c31_at_sensitivity_3_not_0(sensiti
     else:
         assert error == 0
         assert q2 == pytest.approx(1.35, abs=1e-6)
+
+
+def test_a_cube_added_through_the_admin_channel_is_listed_at_once_and_picked() -> None:
+    """``scene-add`` rebuilds the engine of a running emulator: the new cube is listed before another
+    period runs, the arm and the object already there are where they were, and the next grasp
+    picks the cube; ``scene-remove`` takes it out; a checkpoint of the scene before comes back with
+    that scene."""
+    import json
+
+    from xarm_emu.client.admin import AdminClient
+    from xarm_emu.testing import running_emulator
+
+    ball = {"name": "ball", "shape": "sphere", "size": [30], "mass": 0.05, "position": [0, 300, TZ + 15]}
+    with running_emulator(6, scene={"plane": [TABLE], "object": [ball]}, stepped=True, admin=True) as st:
+        emu = st.emulator
+        st.call(lambda: (prepare(emu), line(emu, 300, -100, TZ + 150)))
+        before = st.call(lambda: (emu.controller.q.copy(), emu.scene_objects(), emu.checkpoint()))
+        q0, objects0, cp = before  # type: ignore[misc]
+        with AdminClient("127.0.0.1", st.ports["admin"]) as a:
+            a.request("scene-add", tables={"object": [CUBE]})
+            listed = json.loads(a.request("scene-objects"))["objects"]
+            assert [o["name"] for o in listed] == ["ball", "cube"]
+            assert listed[0] == json.loads(json.dumps(objects0[0]))  # the ball where it was, to the bit
+            assert listed[1]["position"] == pytest.approx(CUBE["position"], abs=1e-9)
+            assert st.call(lambda: emu.controller.q.tolist()) == q0.tolist()  # the arm untouched
+            closed = st.call(lambda: pick(emu))
+            assert closed * 0.1 == pytest.approx(40.0, abs=2.0)
+            st.call(lambda: line(emu, 300, -100, TZ + 115))
+            lifted = json.loads(a.request("scene-objects"))["objects"][1]
+            assert lifted["held"] and lifted["position"][2] == pytest.approx(TZ + 120.0, abs=2.0)
+            a.request("scene-remove", name="cube")
+            assert [o["name"] for o in json.loads(a.request("scene-objects"))["objects"]] == ["ball"]
+        st.call(lambda: emu.restore(cp))
+        assert st.call(lambda: emu.scene_objects()) == objects0

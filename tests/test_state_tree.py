@@ -56,6 +56,8 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("PhysicsComponent", "vacuum"): WIRING,
     ("PhysicsComponent", "squeeze"): FIXED,  # from the hand's force and the finger drive's gain
     ("PhysicsComponent", "cell"): WIRING,  # the cell elements' runner; their state is the world's
+    ("PhysicsComponent", "_io"): WIRING,  # the box's IO module, for a rebuilt world's cell
+    ("World", "scene_text"): FIXED,  # the scene's tables as JSON (a checkpoint names its world by it)
     ("CellRunner", "world"): WIRING,
     ("CellRunner", "io"): WIRING,
     ("CellRunner", "cell"): FIXED,  # the scene's conveyors, sensors and feeders

@@ -590,7 +590,7 @@ class Emulator:
         if (fq := find_feedback_queue(ctl)) is not None and state.feedback is not None:
             fq.data = state.feedback
         if self.physics is not None and state.physics is not None:
-            self.physics.world.restore(state.physics)
+            self.physics.restore(state.physics)
 
     def checkpoint(self) -> Checkpoint:
         """The whole emulator state, written as bytes (:class:`Checkpoint`, :meth:`checkpoint_bytes`).
@@ -781,8 +781,16 @@ class Emulator:
         ft_sensor.set_payload(self.controller, mass, com)
 
     def set_scene(self, scene: contact.Scene) -> None:
-        """Make ``scene`` the contact scene (planes and boxes in the base frame)."""
+        """Make ``scene`` the contact scene (planes and boxes in the base frame), and the physics
+        world's: rebuilt for its objects and cell elements, those already there going on where they
+        are, the arm untouched (ValueError for a scene the world cannot take)."""
         self.generation += 1
+        if self.physics is not None:
+            self.physics.rebuild(scene, self.controller.q)
+        elif scene.physical:
+            self.physics = physics.attach(self.model, scene, self.gripper_kind, self.gripper.device,
+                                          self.vacuum, io=self.io)
+            self.controller.add_component(self.physics)
         contact.set_scene(self.controller, scene)
 
     # -- objects of the physics world (controller/physics/) -------------------------------------

@@ -46,6 +46,8 @@ ft-error           code 0..255 (0 clears)                        the F/T sensor'
 ft-noise           on true/false                                 F/T noise and drift on/off
 payload            mass (kg), com [3] (mm, flange frame)         the physical payload
 scene              scene {"plane": [...], "box": [...]}          the contact scene (replaced)
+scene-add          tables {"object": [...], "feeder": [...]}     elements added to the running scene
+scene-remove       name                                          an element taken out of it
 status             -                                             time, error, warning, delays,
                                                                  why saves or the trace fail
 step               seconds (controller time)                     lockstep (--stepped) only: run them
@@ -352,7 +354,10 @@ def _payload(server: AdminTarget, a: Args) -> str:
 
 
 def _scene(server: AdminTarget, a: Args) -> str:
-    server.emulator.set_scene(a["scene"])
+    try:
+        server.emulator.set_scene(a["scene"])
+    except ValueError as exc:
+        raise AdminError(f"scene: {exc}") from None
     return f"contact scene of {len(a['scene'].shapes)} shapes"
 
 
@@ -371,6 +376,18 @@ def _scene_objects(server: AdminTarget, a: Args) -> str:
     if cell is not None:
         out.update(cell.status())
     return json.dumps(out)
+
+
+def _scene_edit(server: AdminTarget, a: Args) -> str:
+    """The scene with elements added or removed: the physics world rebuilt, what stays going on."""
+    scene = a["tables"] if "tables" in a else a["name"]
+    try:
+        server.emulator.set_scene(scene)
+    except ValueError as exc:
+        raise AdminError(f"scene: {exc}") from None
+    return (f"scene of {len(scene.shapes)} shapes, {len(scene.objects)} objects, "
+            f"{len(scene.cell.conveyors)} conveyors, {len(scene.cell.sensors)} sensors, "
+            f"{len(scene.cell.feeders)} feeders")
 
 
 def _scene_reset(server: AdminTarget, a: Args) -> str:
@@ -464,6 +481,8 @@ TABLE: dict[str, Command] = {
         Arg("name", t.scene_object), Arg("position", t.place("position")),
         Arg("rpy", t.place("rpy"), [0.0, 0.0, 0.0])), needs=_physics),
     "scene-reset": Command(_scene_reset, needs=_physics),
+    "scene-add": Command(_scene_edit, (Arg("tables", t.scene_added),)),
+    "scene-remove": Command(_scene_edit, (Arg("name", t.scene_without),)),
 }
 if tuple(TABLE) != COMMANDS:
     raise RuntimeError("the admin table and protocol.admin.COMMANDS list different commands")

@@ -21,6 +21,7 @@ raises C31 as a real push would; sensitivity 0 never does.
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
@@ -37,7 +38,7 @@ from .cell import CellRunner
 from .driven import driven
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
-from .world import World
+from .world import PhysicsState, World
 
 #: A command this far (mm) from where the free fingers are is where they are (the drive's lag).
 FOLLOW_MM = 0.05
@@ -76,12 +77,32 @@ class PhysicsComponent:
         self.squeeze = (2 * (2 * hand.force / FINGER_KP) / 0.001 + 1.0) if hand is not None else 0.0
         #: The scene's conveyors, sensors and feeders on the box's IO (:meth:`attach_io`), if any.
         self.cell: CellRunner | None = None
+        self._io: Any = None
 
     def attach_io(self, io: Any) -> None:
         """Tie the scene's cell elements to ``io``, the box's IO module (ValueError for an input or
         output the box does not have)."""
-        if self.world.scene.cell:
-            self.cell = CellRunner(self.world, io)
+        self._io = io
+        self.cell = CellRunner(self.world, io) if self.world.scene.cell else None
+
+    def rebuild(self, scene: contact.Scene, q: np.ndarray) -> None:
+        """The world of ``scene`` (objects or cell elements added, removed or changed) in place of
+        this one, the arm at ``q``: every object, feeder, sensor and belt still in it goes on as it
+        was (:meth:`.world.World.take_over`); ValueError for a cell on IO the box lacks."""
+        old = self.world
+        new = World(old.robot, scene, old.hand)
+        new.reset(q)
+        new.take_over(old)
+        cell = CellRunner(new, self._io) if scene.cell else None
+        self.world, self.cell = new, cell
+
+    def restore(self, state: PhysicsState) -> None:
+        """Put ``state`` back, in a world of the scene it was captured in."""
+        if state.scene and state.scene != self.world.scene_text:
+            scene = contact.parse_scene(json.loads(state.scene))
+            self.world = World(self.world.robot, scene, self.world.hand)
+            self.cell = CellRunner(self.world, self._io) if self.world.scene.cell else None
+        self.world.restore(state)
 
     def _driven_ramp(self) -> float:
         """A driven gripper's command: its own fingers' opening (its model moves them and stops them

@@ -18,6 +18,7 @@ period or jumping over idle ones (controller/emulator.py) gives the same poses.
 from __future__ import annotations
 
 import copy
+import json
 import math
 import struct
 from collections.abc import Sequence
@@ -67,6 +68,9 @@ class PhysicsState:
     relative: tuple[float, ...] = ()
     #: The cell's own state (sensors, feeders, belts): :class:`.cell.CellState`.
     cell: CellState = field(default_factory=CellState)
+    #: The scene of the world (its tables as JSON): a restore into a world of another scene
+    #: rebuilds the world for this one first (:meth:`.component.PhysicsComponent.restore`).
+    scene: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,6 +107,8 @@ class World:
     def __init__(self, model: RobotModel, scene: Scene, hand: Hand | None) -> None:
         self.robot = model
         self.scene = scene
+        #: The scene's tables as JSON: what a checkpoint names the world by.
+        self.scene_text = json.dumps(scene.to_dict(), sort_keys=True)
         self.hand = hand
         #: Every object of the engine: the scene's, then each feeder's parts (parked until placed).
         self.specs: list[ObjectSpec] = list(scene.objects)
@@ -192,7 +198,7 @@ class World:
         mujoco.mj_getState(self.m, self.d, buf, _STATE)
         s = self.state
         return PhysicsState(buf.tobytes(), s.ramp, s.still, s.settled, s.inputs, s.held, s.relative,
-                            copy.deepcopy(s.cell))
+                            copy.deepcopy(s.cell), self.scene_text)
 
     def restore(self, state: PhysicsState) -> None:
         """Put ``state`` back exactly (a later step gives what it gave the first time)."""
@@ -203,7 +209,44 @@ class World:
         mujoco.mj_forward(self.m, self.d)
         self._version += 1
         self.state = PhysicsState(state.integration, state.ramp, state.still, state.settled, state.inputs,
-                                  state.held, state.relative, copy.deepcopy(state.cell))
+                                  state.held, state.relative, copy.deepcopy(state.cell), self.scene_text)
+
+    def take_over(self, old: World) -> None:
+        """Carry what ``old`` (the world of the scene before an edit) has into this one, by name:
+        where each object still here is and how it moves, what each feeder placed, each sensor's
+        and belt's state, the finger command and the cup's hold. The arm is where :meth:`reset` put
+        it."""
+        st, was = self.state, old.state
+        for i, f in enumerate(self.scene.cell.feeders):
+            for j, g in enumerate(old.scene.cell.feeders):
+                if g.name == f.name:
+                    st.cell.fed[i] = min(was.cell.fed[j], f.count)
+                    st.cell.trigger[i] = was.cell.trigger[j]
+        for i, sn in enumerate(self.scene.cell.sensors):
+            for j, so in enumerate(old.scene.cell.sensors):
+                if so.name == sn.name:
+                    st.cell.beam[i], st.cell.level[i] = was.cell.beam[j], was.cell.level[j]
+                    st.cell.since[i] = was.cell.since[j]
+        for i, c in enumerate(self.scene.cell.conveyors):
+            for j, b in enumerate(old.scene.cell.conveyors):
+                if b.name == c.name:
+                    st.cell.running[i] = was.cell.running[j]
+        before = {old.objects[i][0]: i for i in old.listed()}
+        now = {name: i for i, (name, *_) in enumerate(self.objects)}
+        for name, i in before.items():
+            if name in now:
+                _, a, v, _ = self.objects[now[name]]
+                _, oa, ov, _ = old.objects[i]
+                self.d.qpos[a: a + 7] = old.d.qpos[oa: oa + 7]
+                self.d.qvel[v: v + 6] = old.d.qvel[ov: ov + 6]
+        self._freeze_parked()
+        st.ramp = was.ramp
+        if was.held >= 0 and old.objects[was.held][0] in now:
+            st.held, st.relative = now[old.objects[was.held][0]], was.relative
+        if self.fingers:
+            self._fingers_to(was.ramp)
+        mujoco.mj_forward(self.m, self.d)
+        self._version += 1
 
     def reset(self, q: np.ndarray | None = None) -> None:
         """Objects back where the scene puts them, at rest; the arm at ``q`` (zero if None)."""
