@@ -353,3 +353,37 @@ def test_a_cube_added_through_the_admin_channel_is_listed_at_once_and_picked() -
             assert [o["name"] for o in json.loads(a.request("scene-objects"))["objects"]] == ["ball"]
         st.call(lambda: emu.restore(cp))
         assert st.call(lambda: emu.scene_objects()) == objects0
+
+
+def _tool_outputs(emu: Emulator, *words: float) -> None:
+    """Register 127 writes to the tool's output word (0x0A15), as the SDK's Lite 6 gripper calls."""
+    for w in words:
+        call(emu, 127, host=9, addr=0x0A15, value=w)
+
+
+def test_the_lite6_gripper_jaws_grip_carry_and_release_a_part() -> None:
+    """The Lite 6 gripper's jaws are bodies of the engine: closed by TO1 (the SDK's
+    ``close_lite6_gripper``: 0x0100 then 0x0202) they stop on a 12 mm cube and hold it while the arm
+    lifts it 50 mm; opened (0x0101 then 0x0200) they let it fall back onto the table."""
+    part = {"name": "cube", "shape": "box", "size": [12, 12, 12], "mass": 0.02, "position": [250, 0, TZ + 6]}
+    emu = Emulator("lite6", scene=contact.parse_scene({"plane": [TABLE], "object": [part]}))
+    call(emu, 35, pose=(0.0, 0.0, 81.1, 0.0, 0.0, 0.0))
+    call(emu, 11, joint=8, enable=1)
+    call(emu, 19, mode=0)
+    call(emu, 12, state=0)
+    line(emu, 250, 0, TZ + 60)
+    line(emu, 250, 0, TZ + 4)
+    assert not cube(emu).held
+    _tool_outputs(emu, 256.0, 514.0)  # close
+    emu.advance(0.5)
+    assert emu.lite6_gripper is not None and emu.lite6_gripper.opening == 0.0
+    assert cube(emu).held
+    opening = emu.physics.world.opening()  # type: ignore[union-attr]
+    assert opening == pytest.approx(12.0, abs=0.5)  # the jaws stopped on the part
+    z0 = cube(emu).position[2]
+    line(emu, 250, 0, TZ + 54)
+    assert cube(emu).held and cube(emu).position[2] - z0 == pytest.approx(50.0, abs=1.5)
+    _tool_outputs(emu, 257.0, 512.0)  # open
+    emu.advance(1.0)
+    end = cube(emu)
+    assert not end.held and end.position[2] == pytest.approx(TZ + 6.0, abs=1.0)

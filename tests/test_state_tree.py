@@ -57,6 +57,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("PhysicsComponent", "squeeze"): FIXED,  # from the hand's force and the finger drive's gain
     ("PhysicsComponent", "cell"): WIRING,  # the cell elements' runner; their state is the world's
     ("PhysicsComponent", "_io"): WIRING,  # the box's IO module, for a rebuilt world's cell
+    ("PhysicsComponent", "lite6"): WIRING,  # the Lite 6 gripper's jaws (the tree's part)
     ("World", "scene_text"): FIXED,  # the scene's tables as JSON (a checkpoint names its world by it)
     ("CellRunner", "world"): WIRING,
     ("CellRunner", "io"): WIRING,

@@ -214,7 +214,8 @@ class Emulator:
             contact.set_scene(self.controller, scene)
         #: The physics world of a scene with objects or cell elements (controller/physics/), else None.
         self.physics = physics.attach(self.model, scene, gripper, self.gripper.device, self.vacuum,
-                                      io=self.io) if (scene is not None and scene.physical) else None
+                                      io=self.io, lite6=self.lite6_gripper) if (
+            scene is not None and scene.physical) else None
         if self.physics is not None:
             self.controller.add_component(self.physics)
         self.thermal = ThermalModel.for_model(self.model)
@@ -789,7 +790,7 @@ class Emulator:
             self.physics.rebuild(scene, self.controller.q)
         elif scene.physical:
             self.physics = physics.attach(self.model, scene, self.gripper_kind, self.gripper.device,
-                                          self.vacuum, io=self.io)
+                                          self.vacuum, io=self.io, lite6=self.lite6_gripper)
             self.controller.add_component(self.physics)
         contact.set_scene(self.controller, scene)
 

@@ -27,9 +27,10 @@ INSTALL_HINT = "objects in a scene need the physics engine: pip install 'xarm-em
 
 
 def attach(model: RobotModel, scene: Scene, gripper: str, device: Any,
-           vacuum: Any = None, io: Any = None) -> PhysicsComponent:
+           vacuum: Any = None, io: Any = None, lite6: Any = None) -> PhysicsComponent:
     """The physics component of ``model`` with ``gripper`` (its tool-bus ``device``), or the vacuum
-    gripper ``vacuum`` when attached, in ``scene``, its cell elements on the box's IO module ``io``;
+    gripper ``vacuum`` when attached, or the Lite 6 gripper's jaws ``lite6`` on an arm that has them
+    with no other gripper named, in ``scene``, its cell elements on the box's IO module ``io``;
     ValueError with :data:`INSTALL_HINT` when the engine is not installed (ValueError: one line, as a
     bad scene file)."""
     try:
@@ -37,10 +38,12 @@ def attach(model: RobotModel, scene: Scene, gripper: str, device: Any,
     except ImportError:
         raise ValueError(INSTALL_HINT) from None
     from .component import PhysicsComponent
-    from .hands import HANDS, VACUUM_HAND
+    from .hands import HANDS, LITE6_HAND, VACUUM_HAND
     from .world import World
 
-    hand = VACUUM_HAND if vacuum is not None else HANDS.get(gripper)
-    component = PhysicsComponent(World(model, scene, hand), device, vacuum)
+    jaws = lite6 if lite6 is not None and vacuum is None and gripper == "xarm" else None
+    hand = VACUUM_HAND if vacuum is not None else LITE6_HAND if jaws is not None else HANDS.get(gripper)
+    component = PhysicsComponent(World(model, scene, hand), None if jaws is not None else device, vacuum,
+                                 lite6=jaws)
     component.attach_io(io)
     return component

@@ -61,8 +61,11 @@ def _inside(shape: contact.Plane | contact.Box, p: tuple[float, float, float]) -
 class PhysicsComponent:
     """Steps :attr:`world` every control period and couples the xArm gripper's fingers to it."""
 
-    def __init__(self, world: World, device: Any, vacuum: Any = None) -> None:
+    def __init__(self, world: World, device: Any, vacuum: Any = None, lite6: Any = None) -> None:
         self.world = world
+        #: The Lite 6 gripper's pneumatic jaws (controller/devices/lite6_gripper.py), when they are the
+        #: hand: the finger drive follows their opening and presses with the hand's force.
+        self.lite6 = lite6
         #: The vacuum gripper (controller/devices/vacuum.py), when it is the hand.
         self.vacuum = vacuum
         self.device = device if isinstance(device, XArmGripper) else None
@@ -144,6 +147,8 @@ class PhysicsComponent:
         """This period's finger command (mm of opening)."""
         if self.driven is not None:
             return self._driven_ramp()
+        if self.lite6 is not None and self.world.hand is not None:
+            return float(self.lite6.opening) * self.world.hand.stroke
         ramp = self.world.state.ramp
         g = self.device
         if g is None or not self.world.fingers:
@@ -190,7 +195,8 @@ class PhysicsComponent:
         if not sens or ctl.error_code or not all(ctl.enabled):
             return
         gripping = bool(self.device is not None and self.device.gripped) or bool(
-            self.driven is not None and self.driven.gripping)
+            self.driven is not None and self.driven.gripping) or bool(
+            self.lite6 is not None and self.lite6.command == "close")
         tau = self.external_torques(ctl)
         if self.world.touching_arm():
             arm = self.world.arm_torques(gripping)
