@@ -159,3 +159,23 @@ def test_bad_cell_tables_are_refused_in_one_line(tables: dict[str, Any], message
 def test_a_sensor_on_an_input_the_box_has_not_is_refused() -> None:
     with pytest.raises(ValueError, match="TI2"):
         scene(sensor=[{**EYE, "input": "TI2"}])  # an xArm 6 tool has no TI2
+
+
+def test_the_3d_view_draws_the_belt_and_the_beam_with_their_state() -> None:
+    from xarm_emu.viewer import scene as view
+
+    emu = scene(conveyor=[BELT], sensor=[EYE], feeder=[{**PART, "count": 1, "trigger": "CO0"}])
+    assert emu.physics is not None and emu.physics.cell is not None
+
+    def drawn() -> dict[str, Any]:
+        return {p.name: p for p in view.cell_parts(emu.physics.cell.cell, cell(emu))}  # type: ignore[union-attr]
+
+    idle = drawn()
+    assert idle["belt_belt"].color == view.BELT_STOPPED and idle["beam_eye"].color == view.BEAM_CLEAR
+    assert idle["belt_belt"].position == pytest.approx((0.38, 0.3, -0.08))
+    assert idle["beam_eye"].position == pytest.approx((0.3, 0.23, -0.04))
+    assert idle["beam_eye"].length == pytest.approx(0.14)
+    co0(emu, True)
+    emu.advance(1.2)  # part-1 reaches the beam
+    busy = drawn()
+    assert busy["belt_belt"].color == view.BELT_RUNNING and busy["beam_eye"].color == view.BEAM_CUT
