@@ -45,7 +45,9 @@ set-input          kind ft, wrench [6], frame tool/base,         external wrench
 ft-error           code 0..255 (0 clears)                        the F/T sensor's error
 ft-noise           on true/false                                 F/T noise and drift on/off
 payload            mass (kg), com [3] (mm, flange frame)         the physical payload
-scene              scene {"plane": [...], "box": [...]}          the contact scene (replaced)
+scene              scene {"plane": [...], "box": [...], ...}     the whole scene (replaced; objects
+                                                                 and cell elements too, the engine
+                                                                 rebuilt)
 scene-add          tables {"object": [...], "feeder": [...]}     elements added to the running scene
 scene-remove       name                                          an element taken out of it
 status             -                                             time, error, warning, delays,
