@@ -88,9 +88,17 @@ def test_pick_and_place_example_passes_under_pytest() -> None:
     assert "2 passed" in out
 
 
+def test_conveyor_cell_example_passes_under_pytest() -> None:
+    pytest.importorskip("mujoco")
+    code, out = run("-m", "pytest", "-p", "no:cacheprovider", str(EXAMPLES / "08_conveyor_cell.py"))
+    assert code == 0, out
+    assert "5 passed" in out
+
+
 def test_every_example_is_run_here_and_listed_in_the_readme() -> None:
     names = sorted(p.name for p in EXAMPLES.glob("[0-9][0-9]_*.py"))
-    assert names == sorted([*PRINTED, "02_test_a_user_program.py", "07_pick_and_place.py"])
+    assert names == sorted([*PRINTED, "02_test_a_user_program.py", "07_pick_and_place.py",
+                            "08_conveyor_cell.py"])
     readme = (EXAMPLES / "README.md").read_text()
     assert all(name in readme for name in names)
 

@@ -286,3 +286,106 @@ def test_pushing_a_cube_against_a_wall_raises_c31_from_the_contact(sensitivity: 
         tcp = emu.controller.tcp_matrix()[:3, 3]
         assert -60.0 < tcp[1] < -10.0, tcp
         assert cube(emu).position[1] > -36.0
+
+
+#: A block under the elbow (the link-3 capsule) at J2 = 1.2 rad, its top 8 mm below the capsule,
+#: clear of the wrist at the zero pose; the cube (the engine runs for a scene with objects) far off.
+ELBOW_BLOCK = {"name": "block", "min": [280, -80, TZ], "max": [380, 80, 190], "stiffness": 10.0}
+FAR_CUBE = {**CUBE, "position": [-300, 300, TZ + 20]}
+
+
+@pytest.mark.parametrize("sensitivity", [3, 0])
+def test_the_elbow_driven_into_a_block_raises_c31_at_sensitivity_3_not_0(sensitivity: int) -> None:
+    """J2 turns the elbow down into the block at about 50 mm/s: the link's contact in the engine
+    enters the joint torques as ``J^T f``; without detection the arm goes on to its target, the
+    engine never pushing it off."""
+    tables = {"plane": [TABLE], "box": [ELBOW_BLOCK], "object": [FAR_CUBE]}
+    emu = Emulator(6, scene=contact.parse_scene(tables))
+    call(emu, 11, joint=8, enable=1)
+    call(emu, 19, mode=0)
+    call(emu, 37, sensitivity=sensitivity)
+    call(emu, 12, state=0)
+    move = {"speed": 0.5, "acc": 10.0, "mvtime": 0.0}
+    call(emu, 23, joints=(0.0, 1.2, 0.0, 0.0, 0.0, 0.0, 0.0), **move)
+    emu.advance(4.0)
+    assert emu.controller.error_code == 0
+    assert not emu.physics.world.touching_arm()  # type: ignore[union-attr]
+    call(emu, 23, joints=(0.0, 1.35, 0.0, 0.0, 0.0, 0.0, 0.0), speed=0.16, acc=10.0, mvtime=0.0)
+    emu.advance(1.5)
+    (_, reply) = emu.handle(15, b"")
+    error = REGISTERS[15].reply.decode(reply)["error"]
+    q2 = float(emu.controller.q[1])
+    if sensitivity:
+        assert error == 31
+        assert 1.2 < q2 < 1.35  # stopped in the block, short of the target
+    else:
+        assert error == 0
+        assert q2 == pytest.approx(1.35, abs=1e-6)
+
+
+def test_a_cube_added_through_the_admin_channel_is_listed_at_once_and_picked() -> None:
+    """``scene-add`` rebuilds the engine of a running emulator: the new cube is listed before another
+    period runs, the arm and the object already there are where they were, and the next grasp
+    picks the cube; ``scene-remove`` takes it out; a checkpoint of the scene before comes back with
+    that scene."""
+    import json
+
+    from xarm_emu.client.admin import AdminClient
+    from xarm_emu.testing import running_emulator
+
+    ball = {"name": "ball", "shape": "sphere", "size": [30], "mass": 0.05, "position": [0, 300, TZ + 15]}
+    with running_emulator(6, scene={"plane": [TABLE], "object": [ball]}, stepped=True, admin=True) as st:
+        emu = st.emulator
+        st.call(lambda: (prepare(emu), line(emu, 300, -100, TZ + 150)))
+        before = st.call(lambda: (emu.controller.q.copy(), emu.scene_objects(), emu.checkpoint()))
+        q0, objects0, cp = before  # type: ignore[misc]
+        with AdminClient("127.0.0.1", st.ports["admin"]) as a:
+            a.request("scene-add", tables={"object": [CUBE]})
+            listed = json.loads(a.request("scene-objects"))["objects"]
+            assert [o["name"] for o in listed] == ["ball", "cube"]
+            assert listed[0] == json.loads(json.dumps(objects0[0]))  # the ball where it was, to the bit
+            assert listed[1]["position"] == pytest.approx(CUBE["position"], abs=1e-9)
+            assert st.call(lambda: emu.controller.q.tolist()) == q0.tolist()  # the arm untouched
+            closed = st.call(lambda: pick(emu))
+            assert closed * 0.1 == pytest.approx(40.0, abs=2.0)
+            st.call(lambda: line(emu, 300, -100, TZ + 115))
+            lifted = json.loads(a.request("scene-objects"))["objects"][1]
+            assert lifted["held"] and lifted["position"][2] == pytest.approx(TZ + 120.0, abs=2.0)
+            a.request("scene-remove", name="cube")
+            assert [o["name"] for o in json.loads(a.request("scene-objects"))["objects"]] == ["ball"]
+        st.call(lambda: emu.restore(cp))
+        assert st.call(lambda: emu.scene_objects()) == objects0
+
+
+def _tool_outputs(emu: Emulator, *words: float) -> None:
+    """Register 127 writes to the tool's output word (0x0A15), as the SDK's Lite 6 gripper calls."""
+    for w in words:
+        call(emu, 127, host=9, addr=0x0A15, value=w)
+
+
+def test_the_lite6_gripper_jaws_grip_carry_and_release_a_part() -> None:
+    """The Lite 6 gripper's jaws are bodies of the engine: closed by TO1 (the SDK's
+    ``close_lite6_gripper``: 0x0100 then 0x0202) they stop on a 12 mm cube and hold it while the arm
+    lifts it 50 mm; opened (0x0101 then 0x0200) they let it fall back onto the table."""
+    part = {"name": "cube", "shape": "box", "size": [12, 12, 12], "mass": 0.02, "position": [250, 0, TZ + 6]}
+    emu = Emulator("lite6", scene=contact.parse_scene({"plane": [TABLE], "object": [part]}))
+    call(emu, 35, pose=(0.0, 0.0, 81.1, 0.0, 0.0, 0.0))
+    call(emu, 11, joint=8, enable=1)
+    call(emu, 19, mode=0)
+    call(emu, 12, state=0)
+    line(emu, 250, 0, TZ + 60)
+    line(emu, 250, 0, TZ + 4)
+    assert not cube(emu).held
+    _tool_outputs(emu, 256.0, 514.0)  # close
+    emu.advance(0.5)
+    assert emu.lite6_gripper is not None and emu.lite6_gripper.opening == 0.0
+    assert cube(emu).held
+    opening = emu.physics.world.opening()  # type: ignore[union-attr]
+    assert opening == pytest.approx(12.0, abs=0.5)  # the jaws stopped on the part
+    z0 = cube(emu).position[2]
+    line(emu, 250, 0, TZ + 54)
+    assert cube(emu).held and cube(emu).position[2] - z0 == pytest.approx(50.0, abs=1.5)
+    _tool_outputs(emu, 257.0, 512.0)  # open
+    emu.advance(1.0)
+    end = cube(emu)
+    assert not end.held and end.position[2] == pytest.approx(TZ + 6.0, abs=1.0)

@@ -150,12 +150,26 @@ def test_sdk_3kg_cube_slips_out_of_the_robotiq_2f85_at_its_lowest_force() -> Non
     assert not lifted["held"] and lifted["position"][2] < -75.0
 
 
+def scene_json(st) -> dict:
+    """``xarm-emu scene --json`` of the running emulator ``st`` (its admin channel), the CLI run in
+    process."""
+    from typer.testing import CliRunner
+
+    from xarm_emu import cli
+
+    out = CliRunner().invoke(cli.app, ["scene", "--json", "--port", str(st.ports["command"]),
+                                       "--admin-port", str(st.ports["admin"])])
+    assert out.exit_code == 0, out.output
+    return json.loads(out.stdout)
+
+
 def test_sdk_vacuum_gripper_seals_on_the_cube_top_and_carries_it() -> None:
     """The pressure input rises only while the cup lies on the cube's top face; the cube rides with
-    the cup while the vacuum is on and rests where it is let go."""
+    the cup while the vacuum is on, reported held by ``xarm-emu scene --json``, and rests where it
+    is let go, not held."""
     from xarm.wrapper import XArmAPI
 
-    with running_emulator(6, scene=SCENE, speed=4.0, vacuum=True) as st, sdk_pointed_at(st):
+    with running_emulator(6, scene=SCENE, speed=4.0, vacuum=True, admin=True) as st, sdk_pointed_at(st):
         arm = XArmAPI("127.0.0.1")
         try:
             start(arm, 126)
@@ -168,7 +182,8 @@ def test_sdk_vacuum_gripper_seals_on_the_cube_top_and_carries_it() -> None:
             assert arm.set_vacuum_gripper(True, wait=True, timeout=3) == 0
             assert arm.get_vacuum_gripper()[1] == 1
             assert arm.set_position(300, -100, 40, **DOWN) == 0
-            lifted = cube(st)
+            lifted = scene_json(st)["objects"][0]
+            assert lifted["held"]
             assert lifted["position"][2] == pytest.approx(20.0, abs=2.0)
             assert arm.set_position(300, 100, 40, **DOWN) == 0
             assert arm.set_position(300, 100, -59.5, **DOWN) == 0
@@ -176,7 +191,8 @@ def test_sdk_vacuum_gripper_seals_on_the_cube_top_and_carries_it() -> None:
             assert arm.set_position(300, 100, 50, **DOWN) == 0
         finally:
             arm.disconnect()
-        end = cube(st)
+        end = scene_json(st)["objects"][0]
+        assert not end["held"]
         assert end["position"][:2] == pytest.approx([300, 100], abs=3.0)
         assert end["position"][2] == pytest.approx(-80.0, abs=1.0)
 

@@ -56,6 +56,19 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("PhysicsComponent", "driven"): WIRING,  # the adapter of a gripper whose model moves its fingers
     ("PhysicsComponent", "vacuum"): WIRING,
     ("PhysicsComponent", "squeeze"): FIXED,  # from the hand's force and the finger drive's gain
+    ("PhysicsComponent", "cell"): WIRING,  # the cell elements' runner; their state is the world's
+    ("PhysicsComponent", "_io"): WIRING,  # the box's IO module, for a rebuilt world's cell
+    ("PhysicsComponent", "lite6"): WIRING,  # the Lite 6 gripper's jaws (the tree's part)
+    ("World", "scene_text"): FIXED,  # the scene's tables as JSON (a checkpoint names its world by it)
+    ("CellRunner", "world"): WIRING,
+    ("CellRunner", "io"): WIRING,
+    ("CellRunner", "cell"): FIXED,  # the scene's conveyors, sensors and feeders
+    ("CellRunner", "_geomid"): DERIVED,  # a sensor ray's output buffer, written by each ray
+    ("CellRunner", "_looked"): DERIVED,  # keyed on the world's change count
+    ("World", "specs"): FIXED,  # the scene's objects and the feeders' parts
+    ("World", "feeder_base"): FIXED,
+    ("World", "_belts"): FIXED,
+    ("World", "ray_groups"): FIXED,
     ("World", "state"): ENGINE,
     ("World", "d"): ENGINE,
     ("World", "m"): FIXED,  # but the finger drive's force limit, set each period from the gripper's force
@@ -251,6 +264,12 @@ BOXES = {
     "physics world": {"scene": {"plane": [{"point": [0, 0, -100], "normal": [0, 0, 1], "stiffness": 10.0}],
                                 "object": [{"name": "cube", "shape": "box", "size": [40, 40, 40], "mass": 0.1,
                                             "position": [300, -100, -80]}]}},
+    "cell": {"scene": {"conveyor": [{"name": "belt", "min": [200, 250, -100], "max": [560, 350, -60],
+                                     "direction": [-1, 0, 0], "speed": 200}],
+                       "sensor": [{"name": "eye", "input": "CI0", "from": [300, 230, -40],
+                                   "to": [300, 370, -40]}],
+                       "feeder": [{"name": "part", "shape": "box", "size": [40, 40, 40], "mass": 0.1,
+                                   "position": [520, 300, -40], "count": 2, "every": 0.1}]}},
 }
 
 

@@ -343,7 +343,7 @@ class RecordAttachment:
             physics = emu.physics
             if physics is None:
                 return []
-            specs = physics.world.scene.objects
+            specs = physics.world.listed_specs()
             poses = emu.scene_objects()
         return [(o.name, o.shape, o.size, p) for o, p in zip(specs, poses, strict=True)]
 

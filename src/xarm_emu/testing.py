@@ -116,6 +116,76 @@ def sdk_pointed_at(server: ServerThread) -> Iterator[None]:
         socket.setdefaulttimeout(previous_timeout)
 
 
+@contextlib.contextmanager
+def sdk_on_stepped_clock(server: ServerThread, arm: Any) -> Iterator[None]:
+    """Run the SDK calls of this thread on ``server``'s controller time (a server started with
+    ``stepped=True``; ``arm`` the SDK's ``XArmAPI`` connected to it): for the block,
+    ``time.sleep(s)`` in this thread runs ``s`` of controller time (at least one control period)
+    instead of waiting, and ``time.monotonic()`` reads controller time (from where the wall clock
+    stood when the block began). Every wait of the SDK and of the program (its polls, its timeouts)
+    then counts control periods, so a program runs as fast as the emulator steps, and the same
+    program gives the same result to the last bit. Other threads keep the real clock.
+
+    Report frames go out on the wall clock, and the SDK acts on when its report thread saw them (its
+    position sync before a move waits for a report of a ready box), so during the block they go out
+    only once: at the first sleep after which the box is ready without error, until the SDK has
+    taken two of them (the same state), which syncs it as a report of the real box would. The
+    program reads the box through commands otherwise."""
+    import math
+    import threading
+    import time
+
+    from .controller.core.interface import PERIOD
+
+    me = threading.current_thread()
+    real_sleep, real_monotonic = time.sleep, time.monotonic
+    base = real_monotonic() - server.emulator.time
+    seen = threading.Semaphore(0)
+    synced = False
+
+    def on_report(_: Any) -> None:
+        seen.release()
+
+    def sync_once() -> None:
+        nonlocal synced
+        ctl = server.emulator.controller
+        if synced or ctl.error_code or server.call(lambda: ctl.state) in (4, 5):
+            return
+        while seen.acquire(blocking=False):
+            pass
+        server.call(lambda: server.server.pause_reports(0.0))
+        try:
+            for _ in range(2):
+                if not seen.acquire(timeout=10.0):
+                    raise TimeoutError("the SDK took no report frame within 10 s")
+        finally:
+            server.call(lambda: server.server.pause_reports(math.inf))
+        synced = True
+
+    def sleep(seconds: float) -> None:
+        if threading.current_thread() is not me:
+            real_sleep(seconds)
+            return
+        periods = max(1, round(float(seconds) / PERIOD))
+        server.call(lambda: server.server.advance(periods * PERIOD))
+        sync_once()
+
+    def monotonic() -> float:
+        if threading.current_thread() is not me:
+            return real_monotonic()
+        return base + server.emulator.time  # changes only in this thread's sleeps
+
+    server.call(lambda: server.server.pause_reports(math.inf))
+    arm.register_report_callback(on_report)
+    time.sleep, time.monotonic = sleep, monotonic  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        time.sleep, time.monotonic = real_sleep, real_monotonic  # type: ignore[assignment]
+        arm.release_report_callback(on_report)
+        server.call(lambda: server.server.pause_reports(0.0))
+
+
 class RunningProxy:
     """A proxy (``xarm-emu proxy``) on a thread of its own; ``ports`` by kind, as a server's."""
 

@@ -8,7 +8,7 @@ One module per group of commands, registered here in the order ``xarm-emu --help
 - :mod:`.reference`: ``registers``, ``modbus-map``, ``codes``: the manual's tables as the emulator
   holds them.
 - :mod:`.admin`: the admin channel's ``inject``, ``clear``, ``set-input``, ``step`` and ``checkpoint``;
-  :mod:`.scene`: ``scene``, ``scene-place``, ``scene-reset``.
+  :mod:`.scene`: ``scene``, ``scene-place``, ``scene-reset``, ``scene-add``, ``scene-remove``.
 - :mod:`.sessions`: ``record``, ``plot``, ``replay``.
 - :mod:`.fidelity`: ``proxy``, ``compare``, ``calibrate`` (a real box's session against the emulator).
 - :mod:`.options`: what they share: the consoles, option types, the one-line exit (2 for a usage
@@ -45,6 +45,8 @@ app.add_typer(admin.inject_app, name="inject")
 app.command("scene")(scene.scene)
 app.command("scene-place", context_settings={"ignore_unknown_options": True})(scene.scene_place)
 app.command("scene-reset")(scene.scene_reset)
+app.command("scene-add")(scene.scene_add)
+app.command("scene-remove")(scene.scene_remove)
 app.command()(admin.clear)
 app.command("set-input", context_settings={"ignore_unknown_options": True})(admin.set_input)
 app.command()(admin.step)

@@ -225,9 +225,10 @@ class Emulator:
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
             contact.set_scene(self.controller, scene)
-        #: The physics world of a scene with objects (controller/physics/), else None.
-        self.physics = physics.attach(self.model, scene, gripper, self.gripper.device, self.vacuum) if (
-            scene is not None and scene.objects) else None
+        #: The physics world of a scene with objects or cell elements (controller/physics/), else None.
+        self.physics = physics.attach(self.model, scene, gripper, self.gripper.device, self.vacuum,
+                                      io=self.io, lite6=self.lite6_gripper) if (
+            scene is not None and scene.physical) else None
         if self.physics is not None:
             self.controller.add_component(self.physics)
         self.thermal = ThermalModel.for_model(self.model)
@@ -533,7 +534,7 @@ class Emulator:
         if (fq := find_feedback_queue(ctl)) is not None and state.feedback is not None:
             fq.data = state.feedback
         if self.physics is not None and state.physics is not None:
-            self.physics.world.restore(state.physics)
+            self.physics.restore(state.physics)
 
     def checkpoint(self) -> Checkpoint:
         """The whole emulator state, written as bytes (:class:`Checkpoint`, :meth:`checkpoint_bytes`).
@@ -710,8 +711,16 @@ class Emulator:
         ft_sensor.set_payload(self.controller, mass, com)
 
     def set_scene(self, scene: contact.Scene) -> None:
-        """Make ``scene`` the contact scene (planes and boxes in the base frame)."""
+        """Make ``scene`` the contact scene (planes and boxes in the base frame), and the physics
+        world's: rebuilt for its objects and cell elements, those already there going on where they
+        are, the arm untouched (ValueError for a scene the world cannot take)."""
         self.generation += 1
+        if self.physics is not None:
+            self.physics.rebuild(scene, self.controller.q)
+        elif scene.physical:
+            self.physics = physics.attach(self.model, scene, self.gripper_kind, self.gripper.device,
+                                          self.vacuum, io=self.io, lite6=self.lite6_gripper)
+            self.controller.add_component(self.physics)
         contact.set_scene(self.controller, scene)
 
     # -- objects of the physics world (controller/physics/) -------------------------------------

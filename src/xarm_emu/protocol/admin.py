@@ -25,7 +25,7 @@ COMMANDS = ("estop", "error", "warning", "servo-error", "gripper-error", "track-
             "collision", "report-pause", "reply-delay", "drop-clients", "clear", "set-input", "status",
             "step", "ft-error", "ft-noise", "payload", "scene",
             "checkpoint-save", "checkpoint-restore", "checkpoint-list",
-            "scene-objects", "scene-place", "scene-reset")
+            "scene-objects", "scene-place", "scene-reset", "scene-add", "scene-remove")
 #: Longest checkpoint name (``checkpoint-save``/``checkpoint-restore``).
 MAX_NAME = 64
 INPUT_KINDS = ("cgpio", "tgpio", "analog", "tool-analog", "vacuum-object", "gripper-object", "ft")

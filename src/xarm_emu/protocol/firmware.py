@@ -97,8 +97,9 @@ RELEASES: Mapping[str, tuple[str, ...]] = MappingProxyType({
     # the 2.x controllers: their report frames (135/145/587 bytes), online planning (modes 6 and 7),
     # the D-H parameters (registers 67/68)
     "2.0.0": ("reports_2x", "online_modes", "dh_parameters"),
-    # registers 253/254 and the unsolicited 0xFF feedback frames
-    "2.0.102": ("feedback",),
+    # registers 253/254 and the unsolicited 0xFF feedback frames; register 36 (the payload) waits its
+    # turn in the command buffer, its TRIGGER feedback sent when applied
+    "2.0.102": ("feedback", "payload_queued"),
     # the real-time report on port 30000; the first firmware of the UFACTORY 850
     "2.1.0": ("realtime_report", "uf850"),
     # the first firmware of the xArm 7T
@@ -194,6 +195,12 @@ class FirmwareProfile:
     def feedback(self) -> bool:
         """Registers 253/254 and unsolicited 0xFF feedback frames."""
         return self._has("feedback")
+
+    @cached_property
+    def payload_queued(self) -> bool:
+        """Register 36 (the payload) waits its turn in the command buffer, and the SDK waits for its
+        TRIGGER feedback; before, the payload applies when the command arrives."""
+        return self._has("payload_queued")
 
     @cached_property
     def realtime_report(self) -> bool:

@@ -47,7 +47,11 @@ set-input          kind ft, wrench [6], frame tool/base,         external wrench
 ft-error           code 0..255 (0 clears)                        the F/T sensor's error
 ft-noise           on true/false                                 F/T noise and drift on/off
 payload            mass (kg), com [3] (mm, flange frame)         the physical payload
-scene              scene {"plane": [...], "box": [...]}          the contact scene (replaced)
+scene              scene {"plane": [...], "box": [...], ...}     the whole scene (replaced; objects
+                                                                 and cell elements too, the engine
+                                                                 rebuilt)
+scene-add          tables {"object": [...], "feeder": [...]}     elements added to the running scene
+scene-remove       name                                          an element taken out of it
 status             -                                             time, error, warning, delays,
                                                                  why saves or the trace fail
 step               seconds (controller time)                     lockstep (--stepped) only: run them
@@ -345,7 +349,10 @@ def _payload(server: AdminTarget, a: Args) -> str:
 
 
 def _scene(server: AdminTarget, a: Args) -> str:
-    server.emulator.set_scene(a["scene"])
+    try:
+        server.emulator.set_scene(a["scene"])
+    except ValueError as exc:
+        raise AdminError(f"scene: {exc}") from None
     return f"contact scene of {len(a['scene'].shapes)} shapes"
 
 
@@ -357,7 +364,25 @@ def _physics(server: AdminTarget) -> None:
 
 
 def _scene_objects(server: AdminTarget, a: Args) -> str:
-    return json.dumps({"time": server.emulator.time, "objects": server.emulator.scene_objects()})
+    """The objects, and the cell's conveyors, sensors and feeders with their state, if any."""
+    emu = server.emulator
+    out: dict[str, Any] = {"time": emu.time, "objects": emu.scene_objects()}
+    cell = None if emu.physics is None else emu.physics.cell
+    if cell is not None:
+        out.update(cell.status())
+    return json.dumps(out)
+
+
+def _scene_edit(server: AdminTarget, a: Args) -> str:
+    """The scene with elements added or removed: the physics world rebuilt, what stays going on."""
+    scene = a["tables"] if "tables" in a else a["name"]
+    try:
+        server.emulator.set_scene(scene)
+    except ValueError as exc:
+        raise AdminError(f"scene: {exc}") from None
+    return (f"scene of {len(scene.shapes)} shapes, {len(scene.objects)} objects, "
+            f"{len(scene.cell.conveyors)} conveyors, {len(scene.cell.sensors)} sensors, "
+            f"{len(scene.cell.feeders)} feeders")
 
 
 def _scene_reset(server: AdminTarget, a: Args) -> str:
@@ -451,6 +476,8 @@ TABLE: dict[str, Command] = {
         Arg("name", t.scene_object), Arg("position", t.place("position")),
         Arg("rpy", t.place("rpy"), [0.0, 0.0, 0.0])), needs=_physics),
     "scene-reset": Command(_scene_reset, needs=_physics),
+    "scene-add": Command(_scene_edit, (Arg("tables", t.scene_added),)),
+    "scene-remove": Command(_scene_edit, (Arg("name", t.scene_without),)),
 }
 if tuple(TABLE) != COMMANDS:
     raise RuntimeError("the admin table and protocol.admin.COMMANDS list different commands")

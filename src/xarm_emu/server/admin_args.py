@@ -253,3 +253,27 @@ def place(key: str) -> Check:
             raise AdminError(str(exc)) from None
 
     return check
+
+
+def scene_added(value: Any, emu: Emulator) -> contact.Scene:
+    """The emulator's scene with the tables ``value`` (``{"object": [...], "conveyor": [...], ...}``,
+    as in a scene file) added."""
+    if not isinstance(value, dict) or not value:
+        raise AdminError("tables: a table of lists, as a scene file's, e.g. {\"object\": [{...}]}")
+    tables = contact.scene_of(emu.controller).to_dict()
+    for kind, items in value.items():
+        if not isinstance(items, list):
+            raise AdminError(f"tables: {kind} must be a list of tables")
+        tables.setdefault(str(kind), [])
+        tables[str(kind)] = [*tables[str(kind)], *items]
+    return scene(tables, emu)
+
+
+def scene_without(value: Any, emu: Emulator) -> contact.Scene:
+    """The emulator's scene without the element named ``value`` (a plane, box, object, conveyor,
+    sensor or feeder)."""
+    tables = contact.scene_of(emu.controller).to_dict()
+    names = [str(t.get("name")) for items in tables.values() for t in items]
+    if value not in names:
+        raise AdminError(f"no element {value!r} in the scene (elements: {', '.join(names)})")
+    return scene({k: [t for t in items if t.get("name") != value] for k, items in tables.items()}, emu)

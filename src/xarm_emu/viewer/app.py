@@ -126,7 +126,10 @@ class Viewer(_Redrawing):
                    TRACK_COLOR, 1.0, True)
         self._draw("contact", scene.contact_parts(contact.scene_of(ctl).shapes), CONTACT_COLOR, 0.4, True)
         if self.emulator.physics is not None:
-            objs = self.emulator.physics.world.scene.objects
+            cell = self.emulator.physics.cell
+            if cell is not None:
+                self._draw("cell", scene.cell_parts(cell.cell, cell.status()), CONTACT_COLOR, 0.6, True)
+            objs = self.emulator.physics.world.listed_specs()
             self._draw("objects", scene.object_parts([(o.name, o.shape, o.size, o.color) for o in objs],
                                                      self.emulator.scene_objects()), OBJECT_COLOR, 1.0, True)
         if self.pendant is not None and self.updates % PANEL_EVERY == 0:

@@ -250,6 +250,40 @@ def contact_parts(shapes: Sequence[Any]) -> list[Part]:
     return parts
 
 
+#: Radius of a sensor's beam as drawn (m).
+BEAM_RADIUS = 0.002
+#: Colours of a running and a stopped belt, and of a clear and an interrupted beam.
+BELT_RUNNING, BELT_STOPPED = (60, 160, 60), (90, 90, 90)
+BEAM_CLEAR, BEAM_CUT = (220, 200, 40), (230, 40, 40)
+
+
+def cell_parts(cell: Any, status: dict[str, list[dict[str, Any]]]) -> list[Part]:
+    """A cell's belts as their boxes (green while running) and its sensors' beams as thin capsules or
+    their regions as boxes (red while interrupted): ``cell`` as the scene declares it
+    (controller/scene/cell.py), ``status`` as ``xarm-emu scene --json`` lists its elements."""
+    parts: list[Part] = []
+    for c, st in zip(cell.conveyors, status.get("conveyors", []), strict=False):
+        lo, hi = np.asarray(c.min, dtype=float) * MM, np.asarray(c.max, dtype=float) * MM
+        m, h = (lo + hi) / 2, (hi - lo) / 2
+        parts.append(Part(f"belt_{c.name}", "box", (float(m[0]), float(m[1]), float(m[2])),
+                          (1.0, 0.0, 0.0, 0.0), half=(float(h[0]), float(h[1]), float(h[2])),
+                          color=BELT_RUNNING if st["running"] else BELT_STOPPED))
+    for s, st in zip(cell.sensors, status.get("sensors", []), strict=False):
+        tint = BEAM_CUT if st["interrupted"] else BEAM_CLEAR
+        if s.beam is not None:
+            a, b = np.asarray(s.beam[0], dtype=float) * MM, np.asarray(s.beam[1], dtype=float) * MM
+            d = b - a
+            parts.append(Part(f"beam_{s.name}", "capsule", (float(a[0]), float(a[1]), float(a[2])),
+                              quat_z_to(tuple(float(v) for v in d)), radius=BEAM_RADIUS,
+                              length=float(np.linalg.norm(d)), color=tint))
+        else:
+            lo, hi = np.asarray(s.region[0], dtype=float) * MM, np.asarray(s.region[1], dtype=float) * MM
+            m, h = (lo + hi) / 2, (hi - lo) / 2
+            parts.append(Part(f"region_{s.name}", "box", (float(m[0]), float(m[1]), float(m[2])),
+                              (1.0, 0.0, 0.0, 0.0), half=(float(h[0]), float(h[1]), float(h[2])), color=tint))
+    return parts
+
+
 def object_parts(shapes: Sequence[Sequence[Any]], poses: Sequence[dict[str, Any]]) -> list[Part]:
     """The scene's loose objects where the physics world has them: ``shapes`` are (name, shape, size
     mm[, colour r, g, b from 0 to 1]) as the scene declares them, ``poses`` what

@@ -11,7 +11,9 @@ command and each batch of control periods and turns into 21-byte 0xFF frames
 - A queued motion task (joint, line, circle moves, pauses): MOTION_START when it starts executing,
   MOTION_FINISH when it ends; a move that starts and ends within one control period (too short to
   plan) and a task discarded before it started (stop, error) finish with code 2, "discarded".
-- A queued non-motion task: TRIGGER when it runs. Register 36 (the payload) is triggered at once.
+- A queued non-motion task: TRIGGER when it runs. Register 36 (the payload) joins the buffer behind
+  the moves queued before it and is triggered when it runs; with nothing queued or moving it runs,
+  and is triggered, at once.
 - A request that would have queued a task but was refused (warning, error, not ready): MOTION_FINISH
   with code 2 at once, so that no wait on it is left open.
 - Register 253: MOTION_FINISH with 253's own transaction id once every task queued before it has
@@ -41,8 +43,8 @@ from .interface import NOT_IDLE
 #: Queued task classes that move the arm (MOTION_START/MOTION_FINISH); any other queued task is a
 #: non-motion task (TRIGGER).
 MOTION_TASKS = (JointMove, LineMove, CircleMove, Dwell)
-#: Registers whose (immediate) task is reported as TRIGGER when it is accepted: the SDK waits for
-#: the TRIGGER of register 36 in ``set_tcp_load(wait=True)``.
+#: Registers whose task, when it ran at once (nothing queued before it), is reported as TRIGGER
+#: when it is accepted: the SDK waits for the TRIGGER of register 36 in ``set_tcp_load(wait=True)``.
 TRIGGER_REGISTERS = frozenset({36})
 #: Registers whose queued tasks are the box's own sequence, not the client's moves (204, load
 #: identification: the client waits for its reply): no task frames.

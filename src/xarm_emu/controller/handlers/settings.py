@@ -6,7 +6,7 @@ import functools
 from typing import Any
 
 from ...model import collision
-from ..core.controller_protocol import Controller
+from ..core.controller_protocol import Controller, queue_behind_moves
 from ..core.interface import Binding, ParameterError, Values
 from ..core.settings import (
     COLLISION_SENSITIVITY_RANGE,
@@ -51,15 +51,26 @@ def tcp_offset(ctl: Controller, v: Values) -> None:
 def tcp_load(ctl: Controller, v: Values) -> None:
     """Register 36 (manual 2.1.4, end payload setting): mass in kg, centre of mass in mm.
 
-    Within the model's rated payload and centre-of-mass bound, or warning 12.
+    Within the model's rated payload and centre-of-mass bound, or warning 12. Firmware 2.x
+    (:attr:`~xarm_emu.protocol.firmware.FirmwareProfile.payload_queued`) applies it in its turn in
+    the command buffer, after the moves queued before it (its TRIGGER feedback then); the manual's
+    box applies it at once.
     """
     m = ctl.model
     if not 0.0 <= v["mass"] <= m.rated_payload:
         raise ParameterError(f"payload mass is 0..{m.rated_payload} kg")
     if any(abs(c) > m.payload_com_limit for c in v["center"]):
         raise ParameterError(f"payload centre of mass is within +/-{m.payload_com_limit} mm")
-    ctl.settings.tcp_load = [float(v["mass"]), *(float(x) for x in v["center"])]
+    load = [float(v["mass"]), *(float(x) for x in v["center"])]
+    if ctl.firmware.payload_queued:
+        queue_behind_moves(ctl, 36, functools.partial(_apply_tcp_load, ctl, load))
+    else:
+        _apply_tcp_load(ctl, load)
     return None
+
+
+def _apply_tcp_load(ctl: Controller, load: list[float]) -> None:
+    ctl.settings.tcp_load = list(load)
 
 
 def clean_conf(ctl: Controller, v: Values) -> None:

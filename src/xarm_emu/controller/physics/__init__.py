@@ -1,5 +1,5 @@
 """Objects, grasps and contacts: the physics world of a scene with ``[[object]]`` tables (their
-declaration is controller/scene/objects.py).
+declaration is controller/scene/objects.py) or cell elements (controller/scene/cell.py).
 
 - ``hands.py``: the end tools as bodies (finger pads, housing), in the flange frame.
 - ``mjcf.py``: the engine's model document from the project's own tables (joint frames, link
@@ -8,6 +8,7 @@ declaration is controller/scene/objects.py).
   (:class:`~.world.PhysicsState`), object poses, placing.
 - ``component.py``: the world as a controller component, coupling the gripper's fingers to it.
 - ``driven.py``: grippers whose own model moves the fingers (Robotiq, BIO), as the component asks.
+- ``cell.py``: the scene's conveyors, sensors and feeders (controller/scene/cell.py) on the box's IO.
 
 The engine is imported only by :func:`attach`, which the emulator calls for a scene with objects.
 """
@@ -26,17 +27,23 @@ INSTALL_HINT = "objects in a scene need the physics engine: pip install 'xarm-em
 
 
 def attach(model: RobotModel, scene: Scene, gripper: str, device: Any,
-           vacuum: Any = None) -> PhysicsComponent:
+           vacuum: Any = None, io: Any = None, lite6: Any = None) -> PhysicsComponent:
     """The physics component of ``model`` with ``gripper`` (its tool-bus ``device``), or the vacuum
-    gripper ``vacuum`` when attached, in ``scene``; ValueError with :data:`INSTALL_HINT` when the
-    engine is not installed (ValueError: one line, as a bad scene file)."""
+    gripper ``vacuum`` when attached, or the Lite 6 gripper's jaws ``lite6`` on an arm that has them
+    with no other gripper named, in ``scene``, its cell elements on the box's IO module ``io``;
+    ValueError with :data:`INSTALL_HINT` when the engine is not installed (ValueError: one line, as a
+    bad scene file)."""
     try:
         import mujoco  # noqa: F401
     except ImportError:
         raise ValueError(INSTALL_HINT) from None
     from .component import PhysicsComponent
-    from .hands import HANDS, VACUUM_HAND
+    from .hands import HANDS, LITE6_HAND, VACUUM_HAND
     from .world import World
 
-    hand = VACUUM_HAND if vacuum is not None else HANDS.get(gripper)
-    return PhysicsComponent(World(model, scene, hand), device, vacuum)
+    jaws = lite6 if lite6 is not None and vacuum is None and gripper == "xarm" else None
+    hand = VACUUM_HAND if vacuum is not None else LITE6_HAND if jaws is not None else HANDS.get(gripper)
+    component = PhysicsComponent(World(model, scene, hand), None if jaws is not None else device, vacuum,
+                                 lite6=jaws)
+    component.attach_io(io)
+    return component

@@ -21,6 +21,7 @@ raises C31 as a real push would; sensitivity 0 never does.
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
@@ -33,10 +34,11 @@ from ..core.controller_protocol import Controller
 from ..core.interface import C_COLLISION, NOT_IDLE
 from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
 from ..scene import contact
+from .cell import CellRunner
 from .driven import driven
 from .hands import XARM_MM_PER_PULSE
 from .mjcf import FINGER_KP
-from .world import World
+from .world import PhysicsState, World
 
 #: A command this far (mm) from where the free fingers are is where they are (the drive's lag).
 FOLLOW_MM = 0.05
@@ -59,8 +61,11 @@ def _inside(shape: contact.Plane | contact.Box, p: tuple[float, float, float]) -
 class PhysicsComponent:
     """Steps :attr:`world` every control period and couples the xArm gripper's fingers to it."""
 
-    def __init__(self, world: World, device: Any, vacuum: Any = None) -> None:
+    def __init__(self, world: World, device: Any, vacuum: Any = None, lite6: Any = None) -> None:
         self.world = world
+        #: The Lite 6 gripper's pneumatic jaws (controller/devices/lite6_gripper.py), when they are the
+        #: hand: the finger drive follows their opening and presses with the hand's force.
+        self.lite6 = lite6
         #: The vacuum gripper (controller/devices/vacuum.py), when it is the hand.
         self.vacuum = vacuum
         self.device = device if isinstance(device, XArmGripper) else None
@@ -73,6 +78,34 @@ class PhysicsComponent:
         #: How far (mm) the command runs ahead of fingers stopped on an object: the drive's full force.
         #: (The drive holds finger a, half the opening, and presses with the force of both pads.)
         self.squeeze = (2 * (2 * hand.force / FINGER_KP) / 0.001 + 1.0) if hand is not None else 0.0
+        #: The scene's conveyors, sensors and feeders on the box's IO (:meth:`attach_io`), if any.
+        self.cell: CellRunner | None = None
+        self._io: Any = None
+
+    def attach_io(self, io: Any) -> None:
+        """Tie the scene's cell elements to ``io``, the box's IO module (ValueError for an input or
+        output the box does not have)."""
+        self._io = io
+        self.cell = CellRunner(self.world, io) if self.world.scene.cell else None
+
+    def rebuild(self, scene: contact.Scene, q: np.ndarray) -> None:
+        """The world of ``scene`` (objects or cell elements added, removed or changed) in place of
+        this one, the arm at ``q``: every object, feeder, sensor and belt still in it goes on as it
+        was (:meth:`.world.World.take_over`); ValueError for a cell on IO the box lacks."""
+        old = self.world
+        new = World(old.robot, scene, old.hand)
+        new.reset(q)
+        new.take_over(old)
+        cell = CellRunner(new, self._io) if scene.cell else None
+        self.world, self.cell = new, cell
+
+    def restore(self, state: PhysicsState) -> None:
+        """Put ``state`` back, in a world of the scene it was captured in."""
+        if state.scene and state.scene != self.world.scene_text:
+            scene = contact.parse_scene(json.loads(state.scene))
+            self.world = World(self.world.robot, scene, self.world.hand)
+            self.cell = CellRunner(self.world, self._io) if self.world.scene.cell else None
+        self.world.restore(state)
 
     def _driven_ramp(self) -> float:
         """A driven gripper's command: its own fingers' opening (its model moves them and stops them
@@ -114,6 +147,8 @@ class PhysicsComponent:
         """This period's finger command (mm of opening)."""
         if self.driven is not None:
             return self._driven_ramp()
+        if self.lite6 is not None and self.world.hand is not None:
+            return float(self.lite6.opening) * self.world.hand.stroke
         ramp = self.world.state.ramp
         g = self.device
         if g is None or not self.world.fingers:
@@ -160,7 +195,8 @@ class PhysicsComponent:
         if not sens or ctl.error_code or not all(ctl.enabled):
             return
         gripping = bool(self.device is not None and self.device.gripped) or bool(
-            self.driven is not None and self.driven.gripping)
+            self.driven is not None and self.driven.gripping) or bool(
+            self.lite6 is not None and self.lite6.command == "close")
         tau = self.external_torques(ctl)
         if self.world.touching_arm():
             arm = self.world.arm_torques(gripping)
@@ -175,7 +211,11 @@ class PhysicsComponent:
         w = self.world
         ramp = self._ramp(dt)
         w.state.ramp = ramp
+        if self.cell is not None:
+            self.cell.before(ctl)
         w.step(ctl.data.q, dt, ramp)
+        if self.cell is not None:
+            self.cell.after(ctl)
         if self.driven is not None:
             self._driven_contact()
         if self.vacuum is not None:
@@ -195,7 +235,11 @@ class PhysicsComponent:
             g.position = measured / XARM_MM_PER_PULSE
 
     def idle_until(self, ctl: Controller) -> float:
-        """Idle while the world is settled and neither the arm nor the finger command would move."""
+        """Idle while the world is settled and neither the arm nor the finger command would move,
+        and the cell elements change nothing (up to a feeder's next part)."""
         if not self.world.state.settled:
             return NOT_IDLE
-        return math.inf if self.world.idle(ctl.data.q, self._ramp(ctl.period)) else NOT_IDLE
+        until = math.inf if self.cell is None else self.cell.idle_until(ctl)
+        if until == NOT_IDLE:
+            return NOT_IDLE
+        return until if self.world.idle(ctl.data.q, self._ramp(ctl.period)) else NOT_IDLE

@@ -68,6 +68,13 @@ VACUUM_HAND = Hand("xArm Vacuum Gripper", stroke=0.0, pad_half=(0.0, 0.0, 0.0), 
 BIO_HAND = Hand("xArm BIO Gripper", stroke=bio_gripper.OPEN_MM, pad_half=(12.0, 4.0, 20.0),
                 tip=BUILTIN_TOOLS[3][2], housing=(50.0, (40.0, 90.0, 50.0)), force=50.0)
 
+#: The Lite 6 gripper (pneumatic jaws on TO0/TO1): each finger slides 8.1 mm, so the opening spans
+#: 0..16.2 mm with the fingers fitted to close fully, and the fingertips end 81.1 mm from the flange
+#: (the public MJCF of the Lite 6 gripper, derived from UFACTORY's URDF); 10 N a finger and the pad
+#: and housing sizes are the emulator's estimates.
+LITE6_HAND = Hand("Lite 6 Gripper", stroke=16.2, pad_half=(8.0, 3.0, 10.0), tip=81.1,
+                  housing=(27.0, (25.0, 30.0, 27.0)), force=10.0)
+
 #: The hands by the emulator's gripper names (``Emulator(gripper=...)``).
 HANDS = {"xarm": XARM_HAND, "robotiq-2f85": ROBOTIQ_2F85_HAND, "robotiq-2f140": ROBOTIQ_2F140_HAND,
          "bio": BIO_HAND}

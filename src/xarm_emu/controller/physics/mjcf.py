@@ -9,8 +9,11 @@ Units: the engine works in metres, kilograms and seconds; the tables are in mm.
 An object's friction is that of its every contact (its geoms have the higher priority), so a
 scene's ``friction`` says how the object grips and slides. Collision groups (MuJoCo's
 contype/conaffinity bits): fixtures (planes, boxes) touch objects only;
-objects touch everything; the arm and the hand touch objects only. What the arm presses into a fixture
-is measured apart (:mod:`.world`), as the arm follows the controller and is no body the engine moves.
+objects touch everything; the arm's links (bit ``LINK``) touch objects and fixtures, the hand objects
+only. A conveyor is a fixture on a slide joint (:func:`_conveyor`). What the TCP presses into a fixture
+is measured apart (the spring-damper of controller/scene/contact.py); a link pressing into one is a
+contact of the engine, as an object's, and the arm still follows the controller: the engine never
+moves it.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from ...model.collision import _link_capsules
 from ...model.inertials import get_inertials
 from ...model.robots import RobotModel
 from ...model.rotations import quat_from_matrix, rpy_to_matrix
+from ..scene.cell import ConveyorSpec
 from ..scene.contact import Box, Plane, Scene
 from ..scene.objects import ObjectSpec
 from .hands import Hand
@@ -42,7 +46,9 @@ FINGER_MASS = 0.05
 FINGER_KP = 6000.0
 FINGER_KV = 40.0
 
-FIXTURE, OBJECT, ARM = 1, 2, 4
+FIXTURE, OBJECT, ARM, LINK = 1, 2, 4, 8
+#: The geom group of objects (what a sensor's beam sees).
+OBJECT_GROUP = 1
 #: An arm or hand this near an object (m) makes the world step (:meth:`.world.World.step`).
 NEAR = 0.01
 #: Contacts: as stiff as the engine allows at its step (time constant two steps) and hard (impedance
@@ -63,10 +69,13 @@ def _rpy_quat(rpy: Sequence[float] | np.ndarray) -> str:
     return _quat(rpy_to_matrix(float(rpy[0]), float(rpy[1]), float(rpy[2])))
 
 
-def _capsule(a: Sequence[float], b: Sequence[float], radius: float, name: str) -> str:
+def _capsule(a: Sequence[float], b: Sequence[float], radius: float, name: str, fixtures: bool) -> str:
+    """A link's capsule; ``fixtures``: it touches the fixtures too (links past the first, whose
+    capsule reaches the mounting face and turns only about the base's axis)."""
     ends = _f(*(np.asarray(a) * MM), *(np.asarray(b) * MM))
-    return (f'<geom name={quoteattr(name)} type="capsule" fromto="{ends}"'
-            f' size="{_f(radius * MM)}" contype="{ARM}" conaffinity="0"/>')
+    touch = (f'contype="{ARM | LINK}" conaffinity="{FIXTURE}"' if fixtures
+             else f'contype="{ARM}" conaffinity="0"')
+    return f'<geom name={quoteattr(name)} type="capsule" fromto="{ends}" size="{_f(radius * MM)}" {touch}/>'
 
 
 def _arm(model: RobotModel, hand: Hand | None) -> tuple[list[str], str]:
@@ -74,7 +83,8 @@ def _arm(model: RobotModel, hand: Hand | None) -> tuple[list[str], str]:
     caps = _link_capsules(model)
     by_frame: dict[int, list[str]] = {}
     for i, c in enumerate(caps):
-        by_frame.setdefault(c.frame, []).append(_capsule(c.a, c.b, c.radius, f"link{c.body}_{i}"))
+        geom = _capsule(c.a, c.b, c.radius, f"link{c.body}_{i}", c.frame >= 1)
+        by_frame.setdefault(c.frame, []).append(geom)
     inertials = get_inertials(model).links
     close = ""
     out = ""
@@ -152,6 +162,7 @@ def _object(o: ObjectSpec) -> str:
             f' quat="{_rpy_quat(rpy)}"><freejoint name={quoteattr("object:" + o.name)}/>'
             f'<geom type="{o.shape}" size="{gsize}" mass="{_f(o.mass)}" rgba="{_f(*o.color)}"'
             f' contype="{OBJECT}" conaffinity="{FIXTURE | OBJECT | ARM}" condim="4" priority="1"'
+            f' group="{OBJECT_GROUP}"'
             f' friction="{_f(o.friction)} 0.01 0.0001"/></body>')
 
 
@@ -164,15 +175,30 @@ def _finger_drive(h: Hand) -> str:
             f' forcelimited="true" forcerange="{_f(-2 * h.force, 2 * h.force)}"/></actuator>')
 
 
-def world_xml(model: RobotModel, scene: Scene, hand: Hand | None) -> str:
-    """The MJCF document of the arm ``model`` with ``hand`` on its flange in ``scene``."""
+def _conveyor(c: ConveyorSpec) -> str:
+    """A belt: a box on a slide joint along its direction, driven kinematically (its joint speed is
+    the belt's; its position is put back every step), so what rests on it is carried by friction."""
+    lo, hi = np.asarray(c.min) * MM, np.asarray(c.max) * MM
+    name = quoteattr("conveyor:" + c.name)
+    return (f'<body name={name} pos="{_f(*((lo + hi) / 2))}">'
+            f'<joint name={name} type="slide" axis="{_f(*c.direction)}" armature="{ARM_ARMATURE!r}"'
+            f' limited="false"/>'
+            f'<geom type="box" size="{_f(*((hi - lo) / 2))}" mass="1" contype="{FIXTURE}" conaffinity="0"'
+            f' friction="{_f(c.friction)} 0.005 0.0001"/></body>')
+
+
+def world_xml(model: RobotModel, scene: Scene, hand: Hand | None,
+              objects: Sequence[ObjectSpec] | None = None) -> str:
+    """The MJCF document of the arm ``model`` with ``hand`` on its flange in ``scene``, with
+    ``objects`` (the scene's own unless given) and the scene's conveyors."""
     base, arm = _arm(model, hand)
     fixtures = "".join(_fixture(s) for s in scene.shapes)
-    objects = "".join(_object(o) for o in scene.objects)
+    bodies = "".join(_object(o) for o in (scene.objects if objects is None else objects))
+    bodies += "".join(_conveyor(c) for c in scene.cell.conveyors)
     return (f'<mujoco model="xarm-emu">'
             f'<option timestep="{TIMESTEP!r}" integrator="implicitfast" cone="elliptic" impratio="10"'
             f'/>'
             f'<default><geom solref="{SOLREF}" solimp="{SOLIMP}"/></default>'
-            f'<worldbody>{"".join(base)}{arm}{fixtures}{objects}</worldbody>'
+            f'<worldbody>{"".join(base)}{arm}{fixtures}{bodies}</worldbody>'
             + (_finger_drive(hand) if hand is not None and hand.stroke > 0 else "")
             + '</mujoco>')

@@ -18,10 +18,11 @@ period or jumping over idle ones (controller/emulator.py) gives the same poses.
 from __future__ import annotations
 
 import copy
+import json
 import math
 import struct
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -30,8 +31,10 @@ from ...model import kinematics as kin
 from ...model.robots import RobotModel
 from ...model.rotations import matrix_to_rpy, quat_from_matrix, rpy_to_matrix
 from ..scene.contact import Scene
+from ..scene.objects import ObjectSpec
+from .cell import CellState, fresh_cell
 from .hands import Hand
-from .mjcf import ARM, MM, NEAR, TIMESTEP, world_xml
+from .mjcf import ARM, FIXTURE, LINK, MM, NEAR, OBJECT_GROUP, TIMESTEP, world_xml
 
 #: Object and finger speeds below this are still (m/s, and rad/s for turning).
 STILL_SPEED = 2.0e-4
@@ -40,6 +43,11 @@ SEAL_MM = 1.0
 #: Control periods of stillness after which the world is settled.
 SETTLE_PERIODS = 25
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+#: Where a feeder's parts wait, frozen, until it places them (mm, base frame): far from everything,
+#: a metre apart.
+PARK = (50_000.0, 50_000.0, 0.0)
+PARK_STEP = 1000.0
+Vec3 = tuple[float, float, float]
 
 
 @dataclass(slots=True)
@@ -58,6 +66,11 @@ class PhysicsState:
     #: frame then (x, y, z mm, then the rotation's nine entries row by row).
     held: int = -1
     relative: tuple[float, ...] = ()
+    #: The cell's own state (sensors, feeders, belts): :class:`.cell.CellState`.
+    cell: CellState = field(default_factory=CellState)
+    #: The scene of the world (its tables as JSON): a restore into a world of another scene
+    #: rebuilds the world for this one first (:meth:`.component.PhysicsComponent.restore`).
+    scene: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,7 +92,8 @@ class Contacts:
 
 @dataclass(frozen=True)
 class ObjectPose:
-    """Where an object is: centre (mm, base frame), roll/pitch/yaw (deg), whether the hand holds it."""
+    """Where an object is: centre (mm, base frame), roll/pitch/yaw (deg), whether the hand (both pads)
+    or the vacuum cup holds it."""
 
     name: str
     position: tuple[float, float, float]
@@ -93,8 +107,21 @@ class World:
     def __init__(self, model: RobotModel, scene: Scene, hand: Hand | None) -> None:
         self.robot = model
         self.scene = scene
+        #: The scene's tables as JSON: what a checkpoint names the world by.
+        self.scene_text = json.dumps(scene.to_dict(), sort_keys=True)
         self.hand = hand
-        self.m = mujoco.MjModel.from_xml_string(world_xml(model, scene, hand))
+        #: Every object of the engine: the scene's, then each feeder's parts (parked until placed).
+        self.specs: list[ObjectSpec] = list(scene.objects)
+        #: Per feeder, the index of its first part in :attr:`specs`.
+        self.feeder_base: list[int] = []
+        for f in scene.cell.feeders:
+            self.feeder_base.append(len(self.specs))
+            for k in range(f.count):
+                slot = len(self.specs) - len(scene.objects)
+                park = (PARK[0] + PARK_STEP * slot, PARK[1], PARK[2])
+                self.specs.append(ObjectSpec(f.part_name(k), f.part.shape, f.part.size, f.part.mass, park,
+                                             f.part.rpy, f.part.friction, f.part.color))
+        self.m = mujoco.MjModel.from_xml_string(world_xml(model, scene, hand, self.specs))
         self.d = mujoco.MjData(self.m)
         m = self.m
         dof = model.dof
@@ -121,7 +148,7 @@ class World:
         self._kind[list(self._pads)] = 2
         self._kinds: list[int] = self._kind.tolist()
         self.objects: list[tuple[str, int, int, int]] = []  # name, qpos adr, dof adr, geom id
-        for o in scene.objects:
+        for o in self.specs:
             j = m.joint(f"object:{o.name}").id
             body = m.body(f"object:{o.name}").id
             self.objects.append((o.name, int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]),
@@ -137,6 +164,8 @@ class World:
         near.geom_conaffinity[:] = 0
         near.geom_conaffinity[obj_idx] = ARM
         near.geom_contype[obj_idx] = 0
+        # the links see the fixtures (and belts) from NEAR too
+        near.geom_conaffinity[(m.geom_contype & FIXTURE).astype(bool)] = LINK
         self._near_d = mujoco.MjData(near)
         self._flange_body = m.body(f"link{dof}").id
         self._near_key: tuple[bytes, bytes] = (b"", b"")
@@ -152,8 +181,14 @@ class World:
         self._scanned = -1
         self._rows = Contacts(b"", [], [], frozenset())
         self._pad_map: dict[int, set[int]] = {}
+        #: Each conveyor's joint (qpos address, dof address) and its belt's speed when running (m/s).
+        self._belts = [(int(m.jnt_qposadr[m.joint(f"conveyor:{c.name}").id]),
+                        int(m.jnt_dofadr[m.joint(f"conveyor:{c.name}").id]), c.speed * MM)
+                       for c in scene.cell.conveyors]
+        #: Objects a sensor's beam sees (the engine's geom groups).
+        self.ray_groups = np.array([1 if g == OBJECT_GROUP else 0 for g in range(6)], dtype=np.uint8)
         self._initial = (self.d.qpos.copy(), self.d.qvel.copy())
-        self.state = PhysicsState(b"", 0.0, 0, False, b"")
+        self.state = PhysicsState(b"", 0.0, 0, False, b"", cell=fresh_cell(scene))
         self.reset()
 
     # -- state ---------------------------------------------------------------------------------
@@ -162,7 +197,8 @@ class World:
         buf = np.empty(self._size)
         mujoco.mj_getState(self.m, self.d, buf, _STATE)
         s = self.state
-        return PhysicsState(buf.tobytes(), s.ramp, s.still, s.settled, s.inputs, s.held, s.relative)
+        return PhysicsState(buf.tobytes(), s.ramp, s.still, s.settled, s.inputs, s.held, s.relative,
+                            copy.deepcopy(s.cell), self.scene_text)
 
     def restore(self, state: PhysicsState) -> None:
         """Put ``state`` back exactly (a later step gives what it gave the first time)."""
@@ -173,7 +209,44 @@ class World:
         mujoco.mj_forward(self.m, self.d)
         self._version += 1
         self.state = PhysicsState(state.integration, state.ramp, state.still, state.settled, state.inputs,
-                                  state.held, state.relative)
+                                  state.held, state.relative, copy.deepcopy(state.cell), self.scene_text)
+
+    def take_over(self, old: World) -> None:
+        """Carry what ``old`` (the world of the scene before an edit) has into this one, by name:
+        where each object still here is and how it moves, what each feeder placed, each sensor's
+        and belt's state, the finger command and the cup's hold. The arm is where :meth:`reset` put
+        it."""
+        st, was = self.state, old.state
+        for i, f in enumerate(self.scene.cell.feeders):
+            for j, g in enumerate(old.scene.cell.feeders):
+                if g.name == f.name:
+                    st.cell.fed[i] = min(was.cell.fed[j], f.count)
+                    st.cell.trigger[i] = was.cell.trigger[j]
+        for i, sn in enumerate(self.scene.cell.sensors):
+            for j, so in enumerate(old.scene.cell.sensors):
+                if so.name == sn.name:
+                    st.cell.beam[i], st.cell.level[i] = was.cell.beam[j], was.cell.level[j]
+                    st.cell.since[i] = was.cell.since[j]
+        for i, c in enumerate(self.scene.cell.conveyors):
+            for j, b in enumerate(old.scene.cell.conveyors):
+                if b.name == c.name:
+                    st.cell.running[i] = was.cell.running[j]
+        before = {old.objects[i][0]: i for i in old.listed()}
+        now = {name: i for i, (name, *_) in enumerate(self.objects)}
+        for name, i in before.items():
+            if name in now:
+                _, a, v, _ = self.objects[now[name]]
+                _, oa, ov, _ = old.objects[i]
+                self.d.qpos[a: a + 7] = old.d.qpos[oa: oa + 7]
+                self.d.qvel[v: v + 6] = old.d.qvel[ov: ov + 6]
+        self._freeze_parked()
+        st.ramp = was.ramp
+        if was.held >= 0 and old.objects[was.held][0] in now:
+            st.held, st.relative = now[old.objects[was.held][0]], was.relative
+        if self.fingers:
+            self._fingers_to(was.ramp)
+        mujoco.mj_forward(self.m, self.d)
+        self._version += 1
 
     def reset(self, q: np.ndarray | None = None) -> None:
         """Objects back where the scene puts them, at rest; the arm at ``q`` (zero if None)."""
@@ -183,7 +256,7 @@ class World:
             self.d.qpos[self._q] = q[: self.robot.dof]
         mujoco.mj_forward(self.m, self.d)
         self._version += 1
-        self.state = PhysicsState(b"", 0.0, 0, False, b"")
+        self.state = PhysicsState(b"", 0.0, 0, False, b"", cell=fresh_cell(self.scene))
 
     # -- stepping ------------------------------------------------------------------------------
     def set_force(self, per_pad: float) -> None:
@@ -192,7 +265,8 @@ class World:
             self.m.actuator_forcerange[0] = (-2.0 * per_pad, 2.0 * per_pad)
 
     def inputs(self, q: np.ndarray, ramp: float) -> bytes:
-        return np.asarray(q[: self.robot.dof], dtype=float).tobytes() + struct.pack("<d", ramp)
+        out = np.asarray(q[: self.robot.dof], dtype=float).tobytes() + struct.pack("<d", ramp)
+        return out + bytes(self.state.cell.running) if self._belts else out
 
     def idle(self, q: np.ndarray, ramp: float) -> bool:
         """Whether stepping a period with these inputs would change nothing."""
@@ -221,10 +295,15 @@ class World:
         arm_v /= dt
         if self.fingers:
             d.ctrl[:] = ramp / 2.0 * MM
+        for (bq, bv, speed), on in zip(self._belts, self.state.cell.running, strict=True):
+            qpos[bq], qvel[bv] = 0.0, speed if on else 0.0
         mujoco.mj_step(m, d, nstep=max(1, round(dt / TIMESTEP)))
         self._version += 1
         arm_q[:] = qa
         arm_v[:] = 0.0
+        for bq, _, _ in self._belts:  # the belt's surface moves; the belt stays where it is
+            qpos[bq] = 0.0
+        self._freeze_parked()
         if s.held >= 0:
             self._carry(qa)
         s.inputs = inputs
@@ -244,6 +323,22 @@ class World:
             qvel[:] = 0.0
             d.qacc_warmstart[:] = 0.0
             s.settled = True
+
+    def parked(self) -> list[int]:
+        """The objects (indices) of feeders' parts not placed yet."""
+        fed = self.state.cell.fed
+        return [base + k for base, f, n in zip(self.feeder_base, self.scene.cell.feeders, fed, strict=True)
+                for k in range(n, f.count)]
+
+    def _freeze_parked(self) -> None:
+        """Parts not placed yet stay where they wait, at rest."""
+        if not self.feeder_base:
+            return
+        qpos, qvel, initial = self.d.qpos, self.d.qvel, self._initial[0]
+        for i in self.parked():
+            _, a, v, _ = self.objects[i]
+            qpos[a: a + 7] = initial[a: a + 7]
+            qvel[v: v + 6] = 0.0
 
     def _fingers_to(self, ramp: float) -> None:
         """Free fingers at the opening ``ramp`` (mm), at rest."""
@@ -267,7 +362,7 @@ class World:
         p = T[:3, :3] @ np.array([0.0, 0.0, hand.tip]) + T[:3, 3]  # mm
         axis = T[:3, 2]
         R = np.empty(9)
-        for i, (spec, (_, a, _, _)) in enumerate(zip(self.scene.objects, self.objects, strict=True)):
+        for i, (spec, (_, a, _, _)) in enumerate(zip(self.specs, self.objects, strict=True)):
             if spec.shape == "sphere":
                 continue
             mujoco.mju_quat2Mat(R, self.d.qpos[a + 3: a + 7])
@@ -445,12 +540,25 @@ class World:
         qpos = self.d.qpos
         return (float(qpos[self._fq[0]]) + float(qpos[self._fq[1]])) / MM
 
+    def listed(self) -> list[int]:
+        """The objects (indices) there are: the scene's and the parts its feeders have placed."""
+        parked = set(self.parked())
+        return [i for i in range(len(self.objects)) if i not in parked]
+
+    def listed_specs(self) -> list[ObjectSpec]:
+        """The declarations of the objects :meth:`listed` gives, in that order."""
+        return [self.specs[i] for i in self.listed()]
+
     def poses(self) -> list[ObjectPose]:
-        """Every object's pose, in scene order."""
+        """Every object's pose (:meth:`listed`, in that order); held: both pads touch it, or the cup
+        holds it."""
         self._scan()
         held = {i for i, pads in self._pad_map.items() if len(pads) == 2}
+        if self.state.held >= 0:
+            held.add(self.state.held)
         out = []
-        for i, (name, a, _, _) in enumerate(self.objects):
+        for i in self.listed():
+            name, a, _, _ = self.objects[i]
             qp = self.d.qpos
             R = np.empty(9)
             mujoco.mju_quat2Mat(R, qp[a + 3: a + 7])
@@ -463,14 +571,25 @@ class World:
               rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         """Put object ``name`` at ``position`` (mm) turned by ``rpy`` (deg), at rest; ValueError for
         an unknown name or a value that is not finite."""
-        found = [(a, v) for n, a, v, _ in self.objects if n == name]
+        parked = {self.objects[i][0] for i in self.parked()}
+        found = [(a, v) for n, a, v, _ in self.objects if n == name and n not in parked]
         if not found:
-            names = ", ".join(n for n, *_ in self.objects)
+            names = ", ".join(n for n, *_ in self.objects if n not in parked)
             raise ValueError(f"no object {name!r} in the scene (objects: {names})")
         a, v = found[0]
         vals = (*position, *rpy)
         if not all(math.isfinite(float(x)) for x in vals):
             raise ValueError("position and rpy must be finite")
+        self._put(a, v, position, rpy)
+
+    def feed(self, feeder: int, position: Vec3, rpy: Vec3) -> None:
+        """Feeder ``feeder`` places its next part at ``position`` (mm) turned by ``rpy`` (deg), at rest."""
+        k = self.state.cell.fed[feeder]
+        _, a, v, _ = self.objects[self.feeder_base[feeder] + k]
+        self.state.cell.fed[feeder] = k + 1
+        self._put(a, v, position, rpy)
+
+    def _put(self, a: int, v: int, position: Vec3, rpy: Vec3) -> None:
         d = self.d
         d.qpos[a: a + 3] = np.asarray(position, dtype=float) * MM
         d.qpos[a + 3: a + 7] = quat_from_matrix(rpy_to_matrix(*np.radians(rpy)))

@@ -27,6 +27,8 @@ or through the admin channel as the same tables (:func:`parse_scene`). A file wi
 
 ``[[object]]`` tables add loose objects (:mod:`.objects`): a scene with objects runs the
 physics engine (:mod:`..physics`), in which the planes and boxes are fixed bodies too.
+``[[conveyor]]``, ``[[sensor]]`` and ``[[feeder]]`` tables add a cell's elements tied to the box's
+IO (:mod:`.cell`); they run in the same engine.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ import numpy as np
 from ...model import kinematics as kin
 from ...tomlfile import check_keys, load_toml
 from ..core.controller_protocol import Controller
+from .cell import Cell, parse_cell
 from .objects import ObjectSpec, parse_objects
 
 
@@ -88,10 +91,17 @@ Shape = Plane | Box
 
 @dataclass(frozen=True)
 class Scene:
-    """The shapes of one contact scene and its loose objects (as declared: where they start)."""
+    """The shapes of one contact scene, its loose objects (as declared: where they start) and its
+    cell elements (conveyors, sensors, feeders)."""
 
     shapes: tuple[Shape, ...] = ()
     objects: tuple[ObjectSpec, ...] = ()
+    cell: Cell = Cell()
+
+    @property
+    def physical(self) -> bool:
+        """Whether the scene runs the physics engine: it has objects or cell elements."""
+        return bool(self.objects or self.cell)
 
     def to_dict(self) -> dict[str, list[dict[str, Any]]]:
         """The scene as the tables :func:`parse_scene` reads (the admin channel shows it so)."""
@@ -101,6 +111,7 @@ class Scene:
             out["plane" if isinstance(s, Plane) else "box"].append(d)
         if self.objects:
             out["object"] = [o.to_dict() for o in self.objects]
+        out.update(self.cell.to_dict())
         return out
 
 
@@ -126,7 +137,7 @@ def _number(shape: str, key: str, v: Any, *, positive: bool = False) -> float:
 
 _COMMON = {"name", "stiffness", "damping", "friction"}
 #: The tables of a scene file, and the keys of each fixed shape (``[[object]]``: objects.KEYS).
-TABLES = ("plane", "box", "object")
+TABLES = ("plane", "box", "object", "conveyor", "sensor", "feeder")
 SHAPE_KEYS: dict[str, frozenset[str]] = {"plane": frozenset(_COMMON | {"point", "normal"}),
                                          "box": frozenset(_COMMON | {"min", "max"})}
 
@@ -160,8 +171,9 @@ def _shape(kind: str, i: int, t: Any) -> Shape:
 
 
 def parse_scene(tables: Mapping[str, Any]) -> Scene:
-    """A :class:`Scene` from TOML-like tables ``{"plane": [...], "box": [...], "object": [...]}``;
-    ValueError on anything else (one line naming the shape and the key)."""
+    """A :class:`Scene` from TOML-like tables ``{"plane": [...], "box": [...], "object": [...]}``
+    (and ``conveyor``, ``sensor``, ``feeder``); ValueError on anything else (one line naming the
+    shape and the key)."""
     if not isinstance(tables, Mapping):
         raise ValueError("a scene is a table with 'plane', 'box' and 'object' lists")
     check_keys(tables, TABLES)
@@ -171,7 +183,13 @@ def parse_scene(tables: Mapping[str, Any]) -> Scene:
         if not isinstance(items, list):
             raise ValueError(f"{kind} must be a list of tables ([[{kind}]])")
         shapes.extend(_shape(kind, i, t) for i, t in enumerate(items))
-    return Scene(tuple(shapes), parse_objects(tables.get("object", [])))
+    objects = parse_objects(tables.get("object", []))
+    cell = parse_cell(tables)
+    names = {o.name for o in objects}
+    for part in cell.part_names():
+        if part in names:
+            raise ValueError(f"object {part}: the name is used twice (a feeder's part has it)")
+    return Scene(tuple(shapes), objects, cell)
 
 
 def load_scene(path: str | Path) -> Scene:
