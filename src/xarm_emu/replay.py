@@ -7,6 +7,12 @@ parameters, manual 2.1.2) is compared with the recorded one: the same bytes, or 
 values within ``tolerance`` where the register table decodes them. An unchanged emulator and
 program give no difference; a change shows as the first reply that differs. Standard Modbus lines
 (protocol id 0) are sent as their recorded PDU and their reply PDU is compared byte for byte.
+
+What was changed from outside the protocol (the trace's ``outside`` lines: fault schedule entries as
+they fired, admin injections and inputs) is carried out again, in trace order, after the control
+period it acted after in the recorded run (:func:`place`), as the same admin request. One the
+replay's emulator refuses (a scene object the replay has no scene for) is a difference. A trace
+written before these lines existed replays as before.
 """
 
 from __future__ import annotations
@@ -24,6 +30,9 @@ from .protocol.layouts import LayoutError
 from .server.trace import _plain
 
 PERIOD_TOLERANCE = 1e-6
+#: A trace line's ``event`` for a change made from outside the protocol (server/trace.py), and the
+#: :attr:`Difference.field` of one the replay could not carry out.
+OUTSIDE = "outside"
 
 
 class ReplayError(ValueError):
@@ -43,6 +52,9 @@ class Difference:
     replayed: Any
 
     def describe(self) -> str:
+        if self.field == OUTSIDE:
+            return (f"line {self.line}, t = {self.t:.3f} s, {self.name}: was {self.recorded!r}, "
+                    f"now refused: {self.replayed}")
         return (f"line {self.line}, t = {self.t:.3f} s, register {self.register} ({self.name or '?'}): "
                 f"{self.field} was {self.recorded!r}, now {self.replayed!r}")
 
@@ -52,6 +64,8 @@ class ReplayResult:
     """What a replay compared and what differed, in trace order."""
 
     requests: int = 0
+    #: Changes from outside the protocol carried out again (the trace's ``outside`` lines).
+    outside: int = 0
     differences: list[Difference] = field(default_factory=list)
 
     @property
@@ -60,7 +74,13 @@ class ReplayResult:
 
 
 def read_requests(path: Path) -> list[tuple[int, dict[str, Any]]]:
-    """The request lines of a trace as (line number, record), connection events left out."""
+    """The request lines of a trace as (line number, record), every event left out."""
+    return [(n, rec) for n, rec in read_trace(path) if "event" not in rec]
+
+
+def read_trace(path: Path) -> list[tuple[int, dict[str, Any]]]:
+    """The request lines and the ``outside`` events of a trace as (line number, record), in trace
+    order; connection events (and event kinds this version does not know) left out."""
     try:
         text = Path(path).read_text(encoding="utf-8")
     except OSError as exc:
@@ -76,6 +96,8 @@ def read_requests(path: Path) -> list[tuple[int, dict[str, Any]]]:
         if not isinstance(rec, dict):
             raise ReplayError(f"{path} line {n} is not a trace line")
         if "event" in rec:
+            if rec["event"] == OUTSIDE:
+                out.append((n, _outside_line(path, n, rec)))
             continue
         try:
             float(rec["t"]), int(rec["tid"]), bytes.fromhex(rec["reply"])
@@ -88,6 +110,48 @@ def read_requests(path: Path) -> list[tuple[int, dict[str, Any]]]:
                               "params and reply (unit and pdu for protocol 0)") from None
         out.append((n, rec))
     return out
+
+
+def _outside_line(path: Path, n: int, rec: dict[str, Any]) -> dict[str, Any]:
+    """An ``outside`` line checked: its time, its period (when given) and its admin request."""
+    try:
+        float(rec["t"])
+        if rec.get("period") is not None:
+            int(rec["period"])
+        ok = isinstance(rec["request"], dict) and isinstance(rec["request"].get("cmd"), str)
+    except (KeyError, TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ReplayError(f"{path} line {n}: an outside line needs t, period and request (an admin "
+                          "request with its cmd)")
+    return rec
+
+
+def place(server: Any, t: float, period: int | None = None) -> None:
+    """Run ``server``'s emulator (stepped) up to what a trace line says: after control ``period``
+    when the line gives it (an ``outside`` line), else up to controller time ``t``, rounded to whole
+    periods. Never back: a line at or before the emulator's time acts now."""
+    emu = server.emulator
+    if period is not None:
+        n = int(period) - int(emu.controller.data.steps)
+        if n > 0:
+            server.advance(n * emu.controller.period)
+    elif t > emu.time:
+        server.advance(t - emu.time)
+
+
+def _outside(server: Any, n: int, rec: dict[str, Any]) -> Difference | None:
+    """Carry out an ``outside`` line's admin request again; a refusal is a difference."""
+    from .server.admin import AdminError, prepare
+
+    request = dict(rec["request"])
+    who = "fault schedule" if rec.get("source") == "schedule" else "admin"
+    try:
+        prepare(server, request, str(rec.get("source") or "admin"))()
+    except AdminError as exc:
+        return Difference(n, float(rec["t"]), 0, f"{who} {request.get('cmd')}", OUTSIDE,
+                          rec.get("message"), str(exc))
+    return None
 
 
 def _close(a: Any, b: Any, tolerance: float) -> bool:
@@ -148,16 +212,24 @@ def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum
     from .protocol.firmware import SERVE_VERSION
     from .server.core import EmulatorServer, ServerConfig
 
-    requests = read_requests(path)
+    lines = read_trace(path)
     result = ReplayResult()
-    firmware = firmware or recorded_firmware(requests) or SERVE_VERSION
+    firmware = firmware or recorded_firmware([x for x in lines if "event" not in x[1]]) or SERVE_VERSION
     with tempfile.TemporaryDirectory(prefix="xarm-emu-replay-") as cdir:
         emu = Emulator(model, config_dir=Path(cdir), vacuum=vacuum, firmware=firmware)
         server = EmulatorServer(emu, ServerConfig(stepped=True, admin=True, port=0))
-        for n, rec in requests:
-            t = float(rec.get("t_request", rec["t"]))  # a held reply: sent when it was asked
-            if t > emu.time:
-                server.advance(t - emu.time)
+        emu.outside["server"] = server  # what a replayed checkpoint's scheduled actions act on
+        for n, rec in lines:
+            if rec.get("event") == OUTSIDE:
+                place(server, float(rec["t"]), rec.get("period"))
+                result.outside += 1
+                diff = _outside(server, n, rec)
+                if diff is not None:
+                    result.differences.append(diff)
+                    if stop_at_first:
+                        break
+                continue
+            place(server, float(rec.get("t_request", rec["t"])))  # a held reply: sent when it was asked
             result.requests += 1
             if int(rec["protocol"]) == 0:
                 frame = server.answer_modbus(int(rec["tid"]), int(rec["unit"]), bytes.fromhex(rec["pdu"]))

@@ -107,11 +107,14 @@ def replay_trace(
                         stop_at_first=not all_differences)
     except ReplayError as exc:
         user_error(str(exc))
+    done = f"{result.requests} requests replayed"
+    if result.outside:
+        done += f" with {result.outside} changes from outside the protocol (faults, inputs)"
     if not result.differences:
-        console.print(f"{result.requests} requests replayed: every reply is the same", soft_wrap=True)
+        console.print(f"{done}: every reply is the same", soft_wrap=True)
         return
     first = result.differences[0].describe()
-    console.print(f"{result.requests} requests replayed; first difference: {first}", soft_wrap=True)
+    console.print(f"{done}; first difference: {first}", soft_wrap=True)
     for diff in result.differences[1:]:
         console.print(f"  {diff.describe()}", soft_wrap=True)
     raise typer.Exit(1)

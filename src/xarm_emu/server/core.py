@@ -630,12 +630,12 @@ class EmulatorServer:
                 frame = encode_reply(tid, protocol, register, state, reply)
             if cached is None:
                 self.code_watch.check(emu.controller)
-        if self.trace is not None:
-            if register == identification.REGISTER and not identification.finished(emu.controller):
-                self._held_trace = (peer, params, emu.time)  # traced with its reply (answer_later)
-            else:
-                self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame,
-                                   emu.controller.registers)
+            if self.trace is not None:  # under the lock: in order with the scheduled changes
+                if register == identification.REGISTER and not identification.finished(emu.controller):
+                    self._held_trace = (peer, params, emu.time)  # traced with its reply (answer_later)
+                else:
+                    self.trace.command(emu.time, peer, tid, protocol, register, params, frame,
+                                       emu.controller.registers)
         return frame
 
     # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
@@ -694,8 +694,8 @@ class EmulatorServer:
         with self.lock:
             self._run_due()
             frame = modbus_map.answer(self.emulator, tid, unit, pdu)
-        if self.trace is not None:
-            self.trace.modbus(self.emulator.time, peer, tid, unit, pdu, frame)
+            if self.trace is not None:  # under the lock: in order with the scheduled changes
+                self.trace.modbus(self.emulator.time, peer, tid, unit, pdu, frame)
         return frame
 
     def advance(self, seconds: float) -> int:

@@ -111,7 +111,7 @@ def schedule(server: AdminTarget, entries: list[dict[str, Any]]) -> int:
         request = {k: v for k, v in e.items() if k not in ("at", "do", "after")}
         request["cmd"] = e["do"]
         try:
-            action = prepare(server, request)
+            action = prepare(server, request, source="schedule")
         except AdminError as exc:
             raise FaultScheduleError(f"fault {i} ({e['do']} at {e['at']} s): {exc}") from None
         actions.append((float(e["at"]), str(e.get("after", "start")), i, action))

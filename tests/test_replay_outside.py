@@ -1,0 +1,184 @@
+"""`xarm-emu replay` of a run in which something changed the emulator from outside the protocol: the
+trace writes each fault schedule entry as it fires and each admin change as it is carried out, at
+its control period, and the replay carries it out again there (server/trace.py, replay.py)."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import pytest
+from helpers import run_cli, sdk_ready, wait_for
+
+from xarm_emu.client import Client
+from xarm_emu.client.admin import AdminClient
+from xarm_emu.replay import OUTSIDE, read_requests, replay
+from xarm_emu.testing import running_emulator, sdk_pointed_at
+
+#: The README's CI recipe with one fault: C31 one second (controller time) into the first move.
+SCHEDULE = '[[fault]]\nafter = "motion"\nat = 1.0\ndo = "error"\ncode = "C31"\n'
+
+
+def _lines(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def _without_outside(path: Path) -> list[dict]:
+    return [r for r in _lines(path) if r.get("event") != OUTSIDE]
+
+
+def _write(path: Path, lines: list[dict]) -> Path:
+    path.write_text("".join(json.dumps(r) + "\n" for r in lines))
+    return path
+
+
+@pytest.fixture(scope="module")
+def recipe(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The trace of the CI recipe: serve at speed 5 with the trace and the schedule, the unchanged
+    SDK moving (the fault lands in the move), reading the state and codes, clearing, moving again."""
+    from xarm.wrapper import XArmAPI
+
+    tmp = tmp_path_factory.mktemp("recipe")
+    faults = tmp / "faults.toml"
+    faults.write_text(SCHEDULE)
+    path = tmp / "wire.jsonl"
+    with running_emulator(speed=5.0, trace=path, faults=faults) as st, sdk_pointed_at(st):
+        arm = XArmAPI("127.0.0.1", is_radian=False, forbid_uds=True)
+        try:
+            sdk_ready(arm)
+            arm.set_position(300, 100, 200, 180, 0, 0, speed=50, wait=True)  # 1.6 s: the fault stops it
+            assert arm.get_state() == (0, 4) and arm.get_err_warn_code()[1] == [31, 0]
+            arm.clean_error()
+            arm.motion_enable(True)
+            arm.set_state(0)
+            arm.set_position(250, 0, 250, 180, 0, 0, speed=200, wait=True)
+            arm.get_position()
+        finally:
+            arm.disconnect()
+    return path
+
+
+def test_recipe_with_a_fault_schedule_replays_without_difference(recipe: Path) -> None:
+    outside = [r for r in _lines(recipe) if r.get("event") == OUTSIDE]
+    assert len(outside) == 1
+    fault = outside[0]
+    assert fault["source"] == "schedule" and fault["request"] == {"cmd": "error", "code": "C31"}
+    assert fault["message"].startswith("injected C31")
+    assert fault["t"] == pytest.approx(fault["period"] * 0.004)
+    result = replay(recipe)
+    assert result.differences == [] and result.outside == 1 and result.requests > 20
+    code, out = run_cli("replay", str(recipe))
+    assert code == 0, out
+    assert out.strip() == (f"{result.requests} requests replayed with 1 changes from outside the protocol "
+                           "(faults, inputs): every reply is the same")
+
+
+def test_a_changed_fault_in_the_trace_names_the_first_differing_reply(recipe: Path, tmp_path: Path) -> None:
+    lines = _lines(recipe)
+    n_fault = next(n for n, r in enumerate(lines, start=1) if r.get("event") == OUTSIDE)
+    lines[n_fault - 1]["request"]["code"] = "C22"  # the schedule's fault now another code
+    changed = _write(tmp_path / "changed.jsonl", lines)
+    # C22 stops the arm as C31 does (state 4, the error bit): the first reply that differs is the
+    # first that shows the code, get_err_warn_code (manual 2.1.3 register 15)
+    first_code = next(n for n, r in enumerate(lines, start=1) if n > n_fault and r.get("register") == 15)
+    diff = replay(changed).first
+    assert diff is not None and diff.line == first_code
+    assert (diff.register, diff.field, diff.recorded, diff.replayed) == (15, "error", 31, 22)
+    code, out = run_cli("replay", str(changed))
+    assert code == 1
+    assert f"first difference: line {diff.line}, t = {diff.t:.3f} s, register {diff.register} " in out
+
+
+def test_a_trace_without_outside_lines_replays_as_before(recipe: Path, tmp_path: Path) -> None:
+    """A trace of a version that did not write them: read and compared, the fault not carried out,
+    so the first reply after it differs (the state byte's error bit, manual 2.1.3)."""
+    lines = _lines(recipe)
+    n_fault = next(n for n, r in enumerate(lines, start=1) if r.get("event") == OUTSIDE)
+    old = _write(tmp_path / "old.jsonl", [r for r in lines if r.get("event") != OUTSIDE])
+    assert len(read_requests(old)) == len(read_requests(recipe))
+    result = replay(old)
+    first = result.first
+    assert first is not None and result.outside == 0 and first.field == "state"
+    assert first.recorded & 0x40 and not first.replayed & 0x40  # the error bit, recorded only
+    assert first.line >= n_fault  # one line fewer before it: the first reply after the fault
+
+
+def test_admin_injections_mid_program_replay_exactly(tmp_path: Path) -> None:
+    """An input and an error injected through the admin channel while a move runs, a payload set,
+    the program reading them: the same replies in the replay, every change carried out again."""
+    path = tmp_path / "wire.jsonl"
+    with running_emulator(speed=5.0, trace=path, admin=True) as st, \
+            Client("127.0.0.1", st.ports["command"]) as c, AdminClient("127.0.0.1", st.ports["admin"]) as a:
+        c.get_version()
+        c.motion_enable(True)
+        c.set_mode(0)
+        c.set_state(0)
+        c.call(23, joints=(0.9, -0.3, 0, 0, 0.3, 0, 0), speed=0.5, acc=5.0, mvtime=0.0)
+        time.sleep(0.05)
+        a.request("set-input", kind="cgpio", index=2, value=0)
+        for _ in range(5):
+            c.get_joints()
+            c.call(131)  # the control box's digital inputs (get_cgpio_digital)
+        a.request("payload", mass=1.5, com=[0, 0, 40])
+        a.request("error", code="C31")
+        a.request("status")  # a query: not written
+        assert wait_for(lambda: c.get_state() == 4)
+        c.get_joints()
+        c.call(15)
+        a.request("clear")
+        c.call(16)
+        c.get_joints()
+    outside = [r for r in _lines(path) if r.get("event") == OUTSIDE]
+    assert [r["request"]["cmd"] for r in outside] == ["set-input", "payload", "error", "clear"]
+    assert all(r["source"] == "admin" and "token" not in r["request"] for r in outside)
+    result = replay(path)
+    assert result.differences == [] and result.outside == 4
+    without = replay(_write(tmp_path / "without.jsonl", _without_outside(path)))
+    assert without.first is not None and without.first.register == 131  # the input, first seen there
+
+
+def test_checkpoint_restore_replays_back_in_time(tmp_path: Path) -> None:
+    """Lockstep with checkpoints: the replay saves and restores its own at the same periods, so the
+    trace's time going back tells the same story."""
+    path = tmp_path / "wire.jsonl"
+    with running_emulator(trace=path, admin=True, stepped=True) as st, \
+            Client("127.0.0.1", st.ports["command"]) as c, AdminClient("127.0.0.1", st.ports["admin"]) as a:
+        c.get_version()
+        c.motion_enable(True)
+        c.set_mode(0)
+        c.set_state(0)
+        a.request("step", seconds=0.2)
+        a.request("checkpoint-save", name="before")
+        c.call(23, joints=(0.5, 0, 0, 0, 0, 0, 0), speed=1.0, acc=5.0, mvtime=0.0)
+        a.request("step", seconds=0.3)
+        moved = c.get_joints()
+        a.request("checkpoint-restore", name="before")
+        a.request("step", seconds=0.1)
+        assert c.get_joints() != moved
+    result = replay(path)
+    assert result.differences == [] and result.outside == 2
+    without = replay(_write(tmp_path / "without.jsonl", _without_outside(path)))
+    assert without.first is not None and without.first.name == "GET_JOINT_POS"
+
+
+def test_an_outside_change_the_replay_refuses_is_a_difference(tmp_path: Path) -> None:
+    trace = _write(tmp_path / "wire.jsonl", [
+        {"event": OUTSIDE, "t": 0.2, "period": 50, "source": "admin",
+         "request": {"cmd": "scene-place", "name": "cube", "position": [300, 0, 10]},
+         "message": "cube at (300, 0, 10) mm"}])
+    result = replay(trace)
+    diff = result.first
+    assert diff is not None and diff.field == OUTSIDE and diff.line == 1
+    code, out = run_cli("replay", str(trace))
+    assert code == 1
+    assert ("line 1, t = 0.200 s, admin scene-place: was 'cube at (300, 0, 10) mm', now refused: the scene "
+            "has no objects") in out
+
+
+def test_a_bad_outside_line_is_one_line(tmp_path: Path) -> None:
+    bad = _write(tmp_path / "bad.jsonl", [{"event": OUTSIDE, "t": 0.1, "request": "estop"}])
+    code, out = run_cli("replay", str(bad))
+    assert code == 2
+    assert out.strip() == (f"{bad} line 1: an outside line needs t, period and request (an admin "
+                           "request with its cmd)")
