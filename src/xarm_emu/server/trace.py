@@ -27,9 +27,9 @@ One JSON object per line, appended to ``FILE``:
   control period it acted after (the controller's count since start), ``message`` what it answered.
   ``xarm-emu replay`` carries out the same request after the same period.
 
-Every line is written under the arm's lock, in the order the arm saw the requests and changes (a
-scheduled fault that fires while the report sender runs the control periods comes before the
-command answered after it).
+Request and ``outside`` lines are written under the arm's lock, in the order the arm saw the
+requests and changes (a scheduled fault that fires while the report sender runs the control periods
+comes before the command answered after it).
 
 ``t`` is controller time in seconds (the clock the motion runs on, scaled or stepped), ``wall`` the
 Unix time. Lines are buffered and written at least every control-loop wake-up (20 ms) and on close,
