@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from helpers import run_cli, sdk_ready, wait_for
@@ -182,3 +184,38 @@ def test_a_bad_outside_line_is_one_line(tmp_path: Path) -> None:
     assert code == 2
     assert out.strip() == (f"{bad} line 1: an outside line needs t, period and request (an admin "
                            "request with its cmd)")
+
+
+def test_the_pendants_buttons_are_in_the_trace_and_replay(make_server: Any, tmp_path: Path) -> None:
+    """The 3D view's pendant changes the arm from outside any connection: its commands are request
+    lines (peer "pendant"), its admin actions outside lines, and the replay tells the same story."""
+    pytest.importorskip("viser")
+    path = tmp_path / "wire.jsonl"
+    st = make_server(view=True, view_port=0, admin=True, admin_port=0, trace=path, speed=5.0)
+    p = st.server.viewer.pendant
+    with Client("127.0.0.1", st.ports["command"]) as c:
+        c.get_version()
+        assert _in_thread(p.enable) == "MOTION_EN (11): ok; SET_STATE (12): ok"
+        assert _in_thread(lambda: p.jog_joint(1, -1)).endswith("ok")
+        assert wait_for(lambda: c.get_state() == 2)
+        assert _in_thread(lambda: p.admin({"cmd": "warning", "code": 11})).startswith("injected warning 11")
+        c.get_joints()
+        c.call(15)
+    st.stop()
+    lines = _lines(path)
+    assert [r["register"] for r in lines if r.get("peer") == "pendant"] == [11, 12, 23]
+    assert [r["request"]["cmd"] for r in lines if r.get("event") == OUTSIDE] == ["warning"]
+    result = replay(path)
+    assert result.differences == [] and result.outside == 1
+    assert result.requests == sum("event" not in r for r in lines)
+
+
+def _in_thread(fn: Callable[[], object]) -> object:
+    """Run ``fn`` on another thread, as viser runs a button's callback; returns its result."""
+    import threading
+
+    out: list[object] = []
+    t = threading.Thread(target=lambda: out.append(fn()))
+    t.start()
+    t.join(10.0)
+    return out[0]

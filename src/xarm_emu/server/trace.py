@@ -12,7 +12,8 @@ One JSON object per line, appended to ``FILE``:
   values. Registers are named and decoded with the table of the firmware the box claims (every
   register and layout it answers); ``request_error`` appears only where the box could not decode
   the request either, i.e. where it refused it. A reply that waits for a motion (register 204, load
-  identification) is written when it goes out, with ``t_request`` the time it was asked;
+  identification) is written when it goes out, with ``t_request`` the time it was asked. A
+  command of the 3D view's pendant is such a line with ``peer`` "pendant" and ``tid`` 0;
 - ``{"t": ..., "wall": ..., "peer": ..., "tid": 3, "protocol": 0, "unit": 1, "function": 3,
   "address": 32, "count": 2, "pdu": "<hex>", "reply": "<hex>", "exception": null, "read": [0, 0]}``
   for each standard Modbus request (protocol id 0): the function code, address, count, the values
