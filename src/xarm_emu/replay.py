@@ -218,7 +218,6 @@ def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum
     with tempfile.TemporaryDirectory(prefix="xarm-emu-replay-") as cdir:
         emu = Emulator(model, config_dir=Path(cdir), vacuum=vacuum, firmware=firmware)
         server = EmulatorServer(emu, ServerConfig(stepped=True, admin=True, port=0))
-        emu.outside["server"] = server  # what a replayed checkpoint's scheduled actions act on
         for n, rec in lines:
             if rec.get("event") == OUTSIDE:
                 place(server, float(rec["t"]), rec.get("period"))

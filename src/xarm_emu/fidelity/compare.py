@@ -26,7 +26,7 @@ import copy
 import math
 import tempfile
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -127,7 +127,7 @@ class Comparison:
         return {"model": self.model, "firmware": self.firmware, "notes": self.notes, "totals": self.totals,
                 "tolerances": self.tolerances, "per_joint": self.per_joint, "codes": self.codes,
                 "rates": self.rates, "failures": self.failures,
-                "commands": [asdict(c) for c in self.commands]}
+                "commands": [dict(vars(c)) for c in self.commands]}  # asdict's deep copies: 0.25 ms each
 
 
 def load_tolerances(path: Path | None) -> dict[str, float]:

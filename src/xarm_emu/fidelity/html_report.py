@@ -55,12 +55,14 @@ QUIET = PURE_READS | {254}
 # -- the data the page is made of -----------------------------------------------------------------
 
 def report_data(result: Any, charted: int = CHARTED, points: int = POINTS) -> dict[str, Any]:
-    """The comparison's JSON and, under ``charts``, the recorded and replayed series of the
-    ``charted`` commands that differ most (at most ``points`` frames each): what :func:`render` reads."""
+    """The comparison's JSON with, under ``worst``, the commands that differ most (:func:`worst`) and,
+    under ``charts``, the recorded and replayed series of the first ``charted`` of them (at most
+    ``points`` frames each): what :func:`render` reads."""
     data = result.to_json()
     charts = []
     rec, rep = getattr(result, "recorded", []), getattr(result, "replayed", [])
-    for c in worst(data):
+    data["worst"] = worst(data)
+    for c in data["worst"]:
         a, b = (c.get("samples") or (0, 0))[:2]
         if b <= a or b > len(rec) or b > len(rep):
             continue
@@ -305,7 +307,9 @@ def _what_differs(c: Mapping[str, Any], tol: Mapping[str, float]) -> str:
 def _worst(data: Mapping[str, Any]) -> list[str]:
     e = html.escape
     tol = data.get("tolerances") or {}
-    rows = worst(data)
+    given = data.get("worst")
+    rows = given if isinstance(given, list) and all(isinstance(g, dict) and "excess" in g for g in given) \
+        else worst(data)
     out = ["<h2>The commands that differ most</h2>"]
     if not rows:
         out.append("<p id='worst-none'>None: every command is within its tolerances.</p>")
