@@ -219,3 +219,33 @@ def _in_thread(fn: Callable[[], object]) -> object:
     t.start()
     t.join(10.0)
     return out[0]
+
+
+def _short_program(port: int) -> None:
+    with Client("127.0.0.1", port) as c:
+        c.get_version()
+        c.motion_enable(True)
+        c.set_mode(0)
+        c.set_state(0)
+        c.call(23, joints=(0.3, -0.1, 0, 0, 0.2, 0, 0), speed=2.0, acc=10.0, mvtime=0.0)
+        assert wait_for(lambda: c.get_state() == 2)
+        c.get_joints()
+
+
+def test_the_trace_says_which_box_answered_and_each_run_replays_on_its_own(tmp_path: Path) -> None:
+    """Two runs appended to one file, an xArm 7 with the vacuum gripper then a Lite 6: the replay
+    builds each box from its start line, fresh, without being told."""
+    path = tmp_path / "wire.jsonl"
+    with running_emulator(7, trace=path, vacuum=True, speed=5.0) as st:
+        _short_program(st.ports["command"])
+    with running_emulator("lite6", trace=path, speed=5.0) as st:
+        _short_program(st.ports["command"])
+    starts = [r for r in _lines(path) if r.get("event") == "start"]
+    assert [(r["model"], r["vacuum"]) for r in starts] == [("7", True), ("lite6", False)]
+    result = replay(path)
+    assert result.differences == [] and result.requests == sum("register" in r for r in _lines(path))
+    code, out = run_cli("replay", str(path))
+    assert code == 0, out
+    # told otherwise, the first reply that shows the arm differs
+    diff = replay(path, model=6).first
+    assert diff is not None and diff.name == "GET_VERSION"

@@ -119,7 +119,15 @@ def read_trace(path: Path) -> Series:
         except (ValueError, KeyError, TypeError):
             raise PlotError(f"{path} line {n} is not a trace line (server/trace.py)") from None
         if "event" in rec:
-            series.events.append((t, "INFO", f"client {rec.get('peer', '?')}: {rec['event']}"))
+            if rec["event"] == "outside":  # a fault or input from outside the protocol, as it acted
+                who = ("fault schedule" if rec.get("source") == "schedule"
+                       else str(rec.get("source") or "admin"))
+                series.events.append((t, "WARN", f"{who}: {rec.get('message') or rec.get('request')}"))
+            elif rec["event"] == "start":
+                series.events.append((t, "INFO", f"emulator started: xArm {rec.get('model', '?')}, firmware "
+                                                 f"{rec.get('firmware', '?')}"))
+            else:
+                series.events.append((t, "INFO", f"client {rec.get('peer', '?')}: {rec['event']}"))
             continue
         name, values, request = rec.get("name"), rec.get("values") or {}, rec.get("request") or {}
         state = rec.get("state") or 0

@@ -8,6 +8,11 @@ values within ``tolerance`` where the register table decodes them. An unchanged 
 program give no difference; a change shows as the first reply that differs. Standard Modbus lines
 (protocol id 0) are sent as their recorded PDU and their reply PDU is compared byte for byte.
 
+The trace's ``start`` line says which box answered (arm, firmware, end tool, linear track, F/T
+sensor); the replay builds the same one unless told otherwise, and a fresh one at each ``start``
+line of a file that several runs appended to. A trace without it replays into the box the options
+give (an xArm 6 by default, at the firmware its register 1 reply claimed).
+
 What was changed from outside the protocol (the trace's ``outside`` lines: fault schedule entries as
 they fired, admin injections and inputs) is carried out again, in trace order, after the control
 period it acted after in the recorded run (:func:`place`), as the same admin request. One the
@@ -33,6 +38,8 @@ PERIOD_TOLERANCE = 1e-6
 #: A trace line's ``event`` for a change made from outside the protocol (server/trace.py), and the
 #: :attr:`Difference.field` of one the replay could not carry out.
 OUTSIDE = "outside"
+#: A trace line's ``event`` when the emulator started: the box it was (server/trace.py).
+START = "start"
 
 
 class ReplayError(ValueError):
@@ -98,6 +105,8 @@ def read_trace(path: Path) -> list[tuple[int, dict[str, Any]]]:
         if "event" in rec:
             if rec["event"] == OUTSIDE:
                 out.append((n, _outside_line(path, n, rec)))
+            elif rec["event"] == START:
+                out.append((n, rec))
             continue
         try:
             float(rec["t"]), int(rec["tid"]), bytes.fromhex(rec["reply"])
@@ -205,18 +214,64 @@ def recorded_firmware(requests: list[tuple[int, dict[str, Any]]]) -> str | None:
     return None
 
 
-def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum: bool = False,
-           tolerance: float = PERIOD_TOLERANCE, stop_at_first: bool = False) -> ReplayResult:
-    """Replay the trace at ``path`` into a fresh emulator of ``model`` (module docstring)."""
+Lines = list[tuple[int, dict[str, Any]]]
+
+
+def runs(lines: Lines) -> list[tuple[dict[str, Any], Lines]]:
+    """The trace's lines by run: each ``start`` line (``{}`` before the first) with the lines after it."""
+    out: list[tuple[dict[str, Any], Lines]] = [({}, [])]
+    for n, rec in lines:
+        if rec.get("event") == START:
+            out.append((rec, []))
+        else:
+            out[-1][1].append((n, rec))
+    return [r for r in out if r[1] or r[0]]
+
+
+def _emulator(start: dict[str, Any], lines: list[tuple[int, dict[str, Any]]], config_dir: Path,
+              model: int | str | None, firmware: str | None, vacuum: bool | None) -> Any:
+    """The box of a run: as the options say, else as its ``start`` line says, else an xArm 6 at the
+    firmware its register 1 reply claimed (else serve's)."""
     from .controller.emulator import Emulator
     from .protocol.firmware import SERVE_VERSION
+
+    def given(key: str, default: Any) -> Any:
+        v = start.get(key)
+        return default if v is None else v
+
+    requests = [x for x in lines if "event" not in x[1]]
+    try:
+        emu = Emulator(model if model is not None else str(given("model", 6)), config_dir=config_dir,
+                       vacuum=vacuum if vacuum is not None else bool(given("vacuum", False)),
+                       firmware=(firmware or given("firmware", None) or recorded_firmware(requests)
+                                 or SERVE_VERSION),
+                       gripper=str(given("gripper", "xarm")), linear_track=given("linear_track", None),
+                       ft_sensor=bool(given("ft_sensor", False)), ft_noise=bool(given("ft_noise", True)))
+    except (ValueError, TypeError) as exc:
+        raise ReplayError(f"the trace's box cannot be built: {exc}") from None
+    return emu
+
+
+def replay(path: Path, model: int | str | None = None, firmware: str | None = None,
+           vacuum: bool | None = None, tolerance: float = PERIOD_TOLERANCE,
+           stop_at_first: bool = False) -> ReplayResult:
+    """Replay the trace at ``path`` (module docstring); ``model``, ``firmware`` and ``vacuum``, when
+    given, replace what the trace says of the box."""
+    result = ReplayResult()
+    for start, lines in runs(read_trace(path)):
+        if _replay_run(start, lines, result, model, firmware, vacuum, tolerance, stop_at_first):
+            break
+    return result
+
+
+def _replay_run(start: dict[str, Any], lines: list[tuple[int, dict[str, Any]]], result: ReplayResult,
+                model: int | str | None, firmware: str | None, vacuum: bool | None, tolerance: float,
+                stop_at_first: bool) -> bool:
+    """One run of the trace into a fresh box; True when it stopped at a difference."""
     from .server.core import EmulatorServer, ServerConfig
 
-    lines = read_trace(path)
-    result = ReplayResult()
-    firmware = firmware or recorded_firmware([x for x in lines if "event" not in x[1]]) or SERVE_VERSION
     with tempfile.TemporaryDirectory(prefix="xarm-emu-replay-") as cdir:
-        emu = Emulator(model, config_dir=Path(cdir), vacuum=vacuum, firmware=firmware)
+        emu = _emulator(start, lines, Path(cdir), model, firmware, vacuum)
         server = EmulatorServer(emu, ServerConfig(stepped=True, admin=True, port=0))
         for n, rec in lines:
             if rec.get("event") == OUTSIDE:
@@ -226,7 +281,7 @@ def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum
                 if diff is not None:
                     result.differences.append(diff)
                     if stop_at_first:
-                        break
+                        return True
                 continue
             place(server, float(rec.get("t_request", rec["t"])))  # a held reply: sent when it was asked
             result.requests += 1
@@ -243,5 +298,5 @@ def replay(path: Path, model: int | str = 6, firmware: str | None = None, vacuum
             if diff is not None:
                 result.differences.append(diff)
                 if stop_at_first:
-                    break
-    return result
+                    return True
+    return False

@@ -36,6 +36,7 @@ from ..controller.applications import identification
 from ..controller.core.config import ConfigStore, load_or_create_admin_token
 from ..controller.core.feedback import FeedbackQueue, feedback_queue
 from ..controller.core.interface import PERIOD, WARN_PARAMETER
+from ..controller.devices import ft_sensor
 from ..controller.emulator import Emulator
 from ..protocol import reports
 from ..protocol.admin import admin_host, derive_admin_port
@@ -411,6 +412,16 @@ class EmulatorServer:
             self.emulator.step(25)
         return self._held_frame(tid, protocol, register, held)
 
+    def box(self) -> dict[str, Any]:
+        """The box this server runs, as the trace's start line gives it (server/trace.py)."""
+        emu = self.emulator
+        track = getattr(emu, "linear_track", None)
+        return {"model": emu.model.key, "firmware": str(emu.firmware.version), "gripper": emu.gripper_kind,
+                "vacuum": getattr(emu, "vacuum", None) is not None,
+                "linear_track": None if track is None else int(track.length),
+                "ft_sensor": bool(emu.has_ft_sensor),
+                "ft_noise": bool(emu.has_ft_sensor and ft_sensor.state_of(emu.controller).noise)}
+
     def health(self) -> dict[str, Any]:
         """What the admin ``status`` adds: why the last save failed and why the trace stopped
         (``None`` when they did not), the trace lines lost."""
@@ -502,6 +513,7 @@ class EmulatorServer:
                 self.trace = CommandTrace(cfg.trace, self.disk, max_bytes=cfg.trace_max_bytes)
             except OSError as exc:
                 raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
+            self.trace.start(self.emulator.time, self.box())
         self._quiet_accept_errors(loop)
         backlog = max(1, cfg.limits.backlog)
         srv = await loop.create_server(lambda: self._woken(CommandProtocol(self)),

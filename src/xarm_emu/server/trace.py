@@ -2,6 +2,11 @@
 
 One JSON object per line, appended to ``FILE``:
 
+- ``{"event": "start", "t": ..., "wall": ..., "model": "6", "firmware": "2.7.103", "gripper":
+  "xarm", "vacuum": false, "linear_track": null, "ft_sensor": false, "ft_noise": false}`` when the
+  emulator starts with the trace on: the box that answers the lines after it (its arm, the firmware
+  it claims, its end tool, the linear track's length in mm, the F/T sensor and its noise), so
+  ``xarm-emu replay`` builds the same one; a file that several runs appended to holds one per run;
 - ``{"event": "connect" | "close", "t": ..., "wall": ..., "peer": "127.0.0.1:40512"}`` for each
   command connection;
 - ``{"t": ..., "wall": ..., "peer": ..., "tid": 5, "protocol": 2, "register": 21, "name":
@@ -127,6 +132,10 @@ class CommandTrace:
 
     def event(self, t: float, peer: str, what: str) -> None:
         self._write({"event": what, "t": round(t, 6), "wall": time.time(), "peer": peer})
+
+    def start(self, t: float, box: Mapping[str, Any]) -> None:
+        """The emulator started at controller time ``t`` as ``box`` (module docstring)."""
+        self._write({"event": "start", "t": round(t, 6), "wall": time.time(), **_json_tree(dict(box))})
 
     def outside(self, t: float, period: int, source: str, request: dict[str, Any], message: str) -> None:
         """A change made from outside the protocol (module docstring): the admin ``request`` as
