@@ -249,3 +249,14 @@ def test_the_trace_says_which_box_answered_and_each_run_replays_on_its_own(tmp_p
     # told otherwise, the first reply that shows the arm differs
     diff = replay(path, model=6).first
     assert diff is not None and diff.name == "GET_VERSION"
+
+
+def test_plot_draws_the_outside_changes_with_the_errors_and_warnings(recipe: Path) -> None:
+    from xarm_emu.plot import read_trace
+
+    events = read_trace(recipe).events
+    fault = [e for e in events if e[2].startswith("fault schedule: ")]
+    assert [(level, text) for _, level, text in fault] == [
+        ("ERROR", "fault schedule: injected C31 Collision caused abnormal current")]
+    start = _lines(recipe)[0]
+    assert events[0][2] == f"emulator started: xArm 6, firmware {start['firmware']}"
