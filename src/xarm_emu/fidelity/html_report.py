@@ -244,15 +244,16 @@ def _verdict_table(data: Mapping[str, Any]) -> list[str]:
            "<th>measure</th><th>value</th><th>tolerance</th></tr>"]
     for row in verdicts(data):
         ms = row["measures"]
+        area = _cls(row["verdict"])
         for n, m in enumerate(ms):
-            head = (f"<tr class='verdict {_cls(row['verdict'])}' data-area='{row['area']}' "
-                    f"data-verdict='{row['verdict']}'><td rowspan='{len(ms)}'>{row['heading']}</td>"
-                    f"<td rowspan='{len(ms)}'>{row['verdict']}</td>") if n == 0 else "<tr>"
+            head = (f"<tr class='verdict' data-area='{row['area']}' data-verdict='{row['verdict']}'>"
+                    f"<td rowspan='{len(ms)}' class='{area}'>{row['heading']}</td>"
+                    f"<td rowspan='{len(ms)}' class='{area}'>{row['verdict']}</td>") if n == 0 else "<tr>"
             unit = UNITS.get(m["key"], "")
-            value = _val(m["value"], m["key"]) if m["compared"] else "not compared"
-            mark = " class='num outside'" if m["outside"] else " class='num'"
-            out.append(f"{head}<td>{m['key']}</td><td{mark}>{value} {unit if m['compared'] else ''}</td>"
-                       f"<td class='num'>{_val(m['tolerance'], m['key'])}</td></tr>")
+            value = f"{_val(m['value'], m['key'])} {unit}" if m["compared"] else NOT_COMPARED
+            own = _cls(OUTSIDE if m["outside"] else WITHIN if m["compared"] else NOT_COMPARED)
+            out.append(f"{head}<td class='{own}'>{m['key']}</td><td class='num {own}'>{value}</td>"
+                       f"<td class='num {own}'>{_val(m['tolerance'], m['key'])}</td></tr>")
     out.append("</table>")
     return out
 
@@ -268,8 +269,9 @@ def _undecided(data: Mapping[str, Any]) -> list[str]:
                    "every measure compared.</p>")
         return out
     if rows:
-        out.append(f"<p>{len(rows)} windows in which the recording cannot tell which control period a "
-                   "request took effect in; nothing inside them is flagged.</p><table id='undecided'>"
+        out.append(f"<p>{len(rows)} {'window' if len(rows) == 1 else 'windows'} in which the recording "
+                   "cannot tell which control period a request took effect in; nothing inside is "
+                   "flagged.</p><table id='undecided'>"
                    "<tr><th>request</th><th>command</th><th>from (s)</th><th>to (s)</th><th>why</th></tr>")
         for r in rows[:UNDECIDED_ROWS]:
             out.append(f"<tr class='undecided'><td class='num'>{e(str(r.get('request', '')))}</td>"
