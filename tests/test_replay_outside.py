@@ -5,13 +5,16 @@ its control period, and the replay carries it out again there (server/trace.py, 
 from __future__ import annotations
 
 import json
+import signal
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
-from helpers import run_cli, sdk_ready, wait_for
+from helpers import accepts, port_args, run_cli, sdk_ready, serve_ports, serve_subprocess, wait_for
 
 from xarm_emu.client import Client
 from xarm_emu.client.admin import AdminClient
@@ -37,27 +40,36 @@ def _write(path: Path, lines: list[dict]) -> Path:
 
 @pytest.fixture(scope="module")
 def recipe(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The trace of the CI recipe: serve at speed 5 with the trace and the schedule, the unchanged
-    SDK moving (the fault lands in the move), reading the state and codes, clearing, moving again."""
+    """The trace of the README's CI recipe: ``serve --speed 5 --trace --faults --config-dir`` in its
+    own process, ``status --wait`` as the readiness probe, the unchanged SDK moving (the fault lands
+    in the move), reading the state and codes, clearing, moving again; SIGTERM."""
     from xarm.wrapper import XArmAPI
 
     tmp = tmp_path_factory.mktemp("recipe")
     faults = tmp / "faults.toml"
     faults.write_text(SCHEDULE)
     path = tmp / "wire.jsonl"
-    with running_emulator(speed=5.0, trace=path, faults=faults) as st, sdk_pointed_at(st):
-        arm = XArmAPI("127.0.0.1", is_radian=False, forbid_uds=True)
-        try:
-            sdk_ready(arm)
-            arm.set_position(300, 100, 200, 180, 0, 0, speed=50, wait=True)  # 1.6 s: the fault stops it
-            assert arm.get_state() == (0, 4) and arm.get_err_warn_code()[1] == [31, 0]
-            arm.clean_error()
-            arm.motion_enable(True)
-            arm.set_state(0)
-            arm.set_position(250, 0, 250, 180, 0, 0, speed=200, wait=True)
-            arm.get_position()
-        finally:
-            arm.disconnect()
+    (cmd, normal, rich, develop), last = serve_ports()
+    ports = {"command": cmd, "normal": normal, "rich": rich, "develop": develop}
+    with serve_subprocess(tmp / "emu-config", "--speed", "5", "--trace", str(path), "--faults", str(faults),
+                          *port_args(cmd, normal, rich, develop)) as proc:
+        assert run_cli("status", "--port", str(cmd), "--wait", "20")[0] == 0
+        assert wait_for(lambda: accepts(last))
+        with sdk_pointed_at(SimpleNamespace(ports=ports)):  # type: ignore[arg-type]
+            arm = XArmAPI("127.0.0.1", is_radian=False, forbid_uds=True)
+            try:
+                sdk_ready(arm)
+                arm.set_position(300, 100, 200, 180, 0, 0, speed=50, wait=True)  # 1.6 s: the fault stops it
+                assert arm.get_state() == (0, 4) and arm.get_err_warn_code()[1] == [31, 0]
+                arm.clean_error()
+                arm.motion_enable(True)
+                arm.set_state(0)
+                arm.set_position(250, 0, 250, 180, 0, 0, speed=200, wait=True)
+                arm.get_position()
+            finally:  # its sockets close at once; its threads notice about a second later
+                threading.Thread(target=arm.disconnect, name="sdk-disconnect", daemon=True).start()
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(10) == 0
     return path
 
 
@@ -212,8 +224,6 @@ def test_the_pendants_buttons_are_in_the_trace_and_replay(make_server: Any, tmp_
 
 def _in_thread(fn: Callable[[], object]) -> object:
     """Run ``fn`` on another thread, as viser runs a button's callback; returns its result."""
-    import threading
-
     out: list[object] = []
     t = threading.Thread(target=lambda: out.append(fn()))
     t.start()
