@@ -270,3 +270,25 @@ def test_plot_draws_the_outside_changes_with_the_errors_and_warnings(recipe: Pat
         ("ERROR", "fault schedule: injected C31 Collision caused abnormal current")]
     start = _lines(recipe)[0]
     assert events[0][2] == f"emulator started: xArm 6, firmware {start['firmware']}"
+
+
+def test_a_saved_configuration_the_box_started_with_replays(tmp_path: Path) -> None:
+    """The recipe's --config-dir: a first run sets a TCP offset and saves it (register 40), a second
+    run starts with it; the trace's start line carries it, so the replay's second box has it too."""
+    path, config = tmp_path / "wire.jsonl", tmp_path / "emu-config"
+    with running_emulator(trace=path, config_dir=config) as st, Client("127.0.0.1", st.ports["command"]) as c:
+        c.get_version()
+        c.call(35, pose=(0.0, 0.0, 120.0, 0.0, 0.0, 0.0))
+        c.call(40)
+    with running_emulator(trace=path, config_dir=config) as st, Client("127.0.0.1", st.ports["command"]) as c:
+        c.get_version()
+        c.get_position()
+    starts = [r for r in _lines(path) if r.get("event") == "start"]
+    assert starts[0]["saved"] is None and starts[1]["saved"]["tcp_offset"][2] == pytest.approx(120.0)
+    assert replay(path).differences == []
+    # a trace without what the box loaded: its second run starts without the offset and differs
+    for r in starts:
+        r.pop("saved")
+    lines = [r if r.get("event") != "start" else starts.pop(0) for r in _lines(path)]
+    diff = replay(_write(tmp_path / "old.jsonl", lines)).first
+    assert diff is not None and diff.name == "GET_TCP_POSE"

@@ -9,7 +9,8 @@ program give no difference; a change shows as the first reply that differs. Stan
 (protocol id 0) are sent as their recorded PDU and their reply PDU is compared byte for byte.
 
 The trace's ``start`` line says which box answered (arm, firmware, end tool, linear track, F/T
-sensor); the replay builds the same one unless told otherwise, and a fresh one at each ``start``
+sensor, serial numbers, the saved configuration it loaded); the replay builds the same one unless
+told otherwise, and a fresh one at each ``start``
 line of a file that several runs appended to. A trace without it replays into the box the options
 give (an xArm 6 by default, at the firmware its register 1 reply claimed).
 
@@ -232,6 +233,7 @@ def _emulator(start: dict[str, Any], lines: list[tuple[int, dict[str, Any]]], co
               model: int | str | None, firmware: str | None, vacuum: bool | None) -> Any:
     """The box of a run: as the options say, else as its ``start`` line says, else an xArm 6 at the
     firmware its register 1 reply claimed (else serve's)."""
+    from .controller.core.config import ConfigStore
     from .controller.emulator import Emulator
     from .protocol.firmware import SERVE_VERSION
 
@@ -240,14 +242,20 @@ def _emulator(start: dict[str, Any], lines: list[tuple[int, dict[str, Any]]], co
         return default if v is None else v
 
     requests = [x for x in lines if "event" not in x[1]]
+    robot = model if model is not None else str(given("model", 6))
+    own = start if model is None else {}  # another arm than the trace's: its own numbers, no saved file
+    robot_sn, box_sn, saved = own.get("robot_sn"), own.get("box_sn"), own.get("saved")
     try:
-        emu = Emulator(model if model is not None else str(given("model", 6)), config_dir=config_dir,
+        if isinstance(saved, dict) and robot_sn:  # the configuration it loaded, loaded again
+            store = ConfigStore(config_dir, str(robot_sn))
+            store.write_encoded(store.encode(saved))
+        emu = Emulator(robot, config_dir=config_dir, robot_sn=robot_sn, box_sn=box_sn,
                        vacuum=vacuum if vacuum is not None else bool(given("vacuum", False)),
                        firmware=(firmware or given("firmware", None) or recorded_firmware(requests)
                                  or SERVE_VERSION),
                        gripper=str(given("gripper", "xarm")), linear_track=given("linear_track", None),
                        ft_sensor=bool(given("ft_sensor", False)), ft_noise=bool(given("ft_noise", True)))
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, OSError) as exc:
         raise ReplayError(f"the trace's box cannot be built: {exc}") from None
     return emu
 

@@ -420,7 +420,9 @@ class EmulatorServer:
                 "vacuum": getattr(emu, "vacuum", None) is not None,
                 "linear_track": None if track is None else int(track.length),
                 "ft_sensor": bool(emu.has_ft_sensor),
-                "ft_noise": bool(emu.has_ft_sensor and ft_sensor.state_of(emu.controller).noise)}
+                "ft_noise": bool(emu.has_ft_sensor and ft_sensor.state_of(emu.controller).noise),
+                "robot_sn": emu.controller.robot_sn, "box_sn": emu.controller.box_sn,
+                "saved": getattr(emu, "loaded_config", None)}
 
     def health(self) -> dict[str, Any]:
         """What the admin ``status`` adds: why the last save failed and why the trace stopped
