@@ -292,3 +292,23 @@ def test_a_saved_configuration_the_box_started_with_replays(tmp_path: Path) -> N
     lines = [r if r.get("event") != "start" else starts.pop(0) for r in _lines(path)]
     diff = replay(_write(tmp_path / "old.jsonl", lines)).first
     assert diff is not None and diff.name == "GET_TCP_POSE"
+
+
+def test_a_calibrated_box_replays_with_its_constants(tmp_path: Path) -> None:
+    from xarm_emu.model.calibration import Calibration
+
+    path = tmp_path / "wire.jsonl"
+    cal = Calibration(model="6", torque_offsets=(0.0, 0.3, -0.2, 0.0, 0.1, 0.0))
+    with running_emulator(trace=path, calibration=cal) as st, Client("127.0.0.1", st.ports["command"]) as c:
+        c.get_version()
+        c.call(TAU)
+    start = _lines(path)[0]
+    assert start["calibration"] == {"model": "6", "torque_offsets": [0.0, 0.3, -0.2, 0.0, 0.1, 0.0]}
+    assert replay(path).differences == []
+    start["calibration"] = None
+    diff = replay(_write(tmp_path / "plain.jsonl", [start, *_lines(path)[1:]])).first
+    assert diff is not None and diff.register == TAU
+
+
+#: GET_JOINT_TAU (manual 2.1.3): the joint torques, which a calibration's offsets move.
+TAU = 55

@@ -56,7 +56,8 @@ def test_every_request_and_reply_is_traced(make_server, tmp_path: Path) -> None:
     assert {k: v for k, v in recs[0].items() if k not in ("t", "wall")} == {  # the box that answered
         "event": "start", "model": "6", "firmware": str(st.emulator.firmware.version), "gripper": "xarm",
         "vacuum": False, "linear_track": None, "ft_sensor": False, "ft_noise": False,
-        "robot_sn": st.emulator.controller.robot_sn, "box_sn": st.emulator.controller.box_sn, "saved": None}
+        "robot_sn": st.emulator.controller.robot_sn, "box_sn": st.emulator.controller.box_sn, "saved": None,
+        "calibration": None}
     cmds = [r for r in recs if "register" in r]
     assert [r["register"] for r in cmds] == [13, 13, 36, 250, 36, 44]
     assert cmds[0]["name"] == "GET_STATE" and cmds[0]["values"] == {"state": 4}

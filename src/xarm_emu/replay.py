@@ -9,10 +9,10 @@ program give no difference; a change shows as the first reply that differs. Stan
 (protocol id 0) are sent as their recorded PDU and their reply PDU is compared byte for byte.
 
 The trace's ``start`` line says which box answered (arm, firmware, end tool, linear track, F/T
-sensor, serial numbers, the saved configuration it loaded); the replay builds the same one unless
-told otherwise, and a fresh one at each ``start``
-line of a file that several runs appended to. A trace without it replays into the box the options
-give (an xArm 6 by default, at the firmware its register 1 reply claimed).
+sensor, serial numbers, the saved configuration it loaded, the calibration); the replay builds the
+same one unless told otherwise, and a fresh one at each ``start`` line of a file that several runs
+appended to. A trace without it replays into the box the options give (an xArm 6 by default, at
+the firmware its register 1 reply claimed).
 
 What was changed from outside the protocol (the trace's ``outside`` lines: fault schedule entries as
 they fired, admin injections and inputs) is carried out again, in trace order, after the control
@@ -235,6 +235,8 @@ def _emulator(start: dict[str, Any], lines: list[tuple[int, dict[str, Any]]], co
     firmware its register 1 reply claimed (else serve's)."""
     from .controller.core.config import ConfigStore
     from .controller.emulator import Emulator
+    from .model.calibration import from_dict
+    from .model.robots import get_model, with_calibration
     from .protocol.firmware import SERVE_VERSION
 
     def given(key: str, default: Any) -> Any:
@@ -242,10 +244,12 @@ def _emulator(start: dict[str, Any], lines: list[tuple[int, dict[str, Any]]], co
         return default if v is None else v
 
     requests = [x for x in lines if "event" not in x[1]]
-    robot = model if model is not None else str(given("model", 6))
+    robot: Any = model if model is not None else str(given("model", 6))
     own = start if model is None else {}  # another arm than the trace's: its own numbers, no saved file
     robot_sn, box_sn, saved = own.get("robot_sn"), own.get("box_sn"), own.get("saved")
     try:
+        if isinstance(own.get("calibration"), dict):  # serve --calibration: the same constants
+            robot = with_calibration(get_model(robot), from_dict(dict(own["calibration"])))
         if isinstance(saved, dict) and robot_sn:  # the configuration it loaded, loaded again
             store = ConfigStore(config_dir, str(robot_sn))
             store.write_encoded(store.encode(saved))
@@ -255,7 +259,7 @@ def _emulator(start: dict[str, Any], lines: list[tuple[int, dict[str, Any]]], co
                                  or SERVE_VERSION),
                        gripper=str(given("gripper", "xarm")), linear_track=given("linear_track", None),
                        ft_sensor=bool(given("ft_sensor", False)), ft_noise=bool(given("ft_noise", True)))
-    except (ValueError, TypeError, OSError) as exc:
+    except (ValueError, TypeError, OSError, KeyError) as exc:
         raise ReplayError(f"the trace's box cannot be built: {exc}") from None
     return emu
 

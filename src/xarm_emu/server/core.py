@@ -416,13 +416,16 @@ class EmulatorServer:
         """The box this server runs, as the trace's start line gives it (server/trace.py)."""
         emu = self.emulator
         track = getattr(emu, "linear_track", None)
+        cal = emu.model.calibration
         return {"model": emu.model.key, "firmware": str(emu.firmware.version), "gripper": emu.gripper_kind,
                 "vacuum": getattr(emu, "vacuum", None) is not None,
                 "linear_track": None if track is None else int(track.length),
                 "ft_sensor": bool(emu.has_ft_sensor),
                 "ft_noise": bool(emu.has_ft_sensor and ft_sensor.state_of(emu.controller).noise),
                 "robot_sn": emu.controller.robot_sn, "box_sn": emu.controller.box_sn,
-                "saved": getattr(emu, "loaded_config", None)}
+                "saved": getattr(emu, "loaded_config", None),
+                "calibration": None if cal is None or cal.empty else
+                {"model": cal.model, **{k: list(v) for k, v in cal.values().items()}}}
 
     def health(self) -> dict[str, Any]:
         """What the admin ``status`` adds: why the last save failed and why the trace stopped

@@ -4,10 +4,11 @@ One JSON object per line, appended to ``FILE``:
 
 - ``{"event": "start", "t": ..., "wall": ..., "model": "6", "firmware": "2.7.103", "gripper":
   "xarm", "vacuum": false, "linear_track": null, "ft_sensor": false, "ft_noise": false, "robot_sn":
-  ..., "box_sn": ..., "saved": null}`` when the emulator starts with the trace on: the box that
-  answers the lines after it (its arm, the firmware it claims, its end tool, the linear track's
-  length in mm, the F/T sensor and its noise, its serial numbers, and the saved configuration it
-  loaded from ``--config-dir``, the values of its file, ``null`` for none), so ``xarm-emu replay``
+  ..., "box_sn": ..., "saved": null, "calibration": null}`` when the emulator starts with the trace
+  on: the box that answers the lines after it (its arm, the firmware it claims, its end tool, the
+  linear track's length in mm, the F/T sensor and its noise, its serial numbers, the saved
+  configuration it loaded from ``--config-dir``, the values of its file, and the constants of
+  ``--calibration``, ``null`` for none), so ``xarm-emu replay``
   builds the same one; a file that several runs appended to holds one per run;
 - ``{"event": "connect" | "close", "t": ..., "wall": ..., "peer": "127.0.0.1:40512"}`` for each
   command connection;
