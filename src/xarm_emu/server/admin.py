@@ -55,7 +55,8 @@ checkpoint-list    -                                             the kept names
 =================  ===========================================  ===============================
 
 Checkpoints are an emulator feature (no real control box has them): they live in the server's
-memory only, named, until the process ends. A refused request changes nothing.
+memory only, named, until the process ends. A refused request changes nothing; one carried out
+that changes something (:data:`TRACED`) is written to the command trace (``serve --trace``).
 
 This module is request checking and preparation only: it works on any :class:`AdminTarget` (the
 running server satisfies it structurally), and the socket side is :mod:`.admin_port`. Each command
@@ -484,8 +485,8 @@ if tuple(TABLE) != COMMANDS:
 SCHEDULABLE = frozenset(COMMANDS) - {"status", "step", "checkpoint-save", "checkpoint-restore",
                                      "checkpoint-list", "scene-objects"}
 #: Admin commands the command trace records as they are carried out (server/trace.py, replayed by
-#: ``xarm-emu replay``): everything that changes the emulator, not the queries or the lockstep clock
-#: (the trace's times show it).
+#: ``xarm-emu replay``): the faults, inputs and changes a schedule may hold and the checkpoints; not
+#: the queries or the lockstep clock (the trace's times show it).
 TRACED = SCHEDULABLE | {"checkpoint-save", "checkpoint-restore"}
 
 
