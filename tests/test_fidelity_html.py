@@ -107,17 +107,21 @@ def test_the_page_gives_a_verdict_per_area_and_charts_the_worst_commands(moved: 
     assert [g["excess"] for g in listed] == sorted((g["excess"] for g in listed), reverse=True)
     line = next(c["index"] for c in data["commands"] if c["register"] == 21)
     assert str(line) in [r for r, _ in page.worst]  # the linear move, with the reads polled after it
-    assert page.charted == [r for r, _ in page.worst][:html_report.CHARTED]
-    assert len(page.charts) == 3 * html_report.CHARTED
-    torques = page.charts[3 * page.charted.index(str(line))]
+    # the first of them that have real-time frames (a request before the first frame has none)
+    listed_requests = [r for r, _ in page.worst]
+    assert 1 <= len(page.charted) <= html_report.CHARTED and len(page.charts) == 3 * len(page.charted)
+    assert page.charted == sorted(page.charted, key=listed_requests.index)
+    with_frames = [str(g["index"]) for g in listed if g["samples"][1] > g["samples"][0]]
+    assert page.charted == with_frames[:html_report.CHARTED]
+    torques = page.charts[0]
     labels = [ln["data-label"] for ln in torques]
     assert labels == [f"J{j}{s}" for j in range(1, 7) for s in ("", " emulator")]
     assert all("stroke-dasharray" in ln for ln in torques[1::2]) and not any("stroke-dasharray" in ln
                                                                           for ln in torques[::2])
     j2, j2_emu = _points(torques[2]), _points(torques[3])  # the shoulder carries the arm: they differ
-    assert len(j2) == len(j2_emu) > 20 and j2 != j2_emu
+    assert len(j2) == len(j2_emu) >= 2 and j2 != j2_emu
     assert max(len(_points(ln)) for chart in page.charts for ln in chart) <= html_report.POINTS
-    tcp = page.charts[3 * page.charted.index(str(line)) + 2]
+    tcp = page.charts[2]
     assert [ln["data-label"] for ln in tcp] == ["recorded", "emulator"]
     assert _points(tcp[0]) == _points(tcp[1])  # the same path, to the pixel
     assert "undecided-none" in page.ids
