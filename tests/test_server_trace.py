@@ -52,7 +52,12 @@ def test_every_request_and_reply_is_traced(make_server, tmp_path: Path) -> None:
     st.stop()
     recs = lines(path)
     events = [r["event"] for r in recs if "event" in r]
-    assert events == ["connect", "close", "connect", "close"]
+    assert events == ["start", "connect", "close", "connect", "close"]
+    assert {k: v for k, v in recs[0].items() if k not in ("t", "wall")} == {  # the box that answered
+        "event": "start", "model": "6", "firmware": str(st.emulator.firmware.version), "gripper": "xarm",
+        "vacuum": False, "linear_track": None, "ft_sensor": False, "ft_noise": False,
+        "robot_sn": st.emulator.controller.robot_sn, "box_sn": st.emulator.controller.box_sn, "saved": None,
+        "calibration": None}
     cmds = [r for r in recs if "register" in r]
     assert [r["register"] for r in cmds] == [13, 13, 36, 250, 36, 44]
     assert cmds[0]["name"] == "GET_STATE" and cmds[0]["values"] == {"state": 4}
@@ -62,7 +67,7 @@ def test_every_request_and_reply_is_traced(make_server, tmp_path: Path) -> None:
     assert cmds[3]["name"] is None and cmds[3]["tid"] == 0x1234 and cmds[3]["state"] & 0x20
     assert "request_error" in cmds[4]
     assert cmds[5]["request"]["joints"][:4] == ["NaN", "Infinity", "-Infinity", 0.0]
-    assert all(r["peer"].startswith("127.0.0.1:") for r in recs)
+    assert all(r["peer"].startswith("127.0.0.1:") for r in recs[1:])  # all but the start line
     ts = [r["t"] for r in recs]
     assert ts == sorted(ts)
 

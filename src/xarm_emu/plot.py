@@ -102,6 +102,11 @@ def _number(v: Any) -> float:
     return float(v) if v in ("NaN", "Infinity", "-Infinity") else math.nan
 
 
+#: Admin commands (server/admin.py) that raise an error: drawn with the errors.
+_ERRORS = frozenset({"estop", "error", "servo-error", "gripper-error", "track-error", "end-module-lost",
+                     "collision"})
+
+
 def read_trace(path: Path) -> Series:
     """The curves and events of a command trace (server/trace.py)."""
     series = Series()
@@ -119,7 +124,17 @@ def read_trace(path: Path) -> Series:
         except (ValueError, KeyError, TypeError):
             raise PlotError(f"{path} line {n} is not a trace line (server/trace.py)") from None
         if "event" in rec:
-            series.events.append((t, "INFO", f"client {rec.get('peer', '?')}: {rec['event']}"))
+            if rec["event"] == "outside":  # a fault or input from outside the protocol, as it acted
+                who = ("fault schedule" if rec.get("source") == "schedule"
+                       else str(rec.get("source") or "admin"))
+                cmd = (rec.get("request") or {}).get("cmd") if isinstance(rec.get("request"), dict) else None
+                level = "ERROR" if cmd in _ERRORS else "WARN" if cmd == "warning" else "INFO"
+                series.events.append((t, level, f"{who}: {rec.get('message') or rec.get('request')}"))
+            elif rec["event"] == "start":
+                series.events.append((t, "INFO", f"emulator started: xArm {rec.get('model', '?')}, firmware "
+                                                 f"{rec.get('firmware', '?')}"))
+            else:
+                series.events.append((t, "INFO", f"client {rec.get('peer', '?')}: {rec['event']}"))
             continue
         name, values, request = rec.get("name"), rec.get("values") or {}, rec.get("request") or {}
         state = rec.get("state") or 0

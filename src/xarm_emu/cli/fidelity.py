@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import signal
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated
 
@@ -75,6 +76,25 @@ def proxy(
         raise typer.Exit(1)
 
 
+@contextlib.contextmanager
+def _progress(what: str) -> Iterator[Callable[[int, int], object] | None]:
+    """A progress bar on stderr while a long comparison runs, when stderr is a terminal (else
+    nothing: a CI log gets no bar); yields the ``progress(done, total)`` callback or ``None``."""
+    if not err_console.is_terminal:
+        yield None
+        return
+    from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(), TimeRemainingColumn(),
+                  console=err_console, transient=True) as bar:
+        task = bar.add_task(what, total=None)
+
+        def update(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield update
+
+
 def compare(
     recording: Annotated[Path, typer.Argument(help="A recording of xarm-emu proxy (.xrec).")],
     calibration: Annotated[Path | None, typer.Option(help="Replay with this calibration file.")] = None,
@@ -87,8 +107,9 @@ def compare(
     """Replay a recording into the emulator and report the differences; exit 1 outside the tolerances."""
     import json
 
-    from ..fidelity.compare import CompareError, code_lines, html_report, load_tolerances
+    from ..fidelity.compare import CompareError, code_lines, load_tolerances
     from ..fidelity.compare import compare as run_compare
+    from ..fidelity.html_report import write_report
     from ..model.calibration import Calibration
 
     cal: Calibration | None = None
@@ -100,9 +121,10 @@ def compare(
         err_console.print(str(exc))
         raise typer.Exit(2) from None
     try:
-        result = run_compare(recording, cal, tol)
+        with _progress("replaying") as progress:
+            result = run_compare(recording, cal, tol, progress=progress)
         if output is not None:
-            html_report(result, output)
+            write_report(result, output)
     except (CompareError, CalibrationError) as exc:
         err_console.print(str(exc))
         raise typer.Exit(1) from None

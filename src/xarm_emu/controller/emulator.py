@@ -244,6 +244,8 @@ class Emulator:
         self.config_dir = config_dir
         trajectory.attach(self.controller, config_dir)  # trajectory files (registers 62/63)
         self.config_message: str | None = None
+        #: The saved configuration this box started with (the values of its file), else ``None``.
+        self.loaded_config: dict[str, Any] | None = None
         self._store: Any = None
         if config_dir is not None:
             self._attach_store(Path(config_dir), load_config)
@@ -314,6 +316,7 @@ class Emulator:
         if load:
             data = self._store.load()
             if data is not None:
+                self.loaded_config = data
                 ctl.load_config(data)
                 io = data.get("io")
                 if isinstance(io, dict):

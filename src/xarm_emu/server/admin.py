@@ -61,7 +61,8 @@ checkpoint-list    -                                             the kept names
 =================  ===========================================  ===============================
 
 Checkpoints are an emulator feature (no real control box has them): they live in the server's
-memory only, named, until the process ends. A refused request changes nothing.
+memory only, named, until the process ends. A refused request changes nothing; one carried out
+that changes something (:data:`TRACED`) is written to the command trace (``serve --trace``).
 
 This module is request checking and preparation only: it works on any :class:`AdminTarget` (the
 running server satisfies it structurally), and the socket side is :mod:`.admin_port`. Each command
@@ -86,7 +87,7 @@ from ..protocol.admin import COMMANDS, INPUT_KINDS, WRENCH_FRAMES
 from . import admin_args as t
 from .admin_args import AdminError, Arg, parse_duration
 
-__all__ = ["SCHEDULABLE", "TABLE", "AdminError", "AdminTarget", "Command", "arguments", "execute",
+__all__ = ["SCHEDULABLE", "TABLE", "TRACED", "AdminError", "AdminTarget", "Command", "arguments", "execute",
            "parse_duration", "prepare"]
 
 
@@ -178,16 +179,33 @@ def execute(server: AdminTarget, request: dict[str, Any]) -> str:
     return prepare(server, request)()
 
 
-def prepare(server: AdminTarget, request: dict[str, Any]) -> Action:
+def prepare(server: AdminTarget, request: dict[str, Any], source: str = "admin") -> Action:
     """Check one admin request now and return the action that carries it out (a message back).
 
-    Raises AdminError for a bad request; the action it returns does not refuse.
+    Raises AdminError for a bad request; the action it returns does not refuse. A command of
+    :data:`TRACED` writes itself to the server's command trace when it is carried out (``source``:
+    who asked, "admin" or "schedule"; server/trace.py), so ``xarm-emu replay`` can do the same.
     """
     cmd = request.get("cmd")
     command = TABLE.get(cmd) if isinstance(cmd, str) else None
     if command is None:
         raise AdminError(f"unknown command {cmd!r}; known: {', '.join(COMMANDS)}")
-    return command.prepare(server, request)
+    action = command.prepare(server, request)
+    if cmd not in TRACED:
+        return action
+    given = {k: v for k, v in request.items() if k != "token"}
+    return functools.partial(_traced, server, source, given, action)
+
+
+def _traced(server: AdminTarget, source: str, request: dict[str, Any], action: Action) -> str:
+    """Run ``action`` and write it to the server's trace, if it keeps one, at the period it acted
+    after. A partial of this module-level function, so a checkpoint can write a scheduled one."""
+    message = action()
+    trace = getattr(server, "trace", None)
+    if trace is not None:
+        ctl = server.emulator.controller
+        trace.outside(ctl.time, ctl.data.steps, source, request, message)
+    return message
 
 
 # -- faults ----------------------------------------------------------------------------------------
@@ -486,6 +504,10 @@ if tuple(TABLE) != COMMANDS:
 #: queries, the lockstep clock or the checkpoints.
 SCHEDULABLE = frozenset(COMMANDS) - {"status", "step", "checkpoint-save", "checkpoint-restore",
                                      "checkpoint-list", "scene-objects"}
+#: Admin commands the command trace records as they are carried out (server/trace.py, replayed by
+#: ``xarm-emu replay``): the faults, inputs and changes a schedule may hold and the checkpoints; not
+#: the queries or the lockstep clock (the trace's times show it).
+TRACED = SCHEDULABLE | {"checkpoint-save", "checkpoint-restore"}
 
 
 def arguments(cmd: str) -> tuple[str, ...]:

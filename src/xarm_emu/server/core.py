@@ -36,6 +36,7 @@ from ..controller.applications import identification
 from ..controller.core.config import ConfigStore, load_or_create_admin_token
 from ..controller.core.feedback import FeedbackQueue, feedback_queue
 from ..controller.core.interface import PERIOD, WARN_PARAMETER
+from ..controller.devices import ft_sensor
 from ..controller.emulator import Emulator
 from ..protocol import reports
 from ..protocol.admin import admin_host, derive_admin_port
@@ -414,6 +415,21 @@ class EmulatorServer:
             self.emulator.step(25)
         return self._held_frame(tid, protocol, register, held)
 
+    def box(self) -> dict[str, Any]:
+        """The box this server runs, as the trace's start line gives it (server/trace.py)."""
+        emu = self.emulator
+        track = getattr(emu, "linear_track", None)
+        cal = emu.model.calibration
+        return {"model": emu.model.key, "firmware": str(emu.firmware.version), "gripper": emu.gripper_kind,
+                "vacuum": getattr(emu, "vacuum", None) is not None,
+                "linear_track": None if track is None else int(track.length),
+                "ft_sensor": bool(emu.has_ft_sensor),
+                "ft_noise": bool(emu.has_ft_sensor and ft_sensor.state_of(emu.controller).noise),
+                "robot_sn": emu.controller.robot_sn, "box_sn": emu.controller.box_sn,
+                "saved": getattr(emu, "loaded_config", None),
+                "calibration": None if cal is None or cal.empty else
+                {"model": cal.model, **{k: list(v) for k, v in cal.values().items()}}}
+
     def health(self) -> dict[str, Any]:
         """What the admin ``status`` adds: why the last save failed and why the trace stopped
         (``None`` when they did not), the trace lines lost."""
@@ -505,6 +521,7 @@ class EmulatorServer:
                 self.trace = CommandTrace(cfg.trace, self.disk, max_bytes=cfg.trace_max_bytes)
             except OSError as exc:
                 raise ValueError(f"cannot open the trace file {cfg.trace}: {exc.strerror or exc}") from None
+            self.trace.start(self.emulator.time, self.box())
         self._quiet_accept_errors(loop)
         backlog = max(1, cfg.limits.backlog)
         srv = await loop.create_server(lambda: self._woken(CommandProtocol(self)),
@@ -635,12 +652,12 @@ class EmulatorServer:
                 frame = encode_reply(tid, protocol, register, state, reply)
             if cached is None:
                 self.code_watch.check(emu.controller)
-        if self.trace is not None:
-            if register == identification.REGISTER and not identification.finished(emu.controller):
-                self._held_trace = (peer, params, emu.time)  # traced with its reply (answer_later)
-            else:
-                self.trace.command(self.emulator.time, peer, tid, protocol, register, params, frame,
-                                   emu.controller.registers)
+            if self.trace is not None:  # under the lock: in order with the scheduled changes
+                if register == identification.REGISTER and not identification.finished(emu.controller):
+                    self._held_trace = (peer, params, emu.time)  # traced with its reply (answer_later)
+                else:
+                    self.trace.command(emu.time, peer, tid, protocol, register, params, frame,
+                                       emu.controller.registers)
         return frame
 
     # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
@@ -699,8 +716,8 @@ class EmulatorServer:
         with self.lock:
             self._run_due()
             frame = modbus_map.answer(self.emulator, tid, unit, pdu)
-        if self.trace is not None:
-            self.trace.modbus(self.emulator.time, peer, tid, unit, pdu, frame)
+            if self.trace is not None:  # under the lock: in order with the scheduled changes
+                self.trace.modbus(self.emulator.time, peer, tid, unit, pdu, frame)
         return frame
 
     def advance(self, seconds: float) -> int:

@@ -44,12 +44,14 @@ So a schedule written for a program lands on the program's moves at any ``--spee
     do = "estop"
 
 Each entry runs right after the first control period ending at or after ``at`` (Emulator.at) and
-acts exactly as the same admin request would. Keys other than ``at``, ``after``, ``do`` and the
-admin command's own arguments are refused. Every entry is checked when the emulator starts; a
-bad one stops the start with one message naming the file and the entry (the TOML files' one
-format, :mod:`xarm_emu.tomlfile`). The code that composes a server (``xarm-emu
-serve``, :class:`~xarm_emu.server.thread.ServerThread`, :func:`~xarm_emu.testing.running_emulator`)
-calls :func:`schedule_file`; the server itself never reads the file.
+acts exactly as the same admin request would; with ``serve --trace`` it is written to the trace as
+it fires (an ``outside`` line, server/trace.py), so ``xarm-emu replay`` does it again. Keys other
+than ``at``, ``after``, ``do`` and the admin command's own arguments are refused. Every entry is
+checked when the emulator starts; a bad one stops the start with one message naming the file and
+the entry (the TOML files' one format, :mod:`xarm_emu.tomlfile`). The code that composes a server
+(``xarm-emu serve``, :class:`~xarm_emu.server.thread.ServerThread`,
+:func:`~xarm_emu.testing.running_emulator`) calls :func:`schedule_file`; the server itself never
+reads the file.
 """
 
 from __future__ import annotations
@@ -111,7 +113,7 @@ def schedule(server: AdminTarget, entries: list[dict[str, Any]]) -> int:
         request = {k: v for k, v in e.items() if k not in ("at", "do", "after")}
         request["cmd"] = e["do"]
         try:
-            action = prepare(server, request)
+            action = prepare(server, request, source="schedule")
         except AdminError as exc:
             raise FaultScheduleError(f"fault {i} ({e['do']} at {e['at']} s): {exc}") from None
         actions.append((float(e["at"]), str(e.get("after", "start")), i, action))

@@ -2,6 +2,14 @@
 
 One JSON object per line, appended to ``FILE``:
 
+- ``{"event": "start", "t": ..., "wall": ..., "model": "6", "firmware": "2.7.103", "gripper":
+  "xarm", "vacuum": false, "linear_track": null, "ft_sensor": false, "ft_noise": false, "robot_sn":
+  ..., "box_sn": ..., "saved": null, "calibration": null}`` when the emulator starts with the trace
+  on: the box that answers the lines after it (its arm, the firmware it claims, its end tool, the
+  linear track's length in mm, the F/T sensor and its noise, its serial numbers, the saved
+  configuration it loaded from ``--config-dir``, the values of its file, and the constants of
+  ``--calibration``, ``null`` for none), so ``xarm-emu replay``
+  builds the same one; a file that several runs appended to holds one per run;
 - ``{"event": "connect" | "close", "t": ..., "wall": ..., "peer": "127.0.0.1:40512"}`` for each
   command connection;
 - ``{"t": ..., "wall": ..., "peer": ..., "tid": 5, "protocol": 2, "register": 21, "name":
@@ -12,12 +20,25 @@ One JSON object per line, appended to ``FILE``:
   values. Registers are named and decoded with the table of the firmware the box claims (every
   register and layout it answers); ``request_error`` appears only where the box could not decode
   the request either, i.e. where it refused it. A reply that waits for a motion (register 204, load
-  identification) is written when it goes out, with ``t_request`` the time it was asked;
+  identification) is written when it goes out, with ``t_request`` the time it was asked. A
+  command of the 3D view's pendant is such a line with ``peer`` "pendant" and ``tid`` 0;
 - ``{"t": ..., "wall": ..., "peer": ..., "tid": 3, "protocol": 0, "unit": 1, "function": 3,
   "address": 32, "count": 2, "pdu": "<hex>", "reply": "<hex>", "exception": null, "read": [0, 0]}``
   for each standard Modbus request (protocol id 0): the function code, address, count, the values
   a write carries (``values``), the values a read got (``read``), and the exception code (``null``
-  when none).
+  when none);
+- ``{"event": "outside", "t": ..., "period": 4500, "wall": ..., "source": "schedule" | "admin",
+  "request": {"cmd": "error", "code": "C31"}, "message": "injected C31 ..."}`` for each change made
+  from outside the protocol as it is carried out: an entry of the fault schedule (``serve
+  --faults``) as it fires, an admin request (``serve --admin``: faults, inputs, payload, scene,
+  checkpoints; not the queries or ``step``) that was carried out (a refused one changes nothing and
+  is not written). ``request`` is the admin request as given (without its token), ``period`` the
+  control period it acted after (the controller's count since start), ``message`` what it answered.
+  ``xarm-emu replay`` carries out the same request after the same period.
+
+Request and ``outside`` lines are written under the arm's lock, in the order the arm saw the
+requests and changes (a scheduled fault that fires while the report sender runs the control periods
+comes before the command answered after it).
 
 ``t`` is controller time in seconds (the clock the motion runs on, scaled or stepped), ``wall`` the
 Unix time. Lines are buffered and written at least every control-loop wake-up (20 ms) and on close,
@@ -33,6 +54,7 @@ import json
 import logging
 import math
 import os
+import threading
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -66,6 +88,18 @@ def _plain(values: dict[str, Any]) -> dict[str, Any]:
     return {k: _json_value(v) for k, v in values.items()}
 
 
+def _json_tree(v: Any) -> Any:
+    """An admin request (JSON, or a fault schedule's TOML) as strict JSON: tables kept, lists as
+    lists, NaN and infinities as strings (:func:`_json_value`), anything else as its text."""
+    if isinstance(v, dict):
+        return {str(k): _json_tree(x) for k, x in v.items()}
+    if isinstance(v, (tuple, list)):
+        return [_json_tree(x) for x in v]
+    if v is None or isinstance(v, (bool, int, float, str, bytes, bytearray)):
+        return _json_value(v)
+    return str(v)
+
+
 class CommandTrace:
     """Appends trace lines to a file (module docstring).
 
@@ -83,22 +117,35 @@ class CommandTrace:
         self.max_bytes = max_bytes
         self._file: IO[str] | None = open(self.path, "a", encoding="utf-8", buffering=1 << 16)  # noqa: SIM115
         self._lines: list[str] = []
+        #: Lines come from the loop and, for a scheduled change that fires while the report sender
+        #: runs the control periods, from its thread: collecting and taking them is atomic.
+        self._lines_lock = threading.Lock()
         #: Why the trace stopped (``None`` while it runs), e.g. "disk full (ENOSPC)".
         self.stopped: str | None = None
         #: Lines lost to a full disk queue or after the trace stopped.
         self.dropped = 0
 
     def _write(self, record: dict[str, Any]) -> None:
-        if self.stopped is not None:
-            self.dropped += 1
-            return
-        if len(self._lines) >= MAX_BUFFERED_LINES:
-            self.dropped += 1
-            return
-        self._lines.append(json.dumps(record, allow_nan=False) + "\n")  # strict JSON: _json_value
+        line = json.dumps(record, allow_nan=False) + "\n"  # strict JSON: _json_value
+        with self._lines_lock:
+            if self.stopped is not None or len(self._lines) >= MAX_BUFFERED_LINES:
+                self.dropped += 1
+                return
+            self._lines.append(line)
 
     def event(self, t: float, peer: str, what: str) -> None:
         self._write({"event": what, "t": round(t, 6), "wall": time.time(), "peer": peer})
+
+    def start(self, t: float, box: Mapping[str, Any]) -> None:
+        """The emulator started at controller time ``t`` as ``box`` (module docstring)."""
+        self._write({"event": "start", "t": round(t, 6), "wall": time.time(), **_json_tree(dict(box))})
+
+    def outside(self, t: float, period: int, source: str, request: dict[str, Any], message: str) -> None:
+        """A change made from outside the protocol (module docstring): the admin ``request`` as
+        given (``source`` "admin" or "schedule"), carried out after control ``period`` at
+        controller time ``t``, and the ``message`` it answered."""
+        self._write({"event": "outside", "t": round(t, 6), "period": period, "wall": time.time(),
+                     "source": source, "request": _json_tree(request), "message": message})
 
     def command(self, t: float, peer: str, tid: int, protocol: int, register: int, params: bytes,
                 frame: bytes, table: Mapping[int, regs.Register] | None = None,
@@ -140,11 +187,12 @@ class CommandTrace:
 
     def flush(self) -> None:
         """Hand the collected lines to the disk (the worker, else in place)."""
-        if not self._lines or self.stopped is not None:
-            return
-        text = "".join(self._lines)
-        n = len(self._lines)
-        self._lines = []
+        with self._lines_lock:
+            if not self._lines or self.stopped is not None:
+                return
+            lines, self._lines = self._lines, []
+        text = "".join(lines)
+        n = len(lines)
         if self.worker is None:
             self._append(text)
             return

@@ -120,14 +120,20 @@ class Pendant:
         self._message.content = f"**Last action:** {msg}"
         return msg
 
+    def _send(self, code: int, values: dict[str, Any]) -> int:
+        """Register ``code`` with ``values`` answered as a command connection's request (in the
+        server's loop, under the arm's lock): in the command trace too, with peer "pendant", so
+        ``xarm-emu replay`` sends it again. Returns the reply's state byte."""
+        frame = self.server.answer(0, 2, code, REGISTERS[code].request.encode(values), peer="pendant")
+        return frame[7]
+
     def command(self, code: int, **values: Any) -> str:
         """Send register ``code`` with ``values`` to the emulator as a client would (section 2.1.2);
         returns what the reply's state byte says."""
         reg = REGISTERS[code]
 
         def send() -> str:
-            state, _ = self.emulator.handle(code, reg.request.encode(values))
-            return f"{reg.name} ({code}): " + _verdict(state)
+            return f"{reg.name} ({code}): " + _verdict(self._send(code, values))
 
         return self.run(send)
 
@@ -269,9 +275,7 @@ class Pendant:
             cur = list(self.emulator.snapshot().joints)
             q[: len(cur)] = cur[:7]
             q[joint] += step
-            reg = REGISTERS[23]
-            state, _ = self.emulator.handle(23, reg.request.encode(
-                {"joints": tuple(q), "speed": JOG_SPEED, "acc": JOG_ACC, "mvtime": 0.0}))
+            state = self._send(23, {"joints": tuple(q), "speed": JOG_SPEED, "acc": JOG_ACC, "mvtime": 0.0})
             return f"MOVE_JOINT (23) J{joint + 1} {math.degrees(step):+g} deg: " + _verdict(state)
 
         return self.run(target)
@@ -291,8 +295,8 @@ class Pendant:
                 cur = list(self.emulator.snapshot().pose)
                 code, pose = 21, [c + d for c, d in zip(cur, delta, strict=True)]
             reg = REGISTERS[code]
-            state, _ = self.emulator.handle(code, reg.request.encode(
-                {"pose": tuple(pose), "speed": LINE_SPEED, "acc": LINE_ACC, "mvtime": 0.0}))
+            state = self._send(code, {"pose": tuple(pose), "speed": LINE_SPEED, "acc": LINE_ACC,
+                                      "mvtime": 0.0})
             return f"{reg.name} ({code}) {AXES[axis]} {step:+g}: " + _verdict(state)
 
         return self.run(move)
