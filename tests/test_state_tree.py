@@ -30,6 +30,7 @@ OUTSIDE: dict[tuple[str, str], str] = {
     ("Emulator", "gripper_kind"): FIXED,
     ("Emulator", "config_dir"): FIXED,
     ("Emulator", "config_message"): FIXED,  # what loading the saved configuration reported
+    ("Emulator", "loaded_config"): FIXED,  # the saved configuration loaded at start (the trace's start line)
     ("Emulator", "exact_steps"): FIXED,
     ("Emulator", "physics"): WIRING,  # its world's state is the tree's ``physics`` part
     ("Emulator", "_store"): FIXED,  # the saved configuration's file (register 39/40)
