@@ -627,8 +627,8 @@ class Emulator:
 
     def inject_gripper_error(self, code: int) -> None:
         """A gripper error of the attached gripper (section 3.3 for the xArm gripper; the Robotiq's
-        gFLT faults, the BIO gripper's codes: protocol/codes.py ``GRIPPER_TABLES``), read through the
-        gripper's own registers."""
+        gFLT faults, the BIO grippers' codes: protocol/codes.py ``GRIPPER_TABLES``; the Inspire hand's
+        error byte), read through the gripper's own registers."""
         self.generation += 1
         self.gripper.device.inject_error(code)
 
