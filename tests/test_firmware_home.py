@@ -206,7 +206,7 @@ def test_the_same_refusal_for_every_part():
 def _known_version() -> re.Pattern[str]:
     """A release or profile version of protocol/firmware.py inside any text ('v' as register 1 writes
     it; not 'V1.6.0', the manual's own version)."""
-    known = sorted(set(fw.RELEASES) | set(fw.SUPPORTED_VERSIONS) | {fw.DEFAULT_VERSION}, key=len, reverse=True)
+    known = sorted({*fw.RELEASES, *fw.SUPPORTED_VERSIONS, fw.DEFAULT_VERSION}, key=len, reverse=True)
     return re.compile(r"(?<![\w.])v?(" + "|".join(map(re.escape, known)) + r")(?![\w.])")
 
 

@@ -133,9 +133,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         "markers", "xarm(model=..., firmware=..., speed=..., **options): the emulated box of this test "
-                   "(by default an xArm6 with the manual's firmware at speed 1; options: the keywords of xarm_emu.testing.running_emulator, e.g. gripper='bio', "
-                   "linear_track=700, scene='scene.toml'); a list for model or firmware is the test's "
-                   "own matrix")
+                   "(by default an xArm6 with the manual's firmware at speed 1; options: the keywords of "
+                   "xarm_emu.testing.running_emulator, e.g. gripper='bio', linear_track=700, "
+                   "scene='scene.toml'); a list for model or firmware is the test's own matrix")
 
 
 def pytest_report_header(config: pytest.Config) -> str | None:

@@ -5,8 +5,10 @@ The recording (``xarm-emu proxy``, :mod:`xarm_emu.server.xrec`) says which arm a
 on the stepped clock; every recorded request is answered by it, in order, at the controller time the
 box answered it, and its state is sampled at the controller time of every recorded real-time report
 frame (port 30000, whose timestamp is the box's clock; manual 2.1.6 and firmware 2.x). A request's
-controller time is read from the real-time frames around it: the first frame the box sent after the
-reply shows the state after the command, at the period it was answered in.
+controller time is bounded by the real-time frames around it (the last before the request, the first
+after the reply); a queued command is then placed at the period within those bounds after which the
+replayed joints follow the recorded frames most closely (:func:`_best_time`), as on a busy computer
+the first frame sent after the reply may be one the box prepared before it.
 
 Reported per command and in total: replies that differ (state byte or parameters); move durations
 (from the command to the first report at rest after it moved); the path deviation (the distance of each
