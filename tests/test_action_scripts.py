@@ -96,7 +96,7 @@ def test_an_emulator_that_refuses_to_start_is_one_line(tmp_path: Path) -> None:
     fake = tmp_path / "xarm-emu"
     fake.write_text("#!/usr/bin/env bash\n"
                     "[ \"$1\" = serve ] || exit 1\n"
-                    "echo 'Error: --linear-track: needs firmware 1.8.0 or later, not 1.6.0' >&2\n"
+                    "echo '--firmware: the linear track needs firmware 1.8.0 or later, not 1.6.0' >&2\n"
                     "exit 2\n")
     fake.chmod(0o755)
     env = {"XARM_EMU_BIN": str(fake), "XARM_EMU_DIR": str(tmp_path / "emu"), "XARM_EMU_FIRMWARE": "1.6.0",
@@ -104,6 +104,6 @@ def test_an_emulator_that_refuses_to_start_is_one_line(tmp_path: Path) -> None:
     proc = script("action-start", env)
     assert (proc.returncode, proc.stdout) == (2, ""), proc.stderr
     log = tmp_path / "emu" / "serve.log"
-    assert proc.stderr == ("action-start: xarm-emu serve exited 2 before it answered: Error: --linear-track: "
-                           f"needs firmware 1.8.0 or later, not 1.6.0 (log: {log})\n")
+    assert proc.stderr == ("action-start: xarm-emu serve exited 2 before it answered: --firmware: the linear "
+                           f"track needs firmware 1.8.0 or later, not 1.6.0 (log: {log})\n")
     assert not (tmp_path / "emu" / "pid").exists()

@@ -201,3 +201,28 @@ def test_the_same_refusal_for_every_part():
         assert str(err.value) == f"the {part} needs firmware {fw.first(behaviour)} or later, not 1.6.0"
         fw.NEWEST_PROFILE.check_parts(part)
     old.check_parts("xArm6 arm", "robotiq-2f85 gripper", "vacuum gripper")  # every firmware drives them
+
+
+def _known_version() -> re.Pattern[str]:
+    """A release or profile version of protocol/firmware.py inside any text ('v' as register 1 writes
+    it; not 'V1.6.0', the manual's own version)."""
+    known = sorted({*fw.RELEASES, *fw.SUPPORTED_VERSIONS, fw.DEFAULT_VERSION}, key=len, reverse=True)
+    return re.compile(r"(?<![\w.])v?(" + "|".join(map(re.escape, known)) + r")(?![\w.])")
+
+
+def test_no_known_version_inside_a_message_or_help_text():
+    """Beyond whole version strings: no string of src/ outside the two files (a help text, an error
+    message, a part of an f-string) names a release or profile version inside its text; it takes the
+    name of firmware.py (DEFAULT_VERSION, SERVE_VERSION, first(...)) instead. Docstrings are prose."""
+    pattern = _known_version()
+    found = {}
+    for p, t in texts().items():
+        if p in (FIRMWARE, REGISTERS) or not pattern.search(t):
+            continue
+        tree = trees().get(p) or ast.parse(t, str(p))
+        skip = _docstrings(tree)
+        hits = [(n.lineno, n.value) for n in ast.walk(tree) if isinstance(n, ast.Constant)
+                and isinstance(n.value, str) and id(n) not in skip and pattern.search(n.value)]
+        if hits:
+            found[str(p.relative_to(SRC))] = hits
+    assert found == {}

@@ -91,3 +91,17 @@ def test_a_schedule_takes_the_declared_arguments_and_no_other() -> None:
         with pytest.raises(FaultScheduleError, match=refusal):
             parse_schedule({"fault": [{**entry, "colour": 1}]})
     assert arguments("set-input") == ("kind", "wrench", "frame", "ramp", "for", "index", "value")
+
+
+def test_the_inspire_hand_takes_an_error_byte_not_the_xarm_grippers_codes(tmp_path: Path) -> None:
+    """The RH56 hand has no table of named codes: gripper-error takes an error byte 1..255, which its
+    fingers then report (not the xArm gripper's section 3.3 table, which names other faults)."""
+    target = Target(Emulator(6, config_dir=tmp_path, gripper="inspire-rh56"))
+    device = target.emulator.gripper.device
+    assert prepare(target, {"cmd": "gripper-error", "code": 3})() == "injected gripper G3 error byte"
+    assert device.error == 3 and device.data.errors == [3] * 6
+    for bad in (0, 256):
+        with pytest.raises(AdminError, match="an error byte of the inspire-rh56 hand is 1..255"):
+            prepare(target, {"cmd": "gripper-error", "code": bad})
+    with pytest.raises(AdminError, match="is not an error code of the xarm gripper"):
+        prepare(Target(Emulator(6, config_dir=tmp_path)), {"cmd": "gripper-error", "code": 3})

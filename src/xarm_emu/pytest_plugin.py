@@ -123,7 +123,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                          "(5, 6, 7, lite6, 850, 7t); repeat for a matrix")
     group.addoption("--xarm-firmware", action="append", default=[], type=_firmware_arg, metavar="VERSION",
                     help="run each test that uses the emulator with this firmware profile "
-                         "(1.6.0 ... 2.7.103); repeat for a matrix")
+                         "(a version xarm-emu serve --firmware takes); repeat for a matrix")
     group.addoption("--xarm-speed", type=float, default=None, metavar="SCALE",
                     help="time scale of every emulator (10: ten times faster than real time; default 1)")
     group.addoption("--xarm-trace-lines", type=int, default=TRACE_LINES, metavar="N",
@@ -132,10 +132,10 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
-        "markers", "xarm(model=6, firmware='1.6.0', speed=1.0, **options): the emulated box of this test "
-                   "(options: the keywords of xarm_emu.testing.running_emulator, e.g. gripper='bio', "
-                   "linear_track=700, scene='scene.toml'); a list for model or firmware is the test's "
-                   "own matrix")
+        "markers", "xarm(model=..., firmware=..., speed=..., **options): the emulated box of this test "
+                   "(by default an xArm6 with the manual's firmware at speed 1; options: the keywords of "
+                   "xarm_emu.testing.running_emulator, e.g. gripper='bio', linear_track=700, "
+                   "scene='scene.toml'); a list for model or firmware is the test's own matrix")
 
 
 def pytest_report_header(config: pytest.Config) -> str | None:
@@ -199,7 +199,7 @@ def _known_keys() -> set[str]:
 @pytest.fixture
 def xarm_settings(request: pytest.FixtureRequest, xarm_profile: Profile) -> dict[str, Any]:
     """The keywords this test's emulator starts with (``running_emulator``'s): the marker's over
-    the command line's over the defaults (model 6, firmware 1.6.0, speed 1)."""
+    the command line's over the defaults (model 6, the manual's firmware ``DEFAULT_VERSION``, speed 1)."""
     from .protocol.firmware import DEFAULT_VERSION
 
     options = _marker_options(request.node)

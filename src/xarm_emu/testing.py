@@ -52,10 +52,11 @@ def running_emulator(model: int | str | RobotModel = 6, *, config_dir: Path | No
     (as ``serve --vacuum``); ``gripper`` the gripper on the tool RS-485 (as ``serve --gripper``:
     xarm, robotiq-2f85, robotiq-2f140, bio, bio-g1 or inspire-rh56); ``firmware`` is the version the
     box claims (as ``serve --firmware``);
-    ``linear_track`` attaches a linear track that many mm long (as ``serve --linear-track``; it needs
-    ``firmware`` 1.8.0 or later, e.g. ``"2.7.103"``).
+    ``linear_track`` attaches a linear track that many mm long (as ``serve --linear-track``);
     ``ft_sensor`` mounts the six-axis F/T sensor (as ``serve --ft-sensor``; ``ft_noise=False`` for
-    deterministic readings) and ``scene`` sets a contact scene (a TOML file path, a
+    deterministic readings); a part the ``firmware`` cannot drive (protocol/firmware.py ``PARTS``: the
+    default ``DEFAULT_VERSION`` drives neither the track nor the sensor; ``SERVE_VERSION`` does) raises
+    ``FirmwareRefusal``, as ``serve`` refuses it; and ``scene`` sets a contact scene (a TOML file path, a
     :class:`~xarm_emu.controller.scene.contact.Scene` or its tables, as ``serve --scene``).
     ``calibration`` replaces the emulator's estimated constants (a TOML file path or a
     :class:`~xarm_emu.model.calibration.Calibration`, as ``serve --calibration``).

@@ -36,7 +36,8 @@ INJECT_COMMANDS: dict[str, tuple[str, tuple[tuple[str, Any, str], ...]]] = {
         ("joint", _JointOpt, "joint"))),
     "gripper-error": ("Raise an error of the attached gripper.", (
         ("code", Annotated[str, _CodeArg(help="Gripper error: xArm gripper G11 (manual 3.3), Robotiq fault "
-                                              "(gFLT) 14 or 0x0E, BIO gripper 11 or 12.")], "code"),)),
+                                              "(gFLT) 14 or 0x0E, BIO gripper (G2 or G1) 11 or 12, Inspire "
+                                              "hand an error byte 1..255.")], "code"),)),
     "track-error": ("Raise a linear track drive error (serve --linear-track).", (
         ("code", Annotated[str, _CodeArg(help="Drive error, e.g. 12 (speed overlimit).")], "code"),)),
     "end-module-lost": ("The end module stops answering (error C28).", ()),

@@ -52,8 +52,9 @@ def register_table(firmware: str) -> Mapping[int, Register]:
 
 def registers(
     code: Annotated[int | None, typer.Argument(help="One register, e.g. 21.")] = None,
-    firmware: Annotated[str, typer.Option(help="The firmware profile whose table to show: 1.6.0 is the "
-                                               "manual's box; later versions add registers and forms.")]
+    firmware: Annotated[str, typer.Option(help="The firmware profile whose table to show: "
+                                               f"{DEFAULT_VERSION} is the manual's box; later versions add "
+                                               "registers and forms.")]
     = DEFAULT_VERSION,
     as_json: Annotated[bool, typer.Option("--json", help="One JSON object per register.")] = False,
 ) -> None:

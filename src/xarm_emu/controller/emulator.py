@@ -101,8 +101,8 @@ def box_parts(model: RobotModel, *, gripper: str = "xarm", vacuum: bool = False,
 def check_firmware(model: RobotModel, firmware: FirmwareProfile, *, gripper: str = "xarm",
                    vacuum: bool = False, linear_track: int | None = None, ft_sensor: bool = False) -> None:
     """Refuse a box whose firmware cannot drive one of its parts (the one rule of
-    ``FirmwareProfile.check_parts``: the UFACTORY 850 needs 2.1.0, the xArm 7T 2.4.0, the linear track
-    1.8.0, the F/T sensor 1.8.3): a ``FirmwareRefusal`` (a ValueError) with one line."""
+    ``FirmwareProfile.check_parts``; the parts and the release each needs are protocol/firmware.py's
+    ``PARTS`` and ``RELEASES``): a ``FirmwareRefusal`` (a ValueError) with one line."""
     firmware.check_parts(*box_parts(model, gripper=gripper, vacuum=vacuum, linear_track=linear_track,
                                     ft_sensor=ft_sensor))
 
@@ -631,8 +631,8 @@ class Emulator:
 
     def inject_gripper_error(self, code: int) -> None:
         """A gripper error of the attached gripper (section 3.3 for the xArm gripper; the Robotiq's
-        gFLT faults, the BIO gripper's codes: protocol/codes.py ``GRIPPER_TABLES``), read through the
-        gripper's own registers."""
+        gFLT faults, the BIO grippers' codes: protocol/codes.py ``GRIPPER_TABLES``; the Inspire hand's
+        error byte), read through the gripper's own registers."""
         self.generation += 1
         self.gripper.device.inject_error(code)
 

@@ -75,7 +75,9 @@ def label(prefix: str) -> Check:
 
 
 def gripper_code(value: Any, emu: Emulator) -> codes.Code:
-    """A code of the attached gripper's table (codes.GRIPPER_TABLES), as "G14", 14 or "0x0E"."""
+    """A code of the attached gripper's table (codes.GRIPPER_TABLES), as "G14", 14 or "0x0E"; for a
+    gripper without a table of named codes (the Inspire RH56 hand), an error byte 1..255 as its
+    fingers report it."""
     if isinstance(value, bool) or not isinstance(value, (str, int)):
         raise AdminError(f"code must be a gripper code like G11 or 11, got {value!r}")
     text = str(value).strip().upper().removeprefix("G")
@@ -84,7 +86,11 @@ def gripper_code(value: Any, emu: Emulator) -> codes.Code:
     except ValueError:
         raise AdminError(f"not a gripper error code: {value!r} (examples: G11, 11, 0x0E)") from None
     gripper = emu.gripper_kind
-    table = codes.GRIPPER_TABLES.get(gripper, codes.GRIPPER_ERRORS)
+    table = codes.GRIPPER_TABLES.get(gripper)
+    if table is None:  # the hand's error bytes: no code table, any byte but 0 (none)
+        if not 1 <= number <= 0xFF:
+            raise AdminError(f"an error byte of the {gripper} hand is 1..255, got {number}")
+        return codes.Code(number, "G", "error byte", "Clear the hand's errors (its register 1004).")
     entry = table.get(number)
     if entry is None:
         raise AdminError(f"{number} is not an error code of the {gripper} gripper; known: "

@@ -202,7 +202,8 @@ def _track(values: dict[str, Any], where: str) -> int | None:
 def _firmware(values: dict[str, Any], where: str) -> FirmwareProfile:
     firmware = values.get("firmware", SERVE_VERSION)
     if not isinstance(firmware, str):
-        raise FleetError(f"{where}: firmware is a version string such as \"2.7.103\", got {firmware!r}")
+        raise FleetError(f"{where}: firmware is a version string such as \"{SERVE_VERSION}\", "
+                         f"got {firmware!r}")
     try:
         return profile_for(firmware)
     except VersionError as exc:

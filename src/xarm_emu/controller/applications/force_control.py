@@ -1,5 +1,5 @@
 """Admittance control (application 1) and force control (application 2) on the six-axis F/T sensor
-(firmware 2.x registers 202, 203 and 207-211; the SDK's ``set_ft_sensor_mode``,
+(registers 202, 203 and 207-211, which come with the sensor's own; the SDK's ``set_ft_sensor_mode``,
 ``set_ft_sensor_admittance_parameters``, ``set_ft_sensor_force_parameters``).
 
 Both applications run in position mode (0) once the arm is ready: register 202 ends the present

@@ -129,7 +129,7 @@ class ControllerState:
     velocity_control: Slot = None  # VelocityControl
     #: The online planner (modes 6 and 7, controller/applications/online.py).
     online_planner: Slot = None  # OnlinePlanner
-    #: Trajectory recording and playback (registers 61-66, controller/applications/trajectory.py).
+    #: Trajectory recording and playback (registers 61-65 and 230, controller/applications/trajectory.py).
     trajectory_store: Slot = None  # TrajectoryStore
     #: The less common registers' values (controller/handlers/service.py).
     extra_state: Slot = None  # ExtraState

@@ -28,11 +28,11 @@ MODE_POSITION = 0
 MODE_SERVO = 1
 MODE_JOINT_TEACH = 2
 MODE_CARTESIAN_TEACH = 3
-#: Trajectory playback (register 64, firmware 2.x): the mode the box shows while it plays.
+#: Trajectory playback (register 64, not in manual V1.6.0): the mode the box shows while it plays.
 MODE_PLAYBACK = 11
 
 #: The manual's names of the states (register 13) and modes (register 19), for logs and displays;
-#: modes 4-7 and 11 belong to firmware 2.x.
+#: modes 4-7 and 11 are beyond the manual (which firmware answers 4-7: ``applications/modes.extra_modes``).
 STATE_NAMES = {STATE_MOVING: "in motion", STATE_SLEEP: "sleep (ready)", STATE_SUSPEND: "suspend",
                STATE_STOP: "stop", STATE_SYSTEM_RESET: "system reset"}
 MODE_NAMES = {MODE_POSITION: "position", MODE_SERVO: "servo", MODE_JOINT_TEACH: "joint teaching",

@@ -221,6 +221,10 @@ class BioGripper:
             self.detected = False
             self.inject_error(E_SLIPPED)
 
+    def driven_fingers(self, force: float) -> BioFingers | None:
+        """Its fingers as the physics twin drives them, ``force`` the most each pad presses with (N)."""
+        return BioFingers(self, force)
+
     # --- commands ----------------------------------------------------------------------------------
 
     def _set_enable(self, on: int) -> None:
@@ -342,3 +346,44 @@ REGISTER_MAP: dict[int, regmap.Reg] = {
     REG_MOVE: regmap.Reg("move", "w", put=BioGripper._write_move, block=MOVE_REGS),
 }
 BioGripper.REGISTER_MAP = REGISTER_MAP
+
+
+class BioFingers:
+    """The BIO gripper's fingers as the physics twin drives them (``DrivenFingers`` of
+    controller/devices/gripper.py): they open 71..150 mm, positions count up as they open; its force
+    register (1..100) scales the most the twin's pads press with."""
+
+    def __init__(self, b: BioGripper, most: float) -> None:
+        self.b = b
+        self.most = most
+
+    @property
+    def opening(self) -> float:
+        return self.b.opening_mm
+
+    @property
+    def closing(self) -> bool:
+        return self.b.moving and self.b.goal < self.b.position
+
+    @property
+    def gripping(self) -> bool:
+        return self.b.detected and not self.b.code
+
+    @property
+    def force(self) -> float:
+        return self.most * self.b.force / FORCE_MAX
+
+    @property
+    def met(self) -> bool:
+        return self.b.object_mm is not None
+
+    def meet(self, width: float) -> None:
+        b = self.b
+        width = min(max(width, CLOSED_MM), OPEN_MM)
+        b.set_object(width)
+        b.position = max(b.position, mm_to_pulses(width))  # the fingers stopped where they met it
+
+    def part(self, touching: bool) -> None:
+        b = self.b
+        if b.object_mm is not None and not touching and not b.detected and not self.closing:
+            b.object_mm = None  # opening away from it: nothing between the fingers any more

@@ -74,6 +74,10 @@ class BioGripperG1(BioGripper):
     def _rate(self) -> float:
         return self.speed * SPEED_TO_UNITS
 
+    def driven_fingers(self, force: float) -> None:
+        """None: the G1 is no body of the physics twin (no millimetre scale of its fingers)."""
+        return None
+
 
 #: The G1's registers (the table of the module docstring): 0x0700 takes the target, both registers
 #: at once, and reads back the present position.

@@ -120,6 +120,27 @@ NEEDS_RESTART = frozenset({G_CURRENT_DETECTION})
 MOTION_STOPPED, MOTION_MOVING, MOTION_GRIPPED, MOTION_FAULT = 0, 1, 2, 3
 
 
+class DrivenFingers(Protocol):
+    """A gripper's own model of its fingers, as the physics twin (controller/physics/) drives it, in
+    the model's own units: the opening (mm), whether the fingers are closing, whether the model grips
+    (stopped on an object), the force each pad presses with (N), whether the fingers met an object;
+    ``meet(width)`` tells it the fingers met one that wide (its status then says so), ``part`` that
+    it is gone when the fingers no longer touch it."""
+
+    @property
+    def opening(self) -> float: ...
+    @property
+    def closing(self) -> bool: ...
+    @property
+    def gripping(self) -> bool: ...
+    @property
+    def force(self) -> float: ...
+    @property
+    def met(self) -> bool: ...
+    def meet(self, width: float) -> None: ...
+    def part(self, touching: bool) -> None: ...
+
+
 class ToolDevice(Device, rtu.RegisterDevice, Protocol):
     """A device (:class:`~..core.device.Device`) on the tool RS-485 (register 124, host 9): a Modbus
     slave with its own slave id and baud rate (register 127 baud table index) whose ``REGISTER_MAP``
@@ -143,6 +164,12 @@ class ToolDevice(Device, rtu.RegisterDevice, Protocol):
     def check_object(self, width_mm: float, inner: bool = False) -> None: ...
 
     def set_object(self, width_mm: float | None, inner: bool = False) -> None: ...
+
+    def driven_fingers(self, force: float) -> DrivenFingers | None:
+        """Its fingers as the physics twin drives them when its own model moves them (``force``: the
+        most each pad of the twin's hand presses with, N); None where the twin moves them itself
+        (the xArm gripper) or has no body for them."""
+        ...
 
 
 @dataclass(slots=True)
@@ -231,6 +258,10 @@ class XArmGripper:
         """The xArm gripper has no object detection the SDK reads: refused."""
         raise ValueError("the xArm gripper reports no object detection; gripper-object needs "
                          "--gripper robotiq-2f85, robotiq-2f140, bio or bio-g1")
+
+    def driven_fingers(self, force: float) -> None:
+        """None: the physics twin moves the xArm gripper's fingers itself (physics/component.py)."""
+        return None
 
     # --- commands ----------------------------------------------------------------------------------
 

@@ -106,6 +106,10 @@ class InspireHand:
     def check_object(self, width_mm: float, inner: bool = False) -> None:
         raise ValueError("the emulated RH56 hand takes no object")
 
+    def driven_fingers(self, force: float) -> None:
+        """None: the hand is no body of the physics twin."""
+        return None
+
     def set_object(self, width_mm: float | None, inner: bool = False) -> None:
         if width_mm is not None:
             self.check_object(width_mm, inner)

@@ -240,6 +240,10 @@ class RobotiqGripper:
             self.moving = True
             self.gOBJ = OBJ_MOVING
 
+    def driven_fingers(self, force: float) -> RobotiqFingers:
+        """Its fingers as the physics twin drives them (their force is its own rFR's)."""
+        return RobotiqFingers(self)
+
     # --- commands ----------------------------------------------------------------------------------
 
     def _apply_action(self) -> None:
@@ -362,3 +366,44 @@ REGISTER_MAP: dict[int, regmap.Reg] = {
        for i in range(N_REGS)},
 }
 RobotiqGripper.REGISTER_MAP = REGISTER_MAP
+
+
+class RobotiqFingers:
+    """The 2F-85's or 2F-140's fingers as the physics twin drives them (``DrivenFingers`` of
+    controller/devices/gripper.py): force from rFR over the model's range; positions count up as the
+    fingers close."""
+
+    def __init__(self, r: RobotiqGripper) -> None:
+        self.r = r
+
+    @property
+    def opening(self) -> float:
+        return self.r.opening_mm
+
+    @property
+    def closing(self) -> bool:
+        return self.r.moving and self.r.goal > self.r.position
+
+    @property
+    def gripping(self) -> bool:
+        return self.r.gripping
+
+    @property
+    def force(self) -> float:
+        m = self.r.model
+        return m.force_min + (m.force_max - m.force_min) * self.r.rFR / 255.0
+
+    @property
+    def met(self) -> bool:
+        return self.r.object_mm is not None
+
+    def meet(self, width: float) -> None:
+        r = self.r
+        width = min(width, r.model.stroke_mm)
+        r.set_object(width)
+        r.position = min(r.position, r._counts_at(width))  # the fingers stopped where they met it
+
+    def part(self, touching: bool) -> None:
+        r = self.r
+        if r.object_mm is not None and not touching and not r.gripping and r.gOBJ == OBJ_MOVING:
+            r.object_mm = None  # opening away from it: nothing between the fingers any more

@@ -1,6 +1,6 @@
-"""The F/T sensor's applications (firmware 2.x): register 202 sets admittance (1) or force control
-(2) or neither (0), 203 reads it back, 207-211 set their parameters (the SDK's
-``set_ft_sensor_mode``, ``get_ft_sensor_mode``, ``set_ft_sensor_admittance_parameters`` and
+"""The F/T sensor's applications (registers that come with the sensor's own): register 202 sets
+admittance (1) or force control (2) or neither (0), 203 reads it back, 207-211 set their parameters
+(the SDK's ``set_ft_sensor_mode``, ``get_ft_sensor_mode``, ``set_ft_sensor_admittance_parameters`` and
 ``set_ft_sensor_force_parameters``); the control laws are in controller/applications/force_control.py.
 
 Parameters outside the vendor's ranges (those the SDK checks unless ``params_limit=False``) are

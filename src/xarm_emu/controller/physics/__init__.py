@@ -7,7 +7,8 @@ declaration is controller/scene/objects.py) or cell elements (controller/scene/c
 - ``world.py``: the engine (MuJoCo, an optional extra) stepped by the control period, its state
   (:class:`~.world.PhysicsState`), object poses, placing.
 - ``component.py``: the world as a controller component, coupling the gripper's fingers to it.
-- ``driven.py``: grippers whose own model moves the fingers (Robotiq, BIO), as the component asks.
+- ``driven.py``: grippers whose own model moves the fingers (Robotiq, BIO), through the fingers the
+  device hands out (``ToolDevice.driven_fingers``), as the component asks.
 - ``cell.py``: the scene's conveyors, sensors and feeders (controller/scene/cell.py) on the box's IO.
 
 The engine is imported only by :func:`attach`, which the emulator calls for a scene with objects.
