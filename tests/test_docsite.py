@@ -132,7 +132,7 @@ def test_the_devices_page_lists_every_register_of_every_device_map() -> None:
 
 
 def test_the_files_page_lists_the_keys_each_reader_checks() -> None:
-    from xarm_emu.controller.scene import contact, objects
+    from xarm_emu.controller.scene import cell, contact, objects
     from xarm_emu.fidelity.compare import DEFAULT_TOLERANCES
     from xarm_emu.model import calibration
     from xarm_emu.server import faults, fleet
@@ -143,8 +143,9 @@ def test_the_files_page_lists_the_keys_each_reader_checks() -> None:
         return set(re.findall(r"^\| ([^|]+) \| `(\w+)` \|", _section(page, f"## {title}"), re.M))
 
     assert keys("Scene files") == ({(f"[[{k}]]", key) for k, ks in contact.SHAPE_KEYS.items() for key in ks}
-                                   | {("[[object]]", key) for key in objects.KEYS})
-    assert {k for k, ks in contact.SHAPE_KEYS.items()} | {"object"} == set(contact.TABLES)
+                                   | {("[[object]]", key) for key in objects.KEYS}
+                                   | {(f"[[{k}]]", key) for k, ks in cell.KEYS.items() for key in ks})
+    assert set(contact.SHAPE_KEYS) | {"object"} | set(cell.KEYS) == set(contact.TABLES)
     arguments = {a for args in faults.ARGUMENTS.values() for a in args}
     assert keys("Fault schedules") == {("[[fault]]", k) for k in ("at", "after", "do", *arguments)}
     assert keys("Fleet files") == ({("top level", k) for k in fleet.TOP_KEYS}

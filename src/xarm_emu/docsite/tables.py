@@ -100,13 +100,14 @@ def _accepts(r: regmap.Reg) -> str:
 def file_keys() -> list[tuple[str, str, str, list[tuple[str, str, str]]]]:
     """The TOML files and their keys: (title, option, module name, [(table, key, note)]), every key
     read from the set its reader checks."""
-    from ..controller.scene import contact, objects
+    from ..controller.scene import cell, contact, objects
     from ..fidelity import compare
     from ..model import calibration
     from ..server import faults, fleet
 
     scene = [(f"[[{kind}]]", key, "") for kind, keys in contact.SHAPE_KEYS.items() for key in sorted(keys)]
     scene += [("[[object]]", key, "") for key in sorted(objects.KEYS)]
+    scene += [(f"[[{kind}]]", key, "") for kind, keys in cell.KEYS.items() for key in sorted(keys)]
     fault = [("[[fault]]", key, "") for key in ("at", "after", "do")]
     fault += [("[[fault]]", arg, f'do = "{do}"') for do, args in faults.ARGUMENTS.items() for arg in args]
     fleet_keys = [("top level", k, "default for every arm" if k in fleet.ARM_KEYS else "")

@@ -110,7 +110,7 @@ def _corners(label: str, t: Mapping[str, Any]) -> tuple[Vec3, Vec3]:
     return lo, hi
 
 
-def _table(kind: str, i: int, t: Any, keys: set[str], need: Sequence[str]) -> str:
+def _table(kind: str, i: int, t: Any, keys: frozenset[str], need: Sequence[str]) -> str:
     if not isinstance(t, Mapping):
         raise ValueError(f"{kind} {i + 1}: a table of keys expected")
     label = f"{kind} {t.get('name', i + 1)!s}"
@@ -206,9 +206,16 @@ class FeederSpec:
         return d
 
 
+#: The keys of each cell table (a scene file's [[conveyor]], [[sensor]] and [[feeder]]).
+CONVEYOR_KEYS = frozenset({"name", "min", "max", "direction", "speed", "output", "friction"})
+SENSOR_KEYS = frozenset({"name", "input", "from", "to", "min", "max", "delay", "active"})
+FEEDER_PART_KEYS = frozenset({"shape", "size", "mass", "position", "rpy", "friction", "color"})
+FEEDER_KEYS = frozenset({"name", "count", "every", "trigger", "start", "offset", "seed"}) | FEEDER_PART_KEYS
+KEYS: dict[str, frozenset[str]] = {"conveyor": CONVEYOR_KEYS, "sensor": SENSOR_KEYS, "feeder": FEEDER_KEYS}
+
+
 def parse_conveyor(i: int, t: Any) -> ConveyorSpec:
-    keys = {"name", "min", "max", "direction", "speed", "output", "friction"}
-    label = _table("conveyor", i, t, keys, ("min", "max", "direction", "speed"))
+    label = _table("conveyor", i, t, CONVEYOR_KEYS, ("min", "max", "direction", "speed"))
     lo, hi = _corners(label, t)
     d = np.asarray(_vec(label, "direction", t["direction"]))
     if abs(d[2]) > 1e-9 or float(np.hypot(d[0], d[1])) < 1e-9:
@@ -221,8 +228,7 @@ def parse_conveyor(i: int, t: Any) -> ConveyorSpec:
 
 
 def parse_sensor(i: int, t: Any) -> SensorSpec:
-    keys = {"name", "input", "from", "to", "min", "max", "delay", "active"}
-    label = _table("sensor", i, t, keys, ("input",))
+    label = _table("sensor", i, t, SENSOR_KEYS, ("input",))
     beam = region = None
     if "from" in t or "to" in t:
         if "min" in t or "max" in t:
@@ -246,11 +252,9 @@ def parse_sensor(i: int, t: Any) -> SensorSpec:
 
 
 def parse_feeder(i: int, t: Any) -> FeederSpec:
-    part_keys = {"shape", "size", "mass", "position", "rpy", "friction", "color"}
-    keys = {"name", "count", "every", "trigger", "start", "offset", "seed"} | part_keys
-    label = _table("feeder", i, t, keys, ("count",))
+    label = _table("feeder", i, t, FEEDER_KEYS, ("count",))
     name = str(t.get("name", f"feeder{i + 1}"))
-    part = parse_object(i, {"name": name, **{k: v for k, v in t.items() if k in part_keys}})
+    part = parse_object(i, {"name": name, **{k: v for k, v in t.items() if k in FEEDER_PART_KEYS}})
     count = t["count"]
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_FEED:
         raise ValueError(f"{label}: count must be a whole number from 1 to {MAX_FEED}")
