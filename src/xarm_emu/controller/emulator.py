@@ -225,12 +225,7 @@ class Emulator:
             self.attach_ft_sensor(noise=ft_noise)
         if scene is not None:
             contact.set_scene(self.controller, scene)
-        #: The physics world of a scene with objects or cell elements (controller/physics/), else None.
-        self.physics = physics.attach(self.model, scene, gripper, self.gripper.device, self.vacuum,
-                                      io=self.io, lite6=self.lite6_gripper) if (
-            scene is not None and scene.physical) else None
-        if self.physics is not None:
-            self.controller.add_component(self.physics)
+        self._attach_physics(scene)
         self.thermal = ThermalModel.for_model(self.model)
         self._start_clock(exact_steps)
         #: Actions due at a controller time (:meth:`at`); ``_scheduled`` is its heap.
@@ -249,6 +244,14 @@ class Emulator:
         self._store: Any = None
         if config_dir is not None:
             self._attach_store(Path(config_dir), load_config)
+
+    def _attach_physics(self, scene: contact.Scene | None) -> None:
+        #: The physics world of a scene with objects or cell elements (controller/physics/), else None.
+        self.physics = physics.attach(self.model, scene, self.gripper_kind, self.gripper.device, self.vacuum,
+                                      io=self.io, lite6=self.lite6_gripper) if (
+            scene is not None and scene.physical) else None
+        if self.physics is not None:
+            self.controller.add_component(self.physics)
 
     def _start_clock(self, exact_steps: bool) -> None:
         """What :meth:`step` keeps between calls."""

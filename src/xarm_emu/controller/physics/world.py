@@ -110,63 +110,14 @@ class World:
         #: The scene's tables as JSON: what a checkpoint names the world by.
         self.scene_text = json.dumps(scene.to_dict(), sort_keys=True)
         self.hand = hand
-        #: Every object of the engine: the scene's, then each feeder's parts (parked until placed).
-        self.specs: list[ObjectSpec] = list(scene.objects)
-        #: Per feeder, the index of its first part in :attr:`specs`.
-        self.feeder_base: list[int] = []
-        for f in scene.cell.feeders:
-            self.feeder_base.append(len(self.specs))
-            for k in range(f.count):
-                slot = len(self.specs) - len(scene.objects)
-                park = (PARK[0] + PARK_STEP * slot, PARK[1], PARK[2])
-                self.specs.append(ObjectSpec(f.part_name(k), f.part.shape, f.part.size, f.part.mass, park,
-                                             f.part.rpy, f.part.friction, f.part.color))
+        #: Every object of the engine: the scene's, then each feeder's parts (parked until placed);
+        #: per feeder, the index of its first part in :attr:`specs`.
+        self.specs, self.feeder_base = _engine_objects(scene)
         self.m = mujoco.MjModel.from_xml_string(world_xml(model, scene, hand, self.specs))
         self.d = mujoco.MjData(self.m)
-        m = self.m
-        dof = model.dof
-        adr = [int(m.jnt_qposadr[m.joint(f"j{k + 1}").id]) for k in range(dof)]
-        vadr = [int(m.jnt_dofadr[m.joint(f"j{k + 1}").id]) for k in range(dof)]
-        if adr != list(range(adr[0], adr[0] + dof)) or vadr != list(range(vadr[0], vadr[0] + dof)):
-            raise RuntimeError("arm joints are not consecutive in the engine model")
-        self._q = slice(adr[0], adr[0] + dof)
-        self._v = slice(vadr[0], vadr[0] + dof)
-        self.fingers = hand is not None and hand.stroke > 0
-        self._fq: list[int] = []
-        self._pads: set[int] = set()
-        if self.fingers:
-            for n in ("finger_a", "finger_b"):
-                self._fq.append(int(m.jnt_qposadr[m.joint(n).id]))
-                self._pads.add(m.geom(f"{n}_pad").id)
-        self._arm_geoms = {g for g in range(m.ngeom) if m.geom_contype[g] & 4}
-        self._finger_v = [int(m.jnt_dofadr[m.joint(n).id]) for n in ("finger_a", "finger_b")] \
-            if self.fingers else []
-        #: Per geom: 1 arm or hand, 2 finger pad, 0 anything else.
-        self._kind = np.zeros(m.ngeom, dtype=np.int8)
-        self._kind[list(self._arm_geoms)] = 1
-        self._arm_idx = np.array(sorted(self._arm_geoms), dtype=int)
-        self._kind[list(self._pads)] = 2
-        self._kinds: list[int] = self._kind.tolist()
-        self.objects: list[tuple[str, int, int, int]] = []  # name, qpos adr, dof adr, geom id
-        for o in self.specs:
-            j = m.joint(f"object:{o.name}").id
-            body = m.body(f"object:{o.name}").id
-            self.objects.append((o.name, int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]),
-                                 int(m.body_geomadr[body])))
-        self._object_geoms = {g: i for i, (_, _, _, g) in enumerate(self.objects)}
-        #: The model of the nearness test (:meth:`_kinematics_at`, :meth:`_far`): the arm's geoms
-        #: see objects from ``NEAR``; nothing else collides (fixtures touch nothing, objects only
-        #: the arm), so the world's own contacts stay those of its last step.
-        self._near_m = near = copy.copy(m)
-        near.geom_margin[self._arm_idx] = NEAR
-        obj_idx = [g for *_, g in self.objects]
-        near.geom_contype[:] = np.where(self._kind > 0, near.geom_contype, 0)
-        near.geom_conaffinity[:] = 0
-        near.geom_conaffinity[obj_idx] = ARM
-        near.geom_contype[obj_idx] = 0
-        # the links see the fixtures (and belts) from NEAR too
-        near.geom_conaffinity[(m.geom_contype & FIXTURE).astype(bool)] = LINK
-        self._near_d = mujoco.MjData(near)
+        self._index(model)
+        m, dof = self.m, model.dof
+        self._near_model()
         self._flange_body = m.body(f"link{dof}").id
         self._near_key: tuple[bytes, bytes] = (b"", b"")
         self._far_key: tuple[bytes, bytes] = (b"", b"")
@@ -190,6 +141,57 @@ class World:
         self._initial = (self.d.qpos.copy(), self.d.qvel.copy())
         self.state = PhysicsState(b"", 0.0, 0, False, b"", cell=fresh_cell(scene))
         self.reset()
+
+    def _index(self, model: RobotModel) -> None:
+        """Where the arm's joints, the fingers, the pads and the objects stand in the engine's model."""
+        m = self.m
+        dof = model.dof
+        adr = [int(m.jnt_qposadr[m.joint(f"j{k + 1}").id]) for k in range(dof)]
+        vadr = [int(m.jnt_dofadr[m.joint(f"j{k + 1}").id]) for k in range(dof)]
+        if adr != list(range(adr[0], adr[0] + dof)) or vadr != list(range(vadr[0], vadr[0] + dof)):
+            raise RuntimeError("arm joints are not consecutive in the engine model")
+        self._q = slice(adr[0], adr[0] + dof)
+        self._v = slice(vadr[0], vadr[0] + dof)
+        self.fingers = self.hand is not None and self.hand.stroke > 0
+        self._fq: list[int] = []
+        self._pads: set[int] = set()
+        if self.fingers:
+            for n in ("finger_a", "finger_b"):
+                self._fq.append(int(m.jnt_qposadr[m.joint(n).id]))
+                self._pads.add(m.geom(f"{n}_pad").id)
+        self._arm_geoms = {g for g in range(m.ngeom) if m.geom_contype[g] & 4}
+        self._finger_v = [int(m.jnt_dofadr[m.joint(n).id]) for n in ("finger_a", "finger_b")] \
+            if self.fingers else []
+        #: Per geom: 1 arm or hand, 2 finger pad, 0 anything else.
+        self._kind = np.zeros(m.ngeom, dtype=np.int8)
+        self._kind[list(self._arm_geoms)] = 1
+        self._arm_idx = np.array(sorted(self._arm_geoms), dtype=int)
+        self._kind[list(self._pads)] = 2
+        self._kinds: list[int] = self._kind.tolist()
+        self.objects: list[tuple[str, int, int, int]] = []  # name, qpos adr, dof adr, geom id
+        for o in self.specs:
+            j = m.joint(f"object:{o.name}").id
+            body = m.body(f"object:{o.name}").id
+            self.objects.append((o.name, int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]),
+                                 int(m.body_geomadr[body])))
+        self._object_geoms = {g: i for i, (_, _, _, g) in enumerate(self.objects)}
+
+    def _near_model(self) -> None:
+        """The model of the nearness test: a copy of the engine's in which only the arm sees."""
+        m = self.m
+        #: The model of the nearness test (:meth:`_kinematics_at`, :meth:`_far`): the arm's geoms
+        #: see objects from ``NEAR``; nothing else collides (fixtures touch nothing, objects only
+        #: the arm), so the world's own contacts stay those of its last step.
+        self._near_m = near = copy.copy(m)
+        near.geom_margin[self._arm_idx] = NEAR
+        obj_idx = [g for *_, g in self.objects]
+        near.geom_contype[:] = np.where(self._kind > 0, near.geom_contype, 0)
+        near.geom_conaffinity[:] = 0
+        near.geom_conaffinity[obj_idx] = ARM
+        near.geom_contype[obj_idx] = 0
+        # the links see the fixtures (and belts) from NEAR too
+        near.geom_conaffinity[(m.geom_contype & FIXTURE).astype(bool)] = LINK
+        self._near_d = mujoco.MjData(near)
 
     # -- state ---------------------------------------------------------------------------------
     def capture(self) -> PhysicsState:
@@ -598,3 +600,17 @@ class World:
         self._version += 1
         self.state.settled = False
         self.state.still = 0
+
+
+def _engine_objects(scene: Scene) -> tuple[list[ObjectSpec], list[int]]:
+    """The scene's objects, then each feeder's parts parked until placed; per feeder, its first index."""
+    specs: list[ObjectSpec] = list(scene.objects)
+    feeder_base: list[int] = []
+    for f in scene.cell.feeders:
+        feeder_base.append(len(specs))
+        for k in range(f.count):
+            slot = len(specs) - len(scene.objects)
+            park = (PARK[0] + PARK_STEP * slot, PARK[1], PARK[2])
+            specs.append(ObjectSpec(f.part_name(k), f.part.shape, f.part.size, f.part.mass, park,
+                                    f.part.rpy, f.part.friction, f.part.color))
+    return specs, feeder_base
