@@ -3,7 +3,6 @@ command trace, ``replay`` a command trace into a fresh emulator and compare the 
 
 from __future__ import annotations
 
-import logging
 import math
 from pathlib import Path
 from typing import Annotated
@@ -107,17 +106,11 @@ def replay_trace(
                 check_firmware(robot, profile)
     except (ValueError, VersionError) as exc:
         user_error(f"--model/--firmware: {exc}")
-    # the replayed box's own log (the codes it raises, as the trace's did) is not the verdict: quiet
-    quiet = logging.getLogger("xarm_emu")
-    level = quiet.level
-    quiet.setLevel(logging.ERROR)
     try:
         result = replay(trace_file, model=model, firmware=firmware, vacuum=True if vacuum else None,
                         tolerance=tolerance, stop_at_first=not all_differences)
     except ReplayError as exc:
         user_error(str(exc))
-    finally:
-        quiet.setLevel(level)
     done = f"{result.requests} requests replayed"
     if result.outside:
         done += f" with {result.outside} changes from outside the protocol (faults, inputs)"
