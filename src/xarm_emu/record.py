@@ -297,6 +297,18 @@ class RecordingTrace:
             self.inner.event(t, peer, what)
         self.recorder.event(f"client {peer}: {what}")
 
+    def start(self, t: float, box: Mapping[str, Any]) -> None:
+        """The box that started (the file trace's start line)."""
+        if self.inner is not None:
+            self.inner.start(t, box)
+
+    def outside(self, t: float, period: int, source: str, request: dict[str, Any], message: str) -> None:
+        """A change made from outside the protocol: the file trace's line, and an event of the
+        recording."""
+        if self.inner is not None:
+            self.inner.outside(t, period, source, request, message)
+        self.recorder.event(f"{source} {request.get('cmd', '?')}: {message}")
+
     def command(self, t: float, peer: str, tid: int, protocol: int, register: int, params: bytes,
                 frame: bytes, table: Mapping[int, Register] | None = None,
                 asked: float | None = None) -> None:
