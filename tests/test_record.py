@@ -162,7 +162,10 @@ def test_record_command_against_a_running_box(tmp_path: Path) -> None:
                 "record", str(path), "--port", str(st.ports["command"]), "--develop-port",
                 str(st.ports["develop"]), "--rich-port", str(st.ports["rich"]), "--duration", "1.5")))
             th.start()
-            time.sleep(0.3)
+            # the recorder reads the develop port before the move starts (a busy machine starts the
+            # command's process in well over a second)
+            assert wait_for(lambda: bool(st.server.reports.streams["develop"].readers), timeout=30.0)
+            time.sleep(0.1)
             c.call(23, joints=(-0.4, 0, 0, 0, 0, 0, 0), speed=1.0, acc=10.0, mvtime=0.0)
             th.join(10)
     code, out = result[0]
