@@ -14,6 +14,7 @@ from typing import Any, Protocol
 
 from ..devices import bio_gripper as bio
 from ..devices.bio_gripper import BioGripper
+from ..devices.bio_gripper_g1 import BioGripperG1
 from ..devices.robotiq import OBJ_MOVING, RobotiqGripper
 from .hands import Hand
 
@@ -77,11 +78,14 @@ class RobotiqFingers:
 
 class BioFingers:
     """The BIO gripper (controller/devices/bio_gripper.py): its fingers open 71..150 mm, positions
-    count up as they open; its force register (1..100) scales the hand's force."""
+    count up as they open; its force register (1..100) scales the hand's force. The G1
+    (bio_gripper_g1.py) the same over its 50..130 positions, one a millimetre (``hands.BIO_G1_HAND``),
+    always at the hand's force (it has no force setting)."""
 
     def __init__(self, b: BioGripper, hand: Hand) -> None:
         self.b = b
         self.most = hand.force
+        self.g1 = isinstance(b, BioGripperG1)
 
     @property
     def opening(self) -> float:
@@ -97,7 +101,7 @@ class BioFingers:
 
     @property
     def force(self) -> float:
-        return self.most * self.b.force / bio.FORCE_MAX
+        return self.most if self.g1 else self.most * self.b.force / bio.FORCE_MAX
 
     @property
     def met(self) -> bool:
@@ -105,9 +109,10 @@ class BioFingers:
 
     def meet(self, width: float) -> None:
         b = self.b
-        width = min(max(width, bio.CLOSED_MM), bio.OPEN_MM)
+        lo, hi, _ = b.object_range
+        width = min(max(width, lo), hi)
         b.set_object(width)
-        b.position = max(b.position, bio.mm_to_pulses(width))  # the fingers stopped where they met it
+        b.position = max(b.position, b._object_position(width))  # the fingers stopped where they met it
 
     def part(self, touching: bool) -> None:
         b = self.b
