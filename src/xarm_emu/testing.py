@@ -167,7 +167,7 @@ def sdk_on_stepped_clock(server: ServerThread, arm: Any) -> Iterator[None]:
             return
         left = max(1, round(float(seconds) / PERIOD))
         while left > 0:
-            n, sent = server.call(lambda: srv.advance_to_report(left))  # type: ignore[misc]
+            n, sent = srv.advance_to_report(left)  # under the arm's lock, not through the loop
             left -= n
             if sdk_kind in sent and not handled.acquire(timeout=10.0):
                 raise TimeoutError("the SDK's report thread handled no report frame within 10 s")

@@ -854,7 +854,9 @@ class EmulatorServer:
         readers (controller time, the multiples of the stream's interval; a deadline's period is
         the first that starts at or after it), at most ``periods``; at a deadline, write each due
         stream's frame from the state of that period to its readers at once (none while an injected
-        report pause is on). Returns the periods run and the kinds whose frame every reader took."""
+        report pause is on). Returns the periods run and the kinds whose frame every reader took.
+        Safe from any thread (it takes the arm's :attr:`lock`; what touches connections runs on
+        the loop)."""
         ctl = self.emulator.controller
         now = ctl.data.steps
         due: dict[str, int] = {}
@@ -873,7 +875,7 @@ class EmulatorServer:
             if time.monotonic() >= self._report_pause_until:
                 sent = tuple(kind for kind, p in due.items() if p == now + n and self.reports.push(kind))
         if self._later:
-            self._settle_later()
+            self.in_loop(self._settle_later)
         return n, sent
 
     async def close(self) -> None:
