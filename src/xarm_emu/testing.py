@@ -116,6 +116,9 @@ def sdk_pointed_at(server: ServerThread) -> Iterator[None]:
         socket.setdefaulttimeout(previous_timeout)
 
 
+#: Seconds the SDK's report thread sleeps between looks at its socket's queue while a frame of the
+#: stepped clock is on its way (its own poll is 1 ms, which every handshake would wait).
+HANDSHAKE_POLL = 0.0001
 #: The report port the SDK reads for each of its ``report_type`` values ("real" is the develop port).
 _SDK_REPORT_KIND = {"rich": "rich", "normal": "normal", "real": "develop"}
 
@@ -153,6 +156,8 @@ def sdk_on_stepped_clock(server: ServerThread, arm: Any) -> Iterator[None]:
     reporter = getattr(inner, "_report_thread", None)
     handled = threading.Semaphore(0)
     took = threading.Event()
+    awaiting = threading.Event()  # a frame of the SDK's port is out and not handled yet
+    kick = threading.Event()  # ends the report thread's sleep: a frame is out
 
     def on_report(_: Any) -> None:
         took.set()  # the frame's report fields are in; it is handled when the thread polls again
@@ -160,17 +165,27 @@ def sdk_on_stepped_clock(server: ServerThread, arm: Any) -> Iterator[None]:
     def sleep(seconds: float) -> None:
         current = threading.current_thread()
         if current is not me:
-            if current is reporter and took.is_set():
+            if current is not reporter:
+                real_sleep(seconds)
+                return
+            if took.is_set():
                 took.clear()
                 handled.release()
-            real_sleep(seconds)
+            elif awaiting.is_set():  # look at the socket's queue again soon, not after its 1 ms
+                seconds = min(seconds, HANDSHAKE_POLL)
+            if kick.wait(seconds):
+                kick.clear()
             return
         left = max(1, round(float(seconds) / PERIOD))
         while left > 0:
             n, sent = srv.advance_to_report(left)  # under the arm's lock, not through the loop
             left -= n
-            if sdk_kind in sent and not handled.acquire(timeout=10.0):
-                raise TimeoutError("the SDK's report thread handled no report frame within 10 s")
+            if sdk_kind in sent:
+                awaiting.set()
+                kick.set()
+                if not handled.acquire(timeout=10.0):
+                    raise TimeoutError("the SDK's report thread handled no report frame within 10 s")
+                awaiting.clear()
 
     def monotonic() -> float:
         current = threading.current_thread()
