@@ -8,7 +8,9 @@ again. A part that does not arrive within its timeout ends the shift. The scene'
 40 mm cube on the belt each time output 0 switches on, three in all, so the fourth wait times out.
 
 The same program runs a Lite 6 with its gripper (``open_lite6_gripper``/``close_lite6_gripper``, 10 mm
-cubes for its 16.2 mm stroke) in ``conveyor_cell_lite6.toml``.
+cubes for its 16.2 mm stroke) in ``conveyor_cell_lite6.toml``, and an xArm 6 with the BIO gripper G1
+(``open_bio_gripper``/``close_bio_gripper``, 60 mm cubes, as it closes to 50) in
+``conveyor_cell_bio_g1.toml``.
 
 The emulator runs on the stepped clock and the program's waits (the SDK's polls, its own timeout)
 count controller time (:func:`xarm_emu.testing.sdk_on_stepped_clock`): the whole shift runs as fast as
@@ -44,7 +46,7 @@ class Cell:
 
     scene: Path
     model: str
-    tool: str  # "xarm": the xArm gripper; "lite6": the Lite 6 gripper
+    tool: str  # "xarm": the xArm gripper; "lite6": the Lite 6 gripper; "bio-g1": the BIO gripper G1
     tcp_z: float  # the tool's fingertips from the flange
     pick: tuple[float, float]  # where a part stops: its leading face just past the beam
     grasp_z: float  # the fingertips a little above the belt's top
@@ -63,6 +65,12 @@ XARM6 = Cell(Path(__file__).parent / "conveyor_cell.toml", "6", "xarm", 172.0, (
 LITE6 = Cell(Path(__file__).parent / "conveyor_cell_lite6.toml", "lite6", "lite6", 81.1, (207.0, 180.0),
              -30.0 + 3.0, ((200.0, -200.0), (240.0, -200.0), (280.0, -200.0)), -45.0 + 3.0 + 1.0, 20.0, 10.0,
              (150.0, 330.0, -250.0, -150.0, -45.0))
+
+#: The xArm 6 with the first-generation BIO gripper (its fingertips at 150 mm, closing to 50 mm),
+#: 60 mm cubes (conveyor_cell_bio_g1.toml).
+BIO_G1 = Cell(Path(__file__).parent / "conveyor_cell_bio_g1.toml", "6", "bio-g1", 150.0, (328.0, 300.0),
+              -60.0 + 25.0, ((250.0, -250.0), (320.0, -250.0), (390.0, -250.0)), -90.0 + 25.0 + 1.0, 60.0,
+              60.0, (190.0, 450.0, -330.0, -170.0, -90.0))
 
 
 class CellError(RuntimeError):
@@ -92,6 +100,8 @@ def conveyor_cell(arm: Any, cell: Cell = XARM6) -> int:
         if cell.tool == "lite6":  # pneumatic jaws with no feedback: give them their time
             do("close" if close else "open", arm.close_lite6_gripper() if close else arm.open_lite6_gripper())
             time.sleep(0.5)
+        elif cell.tool == "bio-g1":
+            do("close" if close else "open", arm.close_bio_gripper() if close else arm.open_bio_gripper())
         else:
             do("close" if close else "open", arm.set_gripper_position(0 if close else 850, wait=True))
 
@@ -102,6 +112,8 @@ def conveyor_cell(arm: Any, cell: Cell = XARM6) -> int:
     if cell.tool == "xarm":
         do("set_gripper_enable", arm.set_gripper_enable(True))
         do("set_gripper_speed", arm.set_gripper_speed(5000))
+    elif cell.tool == "bio-g1":
+        do("set_bio_gripper_enable", arm.set_bio_gripper_enable(True))
     grip(False)
     do("above the belt", arm.set_position(*PICK, TRAVEL_Z, **move))
     count = 0
@@ -127,7 +139,9 @@ def conveyor_cell(arm: Any, cell: Cell = XARM6) -> int:
 def run_shift(cell: Cell = XARM6) -> dict[str, Any]:
     """The program on a stepped-clock emulator of the cell: what it counted, every object where it
     ended, the cell's state (``xarm-emu scene --json``), controller and wall seconds."""
-    with running_emulator(cell.model, scene=cell.scene, stepped=True, admin=True) as st, sdk_pointed_at(st):
+    gripper = "bio-g1" if cell.tool == "bio-g1" else "xarm"
+    with running_emulator(cell.model, scene=cell.scene, stepped=True, admin=True, gripper=gripper) as st, \
+            sdk_pointed_at(st):
         arm = XArmAPI("127.0.0.1")
         try:
             wall = time.perf_counter()
@@ -168,6 +182,10 @@ def test_the_same_program_on_a_lite6_with_its_gripper() -> None:
     every_part_in_the_bin(run_shift(LITE6), LITE6)
 
 
+def test_the_same_program_with_the_bio_gripper_g1() -> None:
+    every_part_in_the_bin(run_shift(BIO_G1), BIO_G1)
+
+
 def test_the_cell_reports_every_element(shifts: list[dict[str, Any]]) -> None:
     cell = shifts[0]["cell"]
     assert cell["conveyors"] == [{"name": "belt", "running": False, "speed": 200.0, "output": "CO0"}]
@@ -182,7 +200,8 @@ def test_two_shifts_end_the_same_to_the_last_bit(shifts: list[dict[str, Any]]) -
 
 
 def test_the_shift_runs_faster_than_real_time(shifts: list[dict[str, Any]]) -> None:
-    """About 36 s of arm time; 7 to 10 times real time on a busy 2-core machine (the SDK's round
-    trips, its report threads and the engine share it)."""
+    """About 36 s of arm time; 22 to 25 times real time on the 2-core machine with a core free, 13
+    to 16 with both busy (the SDK's round trips, its report threads and the engine share it); the
+    bound holds with both cores busy."""
     best = max(s["seconds"] / s["wall"] for s in shifts)
-    assert best >= 3.0, f"{best:.1f} times real time"
+    assert best >= 6.0, f"{best:.1f} times real time"

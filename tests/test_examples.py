@@ -92,7 +92,7 @@ def test_conveyor_cell_example_passes_under_pytest() -> None:
     pytest.importorskip("mujoco")
     code, out = run("-m", "pytest", "-p", "no:cacheprovider", str(EXAMPLES / "08_conveyor_cell.py"))
     assert code == 0, out
-    assert "5 passed" in out
+    assert "6 passed" in out
 
 
 def test_every_example_is_run_here_and_listed_in_the_readme() -> None:

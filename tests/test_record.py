@@ -41,6 +41,8 @@ def read_back(path: Path) -> dict[str, dict[str, list[Any]]]:
             entry["value"] += batch.column("LineStrips3D:strips").to_pylist()
         elif "Boxes3D:centers" in names:
             entry["value"] += batch.column("Boxes3D:centers").to_pylist()
+            if "Boxes3D:colors" in names:  # the colours where the entity has them (a cell's belts)
+                entry["level"] += batch.column("Boxes3D:colors").to_pylist()
     for entry in out.values():  # chunks come in any order
         order = sorted(range(len(entry["time"])), key=entry["time"].__getitem__)
         for key in ("time", "value", "level"):
@@ -148,6 +150,50 @@ def test_served_pick_records_the_objects_poses(tmp_path: Path) -> None:
     assert centres[-1][2] == pytest.approx(20.0, abs=3.0)  # lifted 100 mm
     held = rec["/objects/cube/held"]["value"]
     assert held[0] == 0.0 and held[-1] == 1.0
+
+
+def test_served_cell_records_the_belt_the_beam_and_the_parts(tmp_path: Path) -> None:
+    """The conveyor cell of examples/08 under ``serve --record``, its belt switched on and off through
+    CO0: the recording has the belt's box with its running state, the photo-eye's beam with its
+    interrupted state, and the part the feeder placed riding the belt toward the beam."""
+    pytest.importorskip("mujoco")
+    from xarm_emu.controller.scene import contact
+
+    path = tmp_path / "cell.rrd"
+    scene = contact.load_scene(Path(__file__).parents[1] / "examples" / "conveyor_cell.toml")
+    cfg = ServerConfig(host="127.0.0.1", port=0, normal_port=0, rich_port=0, develop_port=0, speed=4.0)
+    st = ServerThread(Emulator(6, config_dir=tmp_path / "config", scene=scene), cfg,
+                      compose=(lambda srv: attach_recorder(srv, path),)).start()
+
+    def cell() -> dict[str, Any]:
+        return st.call(lambda: st.emulator.physics.cell.status())  # type: ignore[union-attr, return-value]
+
+    try:
+        with Client("127.0.0.1", st.ports["command"]) as c:
+            time.sleep(0.3)  # a few entries of the stopped belt and the clear beam
+            c.call(134, digital=0x0101)  # CO0 on (CGPIO_SET_DIGIT: enable bit 0, value 1)
+            assert wait_for(lambda: cell()["sensors"][0]["interrupted"], timeout=10.0)
+            c.call(134, digital=0x0100)  # CO0 off
+            assert wait_for(lambda: not cell()["conveyors"][0]["running"], timeout=5.0)
+            time.sleep(0.3)
+        placed = st.call(lambda: st.emulator.scene_objects())[0]
+    finally:
+        st.stop()
+    rec = read_back(path)
+    running = rec["/cell/belts/belt/running"]["value"]
+    assert running[0] == 0.0 and 1.0 in running and running[-1] == 0.0
+    cut = rec["/cell/sensors/eye/interrupted"]["value"]
+    assert cut[0] == 0.0 and cut[-1] == 1.0
+    belt = rec["/cell/belts/belt"]
+    assert belt["value"][-1][0] == pytest.approx([380.0, 300.0, -80.0])  # the belt's box
+    assert len(set(map(tuple, belt["level"]))) == 2  # grey stopped, green running
+    assert "/cell/sensors/eye" in rec
+    xs = [v[0][0] for v in rec["/objects/part-1"]["value"]]
+    # placed at the belt's far end (x 520; an entry every 0.1 s of wall time is 80 mm of belt at
+    # speed 4), carried toward the arm, stopped in the beam
+    assert xs[0] > 430.0 and xs[-1] < 340.0
+    assert all(b <= a + 0.1 for a, b in zip(xs, xs[1:], strict=False))  # never back (0.1 mm: settling)
+    assert rec["/objects/part-1"]["value"][-1][0] == pytest.approx(placed["position"], abs=0.5)
 
 
 def test_record_command_against_a_running_box(tmp_path: Path) -> None:

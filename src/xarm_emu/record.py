@@ -17,7 +17,12 @@ A recording holds, against the ``time`` timeline (seconds since the recording be
 - ``objects/<name>``: under ``serve --record`` with a scene of ``[[object]]`` tables, each object as
   the physics world has it, ten times a second: a box (``Boxes3D``), a cylinder (``Cylinders3D``) or a
   sphere (``Ellipsoids3D``) at its centre (mm, base frame) and orientation, and ``objects/<name>/held``
-  (1 while both fingers or the vacuum cup hold it).
+  (1 while both fingers or the vacuum cup hold it); a feeder's parts appear as it places them;
+- ``cell/belts/<name>`` and ``cell/sensors/<name>``: under ``serve --record`` with a cell, ten times a
+  second, each belt as its box (``Boxes3D``, green while it runs, grey stopped) with
+  ``cell/belts/<name>/running`` (1 while it runs), and each sensor's beam as a line
+  (``LineStrips3D``) or its region as a box, red while an object interrupts it, with
+  ``cell/sensors/<name>/interrupted`` (1 while interrupted).
 
 Open it with Rerun's viewer: ``rerun session.rrd`` (the native viewer, ``pip install rerun-sdk``),
 or ``rerun --web-viewer session.rrd`` in the browser. Needs the ``record`` extra
@@ -99,6 +104,9 @@ class SessionRecorder:
         #: its pose now, ``(name, shape, size mm, Emulator.scene_objects() entry)``.
         self.objects: Callable[[], list[tuple[str, str, tuple[float, ...], Mapping[str, Any]]]] | None = None
         self._last_objects = -math.inf
+        #: Under ``serve --record`` with a cell: returns the cell as the scene declares it
+        #: (``controller/scene/cell.py``) and its elements' state (``xarm-emu scene --json``).
+        self.cell: Callable[[], tuple[Any, Mapping[str, Any]] | None] | None = None
 
     def now(self) -> float:
         """Seconds since the recording began (the ``time`` timeline)."""
@@ -127,9 +135,11 @@ class SessionRecorder:
         # which the server holds while it passes a command to the recorder)
         t = self.now() if t is None else t
         objects = None
+        cell = None
         if not rich and self.objects is not None and t - self._last_objects >= GEOMETRY_PERIOD:
             self._last_objects = t
             objects = self.objects()
+            cell = self.cell() if self.cell is not None else None
         with self._lock:
             if self._closed:
                 return
@@ -137,6 +147,8 @@ class SessionRecorder:
             self.reports += 1
             if objects:
                 self._objects(objects)
+            if cell is not None:
+                self._cell(*cell)
             if rich:
                 self._rich(snap)
                 return
@@ -216,6 +228,29 @@ class SessionRecorder:
                 item = rr.Ellipsoids3D(centers=centre, half_sizes=[[size[0] / 2] * 3], quaternions=turn)
             self._rec.log(f"objects/{name}", item)
             self._scalar(f"objects/{name}/held", 1.0 if pose["held"] else 0.0)
+
+    def _cell(self, cell: Any, status: Mapping[str, Any]) -> None:
+        """Each belt as its box and each sensor's beam or region, coloured by their state."""
+        from .viewer.scene import BEAM_CLEAR, BEAM_CUT, BELT_RUNNING, BELT_STOPPED
+
+        rr = self._rr
+        for c, st in zip(cell.conveyors, status.get("conveyors", []), strict=False):
+            running = bool(st["running"])
+            self._rec.log(f"cell/belts/{c.name}", rr.Boxes3D(
+                mins=[list(c.min)], sizes=[[hi - lo for lo, hi in zip(c.min, c.max, strict=True)]],
+                colors=[BELT_RUNNING if running else BELT_STOPPED]))
+            self._scalar(f"cell/belts/{c.name}/running", 1.0 if running else 0.0)
+        for sensor, st in zip(cell.sensors, status.get("sensors", []), strict=False):
+            cut = bool(st["interrupted"])
+            tint = [BEAM_CUT if cut else BEAM_CLEAR]
+            if sensor.beam is not None:
+                item = rr.LineStrips3D([[list(sensor.beam[0]), list(sensor.beam[1])]], radii=2.0, colors=tint)
+            else:
+                lo, hi = sensor.region
+                item = rr.Boxes3D(mins=[list(lo)], sizes=[[b - a for a, b in zip(lo, hi, strict=True)]],
+                                  colors=tint)
+            self._rec.log(f"cell/sensors/{sensor.name}", item)
+            self._scalar(f"cell/sensors/{sensor.name}/interrupted", 1.0 if cut else 0.0)
 
     def command(self, controller_time: float, peer: str, register: int, name: str | None,
                 state: int | None, t: float | None = None) -> None:
@@ -347,6 +382,7 @@ class RecordAttachment:
         self._thread: threading.Thread | None = None
         if server.emulator.physics is not None:
             recorder.objects = self._objects
+            recorder.cell = self._cell
 
     def _objects(self) -> list[tuple[str, str, tuple[float, ...], Mapping[str, Any]]]:
         """The scene's objects where the physics world has them now (under the server's lock)."""
@@ -358,6 +394,13 @@ class RecordAttachment:
             specs = physics.world.listed_specs()
             poses = emu.scene_objects()
         return [(o.name, o.shape, o.size, p) for o, p in zip(specs, poses, strict=True)]
+
+    def _cell(self) -> tuple[Any, Mapping[str, Any]] | None:
+        """The scene's cell and its elements' state now (under the server's lock); None: no cell."""
+        with self.server.lock:
+            physics = self.server.emulator.physics
+            runner = None if physics is None else physics.cell
+            return None if runner is None else (runner.cell, runner.status())
 
     def start(self) -> None:
         host = self.server.config.host

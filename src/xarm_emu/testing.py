@@ -117,22 +117,31 @@ def sdk_pointed_at(server: ServerThread) -> Iterator[None]:
         socket.setdefaulttimeout(previous_timeout)
 
 
+#: Seconds the SDK's report thread sleeps between looks at its socket's queue while a frame of the
+#: stepped clock is on its way (its own poll is 1 ms, which every handshake would wait).
+HANDSHAKE_POLL = 0.0001
+#: The report port the SDK reads for each of its ``report_type`` values ("real" is the develop port).
+_SDK_REPORT_KIND = {"rich": "rich", "normal": "normal", "real": "develop"}
+
+
 @contextlib.contextmanager
 def sdk_on_stepped_clock(server: ServerThread, arm: Any) -> Iterator[None]:
     """Run the SDK calls of this thread on ``server``'s controller time (a server started with
     ``stepped=True``; ``arm`` the SDK's ``XArmAPI`` connected to it): for the block,
     ``time.sleep(s)`` in this thread runs ``s`` of controller time (at least one control period)
     instead of waiting, and ``time.monotonic()`` reads controller time (from where the wall clock
-    stood when the block began). Every wait of the SDK and of the program (its polls, its timeouts)
-    then counts control periods, so a program runs as fast as the emulator steps, and the same
-    program gives the same result to the last bit. Other threads keep the real clock.
+    stood when the block began), in this thread and in the SDK's report thread. Every wait of the
+    SDK and of the program (its polls, its timeouts) then counts control periods, so a program runs
+    as fast as the emulator steps, and the same program gives the same result to the last bit.
+    Other threads keep the real clock.
 
-    Report frames go out on the wall clock, and the SDK acts on when its report thread saw them (its
-    position sync before a move waits for a report of a ready box), so during the block they go out
-    only once: at the first sleep after which the box is ready without error, until the SDK has
-    taken two of them (the same state), which syncs it as a report of the real box would. The
-    program reads the box through commands otherwise."""
-    import math
+    The report frames go out at their deadlines in controller time, not on the wall clock: a sleep
+    steps to each deadline that falls in it and writes the frame of every report port with
+    readers from the state of that period. For the port the SDK reads, the sleep then waits until
+    the SDK's report thread has handled the frame (its report callback ran and it went back to
+    polling its socket), so ``arm.angles``, ``arm.position``, ``arm.state`` and the rest of what the
+    SDK takes from reports are, after each sleep, those of the last frame due by then, as on a real
+    box at that instant."""
     import threading
     import time
 
@@ -141,50 +150,65 @@ def sdk_on_stepped_clock(server: ServerThread, arm: Any) -> Iterator[None]:
     me = threading.current_thread()
     real_sleep, real_monotonic = time.sleep, time.monotonic
     base = real_monotonic() - server.emulator.time
-    seen = threading.Semaphore(0)
-    synced = False
+    srv = server.server
+    inner = getattr(arm, "_arm", arm)
+    sdk_kind = (_SDK_REPORT_KIND.get(getattr(inner, "_report_type", "rich"))
+                if getattr(inner, "_enable_report", True) else None)
+    reporter = getattr(inner, "_report_thread", None)
+    handled = threading.Semaphore(0)
+    took = threading.Event()
+    awaiting = threading.Event()  # a frame of the SDK's port is out and not handled yet
+    kick = threading.Event()  # ends the report thread's sleep: a frame is out
 
     def on_report(_: Any) -> None:
-        seen.release()
-
-    def sync_once() -> None:
-        nonlocal synced
-        ctl = server.emulator.controller
-        if synced or ctl.error_code or server.call(lambda: ctl.state) in (4, 5):
-            return
-        while seen.acquire(blocking=False):
-            pass
-        server.call(lambda: server.server.pause_reports(0.0))
-        try:
-            for _ in range(2):
-                if not seen.acquire(timeout=10.0):
-                    raise TimeoutError("the SDK took no report frame within 10 s")
-        finally:
-            server.call(lambda: server.server.pause_reports(math.inf))
-        synced = True
+        took.set()  # the frame's report fields are in; it is handled when the thread polls again
 
     def sleep(seconds: float) -> None:
-        if threading.current_thread() is not me:
-            real_sleep(seconds)
+        current = threading.current_thread()
+        if current is not me:
+            if current is not reporter:
+                real_sleep(seconds)
+                return
+            if took.is_set():
+                took.clear()
+                handled.release()
+            elif awaiting.is_set():  # look at the socket's queue again soon, not after its 1 ms
+                seconds = min(seconds, HANDSHAKE_POLL)
+            if kick.wait(seconds):
+                kick.clear()
             return
-        periods = max(1, round(float(seconds) / PERIOD))
-        server.call(lambda: server.server.advance(periods * PERIOD))
-        sync_once()
+        left = max(1, round(float(seconds) / PERIOD))
+        while left > 0:
+            n, sent = srv.advance_to_report(left)  # under the arm's lock, not through the loop
+            left -= n
+            if sdk_kind in sent:
+                awaiting.set()
+                kick.set()
+                if not handled.acquire(timeout=10.0):
+                    raise TimeoutError("the SDK's report thread handled no report frame within 10 s")
+                awaiting.clear()
 
     def monotonic() -> float:
-        if threading.current_thread() is not me:
+        current = threading.current_thread()
+        if current is not me and current is not reporter:
             return real_monotonic()
         return base + server.emulator.time  # changes only in this thread's sleeps
 
-    server.call(lambda: server.server.pause_reports(math.inf))
+    def quiet() -> None:
+        """Let the frames sent on the wall clock before the block be handled, and forget them."""
+        while handled.acquire(timeout=0.05):
+            pass
+
+    server.call(lambda: setattr(srv, "reports_stepped", True))
     arm.register_report_callback(on_report)
     time.sleep, time.monotonic = sleep, monotonic  # type: ignore[assignment]
     try:
+        quiet()
         yield
     finally:
         time.sleep, time.monotonic = real_sleep, real_monotonic  # type: ignore[assignment]
         arm.release_report_callback(on_report)
-        server.call(lambda: server.server.pause_reports(0.0))
+        server.call(lambda: setattr(srv, "reports_stepped", False))
 
 
 class RunningProxy:

@@ -22,6 +22,7 @@ import contextlib
 import errno
 import io
 import logging
+import math
 import os
 import socket
 import threading
@@ -840,8 +841,42 @@ class EmulatorServer:
         self._report_pause_until = time.monotonic() + seconds
 
     def reports_paused(self) -> bool:
-        """Whether an injected report pause is on now."""
-        return time.monotonic() < self._report_pause_until
+        """Whether the sender's schedule sends no frame now: an injected report pause is on, or the
+        frames go out at the stepped clock's deadlines (:attr:`reports_stepped`)."""
+        return self.reports_stepped or time.monotonic() < self._report_pause_until
+
+    #: Stepped clock: the report frames go out only when :meth:`advance_to_report` reaches their
+    #: deadlines, not on the sender's wall-clock schedule (``testing.sdk_on_stepped_clock``).
+    reports_stepped = False
+
+    def advance_to_report(self, periods: int) -> tuple[int, tuple[str, ...]]:
+        """Stepped clock: run control periods up to the next report deadline of a stream with
+        readers (controller time, the multiples of the stream's interval; a deadline's period is
+        the first that starts at or after it), at most ``periods``; at a deadline, write each due
+        stream's frame from the state of that period to its readers at once (none while an injected
+        report pause is on). Returns the periods run and the kinds whose frame every reader took.
+        Safe from any thread (it takes the arm's :attr:`lock`; what touches connections runs on
+        the loop)."""
+        ctl = self.emulator.controller
+        now = ctl.data.steps
+        due: dict[str, int] = {}
+        for kind, stream in self.reports.streams.items():
+            if stream.readers:
+                ratio = stream.interval / PERIOD  # control periods per frame
+                k = math.floor(now / ratio + 1e-9) + 1
+                due[kind] = math.ceil(k * ratio - 1e-9)
+        n = min([periods, *(p - now for p in due.values())])
+        with self.lock:
+            self.emulator.step(n)
+            self.code_watch.check(ctl)
+            if self.feedback is not None and self.feedback.pending:
+                self.in_loop(self.deliver_feedback)
+            sent: tuple[str, ...] = ()
+            if time.monotonic() >= self._report_pause_until:
+                sent = tuple(kind for kind, p in due.items() if p == now + n and self.reports.push(kind))
+        if self._later:
+            self.in_loop(self._settle_later)
+        return n, sent
 
     async def close(self) -> None:
         self.reports.quiesce()  # first, before any await: every arm of a worker stops encoding at once

@@ -111,6 +111,17 @@ class ReportStreams:
 
         return frame
 
+    def push(self, kind: str) -> bool:
+        """Write ``kind``'s frame from the state now to every reader at once, off the sender's
+        schedule (the stepped clock's deadlines, ``EmulatorServer.advance_to_report``), under the
+        lock; whether every reader took it whole (a small frame into a reader's kernel buffer)."""
+        stream = self.streams[kind]
+        with self.lock:
+            frame = self.encoders[kind](self.snapshot())
+            took = [r.offer(frame) and not r.rest for r in stream.readers if not r.dead]
+            stream.frames_sent += 1
+        return all(took)
+
     # -- counters (written by the sender thread) -----------------------------------------------
     @property
     def frames_sent(self) -> dict[str, int]:

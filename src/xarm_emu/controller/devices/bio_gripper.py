@@ -350,12 +350,15 @@ BioGripper.REGISTER_MAP = REGISTER_MAP
 
 class BioFingers:
     """The BIO gripper's fingers as the physics twin drives them (``DrivenFingers`` of
-    controller/devices/gripper.py): they open 71..150 mm, positions count up as they open; its force
-    register (1..100) scales the most the twin's pads press with."""
+    controller/devices/gripper.py): they open over the gripper's :attr:`~BioGripper.object_range`
+    (71..150 mm; the G1's 50..130 positions, one a millimetre), positions count up as they open; the
+    force register (1..100) scales the most the twin's pads press with, where the gripper has one
+    (``scaled``; the G1 has no force setting and presses with the most)."""
 
-    def __init__(self, b: BioGripper, most: float) -> None:
+    def __init__(self, b: BioGripper, most: float, scaled: bool = True) -> None:
         self.b = b
         self.most = most
+        self.scaled = scaled
 
     @property
     def opening(self) -> float:
@@ -371,7 +374,7 @@ class BioFingers:
 
     @property
     def force(self) -> float:
-        return self.most * self.b.force / FORCE_MAX
+        return self.most * self.b.force / FORCE_MAX if self.scaled else self.most
 
     @property
     def met(self) -> bool:
@@ -379,9 +382,10 @@ class BioFingers:
 
     def meet(self, width: float) -> None:
         b = self.b
-        width = min(max(width, CLOSED_MM), OPEN_MM)
+        lo, hi, _ = b.object_range
+        width = min(max(width, lo), hi)
         b.set_object(width)
-        b.position = max(b.position, mm_to_pulses(width))  # the fingers stopped where they met it
+        b.position = max(b.position, b._object_position(width))  # the fingers stopped where they met it
 
     def part(self, touching: bool) -> None:
         b = self.b

@@ -38,6 +38,7 @@ from .bio_gripper import (
     REG_TARGET,
     SPEED_MAX,
     SPEED_MIN,
+    BioFingers,
     BioGripper,
 )
 
@@ -74,9 +75,10 @@ class BioGripperG1(BioGripper):
     def _rate(self) -> float:
         return self.speed * SPEED_TO_UNITS
 
-    def driven_fingers(self, force: float) -> None:
-        """None: the G1 is no body of the physics twin (no millimetre scale of its fingers)."""
-        return None
+    def driven_fingers(self, force: float) -> BioFingers:
+        """Its fingers as the physics twin drives them: one position unit taken as a millimetre (the
+        opening this model reports, ``opening_mm``), always at ``force`` (no force setting)."""
+        return BioFingers(self, force, scaled=False)
 
 
 #: The G1's registers (the table of the module docstring): 0x0700 takes the target, both registers

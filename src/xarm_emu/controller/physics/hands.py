@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ...model.collision import BUILTIN_TOOLS
-from ..devices import bio_gripper
+from ..devices import bio_gripper, bio_gripper_g1
 from ..devices.robotiq import ROBOTIQ_2F85, ROBOTIQ_2F140
 
 
@@ -68,6 +68,15 @@ VACUUM_HAND = Hand("xArm Vacuum Gripper", stroke=0.0, pad_half=(0.0, 0.0, 0.0), 
 BIO_HAND = Hand("xArm BIO Gripper", stroke=bio_gripper.OPEN_MM, pad_half=(12.0, 4.0, 20.0),
                 tip=BUILTIN_TOOLS[3][2], housing=(50.0, (40.0, 90.0, 50.0)), force=50.0)
 
+#: The first-generation BIO gripper ("G1"): its positions 50..130 have no published millimetre scale,
+#: and the device emulation (controller/devices/bio_gripper_g1.py) already reports them as the
+#: opening (its ``opening_mm``, the width of an object between the fingers), so the engine takes one
+#: unit for one millimetre: the pads open to 130 mm and close to 50 mm. The pads, the housing, the
+#: fingertips at the BIO gripper's 150 mm tool length and 50 N a finger (the G1 has no force setting)
+#: are the G2's estimates.
+BIO_G1_HAND = Hand("xArm BIO Gripper G1", stroke=float(bio_gripper_g1.OPEN), pad_half=BIO_HAND.pad_half,
+                   tip=BIO_HAND.tip, housing=BIO_HAND.housing, force=BIO_HAND.force)
+
 #: The Lite 6 gripper (pneumatic jaws on TO0/TO1): each finger slides 8.1 mm, so the opening spans
 #: 0..16.2 mm with the fingers fitted to close fully, and the fingertips end 81.1 mm from the flange
 #: (the public MJCF of the Lite 6 gripper, derived from UFACTORY's URDF); 10 N a finger and the pad
@@ -77,4 +86,4 @@ LITE6_HAND = Hand("Lite 6 Gripper", stroke=16.2, pad_half=(8.0, 3.0, 10.0), tip=
 
 #: The hands by the emulator's gripper names (``Emulator(gripper=...)``).
 HANDS = {"xarm": XARM_HAND, "robotiq-2f85": ROBOTIQ_2F85_HAND, "robotiq-2f140": ROBOTIQ_2F140_HAND,
-         "bio": BIO_HAND}
+         "bio": BIO_HAND, "bio-g1": BIO_G1_HAND}
