@@ -132,10 +132,10 @@ def test_where_a_device_takes_an_object_is_its_own(gripper: str, places: tuple[i
 
 def test_a_gripper_says_itself_whether_the_physics_twin_drives_its_fingers():
     """What the physics twin drives of a gripper's own finger model comes from the device
-    (``driven_fingers``): the Robotiq and the BIO G2 hand theirs out, the rest none; physics/driven.py
+    (``driven_fingers``): the Robotiq, the BIO G2 and G1 hand theirs out, the rest none; physics/driven.py
     tests no device class."""
     driven = {g: Emulator(6, gripper=g).gripper.device.driven_fingers(40.0) for g in GRIPPERS}
-    assert {g for g, f in driven.items() if f is not None} == {"robotiq-2f85", "robotiq-2f140", "bio"}
+    assert {g for g, f in driven.items() if f is not None} == {"robotiq-2f85", "robotiq-2f140", "bio", "bio-g1"}
     bio = driven["bio"]
     assert bio is not None and bio.opening == 150.0 and not bio.closing and not bio.met
     source = (EMULATOR.parent / "physics" / "driven.py").read_text()

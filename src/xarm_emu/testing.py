@@ -124,6 +124,76 @@ HANDSHAKE_POLL = 0.0001
 _SDK_REPORT_KIND = {"rich": "rich", "normal": "normal", "real": "develop"}
 
 
+class _SteppedSdkClock:
+    """The clock of :func:`sdk_on_stepped_clock`: ``sleep`` and ``monotonic`` for the program's
+    thread (``me``) and the SDK's report thread, the real ones for every other thread."""
+
+    def __init__(self, server: ServerThread, arm: Any) -> None:
+        import threading
+        import time
+
+        self.me = threading.current_thread()
+        self.real_sleep, self.real_monotonic = time.sleep, time.monotonic
+        self.base = self.real_monotonic() - server.emulator.time
+        self.server = server
+        inner = getattr(arm, "_arm", arm)
+        self.sdk_kind = (_SDK_REPORT_KIND.get(getattr(inner, "_report_type", "rich"))
+                         if getattr(inner, "_enable_report", True) else None)
+        self.reporter = getattr(inner, "_report_thread", None)
+        self.handled = threading.Semaphore(0)
+        self.took = threading.Event()
+        self.awaiting = threading.Event()  # a frame of the SDK's port is out and not handled yet
+        self.kick = threading.Event()  # ends the report thread's sleep: a frame is out
+
+    def on_report(self, _: Any) -> None:
+        self.took.set()  # the frame's report fields are in; it is handled when the thread polls again
+
+    def sleep(self, seconds: float) -> None:
+        import threading
+
+        from .controller.core.interface import PERIOD
+
+        current = threading.current_thread()
+        if current is not self.me:
+            if current is self.reporter:
+                self._report_thread_sleep(seconds)
+            else:
+                self.real_sleep(seconds)
+            return
+        left = max(1, round(float(seconds) / PERIOD))
+        while left > 0:
+            n, sent = self.server.server.advance_to_report(left)  # under the arm's lock, not the loop
+            left -= n
+            if self.sdk_kind in sent:
+                self.awaiting.set()
+                self.kick.set()
+                if not self.handled.acquire(timeout=10.0):
+                    raise TimeoutError("the SDK's report thread handled no report frame within 10 s")
+                self.awaiting.clear()
+
+    def _report_thread_sleep(self, seconds: float) -> None:
+        if self.took.is_set():
+            self.took.clear()
+            self.handled.release()
+        elif self.awaiting.is_set():  # look at the socket's queue again soon, not after its 1 ms
+            seconds = min(seconds, HANDSHAKE_POLL)
+        if self.kick.wait(seconds):
+            self.kick.clear()
+
+    def monotonic(self) -> float:
+        import threading
+
+        current = threading.current_thread()
+        if current is not self.me and current is not self.reporter:
+            return self.real_monotonic()
+        return self.base + self.server.emulator.time  # changes only in this thread's sleeps
+
+    def quiet(self) -> None:
+        """Let the frames sent on the wall clock before the block be handled, and forget them."""
+        while self.handled.acquire(timeout=0.05):
+            pass
+
+
 @contextlib.contextmanager
 def sdk_on_stepped_clock(server: ServerThread, arm: Any) -> Iterator[None]:
     """Run the SDK calls of this thread on ``server``'s controller time (a server started with
@@ -142,72 +212,19 @@ def sdk_on_stepped_clock(server: ServerThread, arm: Any) -> Iterator[None]:
     polling its socket), so ``arm.angles``, ``arm.position``, ``arm.state`` and the rest of what the
     SDK takes from reports are, after each sleep, those of the last frame due by then, as on a real
     box at that instant."""
-    import threading
     import time
 
-    from .controller.core.interface import PERIOD
-
-    me = threading.current_thread()
-    real_sleep, real_monotonic = time.sleep, time.monotonic
-    base = real_monotonic() - server.emulator.time
+    clock = _SteppedSdkClock(server, arm)
     srv = server.server
-    inner = getattr(arm, "_arm", arm)
-    sdk_kind = (_SDK_REPORT_KIND.get(getattr(inner, "_report_type", "rich"))
-                if getattr(inner, "_enable_report", True) else None)
-    reporter = getattr(inner, "_report_thread", None)
-    handled = threading.Semaphore(0)
-    took = threading.Event()
-    awaiting = threading.Event()  # a frame of the SDK's port is out and not handled yet
-    kick = threading.Event()  # ends the report thread's sleep: a frame is out
-
-    def on_report(_: Any) -> None:
-        took.set()  # the frame's report fields are in; it is handled when the thread polls again
-
-    def sleep(seconds: float) -> None:
-        current = threading.current_thread()
-        if current is not me:
-            if current is not reporter:
-                real_sleep(seconds)
-                return
-            if took.is_set():
-                took.clear()
-                handled.release()
-            elif awaiting.is_set():  # look at the socket's queue again soon, not after its 1 ms
-                seconds = min(seconds, HANDSHAKE_POLL)
-            if kick.wait(seconds):
-                kick.clear()
-            return
-        left = max(1, round(float(seconds) / PERIOD))
-        while left > 0:
-            n, sent = srv.advance_to_report(left)  # under the arm's lock, not through the loop
-            left -= n
-            if sdk_kind in sent:
-                awaiting.set()
-                kick.set()
-                if not handled.acquire(timeout=10.0):
-                    raise TimeoutError("the SDK's report thread handled no report frame within 10 s")
-                awaiting.clear()
-
-    def monotonic() -> float:
-        current = threading.current_thread()
-        if current is not me and current is not reporter:
-            return real_monotonic()
-        return base + server.emulator.time  # changes only in this thread's sleeps
-
-    def quiet() -> None:
-        """Let the frames sent on the wall clock before the block be handled, and forget them."""
-        while handled.acquire(timeout=0.05):
-            pass
-
     server.call(lambda: setattr(srv, "reports_stepped", True))
-    arm.register_report_callback(on_report)
-    time.sleep, time.monotonic = sleep, monotonic  # type: ignore[assignment]
+    arm.register_report_callback(clock.on_report)
+    time.sleep, time.monotonic = clock.sleep, clock.monotonic  # type: ignore[assignment]
     try:
-        quiet()
+        clock.quiet()
         yield
     finally:
-        time.sleep, time.monotonic = real_sleep, real_monotonic  # type: ignore[assignment]
-        arm.release_report_callback(on_report)
+        time.sleep, time.monotonic = clock.real_sleep, clock.real_monotonic  # type: ignore[assignment]
+        arm.release_report_callback(clock.on_report)
         server.call(lambda: setattr(srv, "reports_stepped", False))
 
 
