@@ -8,7 +8,7 @@ clock it is given), :mod:`.server` (asyncio ports), :mod:`.client`, then the fac
 ``docs/ARCHITECTURE.md`` says where everything is.
 """
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 __all__ = ["__version__", "cli", "client", "controller", "model", "plot", "protocol", "record", "replay",
            "server", "testing", "viewer"]
