@@ -7,6 +7,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import tarfile
 import tomllib
 from pathlib import Path
 
@@ -60,3 +61,28 @@ def test_the_classifiers_are_the_tested_pythons() -> None:
     assert pythons == ["3.11", "3.12", "3.13"]
     assert PYPROJECT["project"]["requires-python"] == f">={pythons[0]}"
     assert "Python " + ", ".join(pythons[:-1]) + f" and {pythons[-1]}" in POLICY
+
+
+def wheel_check(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, str(ROOT / "scripts" / "wheel-check"), *args], capture_output=True,
+                          text=True, timeout=60)
+
+
+def test_the_wheel_check_refuses_a_dist_without_one_wheel_in_one_line(tmp_path: Path) -> None:
+    done = wheel_check(str(tmp_path))
+    assert done.returncode == 1
+    last = done.stderr.splitlines()[-1]
+    assert last == (f"wheel-check: FAIL dist: {tmp_path} "
+                    "holds 0 files xarm_emu-*.whl, not one (run `make dist`)")
+    assert wheel_check(str(tmp_path), "--extra", "nothing").returncode == 2  # a usage mistake
+
+
+def test_the_wheel_check_refuses_an_sdist_missing_the_checkout_s_files(tmp_path: Path) -> None:
+    (tmp_path / f"xarm_emu-{__version__}-py3-none-any.whl").write_bytes(b"")
+    with tarfile.open(tmp_path / f"xarm_emu-{__version__}.tar.gz", "w:gz") as tar:
+        tar.add(ROOT / "pyproject.toml", arcname=f"xarm_emu-{__version__}/pyproject.toml")
+    done = wheel_check(str(tmp_path))
+    assert done.returncode == 1
+    last = done.stderr.splitlines()[-1]
+    assert last.startswith(f"wheel-check: FAIL dist: xarm_emu-{__version__}.tar.gz lacks ")
+    assert "CHANGELOG.md" in last and "pyproject.toml" not in last
