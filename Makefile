@@ -9,9 +9,11 @@ STAMP := $(VENV)/.installed
 # `make test PYTHON=python3.12` runs on that Python only in a venv it made: one made by another Python
 # (of an earlier `make`) is refused here rather than used silently.
 ifneq ($(origin PYTHON),file)
+ifeq ($(filter clean,$(MAKECMDGOALS)),)
 ifeq ($(shell [ -x $(PY) ] && [ "$$($(PY) -c 'import sys; print(sys.version_info[:2])')" != \
 		"$$($(PYTHON) -c 'import sys; print(sys.version_info[:2])' 2>/dev/null)" ] && echo other),other)
 $(error $(VENV) was made by another Python than PYTHON=$(PYTHON): `make clean` first, or use a fresh clone)
+endif
 endif
 endif
 
