@@ -6,6 +6,17 @@ PY := $(VENV)/bin/python
 SERVE_STAMP := $(VENV)/.serve-installed
 STAMP := $(VENV)/.installed
 
+# `make test PYTHON=python3.12` runs on that Python only in a venv it made: one made by another Python
+# (of an earlier `make`) is refused here rather than used silently.
+ifneq ($(origin PYTHON),file)
+ifeq ($(filter clean,$(MAKECMDGOALS)),)
+ifeq ($(shell [ -x $(PY) ] && [ "$$($(PY) -c 'import sys; print(sys.version_info[:2])')" != \
+		"$$($(PYTHON) -c 'import sys; print(sys.version_info[:2])' 2>/dev/null)" ] && echo other),other)
+$(error $(VENV) was made by another Python than PYTHON=$(PYTHON): `make clean` first, or use a fresh clone)
+endif
+endif
+endif
+
 .PHONY: install serve sdk test bench lint clean fuzz stress image image-test browser sdk-examples bytecode docs docs-serve ci-lint
 
 $(SERVE_STAMP): pyproject.toml
@@ -57,6 +68,26 @@ browser:
 sdk-examples:
 	$(PYTHON) scripts/sdk-examples
 
+# The release files (docs/versioning.md): `python -m build` writes the sdist and the wheel built from
+# it (so the sdist holds what a build needs) into a fresh dist/; twine checks their metadata,
+# check-wheel-contents the wheel's files.
+RELEASE_STAMP := $(VENV)/.release-installed
+$(RELEASE_STAMP): $(SERVE_STAMP)
+	$(PY) -m pip install --disable-pip-version-check -q -e '.[release]'
+	@touch $(RELEASE_STAMP)
+
+.PHONY: dist wheel-check
+dist: $(RELEASE_STAMP)
+	rm -rf dist
+	$(PY) -m build --outdir dist .
+	$(VENV)/bin/twine check --strict dist/*
+	$(VENV)/bin/check-wheel-contents dist/*.whl
+
+# The wheel as a user gets it: fresh venvs outside the checkout, the wheel alone and with each extra,
+# serving the official SDK's first move (scripts/wheel-check; CI runs it, `make test` does not).
+wheel-check: dist
+	$(PY) scripts/wheel-check dist
+
 bench: $(STAMP)
 	$(PY) -m bench --against $(or $(LANDED),main)
 
@@ -107,4 +138,4 @@ image-test: $(STAMP)
 	PYTHON=$(abspath $(PY)) scripts/image-test
 
 clean:
-	rm -rf $(VENV) .sdk .tools build site *.egg-info src/*.egg-info
+	rm -rf $(VENV) .sdk .tools build dist site *.egg-info src/*.egg-info

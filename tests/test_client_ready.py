@@ -53,4 +53,4 @@ def test_it_loads_the_client_alone() -> None:
             "print(sorted({m.split('.')[1] for m in sys.modules if m.startswith('xarm_emu.')}), "
             "'numpy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "['client', 'protocol'] False"
+    assert out.strip() == "['_version', 'client', 'protocol'] False"  # _version: the package's number

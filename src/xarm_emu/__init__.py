@@ -9,7 +9,7 @@ above them all :mod:`.pytest_plugin`.
 ``docs/ARCHITECTURE.md`` says where everything is.
 """
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 __all__ = ["__version__", "cli", "client", "controller", "model", "plot", "protocol", "record", "replay",
            "server", "testing", "viewer"]

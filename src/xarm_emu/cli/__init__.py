@@ -17,7 +17,7 @@ One module per group of commands, registered here in the order ``xarm-emu --help
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
 import typer
 
@@ -74,6 +74,19 @@ serving.runner = _run_here
 def version() -> None:
     """Print the xarm-emu version."""
     console.print(__version__)
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        console.print(__version__)
+        raise typer.Exit()
+
+
+@app.callback()
+def _options(show_version: Annotated[bool, typer.Option(
+        "--version", callback=_print_version, is_eager=True, expose_value=False, allow_from_autoenv=False,
+        help="Print the xarm-emu version and exit.")] = False) -> None:
+    """The options of ``xarm-emu`` itself, before any command."""
 
 
 def main() -> None:
