@@ -1,9 +1,9 @@
-"""The elbow driven down into a table, through the unchanged SDK on the stepped clock: a table given as
-a ``[[plane]]`` or as a table-top ``[[box]]`` (what a user writes for a table) stops the arm with C31
-at collision sensitivity 3 (``set_collision_sensitivity``), and at 0 the arm, position-driven, goes on
-to its target. The xArm 6's forearm is folded up (J3 -3.5 rad) so that the upper arm is the lowest
-part of the arm; J2 at 0.16 rad/s then turns its lowest point (about 290 mm from the shoulder) down
-at some 45 mm/s."""
+"""The elbow driven down into a table, through the unchanged SDK on the stepped clock: a table given
+as a ``[[plane]]`` or as a table-top ``[[box]]`` (what a user writes for a table), or a belt, stops
+the arm with C31 at collision sensitivity 3 (``set_collision_sensitivity``), and at 0 the arm,
+position-driven, goes on to its target. The xArm 6's forearm is folded up (J3 -3.5 rad) so that the
+upper arm is the lowest part of the arm; J2 at 0.16 rad/s then turns its lowest point (about 290 mm
+from the shoulder) down at some 45 mm/s."""
 
 from __future__ import annotations
 
@@ -27,6 +27,8 @@ TABLES: dict[str, dict[str, Any]] = {
     "plane": {"plane": [{"name": "table", "point": [0, 0, TOP], "normal": [0, 0, 1], "stiffness": 10.0}]},
     "table-top box": {"box": [{"name": "table", "min": [150, -600, 0], "max": [900, 600, TOP],
                                "stiffness": 10.0}]},
+    "belt": {"conveyor": [{"name": "belt", "min": [150, -600, 0], "max": [900, 600, TOP],
+                           "direction": [1, 0, 0], "speed": 0}]},  # the links touch a belt as any fixture
 }
 ABOVE = [0.0, 1.9, -3.5, 0.0, 0.0, 0.0]  # rad: the upper arm's underside some 15 mm above the top
 INTO = [0.0, 2.05, -3.5, 0.0, 0.0, 0.0]  # rad: about 25 mm into it
