@@ -139,6 +139,41 @@ def test_a_checkpoint_carries_the_belt_the_beam_and_the_feeder() -> None:
     assert rest() == end
 
 
+def test_a_checkpoint_taken_while_the_beam_is_cut_carries_its_timer() -> None:
+    """Saved in the period the part cuts the beam (the belt running, one part placed, the input still
+    high for the sensor's 20 ms): continued, restored and continued again, the input falls in the same
+    period, the belt stops and starts the same, and every part ends in the same place to the last bit."""
+    emu = scene(conveyor=[BELT], sensor=[EYE], feeder=[{**PART, "count": 3, "trigger": "CO0"}])
+    co0(emu, True)
+    emu.advance(0.6)
+    world = emu.physics.world  # type: ignore[union-attr]
+    while not world.state.cell.beam[0]:
+        emu.advance(0.004)
+    assert ci0(emu) == 1  # cut, the input not yet low
+    cp = emu.checkpoint()
+    status = copy.deepcopy(cell(emu))
+    assert status["conveyors"][0]["running"] and status["feeders"][0]["count"] == 1
+
+    def rest() -> tuple[list[int], dict[str, tuple[float, ...]], dict[str, Any]]:
+        levels = []
+        for _ in range(10):  # the input, period by period, across its delay
+            levels.append(ci0(emu))
+            emu.advance(0.004)
+        co0(emu, False)
+        emu.advance(0.2)
+        co0(emu, True)  # part-2 is fed; part-1 rides on out of the beam
+        emu.advance(0.4)
+        return levels, objects(emu), copy.deepcopy(cell(emu))
+
+    end = rest()
+    assert end[0][0] == 1 and end[0][-1] == 0  # the input fell within the rest
+    assert set(end[1]) == {"part-1", "part-2"} and end[2]["feeders"][0]["count"] == 2
+    emu.restore(cp)
+    assert cell(emu) == status
+    assert emu.physics.world.state.cell.beam[0]  # type: ignore[union-attr]  # cut, its timer running
+    assert rest() == end
+
+
 @pytest.mark.parametrize(("tables", "message"), [
     ({"conveyor": [{**BELT, "output": "CI0"}]}, "conveyor belt: output must be an output such as 'CO0'"),
     ({"conveyor": [{**BELT, "direction": [0, 0, 1]}]}, "direction must be horizontal"),

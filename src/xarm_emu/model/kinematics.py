@@ -26,6 +26,7 @@ in coordinate system {A}": offset (1000, 0, 0, 0, 0, 180 deg) turns (207, 0, 112
 
 from __future__ import annotations
 
+import functools
 import math
 import operator
 from collections.abc import Callable, Sequence
@@ -448,9 +449,26 @@ def flange_target(
     """4x4 flange pose in the base frame that puts the TCP at ``T_tcp_in_user`` (inverse of tcp_pose)."""
     T = np.asarray(T_tcp_in_user, dtype=float)
     if any(user_offset):
-        T = pose_to_matrix(user_offset) @ T
+        T = _offset_matrix(tuple(map(float, user_offset))) @ T
     if any(tcp_offset):
-        T = T @ invert_transform(pose_to_matrix(tcp_offset))
+        T = T @ _inverse_offset(tuple(map(float, tcp_offset)))
+    return T
+
+
+@functools.lru_cache(maxsize=32)
+def _offset_matrix(offset: tuple[float, ...]) -> np.ndarray:
+    """``pose_to_matrix(offset)``, once for each offset (asked every control period of a move);
+    read-only."""
+    T = pose_to_matrix(offset)
+    T.flags.writeable = False
+    return T
+
+
+@functools.lru_cache(maxsize=32)
+def _inverse_offset(offset: tuple[float, ...]) -> np.ndarray:
+    """The inverse of ``pose_to_matrix(offset)``, once for each offset; read-only."""
+    T = invert_transform(pose_to_matrix(offset))
+    T.flags.writeable = False
     return T
 
 

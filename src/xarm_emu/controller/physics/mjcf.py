@@ -8,7 +8,7 @@ Units: the engine works in metres, kilograms and seconds; the tables are in mm.
 
 An object's friction is that of its every contact (its geoms have the higher priority), so a
 scene's ``friction`` says how the object grips and slides. Collision groups (MuJoCo's
-contype/conaffinity bits): fixtures (planes, boxes) touch objects only;
+contype/conaffinity bits): fixtures (planes, boxes, belts) touch objects and links only;
 objects touch everything; the arm's links (bit ``LINK``) touch objects and fixtures, the hand objects
 only. A conveyor is a fixture on a slide joint (:func:`_conveyor`). What the TCP presses into a fixture
 is measured apart (the spring-damper of controller/scene/contact.py); a link pressing into one is a
