@@ -109,6 +109,10 @@ class CommandResult:
     placed_by: str = ""
     #: Whether the recording could not decide its period (:data:`PLACEMENTS`).
     undecided: bool = False
+    #: Of its real-time frames, those inside an undecided command's window (left out of its measures).
+    excluded_frames: int = 0
+    #: The undecided command whose window holds its answer (its reply not counted as a difference).
+    inside: int | None = None
 
 
 @dataclass
@@ -872,11 +876,16 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
         d_mm, d_deg, dtau, dcur = np.zeros(0), np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1))
         has = np.zeros(0, dtype=bool)
     dtau, dcur = np.where(np.isnan(dtau), 0.0, dtau), np.where(np.isnan(dcur), 0.0, dcur)
+    inside = _inside_windows(result.commands, np.array([s.t for s in rec]), session.requests)
+    d_mm, d_deg = np.where(inside, 0.0, d_mm), np.where(inside, 0.0, d_deg)
+    dtau, dcur = np.where(inside[:, None], 0.0, dtau), np.where(inside[:, None], 0.0, dcur)
+    has = has & ~inside
     rms = _rms_where
     bounds = [j for _, j in cmd_at] + [len(rec)]
     for n, c in enumerate(result.commands):
         a, b = bounds[n], bounds[n + 1]
         c.samples = (a, b)
+        c.excluded_frames = int(inside[a:b].sum())
         if b > a:
             c.path_mm, c.path_deg = float(d_mm[a:b].max()), float(d_deg[a:b].max())
             h = has[a:b]
@@ -890,12 +899,14 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
         d_rec, d_rep = _duration(rec, bounds[n], end, c.t), _duration(rep, bounds[n], end, c.t)
         if d_rec is not None or d_rep is not None:
             c.duration = (d_rec if d_rec is not None else math.nan, d_rep if d_rep is not None else math.nan)
-    durations = [abs(c.duration[0] - c.duration[1]) for c in result.commands if c.duration]
+    durations = [_duration_difference(c) for c in result.commands if c.duration]
     t = result.totals
     t["requests"] = len(result.commands)
     t["samples"] = len(rec)
-    t["reply_differences"] = sum(c.reply_differs for c in result.commands)
+    t["reply_differences"] = sum(c.reply_differs and c.inside is None for c in result.commands)
     t["undecided"] = sum(c.undecided for c in result.commands)  # placed within a window, not a period
+    t["undecided_replies"] = sum(c.reply_differs and c.inside is not None for c in result.commands)
+    t["excluded_frames"] = int(inside.sum())
     t["duration_s"] = max((d if math.isfinite(d) else math.inf for d in durations), default=0.0)
     reads = result.commands  # a read's own distance (a recording without the real-time report)
     t["path_mm"] = max(float(d_mm.max(initial=0.0)), max((c.path_mm for c in reads), default=0.0))
@@ -925,6 +936,52 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     for key, limit in tol.items():
         if t.get(key, 0.0) > limit:
             result.failures.append(f"{key} {t[key]:.6g} > {limit:.6g}")
+
+
+def _inside_windows(commands: list[CommandResult], ts: np.ndarray,
+                    requests: list[tuple[xrec.Req, xrec.Rep | None]]) -> np.ndarray:
+    """Which real-time frames (stamped ``ts``) lie inside the window of an undecided command, whose
+    effect the recording cannot place on one period: they are left out of the path, torque and current
+    measures. A request whose round trip overlaps such a command's on the proxy's clock (another
+    connection's: the box may have answered it before or after the command) gets the command's index
+    as ``inside``: its reply is not counted as a difference."""
+    out = np.zeros(len(ts), dtype=bool)
+    spans = sorted((requests[c.index][0].t, _reply_time(requests[c.index]), c.index)
+                   for c in commands if c.undecided)
+    if not spans:
+        return out
+    for c in commands:
+        if c.undecided:
+            lo, hi = c.window
+            out[np.searchsorted(ts, lo - 1e-9, "left"):np.searchsorted(ts, hi + 1e-9, "right")] = True
+    unanswered = [(a, n) for a, b, n in spans if not math.isfinite(b)]  # never answered: open to the end
+    spans = [x for x in spans if math.isfinite(x[1])]
+    starts = [a for a, _, _ in spans]
+    longest = max((b - a for a, b, _ in spans), default=0.0)
+    for c in commands:
+        req_t, rep_t = requests[c.index][0].t, _reply_time(requests[c.index])
+        c.inside = next((n for a, n in unanswered if n != c.index and a < rep_t), None)
+        k = bisect.bisect_left(starts, rep_t) - 1  # undecided commands asked before this reply
+        while k >= 0 and starts[k] >= req_t - longest and c.inside is None:
+            a, b, n = spans[k]
+            if n != c.index and b > req_t:  # its reply after this request: the round trips overlap
+                c.inside = n
+            k -= 1
+    return out
+
+
+def _reply_time(pair: tuple[xrec.Req, xrec.Rep | None]) -> float:
+    return pair[1].t if pair[1] is not None else math.inf
+
+
+def _duration_difference(c: CommandResult) -> float:
+    """A move's duration recorded against replayed; for an undecided command less its window's width
+    (its start is known only within it)."""
+    assert c.duration is not None
+    d = abs(c.duration[0] - c.duration[1])
+    if c.undecided and math.isfinite(d):
+        d = max(0.0, d - (c.window[1] - c.window[0]))
+    return d
 
 
 def _code_name(kind: int, code: int) -> str:
@@ -981,10 +1038,10 @@ def _codes(result: Comparison, session: Session, emu_codes: list[tuple[int, int]
                 for side in (0, 1):
                     if c.reply_codes[2 * side + kind]:
                         saw(_code_name(kind, c.reply_codes[2 * side + kind]), side, c.t)
-            if c.reply_codes[:2] != c.reply_codes[2:]:
+            if c.reply_codes[:2] != c.reply_codes[2:] and c.inside is None:  # not inside a window
                 replies.append({"t": c.t, "request": c.index, "recorded": list(c.reply_codes[:2]),
                                 "emulator": list(c.reply_codes[2:])})
-        if c.reply_differs and c.recorded_reply and c.replayed_reply:
+        if c.reply_differs and c.inside is None and c.recorded_reply and c.replayed_reply:
             rs, ps = int(c.recorded_reply[2:4], 16), int(c.replayed_reply[2:4], 16)
             if (rs ^ ps) & 0x60:
                 bits.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])

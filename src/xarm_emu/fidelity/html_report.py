@@ -108,7 +108,7 @@ def groups(commands: Any) -> list[dict[str, Any]]:
             out.append(g)
         g = out[-1]
         g["requests"].append(c.get("index"))
-        if c.get("reply_differs"):
+        if c.get("reply_differs") and c.get("inside") is None:  # inside an undecided window: not flagged
             g["replies"].append({k: c.get(k) for k in ("index", "name", "recorded_reply", "replayed_reply")})
         for key in _MEASURES:
             v = _num(c.get(key))

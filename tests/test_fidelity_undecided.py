@@ -1,0 +1,87 @@
+"""What lies inside an undecided window is never flagged: a recording without the real-time report
+(port 30000) in which a move's round trip spans more than a control period and a second command
+client's read overlaps it. The "real box" is an emulator on the stepped clock answering the read
+before the move, the proxy's clock shows the read asked after the move: the recording cannot tell
+which came first, so the read's differing reply is said (``inside``) and not counted."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from xarm_emu.controller.core.interface import PERIOD
+from xarm_emu.controller.emulator import Emulator
+from xarm_emu.fidelity.compare import compare
+from xarm_emu.protocol import registers as regs
+from xarm_emu.protocol.firmware import SERVE_VERSION
+from xarm_emu.protocol.frame import encode_request
+from xarm_emu.server import xrec
+from xarm_emu.server.core import EmulatorServer, ServerConfig
+
+MOVE = 23  # move_joint (set_servo_angle, manual 2.1.3)
+
+
+def _record(path: Path, tmp: Path, read_first: bool) -> None:
+    """conn 1 the program, conn 2 a second client; the box answers each request at the controller
+    time the proxy's clock gives (the first request at the first period), conn 2's get_state within
+    the move's round trip, before the move when ``read_first``."""
+    server = EmulatorServer(Emulator(6, config_dir=tmp, firmware=SERVE_VERSION),
+                            ServerConfig(stepped=True, port=0))
+    w = xrec.RecordWriter(path, "127.0.0.1", {30001: 30001})
+    tid = {1: 0, 2: 0}
+
+    def ask(conn: int, register: int, params: bytes = b"") -> tuple[int, bytes]:
+        tid[conn] += 1
+        return tid[conn], encode_request(tid[conn], register, params)
+
+    def at(t: float) -> None:  # the box's clock: the proxy's, the first request at one period
+        due = t + PERIOD - server.emulator.time
+        if due > 1e-9:
+            server.advance(due)
+
+    def exchange(conn: int, t: float, register: int, params: bytes = b"", rtt: float = 0.001) -> None:
+        n, frame = ask(conn, register, params)
+        w.data(t, conn, xrec.COMMAND_PORT, xrec.TO_BOX, frame)
+        at(t)
+        w.data(t + rtt, conn, xrec.COMMAND_PORT, xrec.TO_PROGRAM, server.answer(n, 2, register, params))
+
+    exchange(1, 0.0, 1)
+    exchange(1, 0.01, 11, bytes([8, 1]))  # motion_enable
+    exchange(1, 0.02, 19, bytes([0]))  # set_mode 0
+    exchange(1, 0.03, 12, bytes([0]))  # set_state 0
+    exchange(2, 0.04, 1)
+    move = regs.get(MOVE).request.encode(joints=[0.3, -0.1, -0.05, 0, 0.15, 0, 0], speed=0.5, acc=5.0,
+                                          mvtime=0.0)
+    t_move, t_read = 0.5, 0.5 + PERIOD / 2  # the move's reply 3 periods after its request
+    n_move, f_move = ask(1, MOVE, move)
+    n_read, f_read = ask(2, 13)
+    w.data(t_move, 1, xrec.COMMAND_PORT, xrec.TO_BOX, f_move)
+    w.data(t_read, 2, xrec.COMMAND_PORT, xrec.TO_BOX, f_read)
+    at(t_move + 2 * PERIOD)
+    first = [(2, n_read, 13, b""), (1, n_move, MOVE, move)]
+    replies = {conn: server.answer(n, 2, reg, p) for conn, n, reg, p in (first if read_first else first[::-1])}
+    w.data(t_read + PERIOD, 2, xrec.COMMAND_PORT, xrec.TO_PROGRAM, replies[2])
+    w.data(t_move + 3 * PERIOD, 1, xrec.COMMAND_PORT, xrec.TO_PROGRAM, replies[1])
+    exchange(1, 2.0, 13)
+    w.close()
+
+
+def test_a_read_inside_an_undecided_window_is_not_flagged(tmp_path: Path) -> None:
+    path = tmp_path / "overlap.xrec"
+    _record(path, tmp_path / "box", read_first=True)
+    r = compare(path)
+    move = next(c for c in r.commands if c.register == MOVE)
+    read = next(c for c in r.commands if c.register == 13 and c.t > move.t - 4 * PERIOD)
+    assert move.undecided and move.placed_by == "clock" and move.window[1] - move.window[0] > PERIOD
+    # the replay answers the read after the move (the recorded order): it differs, inside the window
+    assert read.reply_differs and read.inside == move.index
+    assert r.totals["reply_differences"] == 0 and r.totals["undecided_replies"] == 1
+    assert r.failures == [] and r.to_json()["commands"][read.index]["inside"] == move.index
+
+
+def test_the_same_read_after_the_move_compares_equal(tmp_path: Path) -> None:
+    path = tmp_path / "ordered.xrec"
+    _record(path, tmp_path / "box", read_first=False)
+    r = compare(path)
+    read = next(c for c in r.commands if c.register == 13 and c.inside is not None)
+    assert not read.reply_differs  # answered as recorded: nothing to leave out
+    assert r.totals["reply_differences"] == 0 and r.totals["undecided_replies"] == 0 and r.failures == []
