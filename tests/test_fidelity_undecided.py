@@ -2,17 +2,29 @@
 (port 30000) in which a move's round trip spans more than a control period and a second command
 client's read overlaps it. The "real box" is an emulator on the stepped clock answering the read
 before the move, the proxy's clock shows the read asked after the move: the recording cannot tell
-which came first, so the read's differing reply is said (``inside``) and not counted."""
+which came first, so the read's differing reply is said (``inside``) and not counted. And the real-time
+frames inside an undecided command's window are left out of the torque measures."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+import pytest
+
 from xarm_emu.controller.core.interface import PERIOD
 from xarm_emu.controller.emulator import Emulator
-from xarm_emu.fidelity.compare import compare
+from xarm_emu.fidelity.compare import (
+    DEFAULT_TOLERANCES,
+    CommandResult,
+    Comparison,
+    Samples,
+    Session,
+    _measure,
+    compare,
+)
 from xarm_emu.protocol import registers as regs
-from xarm_emu.protocol.firmware import SERVE_VERSION
+from xarm_emu.protocol.firmware import DEFAULT_PROFILE, SERVE_VERSION
 from xarm_emu.protocol.frame import encode_request
 from xarm_emu.server import xrec
 from xarm_emu.server.core import EmulatorServer, ServerConfig
@@ -58,7 +70,8 @@ def _record(path: Path, tmp: Path, read_first: bool) -> None:
     w.data(t_read, 2, xrec.COMMAND_PORT, xrec.TO_BOX, f_read)
     at(t_move + 2 * PERIOD)
     first = [(2, n_read, 13, b""), (1, n_move, MOVE, move)]
-    replies = {conn: server.answer(n, 2, reg, p) for conn, n, reg, p in (first if read_first else first[::-1])}
+    order = first if read_first else first[::-1]
+    replies = {conn: server.answer(n, 2, reg, p) for conn, n, reg, p in order}
     w.data(t_read + PERIOD, 2, xrec.COMMAND_PORT, xrec.TO_PROGRAM, replies[2])
     w.data(t_move + 3 * PERIOD, 1, xrec.COMMAND_PORT, xrec.TO_PROGRAM, replies[1])
     exchange(1, 2.0, 13)
@@ -85,3 +98,38 @@ def test_the_same_read_after_the_move_compares_equal(tmp_path: Path) -> None:
     read = next(c for c in r.commands if c.register == 13 and c.inside is not None)
     assert not read.reply_differs  # answered as recorded: nothing to leave out
     assert r.totals["reply_differences"] == 0 and r.totals["undecided_replies"] == 0 and r.failures == []
+
+
+def _frames(n: int, dof: int, torque_step: float) -> tuple[Samples, Samples]:
+    """A recorded arm at rest for ``n`` periods and its replay, whose torques differ by
+    ``torque_step`` at frames 5 to 7 (a payload change the replay placed a few periods off)."""
+    rec = Samples.empty(n, dof)
+    rec.t[:] = PERIOD * (1 + np.arange(n))
+    rec.state[:] = 2
+    rec.pos[:] = 200.0
+    rec.torques[:], rec.currents[:] = 1.0, 0.1
+    rep = Samples(*(np.copy(getattr(rec, f)) for f in ("t", "state", "joints", "pos", "torques", "currents",
+                                                        "speeds")))
+    rep.torques[5:8] += torque_step
+    return rec, rep
+
+
+@pytest.mark.parametrize("undecided", [True, False])
+def test_frames_inside_an_undecided_window_are_left_out(undecided: bool) -> None:
+    rec, rep = _frames(20, 6, 1.0)
+    requests = [(xrec.Req(0.0, 1, b"", 1, 2, 1), xrec.Rep(0.001, 1, b"", 1, 2, 1, 0)),
+                (xrec.Req(0.02, 1, b"", 2, 2, 17), xrec.Rep(0.03, 1, b"", 2, 2, 17, 0))]  # set_tcp_load
+    session = Session("6,1", DEFAULT_PROFILE, requests, None, {})  # type: ignore[arg-type]
+    r = Comparison("xarm6", "2.7.103", session=session, tolerances=dict(DEFAULT_TOLERANCES))
+    r.recorded, r.replayed = rec, rep
+    window = (float(rec.t[5]), float(rec.t[7]))
+    r.commands = [CommandResult(0, PERIOD, 1, "GET_VERSION", placed_by="read"),
+                  CommandResult(1, window[0], 17, "SET_LOAD_PARAM", window=window, placed_by="estimate",
+                                undecided=undecided)]
+    _measure(r, [(PERIOD, 0), (float(rec.t[5]), 5)], dict(DEFAULT_TOLERANCES), session, [])
+    if undecided:  # the three frames of its window: not measured, said
+        assert r.totals["torque_max"] == 0.0 and r.totals["excluded_frames"] == 3
+        assert r.commands[1].excluded_frames == 3 and r.failures == []
+    else:
+        assert r.totals["torque_max"] == pytest.approx(1.0) and r.totals["excluded_frames"] == 0
+        assert any(f.startswith("torque_max") for f in r.failures)
