@@ -5,9 +5,10 @@ The recording (``xarm-emu proxy``, :mod:`xarm_emu.server.xrec`) says which arm a
 on the stepped clock; every recorded request is answered by it, in order, at the place the box
 answered it, and its state is sampled at the controller time of every recorded real-time report
 frame (port 30000, whose timestamp is the box's clock; manual 2.1.6 and firmware 2.x). A command's
-place is the first real-time frame that shows it and its control period (:mod:`.placement`): of the
-places its round trip leaves open, the one answered as recorded after which the replayed joints,
-then torques, follow the recorded frames (:meth:`_Replay.position`). A pure read is tried at every
+place is the first real-time frame that shows it and its control period
+(:mod:`xarm_emu.server.placement`): of the places its round trip leaves open, the one answered as
+recorded after which the replayed joints, then torques, follow the recorded frames
+(:meth:`_Replay.position`). A pure read is tried at every
 period its round trip leaves open. Report rates are measured per connection.
 
 Reported per command and in total: replies that differ (state byte or parameters); move durations
@@ -44,10 +45,9 @@ from ..model.robots import ROBOT_MODELS, RobotModel, with_calibration
 from ..protocol import registers as regs
 from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
-from ..server import xrec
+from ..server import placement, xrec
 from ..server.command_port import PURE_READS
 from ..tomlfile import check_keys, load_toml
-from . import placement
 
 #: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
 DEFAULT_TOLERANCES: dict[str, float] = {
@@ -612,16 +612,16 @@ class _Replay:
         return cls(server, emu, session, model.dof, tol)
 
     def advance(self, to: float) -> None:
-        """Step the emulator to controller time ``to``, a period at a time while reads wait."""
+        """Step the emulator to controller time ``to`` (:func:`~xarm_emu.server.placement.run_to`, as
+        ``replay`` does), a period at a time while reads wait."""
         emu, server = self.emu, self.server
         while self.pending and to > emu.time + 1e-9:
             before = emu.time
-            server.advance(min(PERIOD, to - emu.time))
+            placement.run_to(server, min(to, emu.time + PERIOD))
             self.retry()
             if emu.time <= before:  # less than a period is left
                 break
-        if to > emu.time + 1e-9:
-            server.advance(to - emu.time)
+        placement.run_to(server, to)
         self.retry()
 
     def retry(self) -> None:
@@ -801,15 +801,13 @@ class _Replay:
             for k in range(s0, max(end, s + 1)):
                 while todo and todo[0][1] == k:
                     when, _, what = todo.pop(0)
-                    if when > emu.time + 1e-9:
-                        server.advance(when - emu.time)
+                    placement.run_to(server, when)
                     frame = server.answer(what.tid, what.protocol, what.register, what.params)
                     if what is req:
                         replies.append(bytes(frame[6:]))
                 if k >= end:
                     break
-                if rec_t[k] > emu.time + 1e-9:
-                    server.advance(rec_t[k] - emu.time)
+                placement.run_to(server, rec_t[k])
                 d = emu.controller.data
                 states.append(np.concatenate((d.q[:dof], d.qd[:dof], d.qdd[:dof])))
                 motion.append(d.motion_state)
