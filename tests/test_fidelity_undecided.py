@@ -133,3 +133,13 @@ def test_frames_inside_an_undecided_window_are_left_out(undecided: bool) -> None
     else:
         assert r.totals["torque_max"] == pytest.approx(1.0) and r.totals["excluded_frames"] == 0
         assert any(f.startswith("torque_max") for f in r.failures)
+
+
+def test_the_page_does_not_count_a_reply_inside_a_window_among_the_worst(tmp_path: Path) -> None:
+    from xarm_emu.fidelity.html_report import report_data
+
+    path = tmp_path / "overlap.xrec"
+    _record(path, tmp_path / "box", read_first=True)
+    data = report_data(compare(path))
+    assert data["worst"] == []  # the read's reply, inside the move's window, is not among what differs
+    assert data["undecided"] and data["undecided"][0]["name"] == "MOVE_JOINT"
