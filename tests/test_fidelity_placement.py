@@ -1,13 +1,15 @@
-"""Where a recorded request can have been answered (fidelity/placement.py): its window among the
+"""Where a recorded request can have been answered (server/placement.py): its window among the
 real-time frames, from the proxy's clock, and the places (period, first frame after it) it leaves open."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from xarm_emu.controller.core.interface import PERIOD
-from xarm_emu.fidelity import placement
+from xarm_emu.server import placement
 
 #: Frames stamped every period from 0.1 s, each reaching the proxy 0.3 ms after its stamp plus 1 s.
 TS = 0.1 + PERIOD * np.arange(10)
@@ -45,3 +47,22 @@ def test_places_follow_the_command_before_and_missing_frames_open_more_periods()
 def test_undecided_windows() -> None:
     assert not placement.undecided(0.1, 0.1 + PERIOD)
     assert placement.undecided(0.1, 0.1 + 2 * PERIOD) and placement.undecided(0.1, float("inf"))
+
+
+def test_run_to_steps_whole_periods_to_a_place_and_never_back(tmp_path: Path) -> None:
+    """The one way compare and replay run the stepped emulator to what they re-run."""
+    from xarm_emu.controller.emulator import Emulator
+    from xarm_emu.server.core import EmulatorServer, ServerConfig
+
+    server = EmulatorServer(Emulator(6, config_dir=tmp_path), ServerConfig(stepped=True, port=0))
+    emu = server.emulator
+    steps = emu.controller.data.steps
+    placement.run_to(server, emu.time + 10 * PERIOD)
+    assert emu.controller.data.steps == steps + 10
+    placement.run_to(server, emu.time - 5 * PERIOD)  # a place already passed: now
+    placement.run_to(server, emu.time + PERIOD / 4)  # less than half a period: no step
+    assert emu.controller.data.steps == steps + 10
+    placement.run_to(server, 0.0, period=steps + 25)  # after control period 25 (a trace's outside line)
+    assert emu.controller.data.steps == steps + 25
+    placement.run_to(server, 0.0, period=steps + 3)
+    assert emu.controller.data.steps == steps + 25

@@ -16,7 +16,8 @@ the firmware its register 1 reply claimed).
 
 What was changed from outside the protocol (the trace's ``outside`` lines: fault schedule entries as
 they fired, admin injections and inputs) is carried out again, in trace order, after the control
-period it acted after in the recorded run (:func:`place`), as the same admin request. One the
+period it acted after in the recorded run (:func:`~xarm_emu.server.placement.run_to`, as
+``compare`` places what it re-runs), as the same admin request. One the
 replay's emulator refuses (a scene object the replay has no scene for) is a difference. A trace
 written before these lines existed replays as before.
 """
@@ -33,6 +34,7 @@ from typing import Any
 
 from .protocol import registers as regs
 from .protocol.layouts import LayoutError
+from .server.placement import run_to
 from .server.trace import _plain
 
 PERIOD_TOLERANCE = 1e-6
@@ -135,19 +137,6 @@ def _outside_line(path: Path, n: int, rec: dict[str, Any]) -> dict[str, Any]:
         raise ReplayError(f"{path} line {n}: an outside line needs t, period and request (an admin "
                           "request with its cmd)")
     return rec
-
-
-def place(server: Any, t: float, period: int | None = None) -> None:
-    """Run ``server``'s emulator (stepped) up to what a trace line says: after control ``period``
-    when the line gives it (an ``outside`` line), else up to controller time ``t``, rounded to whole
-    periods. Never back: a line at or before the emulator's time acts now."""
-    emu = server.emulator
-    if period is not None:
-        n = int(period) - int(emu.controller.data.steps)
-        if n > 0:
-            server.advance(n * emu.controller.period)
-    elif t > emu.time:
-        server.advance(t - emu.time)
 
 
 def _outside(server: Any, n: int, rec: dict[str, Any]) -> Difference | None:
@@ -287,7 +276,7 @@ def _replay_run(start: dict[str, Any], lines: list[tuple[int, dict[str, Any]]], 
         server = EmulatorServer(emu, ServerConfig(stepped=True, admin=True, port=0))
         for n, rec in lines:
             if rec.get("event") == OUTSIDE:
-                place(server, float(rec["t"]), rec.get("period"))
+                run_to(server, float(rec["t"]), rec.get("period"))
                 result.outside += 1
                 diff = _outside(server, n, rec)
                 if diff is not None:
@@ -295,7 +284,7 @@ def _replay_run(start: dict[str, Any], lines: list[tuple[int, dict[str, Any]]], 
                     if stop_at_first:
                         return True
                 continue
-            place(server, float(rec.get("t_request", rec["t"])))  # a held reply: sent when it was asked
+            run_to(server, float(rec.get("t_request", rec["t"])))  # a held reply: sent when it was asked
             result.requests += 1
             if int(rec["protocol"]) == 0:
                 frame = server.answer_modbus(int(rec["tid"]), int(rec["unit"]), bytes.fromhex(rec["pdu"]))

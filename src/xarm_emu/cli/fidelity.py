@@ -149,6 +149,9 @@ def compare(
         if t.get("undecided"):
             console.print(f"note: {int(t['undecided'])} commands the recording could not place to one "
                           "control period (--json: undecided, window)", soft_wrap=True)
+            console.print(f"note: left out as inside their windows: {int(t.get('excluded_frames', 0))} "
+                          f"real-time frames, {int(t.get('undecided_replies', 0))} differing replies "
+                          "(--json: excluded_frames, inside)", soft_wrap=True)
         console.print("within every tolerance" if not result.failures else
                       "outside the tolerances: " + "; ".join(result.failures), soft_wrap=True)
     if result.failures:

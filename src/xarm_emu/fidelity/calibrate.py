@@ -88,14 +88,11 @@ def fit(comparison: Comparison) -> Fit:
         raise ValueError("the recording has too few real-time report frames to fit anything")
     # where the arm was where the replay is (after an error the box stops and the replay, which never
     # sees it, goes on)
-    rows = [i for i, s in enumerate(rep) if float(np.abs(s.joints - rec[i].joints).max()) < SAME_PATH]
-    use = rows
-    if len(rows) < 3:
+    use = np.flatnonzero(np.abs(rep.joints - rec.joints[:len(rep)]).max(axis=1) < SAME_PATH)
+    if len(use) < 3:
         raise ValueError("the recorded arm never followed the replayed path: nothing to fit")
-    tau = np.array([rec[i].torques for i in use])
-    cur = np.array([rec[i].currents for i in use])
-    model_tau = np.array([rep[i].torques for i in use])
-    qd = np.array([rep[i].speeds for i in use])
+    tau, cur = rec.torques[use], rec.currents[use]
+    model_tau, qd = rep.torques[use], rep.speeds[use]
     dof = tau.shape[1]
     defaults = torque_constants(get_model(comparison.model))
     kt, kt_sd = defaults.astype(float).copy(), np.full(dof, math.inf)
@@ -139,7 +136,7 @@ def fit(comparison: Comparison) -> Fit:
                                             "torque_offsets": tuple(off.tolist())}
     unc = [("torque_constants", tuple(kt_sd.tolist())), ("torque_offsets", tuple(off_sd.tolist()))]
     _thermal(comparison, values, unc, notes)
-    _collisions(comparison, rows, np.column_stack([off, visc, coul]), values, unc, notes)
+    _collisions(comparison, use, np.column_stack([off, visc, coul]), values, unc, notes)
     if friction_any:
         values["viscous_friction"] = tuple(max(0.0, x) for x in visc.tolist())
         values["coulomb_friction"] = tuple(max(0.0, x) for x in coul.tolist())
@@ -150,7 +147,7 @@ def fit(comparison: Comparison) -> Fit:
     return Fit(cal, notes, len(rec), kept)
 
 
-def _collisions(comparison: Comparison, use: list[int], friction: np.ndarray,
+def _collisions(comparison: Comparison, use: np.ndarray, friction: np.ndarray,
                 values: dict[str, tuple[float, ...]], unc: list[tuple[str, tuple[float, ...]]],
                 notes: list[str]) -> None:
     """Add the collision thresholds of the levels at which a collision was detected
@@ -161,19 +158,17 @@ def _collisions(comparison: Comparison, use: list[int], friction: np.ndarray,
         notes.append("collision thresholds not fitted: no collision (C31) was recorded")
         return
     rec, rep = comparison.recorded, comparison.replayed
-    t = np.array([s.t for s in rec])
-    tau = np.array([s.torques for s in rec])
-    speeds = np.array([s.speeds for s in rec])
+    t, tau, speeds = rec.t, rec.torques, rec.speeds
     # the model's torques between the frames they were taken at, plus the fitted offsets and friction
     t_use = t[use]
-    model = np.column_stack([np.interp(t, t_use, [rep[i].torques[j] for i in use])
+    model = np.column_stack([np.interp(t, t_use, rep.torques[use, j])
                              for j in range(tau.shape[1])])
     model += friction[:, 0] + friction[:, 1] * speeds + friction[:, 2] * np.sign(speeds)
     residual = np.abs(tau - model).max(axis=1)
     st = session.controller_times([f.t for f in status])
     res = collision_fit.fit_thresholds(t, residual, st, np.array([f.error for f in status]),
                                        np.array([f.sensitivity for f in status]),
-                                       np.array([s.state for s in rec]))
+                                       rec.state)
     notes.extend(res.notes)
     if not res.values:
         notes.append("collision thresholds not fitted: no detection with frames before it at a known level")
@@ -210,8 +205,7 @@ def _thermal(comparison: Comparison, values: dict[str, tuple[float, ...]],
     dof = len(defaults)
     obs_t = session.controller_times([f.t for f in rich])
     temps = np.array([list(f.temperatures or ())[:dof] for f in rich], dtype=float)
-    cur_t = np.array([s.t for s in comparison.recorded])
-    cur = np.abs(np.array([s.currents for s in comparison.recorded]))
+    cur_t, cur = comparison.recorded.t, np.abs(comparison.recorded.currents)
     i2, idx, keep = thermal_fit.step_inputs(obs_t, cur_t, cur, dt)
     idx, temps = idx[keep], temps[keep]
     _, first = np.unique(idx, return_index=True)  # one observation per step: they repeat between steps

@@ -5,9 +5,10 @@ The recording (``xarm-emu proxy``, :mod:`xarm_emu.server.xrec`) says which arm a
 on the stepped clock; every recorded request is answered by it, in order, at the place the box
 answered it, and its state is sampled at the controller time of every recorded real-time report
 frame (port 30000, whose timestamp is the box's clock; manual 2.1.6 and firmware 2.x). A command's
-place is the first real-time frame that shows it and its control period (:mod:`.placement`): of the
-places its round trip leaves open, the one answered as recorded after which the replayed joints,
-then torques, follow the recorded frames (:meth:`_Replay.position`). A pure read is tried at every
+place is the first real-time frame that shows it and its control period
+(:mod:`xarm_emu.server.placement`): of the places its round trip leaves open, the one answered as
+recorded after which the replayed joints, then torques, follow the recorded frames
+(:meth:`_Replay.position`). A pure read is tried at every
 period its round trip leaves open. Report rates are measured per connection.
 
 Reported per command and in total: replies that differ (state byte or parameters); move durations
@@ -27,6 +28,7 @@ import bisect
 import copy
 import math
 import tempfile
+from array import array
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,10 +45,9 @@ from ..model.robots import ROBOT_MODELS, RobotModel, with_calibration
 from ..protocol import registers as regs
 from ..protocol import reports
 from ..protocol.firmware import DEFAULT_PROFILE, FirmwareProfile
-from ..server import xrec
+from ..server import placement, xrec
 from ..server.command_port import PURE_READS
 from ..tomlfile import check_keys, load_toml
-from . import placement
 
 #: Documented default tolerances (``--tolerances FILE`` overrides any of them, TOML keys as here).
 DEFAULT_TOLERANCES: dict[str, float] = {
@@ -72,16 +73,35 @@ class CompareError(ValueError):
 
 
 @dataclass
-class Sample:
-    """One recorded real-time report frame and the replayed state at its controller time."""
+class Samples:
+    """Real-time report frames as columns, one row per frame (recorded, or the replayed state at each
+    recorded frame's controller time): controller time (s), state, joints (rad), TCP position (mm),
+    joint torques (N m), currents (A) and speeds (rad/s). Columns, not an object per frame: a
+    10-minute recording holds 150 000 frames."""
 
-    t: float
-    state: int
+    t: np.ndarray
+    state: np.ndarray
     joints: np.ndarray
     pos: np.ndarray
     torques: np.ndarray
     currents: np.ndarray
     speeds: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    @classmethod
+    def empty(cls, n: int, dof: int) -> Samples:
+        """``n`` rows of ``dof`` joints, the derived columns (position, torques, currents) NaN."""
+        return cls(np.zeros(n), np.zeros(n, dtype=np.int64), np.zeros((n, dof)), np.full((n, 3), np.nan),
+                   np.full((n, dof), np.nan), np.full((n, dof), np.nan), np.zeros((n, dof)))
+
+    def head(self, n: int) -> Samples:
+        """The first ``n`` rows."""
+        return Samples(*(getattr(self, f)[:n] for f in _SAMPLE_COLUMNS))
+
+
+_SAMPLE_COLUMNS = ("t", "state", "joints", "pos", "torques", "currents", "speeds")
 
 
 @dataclass
@@ -109,6 +129,10 @@ class CommandResult:
     placed_by: str = ""
     #: Whether the recording could not decide its period (:data:`PLACEMENTS`).
     undecided: bool = False
+    #: Of its real-time frames, those inside an undecided command's window (left out of its measures).
+    excluded_frames: int = 0
+    #: The undecided command whose window holds its answer (its reply not counted as a difference).
+    inside: int | None = None
 
 
 @dataclass
@@ -126,8 +150,8 @@ class Comparison:
     #: every report connection's rate: conn, port, frames, rate (frames per second)
     rate_connections: list[dict[str, float]] = field(default_factory=list)
     failures: list[str] = field(default_factory=list)
-    recorded: list[Sample] = field(default_factory=list, repr=False)
-    replayed: list[Sample] = field(default_factory=list, repr=False)
+    recorded: Samples = field(default_factory=lambda: Samples.empty(0, 0), repr=False)
+    replayed: Samples = field(default_factory=lambda: Samples.empty(0, 0), repr=False)
     replay_seconds: float = 0.0
     session: Session | None = field(default=None, repr=False)
     #: What this comparison could not measure and why (a recording without some report stream).
@@ -207,10 +231,10 @@ class Session:
     profile: FirmwareProfile
     requests: list[tuple[xrec.Req, xrec.Rep | None]]
     realtime: RealtimeFrames
-    frames: dict[int, list[float]]  # report port -> proxy times
+    frames: dict[int, array[float]]  # report port -> proxy times
     status: list[StatusFrame] = field(default_factory=list)
     #: Report connection -> its port and the proxy times of its frames (rates are per connection).
-    streams: dict[int, tuple[int, list[float]]] = field(default_factory=dict)
+    streams: dict[int, tuple[int, array[float]]] = field(default_factory=dict)
 
     def controller_times(self, proxy_times: np.ndarray | list[float]) -> np.ndarray:
         """Controller times of moments on the proxy's clock: read from the real-time frames around
@@ -244,23 +268,60 @@ class RealtimeFrames:
     def __len__(self) -> int:
         return len(self.recv)
 
-    @classmethod
-    def read(cls, recv: list[float], frames: list[bytes]) -> RealtimeFrames:
-        """The columns of ``frames`` (804 bytes each, received at proxy times ``recv``), read at
-        once at the offsets :data:`~xarm_emu.protocol.reports.REALTIME_COLUMNS` gives. A frame whose
-        timestamp is not past every earlier one's is a frame sent again: it shows nothing new."""
-        rows = np.frombuffer(b"".join(frames), dtype=_REALTIME_DTYPE)
-        stamps = rows["timestamp_us"].astype(np.int64)
+
+class _RealtimeReader:
+    """Real-time frames read into columns as they come, :data:`CHUNK_FRAMES` at a time (the frames'
+    bytes are not all held at once: a 10-minute recording has 150 000 of 804 bytes), at the offsets
+    :data:`~xarm_emu.protocol.reports.REALTIME_COLUMNS` gives. A frame whose timestamp is not past
+    every earlier one's is a frame sent again: it shows nothing new, and is left out."""
+
+    def __init__(self) -> None:
+        self.recv: list[float] = []
+        self.raw = bytearray()
+        self.chunks: list[tuple[np.ndarray, ...]] = []
+
+    def add(self, t: float, frame: bytes) -> None:
+        self.recv.append(t)
+        self.raw += frame
+        if len(self.recv) == CHUNK_FRAMES:
+            self._flush()
+
+    def _flush(self) -> None:
+        if not self.recv:
+            return
+        rows = np.frombuffer(bytes(self.raw), dtype=_REALTIME_DTYPE)
+        self.chunks.append((np.asarray(self.recv, dtype=float), rows["timestamp_us"].astype(np.int64),
+                            rows["state_mode"] & 0x0F,
+                            *(np.asarray(rows[name], dtype=float) for name in _REALTIME_FLOATS)))
+        self.recv, self.raw = [], bytearray()
+
+    def frames(self) -> RealtimeFrames:
+        """Every frame read, those sent again left out."""
+        self._flush()
+        if not self.chunks:
+            return RealtimeFrames(np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.uint8),
+                                  *(np.zeros((0, n)) for n in _REALTIME_WIDTHS))
+        chunks: list[list[np.ndarray | None]] = [list(c) for c in self.chunks]
+        self.chunks = []
+        cols = []
+        for k in range(len(chunks[0])):  # a column at a time, its chunks let go: never all twice
+            cols.append(np.concatenate([c[k] for c in chunks if c[k] is not None]))
+            for c in chunks:
+                c[k] = None
+        stamps = cols[1]
         seen = np.maximum.accumulate(stamps)
-        keep = np.ones(len(rows), dtype=bool)
+        keep = np.ones(len(stamps), dtype=bool)
         keep[1:] = stamps[1:] > seen[:-1]
-        rows = rows[keep]
+        recv, ts, state, *floats = (c[keep] if not keep.all() else c for c in cols)
+        return RealtimeFrames(recv, ts / 1e6, state, *floats)
 
-        def col(name: str) -> np.ndarray:
-            return np.ascontiguousarray(rows[name], dtype=float)
 
-        return cls(np.asarray(recv, dtype=float)[keep], stamps[keep] / 1e6, rows["state_mode"] & 0x0F,
-                   col("joints"), col("joint_speeds"), col("joint_currents"), col("torques"), col("position"))
+#: Real-time frames read into columns at a time, and replayed frames derived at a time
+#: (:meth:`_Replay.derive`: the dynamics' temporaries take about 1 KB a frame).
+CHUNK_FRAMES = DERIVE_ROWS = 4096
+#: The float columns of :class:`RealtimeFrames`, in its order, and their widths.
+_REALTIME_FLOATS = ("joints", "joint_speeds", "joint_currents", "torques", "position")
+_REALTIME_WIDTHS = tuple(reports.REALTIME_COLUMNS[name][2] for name in _REALTIME_FLOATS)
 
 
 _NUMPY_TYPES = {">Q": ">u8", "B": "u1", "<f": "<f4"}
@@ -281,14 +342,15 @@ def read_session(path: Path) -> Session:
     version, profile = "", DEFAULT_PROFILE
     requests: list[tuple[xrec.Req, xrec.Rep | None]] = []
     waiting: dict[tuple[int, int], int] = {}
-    rt_recv: list[float] = []
-    rt_frames: list[bytes] = []
-    frames: dict[int, list[float]] = {}
-    streams: dict[int, tuple[int, list[float]]] = {}
+    realtime_reader = _RealtimeReader()
+    frames: dict[int, array[float]] = {}
+    streams: dict[int, tuple[int, array[float]]] = {}
     status: list[StatusFrame] = []
     try:
         for rec in xrec.read(path):
             if isinstance(rec, xrec.Req) and rec.protocol != 1:
+                if rec.values:  # of the decoded values only a move's blend radius is used (_blends)
+                    rec.values = {"radius": rec.values["radius"]} if "radius" in rec.values else None
                 waiting[(rec.conn, rec.tid)] = len(requests)
                 requests.append((rec, None))
             elif isinstance(rec, xrec.Rep) and rec.register != 0xFF:
@@ -298,9 +360,10 @@ def read_session(path: Path) -> Session:
                 if rec.register == 1 and rec.values and not version:
                     version = str(rec.values.get("version", "")).strip("\0 ")
                     profile = xrec.firmware_of(version) or profile
+                rec.values = None  # the reply's frame is compared, its decoded values are not kept
             elif isinstance(rec, xrec.Rpt):
-                frames.setdefault(rec.port, []).append(rec.t)
-                streams.setdefault(rec.conn, (rec.port, []))[1].append(rec.t)
+                frames.setdefault(rec.port, array("d")).append(rec.t)
+                streams.setdefault(rec.conn, (rec.port, array("d")))[1].append(rec.t)
                 decode = _STATUS_DECODERS.get(len(rec.frame))
                 if rec.port in (reports.NORMAL_PORT, reports.RICH_PORT) and decode is not None:
                     try:
@@ -311,14 +374,13 @@ def read_session(path: Path) -> Session:
                     status.append(StatusFrame(rec.t, rec.port, st.error, st.warning, temps,
                                               st.collision_sensitivity))
                 elif rec.port == reports.REALTIME_PORT and len(rec.frame) == reports.REALTIME_SIZE:
-                    rt_recv.append(rec.t)
-                    rt_frames.append(rec.frame)
+                    realtime_reader.add(rec.t, rec.frame)
     except xrec.RecordingError as exc:
         raise CompareError(str(exc)) from None
     if not version:
         raise CompareError(f"{path} has no register 1 reply: the box's arm and firmware are unknown "
                            "(the SDK asks for it on connecting; record from the program's start)")
-    realtime = RealtimeFrames.read(rt_recv, rt_frames)
+    realtime = realtime_reader.frames()
     if not realtime and not requests:
         raise CompareError(f"{path} has neither requests nor real-time report frames: nothing to compare")
     return Session(version, profile, requests, realtime, frames, status, streams)
@@ -447,16 +509,19 @@ def _seg_dist(points: np.ndarray, path: np.ndarray, window: int = 8) -> np.ndarr
     looking at the segments within ``window`` samples."""
     n = len(points)
     best = np.full(n, np.inf)
-    for k in range(-window, window):
-        i0 = np.clip(np.arange(n) + k, 0, n - 1)
-        i1 = np.clip(i0 + 1, 0, n - 1)
-        a, b = path[i0], path[i1]
-        ab = b - a
-        denom = np.einsum("ij,ij->i", ab, ab)
-        u = np.where(denom > 0, np.einsum("ij,ij->i", points - a, ab) / np.where(denom > 0, denom, 1), 0)
-        u = np.clip(u, 0.0, 1.0)
-        d = np.linalg.norm(points - (a + u[:, None] * ab), axis=1)
-        best = np.minimum(best, d)
+    for first in range(0, n, DERIVE_ROWS):  # a batch of points at a time: bounded temporaries
+        rows = np.arange(first, min(n, first + DERIVE_ROWS))
+        p = points[rows]
+        for k in range(-window, window):
+            i0 = np.clip(rows + k, 0, n - 1)
+            i1 = np.clip(i0 + 1, 0, n - 1)
+            a, b = path[i0], path[i1]
+            ab = b - a
+            denom = np.einsum("ij,ij->i", ab, ab)
+            u = np.where(denom > 0, np.einsum("ij,ij->i", p - a, ab) / np.where(denom > 0, denom, 1), 0)
+            u = np.clip(u, 0.0, 1.0)
+            d = np.linalg.norm(p - (a + u[:, None] * ab), axis=1)
+            best[rows] = np.minimum(best[rows], d)
     return best
 
 
@@ -476,15 +541,16 @@ def _is_queued(register: int) -> bool:
     return reg is not None and reg.queued
 
 
-def _duration(samples: list[Sample], start: int, end: int, t0: float) -> float | None:
+def _duration(samples: Samples, start: int, end: int, t0: float) -> float | None:
     """From ``t0`` to the first sample at rest (state not 1) after one in motion, within the range."""
-    moved = False
-    for s in samples[start:end]:
-        if s.state == 1:
-            moved = True
-        elif moved:
-            return s.t - t0
-    return None
+    moving = samples.state[start:end] == 1
+    if not moving.any():
+        return None
+    first = int(np.argmax(moving))
+    rest = ~moving[first:]
+    if not rest.any():
+        return None
+    return float(samples.t[start + first + int(np.argmax(rest))]) - t0
 
 
 #: Each candidate place's (joint, torque) distances from the frames, its first twin, its reply.
@@ -505,15 +571,14 @@ class _Replay:
         self.cmd_only = not session.realtime
         self.spans = _controller_times(session)
         rt = session.realtime
-        self.recorded = [Sample(t, int(st), q, p, tau, cur, qd) for t, st, q, p, tau, cur, qd in zip(
-            rt.ts.tolist(), rt.state.tolist(), rt.joints[:, :dof], rt.pos, rt.torques[:, :dof],
-            rt.currents[:, :dof], rt.speeds[:, :dof], strict=True)]
-        self.replayed: list[Sample] = []
-        self.nan, self.nan3 = np.full(dof, np.nan), np.full(3, np.nan)  # until derive()
+        self.recorded = Samples(rt.ts, rt.state.astype(np.int64), rt.joints[:, :dof], rt.pos,
+                                rt.torques[:, :dof], rt.currents[:, :dof], rt.speeds[:, :dof])
+        self.rec_t = rt.ts.tolist()  # for the frame-by-frame loops
+        self.replayed = Samples.empty(len(rt), dof)  # filled up to row j; positions etc. by derive()
         #: The settings that shape a sample's pose and torques, by their values: (group, a copy).
         self.settings: dict[tuple[float, ...], tuple[int, Any]] = {}
-        self.group: list[int] = []  # each replayed sample's settings group
-        self.qdd: list[np.ndarray] = []  # each replayed sample's joint accelerations
+        self.group = np.zeros(len(rt), dtype=np.int64)  # each replayed sample's settings group
+        self.qdd = np.zeros((len(rt), dof))  # each replayed sample's joint accelerations
         self.cmd_at: list[tuple[float, int]] = []  # (controller time, first sample) of every request
         self.emu_codes: list[tuple[int, int]] = [(0, 0)] * len(session.status)
         self.pending: list[_Pending] = []  # reads to try again
@@ -547,16 +612,16 @@ class _Replay:
         return cls(server, emu, session, model.dof, tol)
 
     def advance(self, to: float) -> None:
-        """Step the emulator to controller time ``to``, a period at a time while reads wait."""
+        """Step the emulator to controller time ``to`` (:func:`~xarm_emu.server.placement.run_to`, as
+        ``replay`` does), a period at a time while reads wait."""
         emu, server = self.emu, self.server
         while self.pending and to > emu.time + 1e-9:
             before = emu.time
-            server.advance(min(PERIOD, to - emu.time))
+            placement.run_to(server, min(to, emu.time + PERIOD))
             self.retry()
             if emu.time <= before:  # less than a period is left
                 break
-        if to > emu.time + 1e-9:
-            server.advance(to - emu.time)
+        placement.run_to(server, to)
         self.retry()
 
     def retry(self) -> None:
@@ -587,9 +652,9 @@ class _Replay:
         and currents at the real-time frames (those before index ``slot`` when given, the first frame
         that shows the command about to be answered), the error and warning codes at the normal and
         rich frames."""
-        rec_samples, st_order = self.recorded, self.st_order
+        rec_t, st_order = self.rec_t, self.st_order
         while True:
-            t_rt = rec_samples[self.j].t if self.j < len(rec_samples) else math.inf
+            t_rt = rec_t[self.j] if self.j < len(rec_t) else math.inf
             t_st = self.st_times[st_order[self.k]] if self.k < len(st_order) else math.inf
             rt_due = t_rt < limit - 1e-9 if slot is None else self.j < slot
             st_due = t_st < limit - 1e-9
@@ -601,7 +666,7 @@ class _Replay:
                 self.emu_codes[st_order[self.k]] = (ctl.error_code, ctl.warning_code)
                 self.k += 1
                 continue
-            self.take(rec_samples[self.j].t)
+            self.take(rec_t[self.j])
 
     def take(self, t: float) -> None:
         """Sample the replayed state at the next real-time frame, stamped ``t``."""
@@ -612,11 +677,10 @@ class _Replay:
         group = self.settings.get(key)
         if group is None:
             group = self.settings[key] = (len(self.settings), copy.deepcopy(s))
-        self.group.append(group[0])
-        dof = self.dof
-        self.qdd.append(d.qdd[:dof].copy())
-        self.replayed.append(Sample(t, d.motion_state, d.q[:dof].copy(), self.nan3, self.nan,
-                                    self.nan, d.qd[:dof].copy()))
+        dof, j, rep = self.dof, self.j, self.replayed
+        self.group[j] = group[0]
+        self.qdd[j] = d.qdd[:dof]
+        rep.t[j], rep.state[j], rep.joints[j], rep.speeds[j] = t, d.motion_state, d.q[:dof], d.qd[:dof]
         self.j += 1
 
     def derive(self) -> None:
@@ -624,22 +688,19 @@ class _Replay:
         batch per set of settings that shape them (TCP and user offsets, payload, gravity direction)
         once the replay is over: the same functions the box's reports use, on arrays
         (``kinematics.tcp_positions``, ``controller.joint_torques_many``)."""
-        rep = self.replayed
-        if not rep:
+        rep = self.replayed = self.replayed.head(self.j)
+        if not len(rep):
             return
         model = self.emu.controller.model
-        q = np.array([x.joints for x in rep])
-        qd = np.array([x.speeds for x in rep])
-        qdd = np.array(self.qdd)
-        which = np.array(self.group)
-        pos, tau = np.empty((len(rep), 3)), np.empty_like(q)
+        q, qd, qdd, which = rep.joints, rep.speeds, self.qdd[:self.j], self.group[:self.j]
         for n, s in self.settings.values():
-            rows = which == n
-            pos[rows] = kin.tcp_positions(model, q[rows], s.tcp_offset, s.world_offset)
-            tau[rows] = joint_torques_many(model, q[rows], qd[rows], qdd[rows], s)
-        cur = dyn.torques_to_currents(model, tau)
-        for i, x in enumerate(rep):
-            x.pos, x.torques, x.currents = pos[i], tau[i], cur[i]
+            rows = np.flatnonzero(which == n)
+            for a in range(0, len(rows), DERIVE_ROWS):  # a batch at a time: their temporaries are large
+                r = rows[a:a + DERIVE_ROWS]
+                rep.pos[r] = kin.tcp_positions(model, q[r], s.tcp_offset, s.world_offset)
+                rep.torques[r] = joint_torques_many(model, q[r], qd[r], qdd[r], s)
+        for a in range(0, len(rep), DERIVE_ROWS):
+            rep.currents[a:a + DERIVE_ROWS] = dyn.torques_to_currents(model, rep.torques[a:a + DERIVE_ROWS])
 
     def time_of(self, i: int, req: xrec.Req) -> float:
         """The controller time request ``i`` is answered at when no real-time frames place it
@@ -672,7 +733,7 @@ class _Replay:
         moving = self.emu.controller.data.motion_state == 1
         lengths = (FIRST_FRAMES, SEARCH_FRAMES) + ((BLEND_FRAMES,) if _blends(req) else ())
         for frames in lengths:  # a few frames tell most places apart
-            end = min(len(self.recorded), max(s for _, s in cands) + frames)
+            end = min(len(self.rec_t), max(s for _, s in cands) + frames)
             scores, twins, replies = self.score(req, cands, s0, end, self.followers(i, end))
             rep = self.session.requests[i][1]
             if rep is not None and any(r == rep.frame[6:] for r in replies):  # answered as recorded
@@ -719,10 +780,10 @@ class _Replay:
         place's first twin: the first place that gave the same joints, speeds, accelerations, state
         and settings at every frame; and the reply each place got (from the state byte on). A frame
         whose state differs counts :data:`STATE_WEIGHT` in the joint distance."""
-        emu, server, rec = self.emu, self.server, self.recorded
+        emu, server, rec, rec_t = self.emu, self.server, self.recorded, self.rec_t
         model, dof = emu.controller.model, self.dof
-        rec_q = np.array([x.joints for x in rec[s0:end]])
-        rec_state = [x.state for x in rec[s0:end]]
+        rec_q = rec.joints[s0:end]
+        rec_state = rec.state[s0:end].tolist()
         cp = emu.checkpoint()
         runs = []
         replies: list[bytes] = []
@@ -740,15 +801,13 @@ class _Replay:
             for k in range(s0, max(end, s + 1)):
                 while todo and todo[0][1] == k:
                     when, _, what = todo.pop(0)
-                    if when > emu.time + 1e-9:
-                        server.advance(when - emu.time)
+                    placement.run_to(server, when)
                     frame = server.answer(what.tid, what.protocol, what.register, what.params)
                     if what is req:
                         replies.append(bytes(frame[6:]))
                 if k >= end:
                     break
-                if rec[k].t > emu.time + 1e-9:
-                    server.advance(rec[k].t - emu.time)
+                placement.run_to(server, rec_t[k])
                 d = emu.controller.data
                 states.append(np.concatenate((d.q[:dof], d.qd[:dof], d.qdd[:dof])))
                 motion.append(d.motion_state)
@@ -778,7 +837,7 @@ class _Replay:
             for key, st in kinds.items():  # the frames under each settings, in a batch
                 rows = np.array([x_key == key for x_key in settings])
                 tau[rows] = joint_torques_many(model, x[rows, 0], x[rows, 1], x[rows, 2], st)
-            rec_tau = np.array([r.torques for r in rec[s0:s0 + len(x)]])
+            rec_tau = rec.torques[s0:s0 + len(x)]
             out[n] = (err_q, float(np.abs(tau - rec_tau).sum()))
         return out, twins, replies
 
@@ -860,23 +919,24 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
              session: Session, emu_codes: list[tuple[int, int]]) -> None:
     rec, rep = result.recorded, result.replayed
     if rec:
-        pos_r, pos_p = np.array([s.pos for s in rec]), np.array([s.pos for s in rep])
-        q_r = np.degrees(np.array([s.joints for s in rec]))
-        q_p = np.degrees(np.array([s.joints for s in rep]))
-        d_mm = _seg_dist(pos_r, pos_p)
-        d_deg = _seg_dist(q_r, q_p)
-        dtau = np.array([a.torques - b.torques for a, b in zip(rec, rep, strict=True)])
-        dcur = np.array([a.currents - b.currents for a, b in zip(rec, rep, strict=True)])
+        d_mm = _seg_dist(rec.pos, rep.pos)
+        d_deg = _seg_dist(np.degrees(rec.joints), np.degrees(rep.joints))
+        dtau, dcur = rec.torques - rep.torques, rec.currents - rep.currents
         has = ~np.isnan(dtau[:, 0])
     else:  # a recording of the command port only (COMMAND_PORT_ONLY)
         d_mm, d_deg, dtau, dcur = np.zeros(0), np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1))
         has = np.zeros(0, dtype=bool)
     dtau, dcur = np.where(np.isnan(dtau), 0.0, dtau), np.where(np.isnan(dcur), 0.0, dcur)
+    inside = _inside_windows(result.commands, rec.t, session.requests)
+    d_mm, d_deg = np.where(inside, 0.0, d_mm), np.where(inside, 0.0, d_deg)
+    dtau, dcur = np.where(inside[:, None], 0.0, dtau), np.where(inside[:, None], 0.0, dcur)
+    has = has & ~inside
     rms = _rms_where
     bounds = [j for _, j in cmd_at] + [len(rec)]
     for n, c in enumerate(result.commands):
         a, b = bounds[n], bounds[n + 1]
         c.samples = (a, b)
+        c.excluded_frames = int(inside[a:b].sum())
         if b > a:
             c.path_mm, c.path_deg = float(d_mm[a:b].max()), float(d_deg[a:b].max())
             h = has[a:b]
@@ -890,12 +950,14 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
         d_rec, d_rep = _duration(rec, bounds[n], end, c.t), _duration(rep, bounds[n], end, c.t)
         if d_rec is not None or d_rep is not None:
             c.duration = (d_rec if d_rec is not None else math.nan, d_rep if d_rep is not None else math.nan)
-    durations = [abs(c.duration[0] - c.duration[1]) for c in result.commands if c.duration]
+    durations = [_duration_difference(c) for c in result.commands if c.duration]
     t = result.totals
     t["requests"] = len(result.commands)
     t["samples"] = len(rec)
-    t["reply_differences"] = sum(c.reply_differs for c in result.commands)
+    t["reply_differences"] = sum(c.reply_differs and c.inside is None for c in result.commands)
     t["undecided"] = sum(c.undecided for c in result.commands)  # placed within a window, not a period
+    t["undecided_replies"] = sum(c.reply_differs and c.inside is not None for c in result.commands)
+    t["excluded_frames"] = int(inside.sum())
     t["duration_s"] = max((d if math.isfinite(d) else math.inf for d in durations), default=0.0)
     reads = result.commands  # a read's own distance (a recording without the real-time report)
     t["path_mm"] = max(float(d_mm.max(initial=0.0)), max((c.path_mm for c in reads), default=0.0))
@@ -925,6 +987,52 @@ def _measure(result: Comparison, cmd_at: list[tuple[float, int]], tol: dict[str,
     for key, limit in tol.items():
         if t.get(key, 0.0) > limit:
             result.failures.append(f"{key} {t[key]:.6g} > {limit:.6g}")
+
+
+def _inside_windows(commands: list[CommandResult], ts: np.ndarray,
+                    requests: list[tuple[xrec.Req, xrec.Rep | None]]) -> np.ndarray:
+    """Which real-time frames (stamped ``ts``) lie inside the window of an undecided command, whose
+    effect the recording cannot place on one period: they are left out of the path, torque and current
+    measures. A request whose round trip overlaps such a command's on the proxy's clock (another
+    connection's: the box may have answered it before or after the command) gets the command's index
+    as ``inside``: its reply is not counted as a difference."""
+    out = np.zeros(len(ts), dtype=bool)
+    spans = sorted((requests[c.index][0].t, _reply_time(requests[c.index]), c.index)
+                   for c in commands if c.undecided)
+    if not spans:
+        return out
+    for c in commands:
+        if c.undecided:
+            lo, hi = c.window
+            out[np.searchsorted(ts, lo - 1e-9, "left"):np.searchsorted(ts, hi + 1e-9, "right")] = True
+    unanswered = [(a, n) for a, b, n in spans if not math.isfinite(b)]  # never answered: open to the end
+    spans = [x for x in spans if math.isfinite(x[1])]
+    starts = [a for a, _, _ in spans]
+    longest = max((b - a for a, b, _ in spans), default=0.0)
+    for c in commands:
+        req_t, rep_t = requests[c.index][0].t, _reply_time(requests[c.index])
+        c.inside = next((n for a, n in unanswered if n != c.index and a < rep_t), None)
+        k = bisect.bisect_left(starts, rep_t) - 1  # undecided commands asked before this reply
+        while k >= 0 and starts[k] >= req_t - longest and c.inside is None:
+            a, b, n = spans[k]
+            if n != c.index and b > req_t:  # its reply after this request: the round trips overlap
+                c.inside = n
+            k -= 1
+    return out
+
+
+def _reply_time(pair: tuple[xrec.Req, xrec.Rep | None]) -> float:
+    return pair[1].t if pair[1] is not None else math.inf
+
+
+def _duration_difference(c: CommandResult) -> float:
+    """A move's duration recorded against replayed; for an undecided command less its window's width
+    (its start is known only within it)."""
+    assert c.duration is not None
+    d = abs(c.duration[0] - c.duration[1])
+    if c.undecided and math.isfinite(d):
+        d = max(0.0, d - (c.window[1] - c.window[0]))
+    return d
 
 
 def _code_name(kind: int, code: int) -> str:
@@ -981,10 +1089,10 @@ def _codes(result: Comparison, session: Session, emu_codes: list[tuple[int, int]
                 for side in (0, 1):
                     if c.reply_codes[2 * side + kind]:
                         saw(_code_name(kind, c.reply_codes[2 * side + kind]), side, c.t)
-            if c.reply_codes[:2] != c.reply_codes[2:]:
+            if c.reply_codes[:2] != c.reply_codes[2:] and c.inside is None:  # not inside a window
                 replies.append({"t": c.t, "request": c.index, "recorded": list(c.reply_codes[:2]),
                                 "emulator": list(c.reply_codes[2:])})
-        if c.reply_differs and c.recorded_reply and c.replayed_reply:
+        if c.reply_differs and c.inside is None and c.recorded_reply and c.replayed_reply:
             rs, ps = int(c.recorded_reply[2:4], 16), int(c.replayed_reply[2:4], 16)
             if (rs ^ ps) & 0x60:
                 bits.append([c.t, float(c.register), float(rs & 0x60), float(ps & 0x60)])

@@ -60,26 +60,22 @@ def report_data(result: Any, charted: int = CHARTED, points: int = POINTS) -> di
     ``points`` frames each): what :func:`render` reads."""
     data = result.to_json()
     charts = []
-    rec, rep = getattr(result, "recorded", []), getattr(result, "replayed", [])
+    rec, rep = getattr(result, "recorded", None), getattr(result, "replayed", None)
     data["worst"] = worst(data)
     for c in data["worst"]:
         a, b = (c.get("samples") or (0, 0))[:2]
-        if b <= a or b > len(rec) or b > len(rep):
+        if rec is None or rep is None or b <= a or b > len(rec) or b > len(rep):
             continue
-        idx = range(a, b, max(1, math.ceil((b - a) / points)))
+        idx = slice(a, b, max(1, math.ceil((b - a) / points)))
         charts.append({"request": c.get("index"),
-                       "t": [rec[i].t for i in idx],
-                       "torques": [[_plain(x[i].torques) for i in idx] for x in (rec, rep)],
-                       "currents": [[_plain(x[i].currents) for i in idx] for x in (rec, rep)],
-                       "tcp": [[_plain(x[i].pos) for i in idx] for x in (rec, rep)]})
+                       "t": rec.t[idx].tolist(),
+                       "torques": [x.torques[idx].tolist() for x in (rec, rep)],
+                       "currents": [x.currents[idx].tolist() for x in (rec, rep)],
+                       "tcp": [x.pos[idx].tolist() for x in (rec, rep)]})
         if len(charts) == charted:
             break
     data["charts"] = charts
     return data
-
-
-def _plain(v: Any) -> list[float]:
-    return [float(x) for x in v]
 
 
 def _num(v: Any) -> float | None:
@@ -108,7 +104,7 @@ def groups(commands: Any) -> list[dict[str, Any]]:
             out.append(g)
         g = out[-1]
         g["requests"].append(c.get("index"))
-        if c.get("reply_differs"):
+        if c.get("reply_differs") and c.get("inside") is None:  # inside an undecided window: not flagged
             g["replies"].append({k: c.get(k) for k in ("index", "name", "recorded_reply", "replayed_reply")})
         for key in _MEASURES:
             v = _num(c.get(key))

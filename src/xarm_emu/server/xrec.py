@@ -325,7 +325,7 @@ def read(path: Path | str) -> Iterator[Record]:
         unpacker = _Unpacker()
         first = True
         while not inflate.eof:
-            data = f.read(1 << 20)
+            data = f.read(1 << 16)  # a few MB of records decompressed at a time, not tens
             if not data:
                 return  # a stream cut short ends at its last whole record
             try:

@@ -13,8 +13,12 @@ A request's place is a *slot*, the index of the first frame that shows its effec
 time ``t`` between the stamps of the frames either side of the slot (a request answered at the very
 period a frame is stamped with may come before or after that frame is made). :func:`windows` gives
 each request's slots; :func:`candidates` the places they leave open, which ``compare`` tells apart by
-the frames that follow (:mod:`.compare`). Without real-time frames the places are left to the proxy's
-clock (``compare`` says so per command). A replay of a trace could place re-run requests the same way.
+the frames that follow (:mod:`xarm_emu.fidelity.compare`). Without real-time frames the places are
+left to the proxy's clock (``compare`` says so per command).
+
+Both ``compare`` and ``xarm-emu replay`` (:mod:`xarm_emu.replay`) re-run what they re-run by
+:func:`run_to`: the stepped emulator run up to the controller time (or after the control period) a
+request or an outside change was placed at, in whole periods, never back.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -102,3 +107,17 @@ def candidates(ts: np.ndarray, window: Window, after: tuple[float, int]) -> list
 def undecided(lo: float, hi: float) -> bool:
     """Whether a window of controller times ``lo``..``hi`` leaves more than one control period open."""
     return not math.isfinite(hi) or hi - lo > PERIOD + 1e-9
+
+
+def run_to(server: Any, t: float, period: int | None = None) -> None:
+    """Run ``server``'s emulator (stepped, :meth:`~xarm_emu.server.core.EmulatorServer.advance`) up
+    to where a request or a change is placed: after control ``period`` when given (a trace's
+    ``outside`` line), else up to controller time ``t``, in whole periods. Never back: a place at or
+    before the emulator's time is now."""
+    emu = server.emulator
+    if period is not None:
+        n = int(period) - int(emu.controller.data.steps)
+        if n > 0:
+            server.advance(n * emu.controller.period)
+    elif t > emu.time + 1e-9:
+        server.advance(t - emu.time)
