@@ -5,9 +5,9 @@ heartbeat) gets no reply; protocol 0 (standard Modbus TCP) is answered by the st
 (:mod:`xarm_emu.protocol.modbus`); a frame that cannot be framed closes that connection only. Protocol
 ids 2 and 3 are answered alike and echoed (the SDK switches between them on one connection).
 
-Firmware with feedback frames (``FirmwareProfile.feedback``) also pushes unsolicited 21-byte 0xFF feedback frames on the connection whose
-command they report (:meth:`CommandProtocol.send_feedback`), as whole writes between replies; a
-connection that does not read them gets none (dropped and counted). Decoding is
+Firmware with feedback frames (``FirmwareProfile.feedback``) also pushes unsolicited 21-byte 0xFF feedback
+frames on the connection whose command they report (:meth:`CommandProtocol.send_feedback`), as whole writes
+between replies; a connection that does not read them gets none (dropped and counted). Decoding is
 :class:`~xarm_emu.protocol.frame.FrameDecoder` (sans-IO); the answers come from the server's
 :meth:`CommandTarget.answer`.
 """

@@ -63,8 +63,8 @@ class ServerConfig:
     normal_port: int = reports.NORMAL_PORT
     rich_port: int = reports.RICH_PORT
     develop_port: int = reports.DEVELOP_PORT
-    #: The real-time report (``FirmwareProfile.realtime_report``; 0: a free port; a 1.x box has none). ``None``: two
-    #: below the rich port, as the standard ports are (30000 beside 30002; free when that is 0).
+    #: The real-time report (``FirmwareProfile.realtime_report``; 0: a free port; a 1.x box has none).
+    #: ``None``: two below the rich port, as the standard ports are (30000 beside 30002; free when that is 0).
     realtime_port: int | None = None
 
     def realtime_port_number(self) -> int:

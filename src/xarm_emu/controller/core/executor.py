@@ -66,8 +66,8 @@ Answer = tuple[np.ndarray, Sequence[float]]
 
 
 def keep_unchanged_joints(target: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """A joint target with its +inf values (``FirmwareProfile.inf_unchanged``: "unchanged", register 23) taken from
-    the joints ``q`` the move starts from."""
+    """A joint target with its +inf values (``FirmwareProfile.inf_unchanged``: "unchanged", register 23)
+    taken from the joints ``q`` the move starts from."""
     return np.where(np.isposinf(target), q, target) if np.isposinf(target).any() else target
 
 
