@@ -141,3 +141,21 @@ def test_a_gripper_says_itself_whether_the_physics_twin_drives_its_fingers():
     assert bio is not None and bio.opening == 150.0 and not bio.closing and not bio.met
     source = (EMULATOR.parent / "physics" / "driven.py").read_text()
     assert "isinstance" not in source and "from ..devices.gripper import DrivenFingers" in source
+
+
+def test_a_gripper_says_itself_whether_the_physics_twin_moves_its_fingers():
+    """The one gripper whose fingers the physics twin moves itself (the xArm gripper) says so
+    (``twin_fingers``, itself); every other hands out none, and physics/component.py tests no device
+    class, nor names the xArm gripper's."""
+    devices = {g: Emulator(6, gripper=g).gripper.device for g in GRIPPERS}
+    twin = {g: d.twin_fingers() for g, d in devices.items()}
+    assert {g for g, f in twin.items() if f is not None} == {"xarm"}
+    assert twin["xarm"] is devices["xarm"]
+    assert all(twin[g] is None or devices[g].driven_fingers(40.0) is None for g in GRIPPERS)
+    tree = ast.parse((EMULATOR.parent / "physics" / "component.py").read_text())
+    calls = [n for n in ast.walk(tree) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
+             and n.func.id == "isinstance"]
+    named = {n.id for c in calls for n in ast.walk(c.args[1]) if isinstance(n, ast.Name)}
+    imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module
+                and "devices" in n.module for a in n.names}
+    assert named & imported == set() and "XArmGripper" not in imported

@@ -1,12 +1,15 @@
-"""One home per firmware threshold (protocol/firmware.py): read from the source with ast, no import of
-the modules under test for the static part. Then that a new profile or a new threshold is one edit in
+"""One home per firmware threshold (protocol/firmware.py): read from the source with ast (tokenize for
+comments), no import of the modules under test for the static part; no version in code, messages or
+prose outside firmware.py and the register table. Then that a new profile or a new threshold is one edit in
 one place and flows to the register table, the CLI, the reports and the device gate."""
 
 from __future__ import annotations
 
 import ast
 import functools
+import io
 import re
+import tokenize
 from pathlib import Path
 
 import pytest
@@ -223,6 +226,75 @@ def test_no_known_version_inside_a_message_or_help_text():
         skip = _docstrings(tree)
         hits = [(n.lineno, n.value) for n in ast.walk(tree) if isinstance(n, ast.Constant)
                 and isinstance(n.value, str) and id(n) not in skip and pattern.search(n.value)]
+        if hits:
+            found[str(p.relative_to(SRC))] = hits
+    assert found == {}
+
+
+# ---- prose: comments and docstrings -----------------------------------------------------------------
+
+
+#: A dotted number, as register 1 writes a version ('v2.4.101') or bare; the end of a sentence is no
+#: part of it, nor is it part of a longer number (an IP address).
+_NUMBER = re.compile(r"(?<![\w.])([vV]?)(\d+\.\d+(?:\.\d+)?)(?!\.?\d)")
+#: What makes a dotted number a firmware version: 'firmware' (also before 'firmware 1.8'), a
+#: comparison, 'since', 'from', 'before', 'until'.
+_THRESHOLD_WORD = re.compile(r"(?:\bfirmware|[<>]=?|\bsince|\bfrom|\bbefore|\buntil)\s*$", re.IGNORECASE)
+#: What a manual's number follows: its section ('manual 2.1.6', 'sections 3.2.1 and 3.2.2') or the
+#: manual's own version ('Developer Manual V1.6.0').
+_MANUAL = re.compile(r"(?:manual|sections?|\u00a7)\s*(?:[vV]?\d+(?:\.\d+)*\s*(?:,|and|or)\s*)*[vV]?$",
+                     re.IGNORECASE)
+
+
+def versions_in_prose(text: str) -> list[str]:
+    """The firmware versions ``text`` names: a dotted number after a word of :data:`_THRESHOLD_WORD`,
+    written as register 1 writes it ('v2.4.101'), or a release or profile version of
+    protocol/firmware.py; never a manual's section number or the manual's own version."""
+    known = {*fw.RELEASES, *fw.SUPPORTED_VERSIONS, fw.DEFAULT_VERSION}
+    out = []
+    for m in _NUMBER.finditer(text):
+        before = text[max(0, m.start() - 60):m.start()]
+        three = m[2].count(".") == 2
+        named = (m[2] in known or (three and bool(m[1])) or (three and bool(_THRESHOLD_WORD.search(before)))
+                 or bool(re.search(r"firmware\s*$", before, re.IGNORECASE)))
+        if not named or _MANUAL.search(before + m[1]):
+            continue
+        out.append(m.group())
+    return out
+
+
+@pytest.mark.parametrize("text", [
+    "firmware >= 2.0.102", "Firmware from 1.11.100 takes", "(>= 2.4.101).", "since 1.8.6", "firmware 1.8 and",
+    "''6,6,XI1304,AC1303,v2.7.103''", "not on firmware 1.6.0", "firmware 2.9.9.", "From 2.4.101 a +inf",
+    "the 850 (2.1.0 and later)"])
+def test_a_version_in_prose_is_found(text):
+    assert versions_in_prose(text) != []
+
+
+@pytest.mark.parametrize("text", [
+    "manual 2.1.6", "manual section 2.1.3", "sections 3.2.1 and 3.2.2", "(manual 2.1.3,\n    2.1.4)",
+    "Developer Manual V1.6.0", "not in manual V1.6.0", "--host 127.0.0.1", "Ericson 5.1.9",
+    "servos report 1.0.0", "firmware 2.x", "``vX.Y.Z``", "section 2.1.0"])
+def test_a_manual_section_is_no_version(text):
+    assert versions_in_prose(text) == []
+
+
+def _prose(text: str) -> list[tuple[int, str]]:
+    """(line, text) of the comments and strings (docstrings among them) of a module."""
+    kinds = {tokenize.COMMENT, tokenize.STRING}
+    return [(tok.start[0], tok.string) for tok in tokenize.generate_tokens(io.StringIO(text).readline)
+            if tok.type in kinds]
+
+
+def test_no_firmware_version_in_a_comment_or_docstring_outside_the_two_files():
+    """A threshold is named by its FirmwareProfile property, its PARTS entry or its behaviour of
+    RELEASES, never by the release's version (firmware.py and the register table are its home).
+    Only modules whose text holds a candidate are tokenized."""
+    found = {}
+    for p, t in texts().items():
+        if p in (FIRMWARE, REGISTERS) or not versions_in_prose(t):
+            continue
+        hits = [(line, v) for line, s in _prose(t) for v in versions_in_prose(s)]
         if hits:
             found[str(p.relative_to(SRC))] = hits
     assert found == {}

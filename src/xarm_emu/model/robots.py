@@ -297,8 +297,8 @@ LITE6 = RobotModel(
     tool_io=LITE6_TOOL_IO,
 )
 
-# UFACTORY 850 (axis 6, type 12), firmware 2.1.0 and later. Limits: J2 +/-132, J3 -242..3.5, J5 +/-124
-# degrees (the SDK's type 12 table). Payload 5 kg and reach 850 mm (vendor product page).
+# UFACTORY 850 (axis 6, type 12), the "850 arm" of firmware.PARTS (behaviour uf850). Limits: J2 +/-132, J3
+# -242..3.5, J5 +/-124 degrees (the SDK's type 12 table). Payload 5 kg and reach 850 mm (vendor product page).
 UF850 = RobotModel(
     name="850",
     dof=6,
@@ -324,10 +324,10 @@ UF850 = RobotModel(
     tool_io=UF850_TOOL_IO,
 )
 
-# xArm 7T (axis 7, type 13), firmware 2.4.0 and later: its J2, J4 and J6 ranges are the xArm 7's with
-# their signs swapped (the SDK's type 13 table). The vendor publishes no 7T joint origins; the emulator
-# takes those of the vendor's mirrored xArm 7 (rolls of the opposite sign, calibrated lengths), which
-# match those ranges. Payload and reach as the xArm 7.
+# xArm 7T (axis 7, type 13), the "xArm7T arm" of firmware.PARTS (behaviour xarm7t): its J2, J4 and J6 ranges
+# are the xArm 7's with their signs swapped (the SDK's type 13 table). The vendor publishes no 7T joint
+# origins; the emulator takes those of the vendor's mirrored xArm 7 (rolls of the opposite sign, calibrated
+# lengths), which match those ranges. Payload and reach as the xArm 7.
 XARM7T = RobotModel(
     name="xArm7T",
     dof=7,

@@ -1,4 +1,4 @@
-"""Feedback frames of firmware >= 2.0.102 (registers 253/254), sans-IO.
+"""Feedback frames (registers 253/254, ``FirmwareProfile.feedback``), sans-IO.
 
 A feedback frame is pushed unsolicited on the command connection, 21 bytes:
 ``tid u16 | protocol u16 | length u16 = 15 | 0xFF | state u8 | type u8 | register u8 |

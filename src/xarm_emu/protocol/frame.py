@@ -20,7 +20,7 @@ PROTOCOL_HEARTBEAT = 1  # SDK heartbeat, never answered
 #: The control box command port (manual section 2.1.1).
 COMMAND_PORT = 502
 PROTOCOL_PRIVATE = 2  # manual section 2.1.2: "0x00 0x02 Control"
-PROTOCOL_PRIVATE_V3 = 3  # SDK after its report thread starts (firmware >= 1.8.6)
+PROTOCOL_PRIVATE_V3 = 3  # SDK after its report thread starts, on firmware past the manual's
 PRIVATE_PROTOCOLS = frozenset({PROTOCOL_PRIVATE, PROTOCOL_PRIVATE_V3})
 
 # Reply state bits (section 2.1.2, "Status Bit of the Response Format").

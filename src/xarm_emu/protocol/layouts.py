@@ -275,7 +275,7 @@ def _encode_field(f: Field, value: Any) -> bytes:
 def all_within(values: Mapping[str, Any], limit: float, *, inf_unchanged: bool = False) -> bool:
     """True when every float in decoded values is finite and no larger than ``limit`` in magnitude.
 
-    ``inf_unchanged`` also lets +inf through (firmware >= 2.4.101: "keep this component" in
+    ``inf_unchanged`` also lets +inf through (``FirmwareProfile.inf_unchanged``: "keep this component" in
     registers 21/23/83); NaN, -inf and finite values beyond ``limit`` are still refused.
     """
     for v in values.values():

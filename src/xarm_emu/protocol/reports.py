@@ -488,7 +488,7 @@ def encode_rich2(s: ReportSnapshot) -> bytes:
 
 
 def encode_realtime(s: ReportSnapshot) -> bytes:
-    """Real-time report (port 30000, firmware >= 2.1.0), 804 bytes.
+    """Real-time report (port 30000, ``FirmwareProfile.realtime_report``), 804 bytes.
 
     Targets and actual values are the same snapshot values; accelerations, currents and torques
     fill their blocks, reserved blocks are zero. IO values are in mV.

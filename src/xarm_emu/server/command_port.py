@@ -5,9 +5,9 @@ heartbeat) gets no reply; protocol 0 (standard Modbus TCP) is answered by the st
 (:mod:`xarm_emu.protocol.modbus`); a frame that cannot be framed closes that connection only. Protocol
 ids 2 and 3 are answered alike and echoed (the SDK switches between them on one connection).
 
-Firmware >= 2.0.102 also pushes unsolicited 21-byte 0xFF feedback frames on the connection whose
-command they report (:meth:`CommandProtocol.send_feedback`), as whole writes between replies; a
-connection that does not read them gets none (dropped and counted). Decoding is
+Firmware with feedback frames (``FirmwareProfile.feedback``) also pushes unsolicited 21-byte 0xFF feedback
+frames on the connection whose command they report (:meth:`CommandProtocol.send_feedback`), as whole writes
+between replies; a connection that does not read them gets none (dropped and counted). Decoding is
 :class:`~xarm_emu.protocol.frame.FrameDecoder` (sans-IO); the answers come from the server's
 :meth:`CommandTarget.answer`.
 """
@@ -447,7 +447,7 @@ class CommandProtocol(asyncio.Protocol):
             self.transport.write(payload)
             self._close_if_done()
 
-    # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
+    # -- feedback frames (FirmwareProfile.feedback) -----------------------------------------------
     def send_feedback(self, frame: bytes) -> bool:
         """Write one unsolicited 0xFF feedback frame as one whole write between replies; ``False``
         (the frame dropped and counted) when the connection is closing or its reader is not keeping

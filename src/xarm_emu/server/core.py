@@ -1,8 +1,9 @@
 """The server core: one arm's ports and the control loop that keeps its clock (:class:`EmulatorServer`).
 
 - Command port (502), :mod:`.command_port`: frames of manual section 2.1.2.
-- Report ports (30001-30003, and 30000 for firmware >= 2.1.0), :mod:`.report_ports`: section 2.1.6.
-- Feedback frames (firmware >= 2.0.102): the controller's feedback events
+- Report ports (30001-30003, and 30000 with ``FirmwareProfile.realtime_report``), :mod:`.report_ports`:
+  section 2.1.6.
+- Feedback frames (firmware with ``FirmwareProfile.feedback``): the controller's feedback events
   (:mod:`xarm_emu.controller.core.feedback`), drained after every command and every catch-up and written
   to the command connection each belongs to (:meth:`EmulatorServer.deliver_feedback`).
 - The admin channel (fault injection, :mod:`.admin` over :mod:`.admin_port`) listens on loopback
@@ -62,8 +63,8 @@ class ServerConfig:
     normal_port: int = reports.NORMAL_PORT
     rich_port: int = reports.RICH_PORT
     develop_port: int = reports.DEVELOP_PORT
-    #: The real-time report of firmware >= 2.1.0 (0: a free port; a 1.x box has none). ``None``: two
-    #: below the rich port, as the standard ports are (30000 beside 30002; free when that is 0).
+    #: The real-time report (``FirmwareProfile.realtime_report``; 0: a free port; a 1.x box has none).
+    #: ``None``: two below the rich port, as the standard ports are (30000 beside 30002; free when that is 0).
     realtime_port: int | None = None
 
     def realtime_port_number(self) -> int:
@@ -261,7 +262,7 @@ class EmulatorServer:
         self.reports = ReportStreams(lambda: emulator.snapshot(), self.reports_paused, rates, profile,
                                      (emulator.mark, emulator.unchanged), instant=self.report_instant,
                                      lock=self.lock)
-        #: The controller's feedback events (firmware >= 2.0.102), else ``None``.
+        #: The controller's feedback events (``FirmwareProfile.feedback``), else ``None``.
         self.feedback: FeedbackQueue | None = (feedback_queue(emulator.controller) if profile.feedback
                                                else None)
         #: Feedback frames dropped because their connection was gone or not reading.
@@ -661,7 +662,7 @@ class EmulatorServer:
                                        emu.controller.registers)
         return frame
 
-    # -- feedback frames (firmware >= 2.0.102) ----------------------------------------------------
+    # -- feedback frames (FirmwareProfile.feedback) -----------------------------------------------
     def _answer_with_feedback(self, tid: int, protocol: int, register: int, params: bytes,
                               client: int) -> bytes:
         """Handle one request with its origin known to the feedback queue; the frames it causes go

@@ -1,5 +1,5 @@
 """The report ports (30001 normal 5 Hz, 30002 rich 5 Hz, 30003 develop 100 Hz), manual section 2.1.6,
-and for firmware >= 2.1.0 the real-time report (30000, 250 Hz).
+and for firmware with ``FirmwareProfile.realtime_report`` the real-time report (30000, 250 Hz).
 
 At each frame's deadline the process's report sender (:mod:`.report_sender`) encodes it from the
 arm's state at that deadline with the encoder of the box's firmware (``reports.encoders_for``: the
@@ -32,7 +32,7 @@ REPORT_SNDBUF = 32 * 1024
 
 #: Report kind -> its standard port, the key of ``reports.ENCODERS`` (section 2.1.6).
 KIND_PORTS = {"normal": reports.NORMAL_PORT, "rich": reports.RICH_PORT, "develop": reports.DEVELOP_PORT}
-#: The real-time report of firmware >= 2.1.0 (port 30000), beside :data:`KIND_PORTS`.
+#: The real-time report (port 30000, ``FirmwareProfile.realtime_report``), beside :data:`KIND_PORTS`.
 REALTIME_KIND = "realtime"
 ALL_KIND_PORTS = {**KIND_PORTS, REALTIME_KIND: reports.REALTIME_PORT}
 

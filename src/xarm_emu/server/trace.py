@@ -2,7 +2,7 @@
 
 One JSON object per line, appended to ``FILE``:
 
-- ``{"event": "start", "t": ..., "wall": ..., "model": "6", "firmware": "2.7.103", "gripper":
+- ``{"event": "start", "t": ..., "wall": ..., "model": "6", "firmware": "X.Y.Z", "gripper":
   "xarm", "vacuum": false, "linear_track": null, "ft_sensor": false, "ft_noise": false, "robot_sn":
   ..., "box_sn": ..., "saved": null, "calibration": null}`` when the emulator starts with the trace
   on: the box that answers the lines after it (its arm, the firmware it claims, its end tool, the

@@ -139,7 +139,7 @@ class RecordingError(ValueError):
 
 
 def firmware_of(version: str) -> FirmwareProfile | None:
-    """The profile of a register 1 version string (``"6,6,XI1304,AC1303,v2.7.103"``), if supported."""
+    """The profile of a register 1 version string (``"6,6,XI1304,AC1303,vX.Y.Z"``), if supported."""
     if ",v" not in version:
         return None
     try:

@@ -73,7 +73,7 @@ def _speed(v: Values, vmax: float, amax: float) -> tuple[float, float]:
 
 
 def _unchanged(values: Any, current: np.ndarray) -> np.ndarray:
-    """+inf ("unchanged", firmware 2.4.101) takes the component of ``current``."""
+    """+inf ("unchanged", ``FirmwareProfile.inf_unchanged``) takes the component of ``current``."""
     out = np.asarray([float(x) for x in values], dtype=float)[: current.size]
     inf = np.isinf(out) & (out > 0)
     out[inf] = current[: out.size][inf]

@@ -15,7 +15,7 @@
   SDK waits for), state 1; at the end the mode returns to 0 and the state to 2.
 
 Names are ASCII letters, digits, ``-``, ``_``, ``.`` and spaces, at most 80 characters, no path parts.
-Feedback (firmware 2.0.102, registers 253/254): where the controller has a feedback queue (a
+Feedback (``FirmwareProfile.feedback``, registers 253/254): where the controller has a feedback queue (a
 component with ``capture``, ``start_other`` and ``finish_other``), a save, load or playback reports
 OTHER_START when accepted and OTHER_FINISH (code 0, or 1 when it failed) when it ends, to the
 connection and transaction that asked for it; the SDK's ``wait=True`` waits for that frame.

@@ -1,11 +1,11 @@
 """Velocity control: joint velocity (mode 4, register 81) and Cartesian velocity (mode 5, register 82).
 
-The SDK sends the commanded velocity and, for firmware 1.8.0 and later, a duration in seconds:
-above 0 the velocity returns to zero once the duration has run out; 0 (or no duration) keeps it
+The SDK sends the commanded velocity and, for firmware with ``FirmwareProfile.velocity_duration``, a duration
+in seconds: above 0 the velocity returns to zero once the duration has run out; 0 (or no duration) keeps it
 until the next command. Each control period the arm's velocity heads for the commanded one along a
-jerk-limited ramp (ruckig's offline planner from the present velocity and acceleration, velocity
-interface; the joint jerk and maximum acceleration of registers 33/34, or the TCP ones of 31/32),
-so once the ramp is over the arm moves at exactly the commanded velocity.
+jerk-limited ramp (ruckig's offline planner from the present velocity and acceleration, velocity interface;
+the joint jerk and maximum acceleration of registers 33/34, or the TCP ones of 31/32), so once the ramp is
+over the arm moves at exactly the commanded velocity.
 
 Limits: joint speeds are clipped to the model's maximum (manual 1.3, Table 1.2), TCP speeds to the
 maximum TCP speed, or to the reduced-mode maxima (registers 47/48) while reduced mode is on. A joint
@@ -219,5 +219,5 @@ def _cartesian_step(ctl: Controller, vc: VelocityControl, v: np.ndarray, dt: flo
 
 
 #: Modes beyond the manual's, each with the register that commands it: register 19 accepts such a
-#: mode on a box whose register table has that register (not on firmware 1.6.0).
+#: mode on a box whose register table has that register (not on the manual's box, ``DEFAULT_VERSION``).
 MODE_REGISTERS: dict[int, int] = {MODE_JOINT_VELOCITY: 81, MODE_CARTESIAN_VELOCITY: 82}

@@ -6,7 +6,7 @@ ramp, so the arm stays on the planned path and a resumed move continues the
 same path (manual register 12). The buffer and the plan live in a
 :class:`~.controller_state.PlanState`, part of the controller's :class:`~.controller_state.ControllerState`.
 
-From firmware 2.4.101 a +inf value of a pose (register 21) or joint target (23) keeps
+With ``FirmwareProfile.inf_unchanged`` a +inf value of a pose (register 21) or joint target (23) keeps
 that component where the move starts (:func:`keep_unchanged_pose`,
 :func:`keep_unchanged_joints`).
 
@@ -66,13 +66,13 @@ Answer = tuple[np.ndarray, Sequence[float]]
 
 
 def keep_unchanged_joints(target: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """A joint target with its +inf values (firmware >= 2.4.101: "unchanged", register 23) taken from
-    the joints ``q`` the move starts from."""
+    """A joint target with its +inf values (``FirmwareProfile.inf_unchanged``: "unchanged", register 23)
+    taken from the joints ``q`` the move starts from."""
     return np.where(np.isposinf(target), q, target) if np.isposinf(target).any() else target
 
 
 def keep_unchanged_pose(cmd: LineMove, start: np.ndarray) -> LineMove:
-    """A linear move with its +inf pose values (firmware >= 2.4.101: "unchanged", register 21)
+    """A linear move with its +inf pose values (``FirmwareProfile.inf_unchanged``: "unchanged", register 21)
     resolved from the TCP pose ``start`` the move starts from: the start's own component for an
     absolute base-frame pose, no motion (0) for relative and tool-frame poses."""
     if not any(x == math.inf for x in cmd.pose):

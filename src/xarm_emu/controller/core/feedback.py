@@ -1,4 +1,4 @@
-"""Feedback events of firmware >= 2.0.102 (registers 253/254), pure and deterministic.
+"""Feedback events (registers 253/254, ``FirmwareProfile.feedback``), pure and deterministic.
 
 The controller never touches a socket: :class:`FeedbackQueue` records, per connection, the mask
 register 254 set, tags each task queued by a request with the origin of that request (connection,

@@ -225,6 +225,10 @@ class BioGripper:
         """Its fingers as the physics twin drives them, ``force`` the most each pad presses with (N)."""
         return BioFingers(self, force)
 
+    def twin_fingers(self) -> None:
+        """None: its own model moves its fingers (:meth:`driven_fingers`)."""
+        return None
+
     # --- commands ----------------------------------------------------------------------------------
 
     def _set_enable(self, on: int) -> None:

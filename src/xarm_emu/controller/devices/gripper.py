@@ -141,6 +141,25 @@ class DrivenFingers(Protocol):
     def part(self, touching: bool) -> None: ...
 
 
+class TwinFingers(Protocol):
+    """A gripper whose fingers the physics twin (controller/physics/) moves itself, in pulses: the
+    twin reads the finger command (``enabled``, ``mode``, ``error``, ``target``, ``speed``,
+    ``moving``) and writes back where the fingers are (``position``) and whether they press on an
+    object short of the target (``gripped``)."""
+
+    enabled: bool
+    mode: int
+    speed: int
+    target: int
+    position: float
+    gripped: bool
+
+    @property
+    def error(self) -> int: ...
+    @property
+    def moving(self) -> bool: ...
+
+
 class ToolDevice(Device, rtu.RegisterDevice, Protocol):
     """A device (:class:`~..core.device.Device`) on the tool RS-485 (register 124, host 9): a Modbus
     slave with its own slave id and baud rate (register 127 baud table index) whose ``REGISTER_MAP``
@@ -169,6 +188,11 @@ class ToolDevice(Device, rtu.RegisterDevice, Protocol):
         """Its fingers as the physics twin drives them when its own model moves them (``force``: the
         most each pad of the twin's hand presses with, N); None where the twin moves them itself
         (the xArm gripper) or has no body for them."""
+        ...
+
+    def twin_fingers(self) -> TwinFingers | None:
+        """Its fingers when the physics twin moves them itself (the xArm gripper); None where its own
+        model moves them (:meth:`driven_fingers`) or the twin has no body for them."""
         ...
 
 
@@ -260,8 +284,13 @@ class XArmGripper:
                          "--gripper robotiq-2f85, robotiq-2f140, bio or bio-g1")
 
     def driven_fingers(self, force: float) -> None:
-        """None: the physics twin moves the xArm gripper's fingers itself (physics/component.py)."""
+        """None: the physics twin moves the xArm gripper's fingers itself (:meth:`twin_fingers`)."""
         return None
+
+    def twin_fingers(self) -> TwinFingers:
+        """Itself: the physics twin runs its finger command and writes back its position and grip
+        (physics/component.py)."""
+        return self
 
     # --- commands ----------------------------------------------------------------------------------
 

@@ -110,6 +110,10 @@ class InspireHand:
         """None: the hand is no body of the physics twin."""
         return None
 
+    def twin_fingers(self) -> None:
+        """None: the hand is no body of the physics twin."""
+        return None
+
     def set_object(self, width_mm: float | None, inner: bool = False) -> None:
         if width_mm is not None:
             self.check_object(width_mm, inner)

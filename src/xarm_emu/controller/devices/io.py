@@ -373,7 +373,7 @@ class IOModule:
         #: The controller whose command buffer queues IO in its turn (:meth:`attach`); a weak
         #: reference, so checkpoints copy the IO state without the controller.
         self._ctl: weakref.ref[Any] | None = None
-        #: The firmware reads the sync byte of registers 127/134/135/136 (>= 2.4.101).
+        #: The firmware reads the sync byte of registers 127/134/135/136 (``FirmwareProfile.io_sync_byte``).
         self.sync_io = False
 
     def attach(self, ctl: Controller) -> None:

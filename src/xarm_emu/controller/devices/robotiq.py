@@ -244,6 +244,10 @@ class RobotiqGripper:
         """Its fingers as the physics twin drives them (their force is its own rFR's)."""
         return RobotiqFingers(self)
 
+    def twin_fingers(self) -> None:
+        """None: its own model moves its fingers (:meth:`driven_fingers`)."""
+        return None
+
     # --- commands ----------------------------------------------------------------------------------
 
     def _apply_action(self) -> None:

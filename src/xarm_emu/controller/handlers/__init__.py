@@ -92,7 +92,7 @@ def handler_of(code: int, firmware: FirmwareProfile) -> list[str] | None:
 
 def handled_by(code: int, versions: tuple[str, ...] = (DEFAULT_VERSION, SUPPORTED_VERSIONS[-1])) -> list[str]:
     """Lines naming what answers register ``code`` on each firmware of ``versions`` (the manual's
-    1.6.0 and the newest): ``handler on 1.6.0: module.function`` and its mode routes."""
+    ``DEFAULT_VERSION`` and the newest): ``handler on <version>: module.function`` and its mode routes."""
     out = []
     for version in versions:
         answer = handler_of(code, profile_for(version))

@@ -1,4 +1,4 @@
-"""Registers 253 and 254: feedback of firmware >= 2.0.102 (the manual V1.6.0 lacks them).
+"""Registers 253 and 254: feedback (``FirmwareProfile.feedback``; the manual V1.6.0 lacks them).
 
 - 254 SET_FEEDBACK_TYPE ``[mask]``: the feedback types the requesting connection wants
   (1 motion start, 2 motion finish, 4 trigger, 32 other start, 64 other finish). It applies to tasks

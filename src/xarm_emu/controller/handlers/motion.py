@@ -1,6 +1,6 @@
 """Motion commands (manual section 2.1.3, registers 21-30, 92 and 93): queued moves and servo targets.
 
-Firmware from 1.11.100 (the profile's ``common_move_layout``) takes the "common" forms the SDK
+Firmware with the profile's ``common_move_layout`` takes the "common" forms the SDK
 sends: register 21 with blend radius, coordinate frame, axis-angle flag, only-check byte and motion
 type; 27 with the frame, axis-angle and only-check bytes; 23, 24 and 25 with an only-check byte.
 Their replies carry a third byte, the check result. An only-check command (types 1-3, as the
@@ -10,7 +10,7 @@ move would raise (C21, C22, C23, C35). Joint moves are checked along their strai
 moves along their TCP line; a circle along lines through its two points. The common form's motion
 type byte chooses the planning of register 21: 0 a TCP line, 1 a TCP line or, where the line leaves
 the reachable joints, a joint move, 2 a joint move to the pose.
-From 2.4.101 (``inf_unchanged``) +inf in a pose or joint value of 21 or 23 keeps that component
+With the profile's ``inf_unchanged``, +inf in a pose or joint value of 21 or 23 keeps that component
 where it is when the move starts.
 """
 
@@ -193,8 +193,8 @@ def move_joint(ctl: Controller, v: Values, *, register: int) -> dict[str, Any]:
 
 def register_24(ctl: Controller, v: Values) -> dict[str, Any] | None:
     """Register 24: the manual's form selects torque or current in reports (1 byte); SDKs for
-    firmware >= 1.5.20 send a joint move with a blend radius here (10 fp32, then the only-check
-    byte from 1.11.100)."""
+    newer firmware (register 24's row of the register table) send a joint move with a blend radius
+    here (10 fp32, then the only-check byte with ``common_move_layout``)."""
     if "joints" in v:
         return move_joint(ctl, v, register=24)
     report_tau_or_i(ctl, v)

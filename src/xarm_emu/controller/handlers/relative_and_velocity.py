@@ -1,12 +1,12 @@
-"""Motion registers of firmware 1.8 and later that manual V1.6.0 lacks: relative moves (83) and
+"""Motion registers of newer firmware that manual V1.6.0 lacks: relative moves (83) and
 velocity control (81, 82; modes 4 and 5 of register 19).
 
-Register 83 (the SDK's relative ``set_position`` / ``set_servo_angle`` from firmware 1.8.100): the
-deltas are resolved when the move starts, from where the previous move of the buffer ended. A TCP
-delta adds its position to the start's and applies its rotation in the base frame (as register 92's
-relative form); a joint delta adds to each joint. From 2.4.101 a +inf component means "unchanged",
-which for a delta is 0. ``only_check_type`` 1-3 queues nothing and answers the check result in the
-reply's third byte, as registers 21 and 23 do (0, or the error code the move would raise).
+Register 83 (the SDK's relative ``set_position`` / ``set_servo_angle``, on firmware whose register table has
+it): the deltas are resolved when the move starts, from where the previous move of the buffer ended. A TCP
+delta adds its position to the start's and applies its rotation in the base frame (as register 92's relative
+form); a joint delta adds to each joint. With ``FirmwareProfile.inf_unchanged`` a +inf component means
+"unchanged", which for a delta is 0. ``only_check_type`` 1-3 queues nothing and answers the check result in
+the reply's third byte, as registers 21 and 23 do (0, or the error code the move would raise).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ def _check_speed(speed: float, acc: float, vmax: float, amax: float) -> None:
 
 
 def _unchanged_as_zero(values: Any) -> tuple[float, ...]:
-    """A delta of +inf ("unchanged", firmware 2.4.101) moves nothing."""
+    """A delta of +inf ("unchanged", ``FirmwareProfile.inf_unchanged``) moves nothing."""
     return tuple(0.0 if math.isinf(x) and x > 0 else float(x) for x in values)
 
 

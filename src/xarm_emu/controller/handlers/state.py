@@ -129,7 +129,8 @@ def clean_warning(ctl: Controller, v: Values) -> None:
 def set_mode(ctl: Controller, v: Values) -> None:
     """Register 19: motion mode 0, 1 or 2 (3, Cartesian teaching, is not available), and the modes
     4-7 of the firmware (:func:`~xarm_emu.controller.applications.modes.extra_modes`); a system reset.
-    The detection parameter byte SDKs append for firmware >= 1.10.0 is accepted and has no effect."""
+    The detection parameter byte SDKs append for newer firmware (register 19's row of the register
+    table) is accepted and has no effect."""
     mode = v["mode"]
     if mode not in (MODE_POSITION, MODE_SERVO, MODE_JOINT_TEACH) + extra_modes(ctl):
         raise ParameterError(f"mode {mode} not available")

@@ -5,7 +5,7 @@ The finger drive: the gripper's own model (controller/devices/gripper.py) says w
 go and how fast; here that command (:attr:`PhysicsState.ramp`, mm of opening) runs toward the target
 at the gripper's speed and the engine's force-limited finger drives follow it. Where a pad meets an
 object the fingers stop and the drive presses with the hand's force; the gripper's reported position
-is then the fingers' own (:attr:`XArmGripper.position`), and its status says the fingers stopped on an
+is then the fingers' own (:attr:`TwinFingers.position`), and its status says the fingers stopped on an
 object (motion bits 2, what the SDK's wait for a grip reads as done). Free fingers report the command
 itself, so a gripper that closes on nothing moves exactly as without the engine. The command presses
 (runs past the fingers) only while both pads hold one object; once the object slips out, the fingers
@@ -32,7 +32,7 @@ from ...model.robots import VACUUM_WIRING
 from ..core import safety
 from ..core.controller_protocol import Controller
 from ..core.interface import C_COLLISION, NOT_IDLE
-from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, XArmGripper
+from ..devices.gripper import SPEED_TO_PULSES, SPEED_TOP, TwinFingers
 from ..scene import contact
 from .cell import CellRunner
 from .driven import driven
@@ -68,7 +68,8 @@ class PhysicsComponent:
         self.lite6 = lite6
         #: The vacuum gripper (controller/devices/vacuum.py), when it is the hand.
         self.vacuum = vacuum
-        self.device = device if isinstance(device, XArmGripper) else None
+        #: The gripper whose fingers the twin moves itself (the xArm gripper), when it is the hand.
+        self.device: TwinFingers | None = device.twin_fingers() if device is not None else None
         if self.device is not None:
             self.world.state.ramp = self.device.position * XARM_MM_PER_PULSE
         hand = world.hand
