@@ -10,9 +10,10 @@ writes saves and traces off the loop), ``logs``, ``clock``, ``modbus_port`` (the
 of its own), ``studio`` (the SDK's Studio HTTP calls); ``app`` gathers the names users import.
 Nothing here imports the viewer, the CLI or the client: the composers above (``xarm-emu serve``,
 ``xarm_emu.testing``) wire those. ``proxy`` is ``xarm-emu proxy``, a transparent recording relay
-to a real box, and ``xrec`` its versioned recording format.
+to a real box, and ``xrec`` its versioned recording format; ``placement`` the control periods a
+recorded request can have taken effect at, and the one way replay and compare run a stepped box to them.
 """
 
 __all__ = ["admin", "admin_args", "admin_port", "app", "clock", "command_port", "core", "disk", "fairness",
-           "faults", "fleet", "logs", "modbus_port", "proxy", "report_ports", "report_sender",
+           "faults", "fleet", "logs", "modbus_port", "placement", "proxy", "report_ports", "report_sender",
            "studio", "thread", "trace", "workers", "xrec"]
