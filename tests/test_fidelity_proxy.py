@@ -109,7 +109,9 @@ def test_proxy_command_relays_records_and_prints_its_latency(tmp_path: Path) -> 
     import sys
 
     rec = tmp_path / "cli.xrec"
-    listen, to = random.randrange(20000, 25000), random.randrange(25000, 30000)
+    # offsets whose ports all stay below the kernel's ephemeral range (32768 up), where the suite's
+    # own client connections could hold one of them, and apart from each other
+    listen, to = random.randrange(600, 1500), random.randrange(1600, 2700)
     ports = {"port": 502 + to, "realtime_port": 30000 + to, "normal_port": 30001 + to,
              "rich_port": 30002 + to, "develop_port": 30003 + to}
     with running_emulator(firmware=SERVE_VERSION, **ports) as st:
