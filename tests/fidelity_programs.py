@@ -6,43 +6,30 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from proxy_session import sdk_through_proxy
+
 from xarm_emu.model.calibration import Calibration
 from xarm_emu.protocol.firmware import SERVE_VERSION
 from xarm_emu.server.thread import ServerThread
-from xarm_emu.testing import reading_reports, running_emulator, running_proxy, sdk_pointed_at
 
 #: A reader on every report port, two on the rich (the SDK's own is a third) and develop reports.
 READERS = ("realtime", "normal", "rich", "develop", "rich", "develop")
 
 
-@contextlib.contextmanager
 def recorded(path: Path, model: int | str = 6, firmware: str = SERVE_VERSION,
              calibration: Calibration | None = None, check_joint_limit: bool = True,
-             **emulator: Any) -> Iterator[tuple[ServerThread, Any]]:
+             **emulator: Any) -> contextlib.AbstractContextManager[tuple[ServerThread, Any]]:
     """``(server, arm)``: an SDK ``XArmAPI`` through the recording proxy (to ``path``) in front of an
     emulator of ``model`` at ``firmware``, enabled, in mode 0 and state 0; the report readers of
     :data:`READERS` that the firmware serves read through the proxy too; ``check_joint_limit=False``
     lets the SDK send joints beyond the arm's limits (the box refuses them)."""
-    from xarm.wrapper import XArmAPI
-
-    with running_emulator(model, firmware=firmware, calibration=calibration, **emulator) as st, \
-            running_proxy(st, path) as px, sdk_pointed_at(px), \
-            reading_reports(px, tuple(k for k in READERS if k in px.ports)):  # type: ignore[arg-type]
-        time.sleep(0.05)
-        arm = XArmAPI("127.0.0.1", is_radian=False, check_joint_limit=check_joint_limit)
-        try:
-            arm.motion_enable(True)
-            arm.set_mode(0)
-            arm.set_state(0)
-            yield st, arm
-        finally:
-            arm.disconnect()
-            time.sleep(0.05)
+    return sdk_through_proxy(path, calibration, READERS, model=model, firmware=firmware,
+                             check_joint_limit=check_joint_limit, **emulator)
 
 
 def wait_still(arm: Any, timeout: float = 5.0) -> None:
@@ -206,7 +193,9 @@ class Program:
     emulator: dict[str, Any] = field(default_factory=dict)
 
 
-#: The six programs of issue 36 ("What must be true"), then a few more kinds.
+#: Programs of every kind a user writes: payload and TCP changes with the gripper and IO, a 100 Hz servo
+#: stream, blended lines, velocity control, a move the box refuses at 1.6.0 and a Lite 6 first, then
+#: online planning, world offset with save and reset, and two clients with a reconnect.
 PROGRAMS = {
     "payload": Program(payload_tcp_gripper_io),
     "servo_mode1": Program(servo_stream),
@@ -221,7 +210,7 @@ PROGRAMS = {
 
 
 #: The programs ``make test`` runs, grouped by the emulator they need, each group one recording (the
-#: SDK's connection costs most of a second): the six of issue 36 and a few more kinds.
+#: SDK's connection costs most of a second): the first six kinds of :data:`PROGRAMS` and a few more.
 SESSIONS = {
     "xarm6": ("payload", "servo_mode1", "blends", "velocity", "online_6_7"),
     "xarm6_1.6.0": ("refused_1.6.0",),

@@ -17,18 +17,22 @@ from xarm_emu.testing import reading_reports, running_emulator, running_proxy, s
 
 @contextlib.contextmanager
 def sdk_through_proxy(path: Path, calibration: Calibration | None = None,
-                      reports: tuple[str, ...] = ("realtime",)) -> Iterator[tuple[ServerThread, Any]]:
-    """``(server, arm)``: an emulator at firmware 2.x recorded to ``path`` through the proxy, the
-    report ports of ``reports`` read through it too (``compare`` wants the real-time report, which
-    the SDK does not open), and an SDK ``XArmAPI`` connected through it, enabled, in mode 0 and state
-    0, disconnected at the end."""
+                      reports: tuple[str, ...] = ("realtime",), model: int | str = 6,
+                      firmware: str = SERVE_VERSION, check_joint_limit: bool = True,
+                      **emulator: Any) -> Iterator[tuple[ServerThread, Any]]:
+    """``(server, arm)``: an emulator of ``model`` at ``firmware`` recorded to ``path`` through the
+    proxy, the report ports of ``reports`` that the firmware serves read through it too (``compare``
+    wants the real-time report, which the SDK does not open), and an SDK ``XArmAPI`` connected through
+    it, enabled, in mode 0 and state 0, disconnected at the end; ``check_joint_limit=False`` lets the
+    SDK send joints beyond the arm's limits (the box refuses them)."""
     from xarm.wrapper import XArmAPI
 
-    with running_emulator(firmware=SERVE_VERSION, calibration=calibration) as st, \
+    with running_emulator(model, firmware=firmware, calibration=calibration, **emulator) as st, \
             running_proxy(st, path) as px, sdk_pointed_at(px), \
-            reading_reports(px, reports) if reports else contextlib.nullcontext():  # type: ignore[arg-type]
+            reading_reports(px, tuple(k for k in reports if k in px.ports)) if reports \
+            else contextlib.nullcontext():  # type: ignore[arg-type]
         time.sleep(0.05)
-        arm = XArmAPI("127.0.0.1", is_radian=False)
+        arm = XArmAPI("127.0.0.1", is_radian=False, check_joint_limit=check_joint_limit)
         try:
             arm.motion_enable(True)
             arm.set_mode(0)
